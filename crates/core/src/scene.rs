@@ -1,0 +1,313 @@
+//! CPU scene model: meshes, instances with shadow flags, the rectangular area light and the camera.
+//!
+//! Everything is in world space with +y up. Techniques never read this directly; they read
+//! [`crate::SceneGpu`] (the uploaded form) and the light-space helpers in [`crate::light`].
+
+use glam::{Mat4, Vec3};
+
+use crate::{camera::Camera, light::AreaLight};
+
+/// A triangle mesh in object space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Human-readable name (procedural primitive or glTF mesh name), used in error messages.
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// One normal per position. May be empty: [`Mesh::ensure_normals`] computes flat-ish vertex normals.
+    pub normals: Vec<Vec3>,
+    /// Triangle list, three indices per triangle.
+    pub indices: Vec<u32>,
+}
+
+/// What [`Mesh::repair`] removed, so callers can warn with counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MeshRepair {
+    /// Triangles dropped because a vertex was NaN or infinite.
+    pub non_finite_triangles: usize,
+    /// Triangles dropped because they had zero area (repeated or collinear vertices).
+    pub degenerate_triangles: usize,
+    /// Triangles dropped because an index pointed past the vertex array.
+    pub out_of_range_triangles: usize,
+}
+
+impl MeshRepair {
+    pub fn total(&self) -> usize {
+        self.non_finite_triangles + self.degenerate_triangles + self.out_of_range_triangles
+    }
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Drops triangles with non-finite vertices, zero area or out-of-range indices, and replaces
+    /// non-finite normals. Returns what was dropped so the loader can say which and how many.
+    pub fn repair(&mut self) -> MeshRepair {
+        let mut report = MeshRepair::default();
+        let vertex_count = self.positions.len();
+        let mut kept = Vec::with_capacity(self.indices.len());
+        for tri in self.indices.chunks_exact(3) {
+            if tri.iter().any(|&i| i as usize >= vertex_count) {
+                report.out_of_range_triangles += 1;
+                continue;
+            }
+            let [a, b, c] = [0, 1, 2].map(|k| self.positions[tri[k] as usize]);
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                report.non_finite_triangles += 1;
+                continue;
+            }
+            let double_area = (b - a).cross(c - a).length();
+            let scale = (b - a).length().max((c - a).length()).max(f32::MIN_POSITIVE);
+            // Relative test: a sliver whose area is at the level of f32 rounding is degenerate.
+            if !(double_area > scale * scale * 1e-7) {
+                report.degenerate_triangles += 1;
+                continue;
+            }
+            kept.extend_from_slice(tri);
+        }
+        self.indices = kept;
+        // Non-finite positions that no kept triangle references are harmless but would poison
+        // bounds computations: pin them to the origin.
+        for p in &mut self.positions {
+            if !p.is_finite() {
+                *p = Vec3::ZERO;
+            }
+        }
+        if self.normals.len() == self.positions.len()
+            && self.normals.iter().any(|n| !n.is_finite() || n.length_squared() < 1e-12)
+        {
+            self.normals.clear();
+        }
+        self.ensure_normals();
+        report
+    }
+
+    /// Computes area-weighted vertex normals when the mesh has none (or the wrong count).
+    pub fn ensure_normals(&mut self) {
+        if self.normals.len() == self.positions.len() {
+            return;
+        }
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for tri in self.indices.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| self.positions[tri[k] as usize]);
+            let n = (b - a).cross(c - a);
+            for &i in tri {
+                normals[i as usize] += n;
+            }
+        }
+        self.normals = normals
+            .into_iter()
+            .map(|n| n.try_normalize().unwrap_or(Vec3::Y))
+            .collect();
+    }
+}
+
+/// One placed copy of a mesh.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    /// Index into [`Scene::meshes`].
+    pub mesh: usize,
+    /// Object-to-world transform.
+    pub transform: Mat4,
+    /// Linear RGB albedo in [0, 1].
+    pub albedo: Vec3,
+    /// Rendered into shadow maps / occluder maps (an "occluder" in Atty et al.'s split).
+    pub casts_shadow: bool,
+    /// Its pixels get a visibility value and count in the error metrics (a "receiver").
+    pub receives_shadow: bool,
+    /// Moves between frames. Static instances let techniques cache scene-only work (PDSM).
+    pub dynamic: bool,
+}
+
+impl Instance {
+    pub fn new(mesh: usize, transform: Mat4) -> Self {
+        Self {
+            mesh,
+            transform,
+            albedo: Vec3::splat(0.8),
+            casts_shadow: true,
+            receives_shadow: true,
+            dynamic: false,
+        }
+    }
+}
+
+/// A complete scene: geometry, one rectangular area light and a camera.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Scene id (procedural) or file stem.
+    pub name: String,
+    pub meshes: Vec<Mesh>,
+    pub instances: Vec<Instance>,
+    pub light: AreaLight,
+    pub camera: Camera,
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    pub fn extend(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn union(self, other: Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    pub fn corners(&self) -> [Vec3; 8] {
+        let (a, b) = (self.min, self.max);
+        [
+            Vec3::new(a.x, a.y, a.z),
+            Vec3::new(b.x, a.y, a.z),
+            Vec3::new(a.x, b.y, a.z),
+            Vec3::new(b.x, b.y, a.z),
+            Vec3::new(a.x, a.y, b.z),
+            Vec3::new(b.x, a.y, b.z),
+            Vec3::new(a.x, b.y, b.z),
+            Vec3::new(b.x, b.y, b.z),
+        ]
+    }
+}
+
+impl Scene {
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes.get(i.mesh).map_or(0, Mesh::triangle_count))
+            .sum()
+    }
+
+    /// World-space bounds of the instances selected by `filter`.
+    pub fn bounds(&self, filter: impl Fn(&Instance) -> bool) -> Aabb {
+        let mut bounds = Aabb::EMPTY;
+        for instance in self.instances.iter().filter(|i| filter(i)) {
+            let Some(mesh) = self.meshes.get(instance.mesh) else {
+                continue;
+            };
+            for &p in &mesh.positions {
+                let w = instance.transform.transform_point3(p);
+                if w.is_finite() {
+                    bounds.extend(w);
+                }
+            }
+        }
+        bounds
+    }
+
+    /// Checks what the renderer relies on. Returns a message that names the problem and the fix.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.instances.is_empty() {
+            return Err(format!(
+                "scene `{}` has no instances: add at least one receiver (e.g. a ground plane)",
+                self.name
+            ));
+        }
+        for (k, instance) in self.instances.iter().enumerate() {
+            if instance.mesh >= self.meshes.len() {
+                return Err(format!(
+                    "scene `{}`: instance {k} refers to mesh {} but there are only {} meshes",
+                    self.name,
+                    instance.mesh,
+                    self.meshes.len()
+                ));
+            }
+            if !instance.transform.is_finite() {
+                return Err(format!(
+                    "scene `{}`: instance {k} has a non-finite transform: fix its translation/rotation/scale",
+                    self.name
+                ));
+            }
+        }
+        if !self.instances.iter().any(|i| i.receives_shadow) {
+            return Err(format!(
+                "scene `{}` has no shadow receiver: mark at least one instance `receives_shadow = true`",
+                self.name
+            ));
+        }
+        self.light.validate()?;
+        self.camera.validate()?;
+        Ok(())
+    }
+
+    /// A stable 64-bit content hash (geometry, flags, light, camera) for caches such as the
+    /// reference. FNV-1a over the raw bits: cheap and deterministic across runs.
+    pub fn content_hash(&self) -> u64 {
+        let mut h = Fnv1a::default();
+        h.write_str(&self.name);
+        for mesh in &self.meshes {
+            h.write_u64(mesh.positions.len() as u64);
+            for p in &mesh.positions {
+                h.write_f32s(&p.to_array());
+            }
+            for i in &mesh.indices {
+                h.write_u64(*i as u64);
+            }
+        }
+        for inst in &self.instances {
+            h.write_u64(inst.mesh as u64);
+            h.write_f32s(&inst.transform.to_cols_array());
+            h.write_f32s(&inst.albedo.to_array());
+            h.write_u64(
+                inst.casts_shadow as u64
+                    | (inst.receives_shadow as u64) << 1
+                    | (inst.dynamic as u64) << 2,
+            );
+        }
+        h.write_u64(self.light.content_hash());
+        h.write_u64(self.camera.content_hash());
+        h.finish()
+    }
+}
+
+/// FNV-1a hasher used for cache keys (deterministic, unlike `DefaultHasher` across Rust versions).
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Fnv1a(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a {
+    pub fn write_bytes(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= *b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    pub fn write_u64(&mut self, v: u64) {
+        self.write_bytes(&v.to_le_bytes());
+    }
+    pub fn write_f32s(&mut self, v: &[f32]) {
+        for x in v {
+            self.write_bytes(&x.to_bits().to_le_bytes());
+        }
+    }
+    pub fn write_str(&mut self, s: &str) {
+        self.write_u64(s.len() as u64);
+        self.write_bytes(s.as_bytes());
+    }
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
