@@ -29,12 +29,12 @@ impl Default for Camera {
 
 impl Camera {
     pub fn view(&self) -> Mat4 {
-        Mat4::look_at_rh(self.eye, self.target, self.up)
+        glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
     }
 
     /// Right-handed perspective with depth in [0, 1].
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        Mat4::perspective_rh(self.fov_y_degrees.to_radians(), aspect, self.near, self.far)
+        glam::camera::rh::proj::directx::perspective(self.fov_y_degrees.to_radians(), aspect, self.near, self.far)
     }
 
     pub fn view_projection(&self, aspect: f32) -> Mat4 {

@@ -1,8 +1,40 @@
-//! Core of the soft-shadow workbench.
+//! Core of the soft-shadow workbench: GPU context, scene model, camera, area light, G-buffer,
+//! the visibility buffer every technique writes, shading, the [`ShadowTechnique`] trait with its
+//! typed parameters, GPU timer scopes, readback, and shader composition.
+//!
+//! Data flow of a frame (see [`renderer::Renderer::render`]):
+//! `Scene -> SceneGpu -> G-buffer -> technique -> VisibilityBuffer -> shading`.
+
 pub mod camera;
+pub mod error;
+pub mod frame;
+pub mod fullscreen;
+pub mod gbuffer;
+pub mod gpu;
 pub mod light;
+pub mod params;
+pub mod readback;
+pub mod renderer;
 pub mod scene;
+pub mod scene_gpu;
+pub mod shader;
+pub mod shading;
+pub mod shadow_map;
+pub mod technique;
+pub mod visibility;
 
 pub use camera::Camera;
+pub use error::{GpuError, ParamError, RenderError, TechniqueError};
+pub use frame::{Frame, FrameUniforms, ShadowInputs};
+pub use gpu::Gpu;
 pub use light::{AreaLight, SlopeFrustum};
+pub use params::{ParamKind, ParamSet, ParamSpec, ParamValue};
+pub use renderer::{FrameOutput, GpuFrameTiming, Renderer};
 pub use scene::{Aabb, Instance, Mesh, MeshRepair, Scene};
+pub use scene_gpu::SceneGpu;
+pub use shading::ShadingMode;
+pub use technique::{DebugView, Requirements, ShadowTechnique, TechniqueInfo, TechniqueStats};
+pub use visibility::VisibilityBuffer;
+
+// Re-exported so technique crates use the same versions.
+pub use {bytemuck, glam, puffin, wgpu};

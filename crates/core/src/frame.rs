@@ -1,0 +1,204 @@
+//! Per-frame data every technique receives: the shared bind group 0 (frame uniforms and the
+//! G-buffer), the command encoder and the GPU timer, wrapped so that every pass gets a named
+//! timer scope and is recorded in `passes_run`.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+
+use crate::{gbuffer::GBuffer, light::AreaLight, scene_gpu::SceneGpu, Camera, Gpu};
+
+/// Mirrors `FrameUniforms` in `shaders/common/frame_types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub world_to_light: [[f32; 4]; 4],
+    pub camera_pos: [f32; 4],
+    pub light_center: [f32; 4],
+    pub light_dir: [f32; 4],
+    pub light_half: [f32; 4],
+    pub screen: [f32; 4],
+}
+
+/// Ambient term of the shading pass (fraction of albedo visible in full shadow).
+pub const AMBIENT: f32 = 0.12;
+
+impl FrameUniforms {
+    pub fn new(camera: &Camera, light: &AreaLight, width: u32, height: u32) -> Self {
+        let view_proj = camera.view_projection(width as f32 / height as f32);
+        let half = light.half_extent();
+        Self {
+            view_proj: view_proj.to_cols_array_2d(),
+            world_to_light: light.view().to_cols_array_2d(),
+            camera_pos: camera.eye.extend(1.0).to_array(),
+            light_center: light.center.extend(light.intensity).to_array(),
+            light_dir: light.direction.normalize_or(glam::Vec3::NEG_Y).extend(AMBIENT).to_array(),
+            light_half: [half.x, half.y, 4.0 * half.x * half.y, 0.0],
+            screen: [
+                width as f32,
+                height as f32,
+                1.0 / width as f32,
+                1.0 / height as f32,
+            ],
+        }
+    }
+
+    pub fn world_to_light(&self) -> Mat4 {
+        Mat4::from_cols_array_2d(&self.world_to_light)
+    }
+}
+
+/// Bind group layouts shared by all crates.
+pub struct CoreLayouts {
+    /// Group 0 of technique passes: frame uniforms, G-buffer position and normal
+    /// (`shaders/common/frame.wgsl`).
+    pub frame: wgpu::BindGroupLayout,
+    /// Just the frame uniforms (the G-buffer pass, which cannot read its own targets).
+    pub frame_uniform: wgpu::BindGroupLayout,
+}
+
+impl CoreLayouts {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let all = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        let uniform = wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: all,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<FrameUniforms>() as u64),
+            },
+            count: None,
+        };
+        let frame = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("core/frame"),
+            entries: &[
+                uniform,
+                texture_entry(1, all, wgpu::TextureSampleType::Float { filterable: false }),
+                texture_entry(2, all, wgpu::TextureSampleType::Float { filterable: false }),
+            ],
+        });
+        let frame_uniform = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("core/frame-uniform"),
+            entries: &[uniform],
+        });
+        Self { frame, frame_uniform }
+    }
+}
+
+/// A `texture_2d` layout entry (helper for the many fullscreen passes).
+pub fn texture_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    sample_type: wgpu::TextureSampleType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A uniform-buffer layout entry.
+pub fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// What a technique reads each frame.
+pub struct ShadowInputs<'a> {
+    pub scene: &'a SceneGpu,
+    pub light: &'a AreaLight,
+    pub camera: &'a Camera,
+    pub gbuffer: &'a GBuffer,
+    /// Bind group for [`CoreLayouts::frame`].
+    pub frame_bind_group: &'a wgpu::BindGroup,
+    pub uniforms: &'a FrameUniforms,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Command recording for one frame. Every pass goes through [`Frame::render_pass`] or
+/// [`Frame::compute_pass`], which opens a GPU timer scope with the pass name and records the name
+/// in [`Frame::passes_run`].
+pub struct Frame<'a> {
+    pub gpu: &'a Gpu,
+    pub encoder: &'a mut wgpu::CommandEncoder,
+    profiler: &'a wgpu_profiler::GpuProfiler,
+    passes_run: &'a mut Vec<String>,
+}
+
+impl<'a> Frame<'a> {
+    pub fn new(
+        gpu: &'a Gpu,
+        encoder: &'a mut wgpu::CommandEncoder,
+        profiler: &'a wgpu_profiler::GpuProfiler,
+        passes_run: &'a mut Vec<String>,
+    ) -> Self {
+        Self {
+            gpu,
+            encoder,
+            profiler,
+            passes_run,
+        }
+    }
+
+    /// Records a timed render pass named `label` (e.g. `pcss/filter`).
+    pub fn render_pass(
+        &mut self,
+        label: &str,
+        desc: wgpu::RenderPassDescriptor<'_>,
+        record: impl FnOnce(&mut wgpu::RenderPass<'_>),
+    ) {
+        puffin::profile_scope!("record_pass", label);
+        let query = self.profiler.begin_pass_query(label, self.encoder);
+        {
+            let mut pass = self.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(label),
+                timestamp_writes: query.render_pass_timestamp_writes(),
+                ..desc
+            });
+            record(&mut pass);
+        }
+        self.profiler.end_query(self.encoder, query);
+        self.note_pass(label);
+    }
+
+    /// Records a timed compute pass named `label`.
+    pub fn compute_pass(&mut self, label: &str, record: impl FnOnce(&mut wgpu::ComputePass<'_>)) {
+        let query = self.profiler.begin_pass_query(label, self.encoder);
+        {
+            let mut pass = self.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: query.compute_pass_timestamp_writes(),
+            });
+            record(&mut pass);
+        }
+        self.profiler.end_query(self.encoder, query);
+        self.note_pass(label);
+    }
+
+    /// Records a pass name for work that is not a render or compute pass (a texture copy).
+    pub fn note_pass(&mut self, label: &str) {
+        if !self.passes_run.iter().any(|p| p == label) {
+            self.passes_run.push(label.to_string());
+        }
+    }
+
+    pub fn passes_run(&self) -> &[String] {
+        self.passes_run
+    }
+}

@@ -1,0 +1,142 @@
+//! A fullscreen-triangle pipeline with the core frame bind group at group 0 and a technique's own
+//! bind group at group 1: the shape of every "per-pixel lookup" pass (hard, PCSS, reference, ...).
+
+use crate::{shader::ShaderSpec, shader::DefValue, visibility::VISIBILITY_FORMAT, Frame, Gpu, GpuError};
+
+pub struct FullscreenPipeline {
+    pub pipeline: wgpu::RenderPipeline,
+}
+
+impl FullscreenPipeline {
+    /// `vs_main` / `fs_main` of `spec`, writing one `R32Float` target with optional blending.
+    pub fn new(
+        gpu: &Gpu,
+        label: &str,
+        spec: &ShaderSpec,
+        defs: &[(&str, DefValue)],
+        group1: &wgpu::BindGroupLayout,
+        blend: Option<wgpu::BlendState>,
+    ) -> Result<Self, GpuError> {
+        Self::with_format(gpu, label, spec, defs, group1, VISIBILITY_FORMAT, blend)
+    }
+
+    pub fn with_format(
+        gpu: &Gpu,
+        label: &str,
+        spec: &ShaderSpec,
+        defs: &[(&str, DefValue)],
+        group1: &wgpu::BindGroupLayout,
+        format: wgpu::TextureFormat,
+        blend: Option<wgpu::BlendState>,
+    ) -> Result<Self, GpuError> {
+        let module = crate::shader::create_module(gpu, spec, defs)?;
+        let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&gpu.layouts.frame), Some(group1)],
+            immediate_size: 0,
+        });
+        let pipeline = gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Ok(Self { pipeline })
+    }
+
+    /// Draws the fullscreen triangle into `target`; `clear` = `Some(v)` clears to `v` first,
+    /// `None` keeps (loads) the current contents (for accumulation).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        frame_bind_group: &wgpu::BindGroup,
+        group1: &wgpu::BindGroup,
+        dynamic_offsets: &[u32],
+        target: &wgpu::TextureView,
+        clear: Option<f64>,
+    ) {
+        let load = match clear {
+            Some(v) => wgpu::LoadOp::Clear(wgpu::Color {
+                r: v,
+                g: 0.0,
+                b: 0.0,
+                a: 0.0,
+            }),
+            None => wgpu::LoadOp::Load,
+        };
+        frame.render_pass(
+            label,
+            wgpu::RenderPassDescriptor {
+                label: None,
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            },
+            |pass| {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, frame_bind_group, &[]);
+                pass.set_bind_group(1, group1, dynamic_offsets);
+                pass.draw(0..3, 0..1);
+            },
+        );
+    }
+}
+
+/// Layout entry for a `texture_depth_2d` (or array) read with `textureLoad`.
+pub fn depth_texture_entry(binding: u32, array: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Depth,
+            view_dimension: if array {
+                wgpu::TextureViewDimension::D2Array
+            } else {
+                wgpu::TextureViewDimension::D2
+            },
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A small uniform buffer holding one `Pod` value.
+pub fn uniform_buffer<T: bytemuck::Pod>(gpu: &Gpu, label: &str, value: &T) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::bytes_of(value),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    })
+}

@@ -1,0 +1,174 @@
+//! G-buffer: what the camera sees, per pixel. Techniques read position and normal through
+//! bind group 0 (`shaders/common/frame.wgsl`).
+
+use crate::{frame::Frame, scene_gpu::{SceneGpu, Vertex}, shader, Gpu};
+
+pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+pub struct GBuffer {
+    /// xyz world position, w = 1 where geometry was hit.
+    pub position: wgpu::Texture,
+    /// xyz normal (facing the camera), w = 1 for shadow receivers.
+    pub normal: wgpu::Texture,
+    /// rgb albedo, a = 1 where geometry was hit.
+    pub albedo: wgpu::Texture,
+    pub depth: wgpu::Texture,
+    pub position_view: wgpu::TextureView,
+    pub normal_view: wgpu::TextureView,
+    pub albedo_view: wgpu::TextureView,
+    pub depth_view: wgpu::TextureView,
+    pub width: u32,
+    pub height: u32,
+}
+
+pub fn create_texture(
+    gpu: &Gpu,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+impl GBuffer {
+    pub fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC;
+        let position = create_texture(gpu, "gbuffer position", width, height, POSITION_FORMAT, usage);
+        let normal = create_texture(gpu, "gbuffer normal", width, height, NORMAL_FORMAT, usage);
+        let albedo = create_texture(gpu, "gbuffer albedo", width, height, ALBEDO_FORMAT, usage);
+        let depth = create_texture(gpu, "gbuffer depth", width, height, DEPTH_FORMAT, usage);
+        Self {
+            position_view: position.create_view(&Default::default()),
+            normal_view: normal.create_view(&Default::default()),
+            albedo_view: albedo.create_view(&Default::default()),
+            depth_view: depth.create_view(&Default::default()),
+            position,
+            normal,
+            albedo,
+            depth,
+            width,
+            height,
+        }
+    }
+}
+
+/// The G-buffer pass.
+pub struct GBufferPass {
+    pipeline: wgpu::RenderPipeline,
+}
+
+impl GBufferPass {
+    pub fn new(gpu: &Gpu) -> Result<Self, crate::GpuError> {
+        let module = shader::create_module(gpu, &shader::CORE_SHADERS[0], &[])?;
+        let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("core/gbuffer"),
+            bind_group_layouts: &[Some(&gpu.layouts.frame_uniform)],
+            immediate_size: 0,
+        });
+        let target = |format| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        };
+        let pipeline = gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("core/gbuffer"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(Vertex::layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[target(POSITION_FORMAT), target(NORMAL_FORMAT), target(ALBEDO_FORMAT)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Ok(Self { pipeline })
+    }
+
+    pub fn record(
+        &self,
+        frame: &mut Frame<'_>,
+        gbuffer: &GBuffer,
+        uniform_bind_group: &wgpu::BindGroup,
+        scene: &SceneGpu,
+    ) {
+        let clear = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        frame.render_pass(
+            "gbuffer",
+            wgpu::RenderPassDescriptor {
+                label: None,
+                color_attachments: &[
+                    clear(&gbuffer.position_view),
+                    clear(&gbuffer.normal_view),
+                    clear(&gbuffer.albedo_view),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &gbuffer.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            },
+            |pass| {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, uniform_bind_group, &[]);
+                scene.draw_all(pass);
+            },
+        );
+    }
+}

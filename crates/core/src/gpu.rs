@@ -1,0 +1,170 @@
+//! GPU context: adapter choice (honouring `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`), the device with
+//! the optional features the workbench can use, and validation-error capture.
+
+use std::sync::{Arc, Mutex};
+
+use crate::error::GpuError;
+
+/// Features used when the adapter has them. None is required by the core; techniques that need one
+/// say so in [`crate::Requirements`].
+pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES)
+    .union(wgpu::Features::FLOAT32_BLENDABLE)
+    .union(wgpu::Features::PIPELINE_STATISTICS_QUERY)
+    .union(wgpu::Features::SHADER_F16);
+
+/// Adapter facts that go into reports.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub driver: String,
+}
+
+/// Shared GPU handles. Cheap to clone (wgpu handles are reference counted).
+#[derive(Clone)]
+pub struct Gpu {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Uncaptured validation / out-of-memory errors, drained by [`Gpu::take_errors`].
+    errors: Arc<Mutex<Vec<String>>>,
+    /// Bind group layouts shared by every technique (see [`crate::frame`]).
+    pub layouts: Arc<crate::frame::CoreLayouts>,
+}
+
+impl Gpu {
+    /// Picks an adapter and creates a device without a window.
+    ///
+    /// `WGPU_BACKEND` (e.g. `vulkan`) restricts the backends; `WGPU_ADAPTER_NAME` picks the first
+    /// adapter whose name contains it (case-insensitive). Without a match this returns an error
+    /// that says what to install, never panics.
+    pub fn new_headless() -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(Self::pick_adapter(&instance, None))?;
+        pollster::block_on(Self::from_adapter(instance, adapter))
+    }
+
+    /// Adapter selection shared by the headless path and the windowed viewer.
+    pub async fn pick_adapter(
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<wgpu::Adapter, GpuError> {
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+        let mut adapters = instance.enumerate_adapters(backends).await;
+        if let Some(surface) = surface {
+            adapters.retain(|a| a.is_surface_supported(surface));
+        }
+        let filter = match std::env::var("WGPU_BACKEND") {
+            Ok(b) => format!(" for WGPU_BACKEND={b}"),
+            Err(_) => String::new(),
+        };
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter { filter });
+        }
+        if let Ok(wanted) = std::env::var("WGPU_ADAPTER_NAME") {
+            let needle = wanted.to_lowercase();
+            let available: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+            return adapters
+                .into_iter()
+                .find(|a| a.get_info().name.to_lowercase().contains(&needle))
+                .ok_or(GpuError::AdapterNameNotFound {
+                    wanted,
+                    available: available.join(", "),
+                });
+        }
+        // Prefer real hardware, then anything else (lavapipe is a `Cpu` device).
+        adapters.sort_by_key(|a| match a.get_info().device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Cpu => 3,
+            wgpu::DeviceType::Other => 4,
+        });
+        Ok(adapters.remove(0))
+    }
+
+    /// Creates the device with every optional feature the adapter offers.
+    pub async fn from_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Self, GpuError> {
+        let features = adapter.features() & OPTIONAL_FEATURES;
+        let adapter_limits = adapter.limits();
+        let limits = wgpu::Limits {
+            max_texture_dimension_2d: adapter_limits.max_texture_dimension_2d,
+            max_texture_array_layers: adapter_limits.max_texture_array_layers,
+            max_buffer_size: adapter_limits.max_buffer_size,
+            max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
+            ..wgpu::Limits::default()
+        };
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("softshadow device"),
+                required_features: features,
+                required_limits: limits,
+                ..Default::default()
+            })
+            .await
+            .map_err(|source| GpuError::Device {
+                adapter: adapter.get_info().name,
+                source,
+            })?;
+        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            log::error!("wgpu: {error}");
+            if let Ok(mut e) = sink.lock() {
+                e.push(error.to_string());
+            }
+        }));
+        let layouts = Arc::new(crate::frame::CoreLayouts::new(&device));
+        Ok(Self {
+            instance,
+            adapter,
+            device,
+            queue,
+            errors,
+            layouts,
+        })
+    }
+
+    pub fn summary(&self) -> AdapterSummary {
+        let info = self.adapter.get_info();
+        AdapterSummary {
+            name: info.name,
+            backend: format!("{:?}", info.backend).to_lowercase(),
+            driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
+        }
+    }
+
+    pub fn features(&self) -> wgpu::Features {
+        self.device.features()
+    }
+
+    pub fn has_timestamps(&self) -> bool {
+        self.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// Returns the first validation or device error raised since the last call, if any.
+    pub fn take_errors(&self) -> Result<(), GpuError> {
+        let mut errors = self.errors.lock().map_err(|_| GpuError::Validation("error sink poisoned".into()))?;
+        if errors.is_empty() {
+            return Ok(());
+        }
+        let all = std::mem::take(&mut *errors);
+        let first = all[0].clone();
+        if first.contains("lost") || first.contains("Out of Memory") || first.contains("OutOfMemory") {
+            Err(GpuError::DeviceLost(first))
+        } else {
+            Err(GpuError::Validation(first))
+        }
+    }
+
+    /// Blocks until all submitted work has finished.
+    pub fn wait_idle(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| GpuError::DeviceLost(e.to_string()))
+    }
+}

@@ -1,0 +1,288 @@
+//! One frame, top to bottom (GUIDE.md section 1):
+//! G-buffer pass -> technique passes -> visibility buffer -> shading pass (only when asked),
+//! with every pass timed on the GPU and listed in `passes_run`.
+
+use std::time::Instant;
+
+use wgpu::util::DeviceExt;
+use wgpu_profiler::{GpuProfiler, GpuProfilerSettings, GpuTimerQueryResult};
+
+use crate::{
+    error::{GpuError, RenderError},
+    frame::{Frame, FrameUniforms, ShadowInputs},
+    gbuffer::{GBuffer, GBufferPass},
+    readback,
+    scene_gpu::SceneGpu,
+    shading::{ShadingMode, ShadingPass},
+    technique::{check_requirements, ShadowTechnique},
+    visibility::VisibilityBuffer,
+    AreaLight, Camera, Gpu,
+};
+
+/// Largest accepted frame edge (a 16384² R32Float buffer is 1 GiB; nobody benchmarks that here).
+pub const MAX_RESOLUTION: u32 = 8192;
+
+/// GPU time of one frame, from timestamp queries. Passes with the same name (e.g. one depth pass
+/// per light sample) are summed.
+#[derive(Clone, Debug, Default)]
+pub struct GpuFrameTiming {
+    pub total_ms: f64,
+    pub passes: Vec<(String, f64)>,
+}
+
+impl GpuFrameTiming {
+    /// Time of the technique's own passes (everything but the G-buffer and shading).
+    pub fn technique_ms(&self) -> f64 {
+        self.passes
+            .iter()
+            .filter(|(name, _)| !is_core_pass(name))
+            .map(|(_, ms)| ms)
+            .sum()
+    }
+}
+
+/// Passes the renderer itself records around the technique.
+pub fn is_core_pass(name: &str) -> bool {
+    name == "gbuffer" || name == "shading"
+}
+
+#[derive(Clone, Debug)]
+pub struct FrameOutput {
+    pub passes_run: Vec<String>,
+    /// Wall time from the start of recording to the end of GPU work.
+    pub cpu_ms: f64,
+    /// `None` when the adapter has no timestamp queries.
+    pub gpu: Option<GpuFrameTiming>,
+}
+
+pub struct Renderer {
+    gpu: Gpu,
+    pub width: u32,
+    pub height: u32,
+    pub gbuffer: GBuffer,
+    gbuffer_pass: GBufferPass,
+    shading: ShadingPass,
+    uniforms: wgpu::Buffer,
+    uniform_bind_group: wgpu::BindGroup,
+    frame_bind_group: wgpu::BindGroup,
+    pub visibility: VisibilityBuffer,
+    pub shaded: wgpu::Texture,
+    shaded_view: wgpu::TextureView,
+    profiler: GpuProfiler,
+    last_uniforms: FrameUniforms,
+}
+
+impl Renderer {
+    pub fn new(gpu: &Gpu, width: u32, height: u32) -> Result<Self, RenderError> {
+        let max = MAX_RESOLUTION.min(gpu.device.limits().max_texture_dimension_2d);
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::BadResolution { width, height, max });
+        }
+        let gbuffer = GBuffer::new(gpu, width, height);
+        let uniforms = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("core/frame uniforms"),
+            contents: bytemuck::bytes_of(&FrameUniforms::new(&Camera::default(), &AreaLight::default(), width, height)),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let uniform_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("core/frame-uniform"),
+            layout: &gpu.layouts.frame_uniform,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniforms.as_entire_binding(),
+            }],
+        });
+        let frame_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("core/frame"),
+            layout: &gpu.layouts.frame,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniforms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&gbuffer.position_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&gbuffer.normal_view),
+                },
+            ],
+        });
+        let profiler = GpuProfiler::new(
+            &gpu.device,
+            GpuProfilerSettings {
+                enable_timer_queries: gpu.has_timestamps(),
+                enable_debug_groups: false,
+                max_num_pending_frames: 4,
+            },
+        )
+        .map_err(|e| GpuError::Profiler(e.to_string()))?;
+        let shaded = ShadingPass::create_target(gpu, width, height);
+        Ok(Self {
+            gpu: gpu.clone(),
+            width,
+            height,
+            gbuffer_pass: GBufferPass::new(gpu)?,
+            shading: ShadingPass::new(gpu)?,
+            uniforms,
+            uniform_bind_group,
+            frame_bind_group,
+            visibility: VisibilityBuffer::new(gpu, "visibility", width, height),
+            shaded_view: shaded.create_view(&Default::default()),
+            shaded,
+            gbuffer,
+            profiler,
+            last_uniforms: FrameUniforms::new(&Camera::default(), &AreaLight::default(), width, height),
+        })
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// Inputs for [`ShadowTechnique::prepare`] outside a frame.
+    pub fn inputs<'a>(&'a self, scene: &'a SceneGpu, camera: &'a Camera, light: &'a AreaLight) -> ShadowInputs<'a> {
+        ShadowInputs {
+            scene,
+            light,
+            camera,
+            gbuffer: &self.gbuffer,
+            frame_bind_group: &self.frame_bind_group,
+            uniforms: &self.last_uniforms,
+            width: self.width,
+            height: self.height,
+        }
+    }
+
+    /// Renders one frame with `technique` into [`Renderer::visibility`] (and [`Renderer::shaded`]
+    /// when `shade`), waits for the GPU, and returns the passes run and their GPU times.
+    pub fn render(
+        &mut self,
+        scene: &SceneGpu,
+        camera: &Camera,
+        light: &AreaLight,
+        technique: &mut dyn ShadowTechnique,
+        shade: Option<ShadingMode>,
+    ) -> Result<FrameOutput, RenderError> {
+        puffin::profile_function!();
+        camera.validate().map_err(RenderError::Scene)?;
+        light.validate().map_err(RenderError::Scene)?;
+        check_requirements(&self.gpu, technique.id(), &technique.requirements())?;
+        let start = Instant::now();
+        self.last_uniforms = FrameUniforms::new(camera, light, self.width, self.height);
+        self.gpu
+            .queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&self.last_uniforms));
+
+        let mut encoder = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some(technique.id()),
+        });
+        let mut passes_run = Vec::new();
+        let result = {
+            let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
+            self.gbuffer_pass
+                .record(&mut frame, &self.gbuffer, &self.uniform_bind_group, scene);
+            let inputs = ShadowInputs {
+                scene,
+                light,
+                camera,
+                gbuffer: &self.gbuffer,
+                frame_bind_group: &self.frame_bind_group,
+                uniforms: &self.last_uniforms,
+                width: self.width,
+                height: self.height,
+            };
+            let result = technique.render(&mut frame, &inputs, &self.visibility);
+            if result.is_ok() {
+                if let Some(mode) = shade {
+                    self.shading.record(
+                        &mut frame,
+                        mode,
+                        &self.frame_bind_group,
+                        &self.gbuffer,
+                        &self.visibility,
+                        &self.shaded_view,
+                    );
+                }
+            }
+            result
+        };
+        self.profiler.resolve_queries(&mut encoder);
+        self.gpu.queue.submit([encoder.finish()]);
+        let _ = self.profiler.end_frame();
+        self.gpu.wait_idle()?;
+        self.gpu.take_errors()?;
+        result?;
+        let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        let gpu = self.collect_timings();
+        Ok(FrameOutput {
+            passes_run,
+            cpu_ms,
+            gpu,
+        })
+    }
+
+    fn collect_timings(&mut self) -> Option<GpuFrameTiming> {
+        if !self.gpu.has_timestamps() {
+            return None;
+        }
+        // The frame has finished (we waited), so its queries are mapped after one more poll.
+        let period = self.gpu.queue.get_timestamp_period();
+        let mut latest = None;
+        for _ in 0..8 {
+            let _ = self.gpu.device.poll(wgpu::PollType::Poll);
+            while let Some(results) = self.profiler.process_finished_frame(period) {
+                latest = Some(results);
+            }
+            if latest.is_some() {
+                break;
+            }
+            let _ = self.gpu.wait_idle();
+        }
+        let results = latest?;
+        let mut timing = GpuFrameTiming::default();
+        accumulate(&results, &mut timing);
+        Some(timing)
+    }
+
+    pub fn read_visibility(&self) -> Result<Vec<f32>, GpuError> {
+        readback::read_r32f(&self.gpu, &self.visibility.texture)
+    }
+
+    /// sRGB RGBA8 bytes of the last shaded frame.
+    pub fn read_shaded(&self) -> Result<Vec<u8>, GpuError> {
+        readback::read_texture(&self.gpu, &self.shaded)
+    }
+
+    /// `true` for pixels that see a shadow receiver.
+    pub fn read_receiver_mask(&self) -> Result<Vec<bool>, GpuError> {
+        let normal = readback::read_texture(&self.gpu, &self.gbuffer.normal)?;
+        let position = readback::read_texture(&self.gpu, &self.gbuffer.position)?;
+        // Normal is RGBA16F: w is the receiver flag, 1.0 = 0x3C00.
+        Ok(normal
+            .chunks_exact(8)
+            .zip(position.chunks_exact(16))
+            .map(|(n, p)| {
+                let receiver = u16::from_le_bytes([n[6], n[7]]) == 0x3C00;
+                let hit = f32::from_le_bytes([p[12], p[13], p[14], p[15]]) > 0.5;
+                receiver && hit
+            })
+            .collect())
+    }
+}
+
+fn accumulate(results: &[GpuTimerQueryResult], timing: &mut GpuFrameTiming) {
+    for r in results {
+        if let Some(range) = &r.time {
+            let ms = (range.end - range.start) * 1e3;
+            timing.total_ms += ms;
+            match timing.passes.iter_mut().find(|(n, _)| *n == r.label) {
+                Some((_, t)) => *t += ms,
+                None => timing.passes.push((r.label.clone(), ms)),
+            }
+        }
+        // Nested scopes are inside their parent's time; only top-level passes add to the total.
+    }
+}

@@ -1,0 +1,212 @@
+//! The uploaded scene: one vertex buffer in world space and three index lists (all geometry,
+//! shadow casters, shadow receivers), plus bounds the light-view fitting needs.
+
+use std::sync::Mutex;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use crate::{light::AreaLight, scene::Aabb, Gpu, Scene};
+
+/// Vertex as the G-buffer and depth passes read it (`shaders/core/gbuffer.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Vertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    /// RGB8 albedo in the low 24 bits; bit 24 = casts shadow, bit 25 = receives shadow.
+    pub color_flags: u32,
+}
+
+pub const FLAG_CASTS: u32 = 1 << 24;
+pub const FLAG_RECEIVES: u32 = 1 << 25;
+
+impl Vertex {
+    pub const ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
+
+    pub fn layout() -> wgpu::VertexBufferLayout<'static> {
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &Self::ATTRIBUTES,
+        }
+    }
+
+    /// Position only (depth passes).
+    pub fn position_layout() -> wgpu::VertexBufferLayout<'static> {
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &Self::ATTRIBUTES[..1],
+        }
+    }
+}
+
+/// An index list in [`SceneGpu`]; `None` when empty.
+pub struct IndexList {
+    pub buffer: wgpu::Buffer,
+    pub count: u32,
+}
+
+pub struct SceneGpu {
+    pub name: String,
+    pub content_hash: u64,
+    pub vertices: wgpu::Buffer,
+    pub all: Option<IndexList>,
+    pub casters: Option<IndexList>,
+    pub receivers: Option<IndexList>,
+    pub bounds: Aabb,
+    pub caster_bounds: Aabb,
+    pub receiver_bounds: Aabb,
+    pub triangle_count: usize,
+    pub caster_triangle_count: usize,
+    /// World positions of caster vertices (for tight light-space bounds).
+    caster_positions: Vec<Vec3>,
+    light_bounds_cache: Mutex<Option<(u64, Option<Aabb>)>>,
+}
+
+impl SceneGpu {
+    /// Uploads a scene. Instances are baked into world space (one vertex buffer, no per-draw state).
+    pub fn upload(gpu: &Gpu, scene: &Scene) -> Self {
+        puffin::profile_function!();
+        let mut vertices: Vec<Vertex> = Vec::new();
+        let (mut all, mut casters, mut receivers) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut bounds, mut caster_bounds, mut receiver_bounds) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
+        let mut caster_positions = Vec::new();
+        for instance in &scene.instances {
+            let Some(mesh) = scene.meshes.get(instance.mesh) else {
+                continue;
+            };
+            let base = vertices.len() as u32;
+            let normal_matrix = instance.transform.inverse().transpose();
+            let albedo = instance.albedo.clamp(Vec3::ZERO, Vec3::ONE);
+            let mut color_flags = (albedo.x * 255.0).round() as u32
+                | ((albedo.y * 255.0).round() as u32) << 8
+                | ((albedo.z * 255.0).round() as u32) << 16;
+            if instance.casts_shadow {
+                color_flags |= FLAG_CASTS;
+            }
+            if instance.receives_shadow {
+                color_flags |= FLAG_RECEIVES;
+            }
+            for (k, p) in mesh.positions.iter().enumerate() {
+                let world = instance.transform.transform_point3(*p);
+                let n = mesh.normals.get(k).copied().unwrap_or(Vec3::Y);
+                let world_n = normal_matrix.transform_vector3(n).normalize_or(Vec3::Y);
+                vertices.push(Vertex {
+                    position: world.to_array(),
+                    normal: world_n.to_array(),
+                    color_flags,
+                });
+                bounds.extend(world);
+                if instance.casts_shadow {
+                    caster_bounds.extend(world);
+                    caster_positions.push(world);
+                }
+                if instance.receives_shadow {
+                    receiver_bounds.extend(world);
+                }
+            }
+            let indices = mesh.indices.iter().map(|i| base + i);
+            all.extend(indices.clone());
+            if instance.casts_shadow {
+                casters.extend(indices.clone());
+            }
+            if instance.receives_shadow {
+                receivers.extend(indices);
+            }
+        }
+        let device = &gpu.device;
+        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("scene vertices"),
+            contents: if vertices.is_empty() {
+                &[0u8; 28]
+            } else {
+                bytemuck::cast_slice(&vertices)
+            },
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+        });
+        let make = |label: &str, indices: &[u32]| {
+            (!indices.is_empty()).then(|| IndexList {
+                buffer: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(indices),
+                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
+                }),
+                count: indices.len() as u32,
+            })
+        };
+        Self {
+            name: scene.name.clone(),
+            content_hash: scene.content_hash(),
+            vertices: vertex_buffer,
+            triangle_count: all.len() / 3,
+            caster_triangle_count: casters.len() / 3,
+            all: make("scene indices (all)", &all),
+            casters: make("scene indices (casters)", &casters),
+            receivers: make("scene indices (receivers)", &receivers),
+            bounds,
+            caster_bounds,
+            receiver_bounds,
+            caster_positions,
+            light_bounds_cache: Mutex::new(None),
+        }
+    }
+
+    pub fn has_casters(&self) -> bool {
+        self.casters.is_some()
+    }
+
+    /// Light-space bounds of the part of the casters in front of the light plane, or `None` when
+    /// no caster is in front of the light (nothing can cast a shadow). Cached per light.
+    pub fn caster_bounds_in_light(&self, light: &AreaLight) -> Option<Aabb> {
+        let key = light.content_hash();
+        if let Ok(cache) = self.light_bounds_cache.lock() {
+            if let Some((k, b)) = *cache {
+                if k == key {
+                    return b;
+                }
+            }
+        }
+        let view = light.view();
+        let mut b = Aabb::EMPTY;
+        for p in &self.caster_positions {
+            let q = view.transform_point3(*p);
+            if q.z > 0.0 {
+                b.extend(q);
+            }
+        }
+        let result = (!b.is_empty()).then_some(b);
+        if let Ok(mut cache) = self.light_bounds_cache.lock() {
+            *cache = Some((key, result));
+        }
+        result
+    }
+
+    /// Draws the casters (position-only pipelines).
+    pub fn draw_casters(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(list) = &self.casters {
+            pass.set_vertex_buffer(0, self.vertices.slice(..));
+            pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..list.count, 0, 0..1);
+        }
+    }
+
+    pub fn draw_receivers(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(list) = &self.receivers {
+            pass.set_vertex_buffer(0, self.vertices.slice(..));
+            pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..list.count, 0, 0..1);
+        }
+    }
+
+    pub fn draw_all(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(list) = &self.all {
+            pass.set_vertex_buffer(0, self.vertices.slice(..));
+            pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..list.count, 0, 0..1);
+        }
+    }
+}

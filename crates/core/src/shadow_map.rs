@@ -1,0 +1,205 @@
+//! Depth maps of the shadow casters seen from points on the light plane, and the uniform that
+//! lets shaders look them up (`shaders/common/shadow_view.wgsl`). Used by `hard`, `pcss` and the
+//! accumulated reference (one map per light sample).
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3};
+
+use crate::{
+    frame::{uniform_entry, Frame},
+    light::{AreaLight, SlopeFrustum},
+    scene_gpu::{SceneGpu, Vertex},
+    shader, Gpu, GpuError,
+};
+
+pub const SHADOW_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Mirrors `ShadowView` in `shaders/common/shadow_view.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ShadowViewUniform {
+    pub light_view_proj: [[f32; 4]; 4],
+    pub window: [f32; 4],
+    pub eye_near_far: [f32; 4],
+    pub size: [f32; 4],
+}
+
+impl ShadowViewUniform {
+    pub fn new(light: &AreaLight, frustum: &SlopeFrustum, map_size: u32) -> Self {
+        let m = frustum.projection() * light.view();
+        let n = map_size as f32;
+        Self {
+            light_view_proj: m.to_cols_array_2d(),
+            window: [frustum.s_min, frustum.s_max, frustum.t_min, frustum.t_max],
+            eye_near_far: [frustum.eye.x, frustum.eye.y, frustum.near, frustum.far],
+            size: [n, n, 1.0 / n, 1.0 / n],
+        }
+    }
+}
+
+/// The tightest square slope window from `eye` (light-space, on the light plane) over the casters,
+/// or `None` when no caster lies in front of the light (then every receiver is lit).
+pub fn fit_caster_view(scene: &SceneGpu, light: &AreaLight, eye: Vec2) -> Option<SlopeFrustum> {
+    let bounds = scene.caster_bounds_in_light(light)?;
+    let corners: Vec<Vec3> = bounds.corners().to_vec();
+    SlopeFrustum::fit(eye, &corners)
+}
+
+/// Uniform stride for dynamic offsets (the WebGPU minimum alignment).
+const SLOT: u64 = 256;
+
+/// Renders caster depth into any number of `Depth32Float` views in one call.
+pub struct DepthMapRenderer {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    buffer: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    capacity: u32,
+}
+
+impl DepthMapRenderer {
+    pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
+        let module = shader::create_module(gpu, &shader::CORE_SHADERS[1], &[])?;
+        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("core/depth"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX, true)],
+        });
+        let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("core/depth"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("core/depth"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(Vertex::position_layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                // Both faces: zero-thickness occluders must cast from either side.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: SHADOW_DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        });
+        let (buffer, bind_group) = Self::allocate(gpu, &layout, 16);
+        Ok(Self {
+            pipeline,
+            layout,
+            buffer,
+            bind_group,
+            capacity: 16,
+        })
+    }
+
+    fn allocate(gpu: &Gpu, layout: &wgpu::BindGroupLayout, capacity: u32) -> (wgpu::Buffer, wgpu::BindGroup) {
+        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("core/depth views"),
+            size: SLOT * capacity as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("core/depth views"),
+            layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(64),
+                }),
+            }],
+        });
+        (buffer, bind_group)
+    }
+
+    /// Writes the view matrices of all maps of this frame. Call once per frame before recording
+    /// (queue writes land before the frame's command buffer runs).
+    pub fn set_views(&mut self, gpu: &Gpu, views: &[ShadowViewUniform]) {
+        let needed = views.len().max(1) as u32;
+        if needed > self.capacity {
+            let capacity = needed.next_power_of_two();
+            let (buffer, bind_group) = Self::allocate(gpu, &self.layout, capacity);
+            self.buffer = buffer;
+            self.bind_group = bind_group;
+            self.capacity = capacity;
+        }
+        let mut bytes = vec![0u8; SLOT as usize * views.len()];
+        for (k, v) in views.iter().enumerate() {
+            let at = k * SLOT as usize;
+            bytes[at..at + 64].copy_from_slice(bytemuck::bytes_of(&v.light_view_proj));
+        }
+        if !bytes.is_empty() {
+            gpu.queue.write_buffer(&self.buffer, 0, &bytes);
+        }
+    }
+
+    /// Records one depth pass of the casters into `target` using view slot `slot`.
+    pub fn record(&self, frame: &mut Frame<'_>, label: &str, scene: &SceneGpu, slot: u32, target: &wgpu::TextureView) {
+        frame.render_pass(
+            label,
+            wgpu::RenderPassDescriptor {
+                label: None,
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: target,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            },
+            |pass| {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
+                scene.draw_casters(pass);
+            },
+        );
+    }
+}
+
+/// A square shadow depth texture with `layers` array layers.
+pub fn create_depth_maps(gpu: &Gpu, label: &str, size: u32, layers: u32) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: layers,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: SHADOW_DEPTH_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    })
+}
+
+/// A view of one layer (for rendering into it).
+pub fn layer_view(texture: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
+    texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2),
+        base_array_layer: layer,
+        array_layer_count: Some(1),
+        ..Default::default()
+    })
+}

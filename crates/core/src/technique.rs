@@ -1,0 +1,115 @@
+//! The one trait every technique implements (GUIDE.md section 2, shaped like wgpu's `Example`).
+
+use std::collections::BTreeMap;
+
+use crate::{
+    error::{ParamError, TechniqueError},
+    frame::{Frame, ShadowInputs},
+    params::{ParamSet, ParamSpec, ParamValue},
+    visibility::VisibilityBuffer,
+    Gpu,
+};
+
+/// What a technique needs from the adapter and the scene.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Requirements {
+    /// Adapter features without which the technique cannot run.
+    pub features: wgpu::Features,
+    /// Needs the occluder / receiver split (Atty et al.): casters must not also be receivers to
+    /// get correct results (receiver pixels on casters are still shaded, without self-shadowing).
+    pub occluder_receiver_split: bool,
+    /// Caches scene-only work in `prepare` (PDSM): only valid while instances are static.
+    pub static_scene: bool,
+}
+
+/// Named counters for the report (`stats` in results.json).
+pub type TechniqueStats = BTreeMap<String, f64>;
+
+/// A technique-specific image for the viewer (shadow map, chosen level, ...).
+pub struct DebugView {
+    pub name: String,
+    pub texture: wgpu::Texture,
+}
+
+/// A soft-shadow technique: fills the visibility buffer for the current frame.
+pub trait ShadowTechnique {
+    /// Stable id used on the command line, in JSON and in the GUI.
+    fn id(&self) -> &'static str;
+    fn requirements(&self) -> Requirements {
+        Requirements::default()
+    }
+    /// Current parameter values with their specs.
+    fn params(&self) -> ParamSet;
+    /// Sets one parameter (range-checked). Takes effect on the next `render`.
+    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError>;
+    /// Work that depends only on the scene and light; not timed per frame. Default: nothing.
+    fn prepare(&mut self, _gpu: &Gpu, _inputs: &ShadowInputs<'_>) -> Result<(), TechniqueError> {
+        Ok(())
+    }
+    /// Records the passes that fill `out` (every pixel). Each pass is a named, timed scope.
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError>;
+    /// Counters of the last frame.
+    fn stats(&self) -> TechniqueStats {
+        TechniqueStats::new()
+    }
+    fn debug_views(&self) -> Vec<DebugView> {
+        Vec::new()
+    }
+}
+
+/// A registry entry: what `workbench list` prints without a GPU, and how to build the technique.
+#[derive(Clone, Copy)]
+pub struct TechniqueInfo {
+    pub id: &'static str,
+    pub description: &'static str,
+    /// Paper or source the technique follows.
+    pub source: &'static str,
+    pub params: fn() -> Vec<ParamSpec>,
+    pub create: fn(&Gpu) -> Result<Box<dyn ShadowTechnique>, TechniqueError>,
+}
+
+impl TechniqueInfo {
+    /// Builds the technique and applies `name=value` settings (strings from a CLI or a sweep).
+    pub fn create_with(
+        &self,
+        gpu: &Gpu,
+        settings: &[(String, ParamValue)],
+    ) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+        let mut technique = (self.create)(gpu)?;
+        for (name, value) in settings {
+            technique.set_param(name, value.clone())?;
+        }
+        Ok(technique)
+    }
+
+    /// Parses `name=value` text against this technique's specs.
+    pub fn parse_param(&self, text: &str) -> Result<(String, ParamValue), ParamError> {
+        let specs = (self.params)();
+        let (name, value) = text.split_once('=').ok_or_else(|| ParamError::WrongType {
+            name: text.into(),
+            expected: "name=value".into(),
+            value: text.into(),
+        })?;
+        let spec = crate::params::find_spec(self.id, &specs, name.trim())?;
+        Ok((spec.name.to_string(), spec.parse(value)?))
+    }
+}
+
+/// Checks the adapter has what `requirements` lists.
+pub fn check_requirements(gpu: &Gpu, id: &str, requirements: &Requirements) -> Result<(), TechniqueError> {
+    let missing = requirements.features - gpu.features();
+    if missing.is_empty() {
+        Ok(())
+    } else {
+        Err(TechniqueError::MissingFeatures {
+            technique: id.into(),
+            adapter: gpu.summary().name,
+            missing,
+        })
+    }
+}

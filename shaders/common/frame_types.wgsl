@@ -1,0 +1,18 @@
+#define_import_path softshadow::frame_types
+
+// Per-frame constants shared by every pass (mirrors `softshadow_core::frame::FrameUniforms`).
+struct FrameUniforms {
+    view_proj: mat4x4<f32>,
+    // World space to light space: light centre at the origin, light facing +z,
+    // light rectangle [-a, a] x [-b, b] in the plane z = 0.
+    world_to_light: mat4x4<f32>,
+    camera_pos: vec4<f32>,
+    // xyz: light centre (world); w: intensity.
+    light_center: vec4<f32>,
+    // xyz: direction the light faces (world); w: ambient term of the shading pass.
+    light_dir: vec4<f32>,
+    // x = a, y = b (half width and half height), z = light area 4ab, w unused.
+    light_half: vec4<f32>,
+    // width, height, 1 / width, 1 / height of the visibility buffer.
+    screen: vec4<f32>,
+}
