@@ -59,7 +59,7 @@ pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuEr
     Ok(out)
 }
 
-/// Reads an `R32Float` texture.
+/// Reads an `R32Float` texture (or any all-f32 format, channels flattened).
 pub fn read_r32f(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<f32>, GpuError> {
     let bytes = read_texture(gpu, texture)?;
     Ok(bytes

@@ -256,6 +256,15 @@ impl Renderer {
         readback::read_texture(&self.gpu, &self.shaded)
     }
 
+    /// World position per pixel (`None` where no geometry was hit).
+    pub fn read_world_positions(&self) -> Result<Vec<Option<glam::Vec3>>, GpuError> {
+        let position = readback::read_r32f(&self.gpu, &self.gbuffer.position)?;
+        Ok(position
+            .chunks_exact(4)
+            .map(|p| (p[3] > 0.5).then(|| glam::Vec3::new(p[0], p[1], p[2])))
+            .collect())
+    }
+
     /// `true` for pixels that see a shadow receiver.
     pub fn read_receiver_mask(&self) -> Result<Vec<bool>, GpuError> {
         let normal = readback::read_texture(&self.gpu, &self.gbuffer.normal)?;

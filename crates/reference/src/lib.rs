@@ -1,1 +1,453 @@
-//! softshadow-reference
+//! Ground truth for the workbench.
+//!
+//! - [`AccumulatedReference`] (technique id `reference`): accumulated hard shadows from N x N
+//!   stratified (optionally jittered) point samples on the light, one depth map each, averaged
+//!   per pixel into the visibility buffer. Cached by a hash of scene, light, camera, parameters
+//!   and resolution, so it is not recomputed while nothing changed.
+//! - [`exact`]: closed-form visibility for rectangles parallel to the light.
+//!
+//! Reads: the casters and the G-buffer. Writes: the visibility buffer.
+
+pub mod exact;
+
+use bytemuck::{Pod, Zeroable};
+use softshadow_core::{
+    frame::{texture_entry, uniform_entry},
+    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    glam::Vec2,
+    params::{expect_bool, expect_f32, expect_u32, find_spec},
+    scene::Fnv1a,
+    shader::ShaderSpec,
+    shader_file,
+    shadow_map::{create_depth_maps, fit_caster_view, layer_view, DepthMapRenderer, ShadowViewUniform},
+    wgpu, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, Requirements, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+};
+
+pub const ID: &str = "reference";
+
+pub const SHADERS: &[ShaderSpec] = &[
+    ShaderSpec {
+        path: "reference/accumulate.wgsl",
+        source: shader_file!("reference/accumulate.wgsl").1,
+        permutations: &[&[]],
+    },
+    ShaderSpec {
+        path: "reference/resolve.wgsl",
+        source: shader_file!("reference/resolve.wgsl").1,
+        permutations: &[&[]],
+    },
+];
+
+/// Depth maps per accumulation pass (`MAX_BATCH` in `accumulate.wgsl`).
+const BATCH: u32 = 16;
+/// Bytes per batch slot in the uniform buffer (dynamic offsets need 256-byte alignment).
+const BATCH_SLOT: u64 = 2048;
+
+/// Settings of the accumulated reference.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceSettings {
+    /// Light samples per axis; N x N depth maps in all.
+    pub samples_per_axis: u32,
+    /// Edge of each depth map in texels.
+    pub shadow_map_size: u32,
+    /// Depth bias in texel footprints at the receiver.
+    pub bias_texels: f32,
+    /// Jitter each sample inside its stratum (deterministic, from `seed`).
+    pub jitter: bool,
+    pub seed: u32,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self {
+            samples_per_axis: 32,
+            shadow_map_size: 1024,
+            bias_texels: 1.5,
+            jitter: true,
+            seed: 1,
+        }
+    }
+}
+
+pub fn param_specs() -> Vec<ParamSpec> {
+    let d = ReferenceSettings::default();
+    vec![
+        ParamSpec::int(
+            "samples_per_axis",
+            "Light samples per axis (N x N depth maps, averaged)",
+            1,
+            64,
+            d.samples_per_axis as i64,
+        ),
+        ParamSpec::int(
+            "shadow_map_size",
+            "Edge of each depth map in texels",
+            64,
+            4096,
+            d.shadow_map_size as i64,
+        ),
+        ParamSpec::float(
+            "bias_texels",
+            "Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)",
+            0.0,
+            16.0,
+            d.bias_texels as f64,
+        ),
+        ParamSpec::boolean("jitter", "Jitter each sample inside its stratum", d.jitter),
+        ParamSpec::int("seed", "Seed of the jitter", 0, i32::MAX as i64, d.seed as i64),
+    ]
+}
+
+/// Stratified sample positions on the light rectangle, light-space `(u, v)` (row-major).
+pub fn light_samples(settings: &ReferenceSettings, half: Vec2) -> Vec<Vec2> {
+    let n = settings.samples_per_axis.max(1);
+    let mut rng = SplitMix64(settings.seed as u64 ^ 0x9e37_79b9_7f4a_7c15);
+    let mut samples = Vec::with_capacity((n * n) as usize);
+    for j in 0..n {
+        for i in 0..n {
+            let (ju, jv) = if settings.jitter {
+                (rng.next_f32(), rng.next_f32())
+            } else {
+                (0.5, 0.5)
+            };
+            let u = ((i as f32 + ju) / n as f32) * 2.0 - 1.0;
+            let v = ((j as f32 + jv) / n as f32) * 2.0 - 1.0;
+            samples.push(Vec2::new(u * half.x, v * half.y));
+        }
+    }
+    samples
+}
+
+/// Small deterministic generator for the jitter (splitmix64).
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct BatchUniform {
+    count_bias: [f32; 4],
+    views: [ShadowViewUniform; BATCH as usize],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ResolveUniform {
+    samples: [f32; 4],
+}
+
+struct Cached {
+    key: u64,
+    texture: wgpu::Texture,
+}
+
+pub struct AccumulatedReference {
+    pub settings: ReferenceSettings,
+    depth: DepthMapRenderer,
+    accumulate: FullscreenPipeline,
+    resolve: FullscreenPipeline,
+    accumulate_layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    batches: wgpu::Buffer,
+    batch_capacity: u32,
+    resolve_buffer: wgpu::Buffer,
+    maps: Option<(u32, wgpu::Texture)>,
+    cache: Option<Cached>,
+    stats: TechniqueStats,
+}
+
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        id: ID,
+        description: "Reference: accumulated hard shadows from N x N stratified light samples",
+        source: "Heckbert & Herf 1997 (accumulated hard shadows)",
+        params: param_specs,
+        create: |gpu| Ok(Box::new(AccumulatedReference::new(gpu, ReferenceSettings::default())?)),
+    }
+}
+
+impl AccumulatedReference {
+    pub fn new(gpu: &Gpu, settings: ReferenceSettings) -> Result<Self, TechniqueError> {
+        let stage = wgpu::ShaderStages::FRAGMENT;
+        let accumulate_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("reference/accumulate"),
+            entries: &[uniform_entry(0, stage, true), depth_texture_entry(1, true)],
+        });
+        let resolve_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("reference/resolve"),
+            entries: &[
+                uniform_entry(0, stage, false),
+                texture_entry(1, stage, wgpu::TextureSampleType::Float { filterable: false }),
+            ],
+        });
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let blend = wgpu::BlendState {
+            color: add,
+            alpha: add,
+        };
+        let requirements = Self::requirements_static();
+        softshadow_core::technique::check_requirements(gpu, ID, &requirements)?;
+        Ok(Self {
+            depth: DepthMapRenderer::new(gpu)?,
+            accumulate: FullscreenPipeline::new(
+                gpu,
+                "reference/accumulate",
+                &SHADERS[0],
+                &[],
+                &accumulate_layout,
+                Some(blend),
+            )?,
+            resolve: FullscreenPipeline::new(gpu, "reference/resolve", &SHADERS[1], &[], &resolve_layout, None)?,
+            batches: Self::batch_buffer(gpu, 4),
+            batch_capacity: 4,
+            resolve_buffer: uniform_buffer(gpu, "reference/resolve", &ResolveUniform::zeroed()),
+            accumulate_layout,
+            resolve_layout,
+            settings,
+            maps: None,
+            cache: None,
+            stats: TechniqueStats::new(),
+        })
+    }
+
+    fn requirements_static() -> Requirements {
+        Requirements {
+            // Summing per-batch counts into an R32Float target by additive blending.
+            features: wgpu::Features::FLOAT32_BLENDABLE,
+            ..Requirements::default()
+        }
+    }
+
+    fn batch_buffer(gpu: &Gpu, capacity: u32) -> wgpu::Buffer {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("reference/batches"),
+            size: BATCH_SLOT * capacity as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn cache_key(&self, inputs: &ShadowInputs<'_>) -> u64 {
+        let mut h = Fnv1a::default();
+        h.write_u64(inputs.scene.content_hash);
+        h.write_u64(inputs.light.content_hash());
+        h.write_u64(inputs.camera.content_hash());
+        h.write_u64(inputs.width as u64 | (inputs.height as u64) << 32);
+        for (_, v) in self.params().entries {
+            h.write_str(&v.to_string());
+        }
+        h.finish()
+    }
+
+    /// Forgets the cached result (the next frame recomputes).
+    pub fn invalidate(&mut self) {
+        self.cache = None;
+    }
+}
+
+impl ShadowTechnique for AccumulatedReference {
+    fn id(&self) -> &'static str {
+        ID
+    }
+
+    fn requirements(&self) -> Requirements {
+        Self::requirements_static()
+    }
+
+    fn params(&self) -> ParamSet {
+        let s = &self.settings;
+        let values = [
+            ParamValue::Int(s.samples_per_axis as i64),
+            ParamValue::Int(s.shadow_map_size as i64),
+            ParamValue::Float(s.bias_texels as f64),
+            ParamValue::Bool(s.jitter),
+            ParamValue::Int(s.seed as i64),
+        ];
+        ParamSet {
+            entries: param_specs().into_iter().zip(values).collect(),
+        }
+    }
+
+    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
+        let specs = param_specs();
+        let spec = find_spec(ID, &specs, name)?;
+        let value = spec.check(value)?;
+        match spec.name {
+            "samples_per_axis" => self.settings.samples_per_axis = expect_u32(&value),
+            "shadow_map_size" => self.settings.shadow_map_size = expect_u32(&value),
+            "bias_texels" => self.settings.bias_texels = expect_f32(&value),
+            "jitter" => self.settings.jitter = expect_bool(&value),
+            "seed" => self.settings.seed = expect_u32(&value),
+            _ => unreachable!("every spec is matched"),
+        }
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        let key = self.cache_key(inputs);
+        if let Some(cached) = self.cache.as_ref().filter(|c| c.key == key) {
+            out.copy_from(frame.encoder, &cached.texture);
+            frame.note_pass("reference/cached_copy");
+            self.stats.insert("cached".into(), 1.0);
+            return Ok(());
+        }
+        let samples = light_samples(&self.settings, inputs.light.half_extent());
+        let size = self.settings.shadow_map_size;
+        let views: Vec<ShadowViewUniform> = samples
+            .iter()
+            .filter_map(|eye| fit_caster_view(inputs.scene, inputs.light, *eye))
+            .map(|frustum| ShadowViewUniform::new(inputs.light, &frustum, size))
+            .collect();
+        let result = VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height);
+        if views.is_empty() {
+            // No caster in front of the light: all lit, no depth map needed.
+            result.clear_lit(frame, "reference/no_casters");
+        } else {
+            self.accumulate_views(frame, inputs, &views, &result)?;
+        }
+        out.copy_from(frame.encoder, &result.texture);
+        self.stats = TechniqueStats::from([
+            ("cached".into(), 0.0),
+            ("light_samples".into(), samples.len() as f64),
+            ("depth_maps".into(), views.len() as f64),
+        ]);
+        self.cache = Some(Cached {
+            key,
+            texture: result.texture,
+        });
+        Ok(())
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        self.stats.clone()
+    }
+}
+
+impl AccumulatedReference {
+    fn accumulate_views(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        views: &[ShadowViewUniform],
+        result: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        let size = self.settings.shadow_map_size;
+        if self.maps.as_ref().map(|m| m.0) != Some(size) {
+            self.maps = Some((size, create_depth_maps(gpu, "reference/depth_maps", size, BATCH)));
+        }
+        let batch_count = views.len().div_ceil(BATCH as usize) as u32;
+        if batch_count > self.batch_capacity {
+            self.batch_capacity = batch_count.next_power_of_two();
+            self.batches = Self::batch_buffer(gpu, self.batch_capacity);
+        }
+        // All uniforms are written before the frame is submitted, so each batch (and each depth
+        // view) gets its own slot.
+        let mut bytes = vec![0u8; (BATCH_SLOT * batch_count as u64) as usize];
+        for (b, chunk) in views.chunks(BATCH as usize).enumerate() {
+            let mut uniform = BatchUniform::zeroed();
+            uniform.count_bias = [chunk.len() as f32, self.settings.bias_texels, 0.0, 0.0];
+            uniform.views[..chunk.len()].copy_from_slice(chunk);
+            let at = b * BATCH_SLOT as usize;
+            bytes[at..at + std::mem::size_of::<BatchUniform>()].copy_from_slice(bytemuck::bytes_of(&uniform));
+        }
+        gpu.queue.write_buffer(&self.batches, 0, &bytes);
+        self.depth.set_views(gpu, views);
+        gpu.queue.write_buffer(
+            &self.resolve_buffer,
+            0,
+            bytemuck::bytes_of(&ResolveUniform {
+                samples: [views.len() as f32, 0.0, 0.0, 0.0],
+            }),
+        );
+
+        let (_, maps) = self.maps.as_ref().expect("created above");
+        let layer_views: Vec<wgpu::TextureView> = (0..BATCH).map(|l| layer_view(maps, l)).collect();
+        let array_view = maps.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let accumulate_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("reference/accumulate"),
+            layout: &self.accumulate_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &self.batches,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<BatchUniform>() as u64),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&array_view),
+                },
+            ],
+        });
+        let counts = VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height);
+        for b in 0..batch_count {
+            let first = b * BATCH;
+            let count = (views.len() as u32 - first).min(BATCH);
+            for layer in 0..count {
+                self.depth
+                    .record(frame, "reference/depth", inputs.scene, first + layer, &layer_views[layer as usize]);
+            }
+            self.accumulate.record(
+                frame,
+                "reference/accumulate",
+                inputs.frame_bind_group,
+                &accumulate_group,
+                &[(b as u64 * BATCH_SLOT) as u32],
+                &counts.view,
+                if b == 0 { Some(0.0) } else { None },
+            );
+        }
+        let resolve_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("reference/resolve"),
+            layout: &self.resolve_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.resolve_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&counts.view),
+                },
+            ],
+        });
+        self.resolve.record(
+            frame,
+            "reference/resolve",
+            inputs.frame_bind_group,
+            &resolve_group,
+            &[],
+            &result.view,
+            Some(1.0),
+        );
+        Ok(())
+    }
+}
