@@ -1,1 +1,421 @@
-//! softshadow-bench
+//! Headless benchmark: runs techniques on scenes, times every pass on the GPU, compares the
+//! result with the accumulated reference, and writes `results.json` plus images.
+//!
+//! A run that fails (bad parameter, technique error, device error) is recorded with its message
+//! and the rest of the runs go on.
+
+pub mod output;
+pub mod registry;
+pub mod results;
+pub mod sweep;
+
+use std::{
+    collections::{BTreeMap, HashMap},
+    path::Path,
+};
+
+use softshadow_core::{
+    renderer::is_core_pass, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu,
+    ShadingMode, ShadowTechnique, TechniqueError,
+};
+use thiserror::Error;
+
+pub use results::{Results, Run, Status};
+pub use sweep::Sweep;
+
+#[derive(Debug, Error)]
+pub enum BenchError {
+    #[error("unknown technique `{id}`: known techniques are {known} (see `workbench list`)")]
+    UnknownTechnique { id: String, known: String },
+    #[error(transparent)]
+    Scene(#[from] softshadow_scenes::SceneError),
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error("resolution {width}x{height} is invalid: width and height must be 1 to {max} pixels (e.g. --size 256x256)")]
+    BadResolution { width: u32, height: u32, max: u32 },
+    #[error("--size `{0}` is not WIDTHxHEIGHT: write it like 256x256")]
+    BadSize(String),
+    #[error("--frames must be at least 1")]
+    NoFrames,
+    #[error("cannot write `{path}`: {message}. Check the --out folder exists and is writable")]
+    Write { path: String, message: String },
+    #[error("sweep file `{path}`: {message}")]
+    Sweep { path: String, message: String },
+    #[error(transparent)]
+    Gpu(#[from] softshadow_core::GpuError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Technique(#[from] TechniqueError),
+    #[error(transparent)]
+    Metrics(#[from] softshadow_metrics::MetricsError),
+}
+
+/// One benchmark run: a scene, a technique with settings, a resolution.
+#[derive(Clone, Debug)]
+pub struct RunSpec {
+    pub scene: String,
+    pub technique: String,
+    /// Already parsed and range-checked (see [`parse_params`]).
+    pub params: Vec<(String, ParamValue)>,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Options shared by all runs.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Timed frames per run (after `warmup` untimed ones).
+    pub frames: u32,
+    pub warmup: u32,
+    /// Compute the reference and the error metrics (otherwise only timings: no reference passes run).
+    pub error: bool,
+    /// Settings of the reference (`reference` technique parameters).
+    pub reference_params: Vec<(String, ParamValue)>,
+    /// Write EXR / PNG images.
+    pub images: bool,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        Self {
+            frames: 10,
+            warmup: 2,
+            error: true,
+            reference_params: Vec::new(),
+            images: true,
+        }
+    }
+}
+
+/// Parses `WIDTHxHEIGHT`.
+pub fn parse_size(text: &str) -> Result<(u32, u32), BenchError> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| BenchError::BadSize(text.into()))?;
+    let w = w.trim().parse().map_err(|_| BenchError::BadSize(text.into()))?;
+    let h = h.trim().parse().map_err(|_| BenchError::BadSize(text.into()))?;
+    check_size(w, h)?;
+    Ok((w, h))
+}
+
+pub fn check_size(width: u32, height: u32) -> Result<(), BenchError> {
+    let max = softshadow_core::renderer::MAX_RESOLUTION;
+    if width == 0 || height == 0 || width > max || height > max {
+        return Err(BenchError::BadResolution { width, height, max });
+    }
+    Ok(())
+}
+
+/// Parses `name=value` texts for technique `technique`.
+pub fn parse_params(technique: &str, texts: &[String]) -> Result<Vec<(String, ParamValue)>, BenchError> {
+    let info = registry::find(technique)?;
+    texts
+        .iter()
+        .map(|t| info.parse_param(t).map_err(BenchError::from))
+        .collect()
+}
+
+/// Checks a run before any GPU work: scene loads, technique exists, parameters are valid.
+pub fn validate(spec: &RunSpec) -> Result<(), BenchError> {
+    check_size(spec.width, spec.height)?;
+    let info = registry::find(&spec.technique)?;
+    let specs = (info.params)();
+    for (name, value) in &spec.params {
+        softshadow_core::params::find_spec(info.id, &specs, name)?.check(value.clone())?;
+    }
+    softshadow_scenes::load(&spec.scene)?;
+    Ok(())
+}
+
+struct LoadedScene {
+    scene: Scene,
+    gpu: SceneGpu,
+    warnings: Vec<String>,
+}
+
+struct ReferenceResult {
+    visibility: Vec<f32>,
+    shaded_rgb: Vec<u8>,
+    label: String,
+    images: BTreeMap<String, String>,
+}
+
+/// Runs benchmark runs on one GPU, caching scenes, renderers and reference images between runs.
+pub struct Bench {
+    gpu: Gpu,
+    options: BenchOptions,
+    scenes: HashMap<String, LoadedScene>,
+    renderers: HashMap<(u32, u32), Renderer>,
+    reference: Option<Box<dyn ShadowTechnique>>,
+    references: HashMap<(String, u32, u32), ReferenceResult>,
+}
+
+impl Bench {
+    pub fn new(gpu: Gpu, options: BenchOptions) -> Result<Self, BenchError> {
+        if options.frames == 0 {
+            return Err(BenchError::NoFrames);
+        }
+        // Check reference settings up front so a typo fails before any run.
+        parse_check_reference(&options.reference_params)?;
+        Ok(Self {
+            gpu,
+            options,
+            scenes: HashMap::new(),
+            renderers: HashMap::new(),
+            reference: None,
+            references: HashMap::new(),
+        })
+    }
+
+    pub fn adapter(&self) -> results::Adapter {
+        let s = self.gpu.summary();
+        results::Adapter {
+            name: s.name,
+            backend: s.backend,
+            driver: s.driver,
+        }
+    }
+
+    /// Runs one spec; never fails: errors are recorded in the returned [`Run`].
+    pub fn run(&mut self, index: usize, spec: &RunSpec, out_dir: &Path) -> Run {
+        puffin::profile_function!();
+        let mut run = Run {
+            scene: spec.scene.clone(),
+            technique: spec.technique.clone(),
+            params: spec.params.iter().cloned().collect(),
+            width: spec.width,
+            height: spec.height,
+            status: Status::Ok,
+            message: String::new(),
+            timing: None,
+            error: None,
+            stability: None,
+            stats: BTreeMap::new(),
+            passes_run: Vec::new(),
+            images: BTreeMap::new(),
+            warnings: Vec::new(),
+        };
+        if let Err(e) = self.run_inner(index, spec, out_dir, &mut run) {
+            run.status = Status::Error;
+            run.message = e.to_string();
+            // A failed run may leave GPU errors behind; clear them so the next run starts clean.
+            let _ = self.gpu.take_errors();
+        }
+        run
+    }
+
+    fn run_inner(&mut self, index: usize, spec: &RunSpec, out_dir: &Path, run: &mut Run) -> Result<(), BenchError> {
+        check_size(spec.width, spec.height)?;
+        let info = registry::find(&spec.technique)?;
+        let mut technique = info.create_with(&self.gpu, &spec.params)?;
+        run.params = technique.params().to_map();
+        if !self.scenes.contains_key(&spec.scene) {
+            let loaded = softshadow_scenes::load(&spec.scene)?;
+            let gpu_scene = SceneGpu::upload(&self.gpu, &loaded.scene);
+            self.scenes.insert(
+                spec.scene.clone(),
+                LoadedScene {
+                    scene: loaded.scene,
+                    gpu: gpu_scene,
+                    warnings: loaded.warnings,
+                },
+            );
+        }
+        let key = (spec.width, spec.height);
+        if !self.renderers.contains_key(&key) {
+            self.renderers
+                .insert(key, Renderer::new(&self.gpu, spec.width, spec.height)?);
+        }
+        let scene = &self.scenes[&spec.scene];
+        run.warnings = scene.warnings.clone();
+        let renderer = self.renderers.get_mut(&key).expect("inserted above");
+        let (camera, light) = (scene.scene.camera, scene.scene.light);
+        technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
+
+        for _ in 0..self.options.warmup {
+            renderer.render(&scene.gpu, &camera, &light, technique.as_mut(), Some(ShadingMode::Shaded))?;
+        }
+        let mut gpu_total = Vec::new();
+        let mut gpu_technique = Vec::new();
+        let mut cpu = Vec::new();
+        let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+        let mut pass_order: Vec<String> = Vec::new();
+        for _ in 0..self.options.frames {
+            let output = renderer.render(&scene.gpu, &camera, &light, technique.as_mut(), Some(ShadingMode::Shaded))?;
+            cpu.push(output.cpu_ms);
+            if let Some(gpu) = &output.gpu {
+                gpu_total.push(gpu.total_ms);
+                gpu_technique.push(gpu.technique_ms());
+                for (name, ms) in &gpu.passes {
+                    per_pass.entry(name.clone()).or_default().push(*ms);
+                    if !pass_order.contains(name) {
+                        pass_order.push(name.clone());
+                    }
+                }
+            }
+            run.passes_run = output.passes_run;
+        }
+        run.timing = Some(results::Timing {
+            frames: self.options.frames,
+            gpu_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
+            technique_gpu_ms: (!gpu_technique.is_empty()).then(|| results::percentiles(&gpu_technique)),
+            passes: pass_order
+                .iter()
+                .map(|name| results::PassTiming {
+                    name: name.clone(),
+                    gpu_ms_median: results::percentile(&per_pass[name], 0.5),
+                })
+                .collect(),
+            cpu_ms: results::Median {
+                median: results::percentile(&cpu, 0.5),
+            },
+        });
+        run.stats = technique.stats();
+        debug_assert!(run.passes_run.iter().any(|p| is_core_pass(p)));
+
+        let visibility = renderer.read_visibility()?;
+        let shaded = output::rgba_to_rgb(&renderer.read_shaded()?);
+        let mask = renderer.read_receiver_mask()?;
+        run.stability = Some(softshadow_metrics::stability(&visibility));
+
+        let stem = format!("{index:03}_{}_{}", sanitize(&spec.scene), spec.technique);
+        if self.options.images {
+            let name = format!("{stem}_visibility.exr");
+            output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
+            run.images.insert("visibility".into(), name);
+            let name = format!("{stem}_shaded.png");
+            output::write_png(&out_dir.join(&name), spec.width, spec.height, 3, &shaded)?;
+            run.images.insert("shaded".into(), name);
+        }
+
+        let write_images = self.options.images;
+        if self.options.error {
+            let reference = self.reference_for(spec, out_dir)?;
+            let mut report = softshadow_metrics::compare(&visibility, &reference.visibility, &mask)?;
+            report.flip_mean = Some(softshadow_metrics::flip_mean(
+                &shaded,
+                &reference.shaded_rgb,
+                spec.width,
+                spec.height,
+            )?);
+            run.error = Some(results::ErrorFields {
+                reference: reference.label.clone(),
+                report,
+            });
+            run.images.extend(reference.images.clone());
+            if write_images {
+                let diff = softshadow_metrics::difference_image(
+                    &visibility,
+                    &reference.visibility,
+                    &mask,
+                    spec.width,
+                    spec.height,
+                )?;
+                let name = format!("{stem}_difference.png");
+                output::write_png(&out_dir.join(&name), spec.width, spec.height, 3, diff.as_raw())?;
+                run.images.insert("difference".into(), name);
+            }
+        }
+        Ok(())
+    }
+
+    /// The reference for this scene and size, computed once per benchmark.
+    fn reference_for(&mut self, spec: &RunSpec, out_dir: &Path) -> Result<&ReferenceResult, BenchError> {
+        let key = (spec.scene.clone(), spec.width, spec.height);
+        if !self.references.contains_key(&key) {
+            if self.reference.is_none() {
+                let info = softshadow_reference::info();
+                self.reference = Some(info.create_with(&self.gpu, &self.options.reference_params)?);
+            }
+            let reference = self.reference.as_mut().expect("created above");
+            let scene = &self.scenes[&spec.scene];
+            let renderer = self
+                .renderers
+                .get_mut(&(spec.width, spec.height))
+                .expect("created by the run");
+            let (camera, light) = (scene.scene.camera, scene.scene.light);
+            renderer.render(&scene.gpu, &camera, &light, reference.as_mut(), Some(ShadingMode::Shaded))?;
+            let visibility = renderer.read_visibility()?;
+            let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
+            let settings: Vec<String> = reference
+                .params()
+                .entries
+                .iter()
+                .map(|(s, v)| format!("{}={v}", s.name))
+                .collect();
+            let label = format!("reference({})", settings.join(","));
+            let mut images = BTreeMap::new();
+            if self.options.images {
+                let stem = format!("reference_{}_{}x{}", sanitize(&spec.scene), spec.width, spec.height);
+                let name = format!("{stem}.exr");
+                output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
+                images.insert("reference".into(), name);
+                let name = format!("{stem}_shaded.png");
+                output::write_png(&out_dir.join(&name), spec.width, spec.height, 3, &shaded_rgb)?;
+                images.insert("reference_shaded".into(), name);
+            }
+            self.references.insert(
+                key.clone(),
+                ReferenceResult {
+                    visibility,
+                    shaded_rgb,
+                    label,
+                    images,
+                },
+            );
+        }
+        Ok(&self.references[&key])
+    }
+}
+
+fn parse_check_reference(params: &[(String, ParamValue)]) -> Result<(), BenchError> {
+    let specs = softshadow_reference::param_specs();
+    for (name, value) in params {
+        softshadow_core::params::find_spec(softshadow_reference::ID, &specs, name)?.check(value.clone())?;
+    }
+    Ok(())
+}
+
+/// File-name-safe form of a scene spec (ids may carry `:key=value,...`; paths have slashes).
+pub fn sanitize(text: &str) -> String {
+    let name = Path::new(text)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| text.to_string());
+    name.chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .collect()
+}
+
+/// Runs all specs, writes `out_dir/results.json` (atomically) and returns the results.
+/// `progress` is called after each run.
+pub fn run_all(
+    gpu: Gpu,
+    specs: &[RunSpec],
+    options: BenchOptions,
+    out_dir: &Path,
+    mut progress: impl FnMut(usize, &Run),
+) -> Result<Results, BenchError> {
+    std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Write {
+        path: out_dir.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let mut bench = Bench::new(gpu, options)?;
+    let mut results = Results {
+        schema_version: results::SCHEMA_VERSION,
+        adapter: bench.adapter(),
+        runs: Vec::with_capacity(specs.len()),
+    };
+    for (index, spec) in specs.iter().enumerate() {
+        let run = bench.run(index, spec, out_dir);
+        progress(index, &run);
+        results.runs.push(run);
+    }
+    let json = serde_json::to_vec_pretty(&results).map_err(|e| BenchError::Write {
+        path: "results.json".into(),
+        message: e.to_string(),
+    })?;
+    output::write_atomic(&out_dir.join("results.json"), &json)?;
+    Ok(results)
+}

@@ -60,6 +60,7 @@ impl Mesh {
             let double_area = (b - a).cross(c - a).length();
             let scale = (b - a).length().max((c - a).length()).max(f32::MIN_POSITIVE);
             // Relative test: a sliver whose area is at the level of f32 rounding is degenerate.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)] // also true for NaN areas
             if !(double_area > scale * scale * 1e-7) {
                 report.degenerate_triangles += 1;
                 continue;

@@ -203,3 +203,51 @@ pub fn layer_view(texture: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
         ..Default::default()
     })
 }
+
+/// One shadow map from the light centre, fitted to the casters, with its lookup uniform
+/// (`ShadowView`): the shared first pass of `hard` and `pcss`.
+pub struct CentreShadowMap {
+    depth: DepthMapRenderer,
+    map: Option<(u32, wgpu::Texture, wgpu::TextureView)>,
+    /// `ShadowView` uniform of the last rendered map.
+    pub view_buffer: wgpu::Buffer,
+}
+
+impl CentreShadowMap {
+    pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
+        Ok(Self {
+            depth: DepthMapRenderer::new(gpu)?,
+            map: None,
+            view_buffer: crate::fullscreen::uniform_buffer(gpu, "centre shadow view", &ShadowViewUniform::zeroed()),
+        })
+    }
+
+    /// Renders the casters into a `size`² map as the pass `label`. Returns `false` (and renders
+    /// nothing) when no caster is in front of the light.
+    pub fn render(&mut self, frame: &mut Frame<'_>, inputs: &crate::ShadowInputs<'_>, size: u32, label: &str) -> bool {
+        let Some(frustum) = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO) else {
+            return false;
+        };
+        let gpu = frame.gpu;
+        if self.map.as_ref().map(|m| m.0) != Some(size) {
+            let texture = create_depth_maps(gpu, label, size, 1);
+            let view = texture.create_view(&Default::default());
+            self.map = Some((size, texture, view));
+        }
+        let view = ShadowViewUniform::new(inputs.light, &frustum, size);
+        self.depth.set_views(gpu, &[view]);
+        gpu.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
+        let (_, _, map_view) = self.map.as_ref().expect("created above");
+        self.depth.record(frame, label, inputs.scene, 0, map_view);
+        true
+    }
+
+    /// The depth view of the last rendered map.
+    pub fn map_view(&self) -> Option<&wgpu::TextureView> {
+        self.map.as_ref().map(|m| &m.2)
+    }
+
+    pub fn map_texture(&self) -> Option<&wgpu::Texture> {
+        self.map.as_ref().map(|m| &m.1)
+    }
+}

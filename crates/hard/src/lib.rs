@@ -5,16 +5,14 @@
 //! the light shrinks to a point.
 
 use bytemuck::{Pod, Zeroable};
-use glam::Vec2;
 use softshadow_core::{
-    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
-    glam,
     frame::uniform_entry,
+    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
     params::{expect_f32, expect_u32, find_spec},
     shader::ShaderSpec,
     shader_file,
-    shadow_map::{create_depth_maps, fit_caster_view, DepthMapRenderer, ShadowViewUniform},
-    Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs, ShadowTechnique,
+    shadow_map::CentreShadowMap,
+    wgpu, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs, ShadowTechnique,
     TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
 };
 
@@ -73,12 +71,10 @@ struct HardParams {
 
 pub struct HardShadows {
     pub settings: HardSettings,
-    depth: DepthMapRenderer,
+    shadow_map: CentreShadowMap,
     lookup: FullscreenPipeline,
-    layout: softshadow_core::wgpu::BindGroupLayout,
-    view_buffer: softshadow_core::wgpu::Buffer,
-    params_buffer: softshadow_core::wgpu::Buffer,
-    map: Option<(u32, softshadow_core::wgpu::Texture, softshadow_core::wgpu::TextureView)>,
+    layout: wgpu::BindGroupLayout,
+    params_buffer: wgpu::Buffer,
     stats: TechniqueStats,
 }
 
@@ -94,7 +90,6 @@ pub fn info() -> TechniqueInfo {
 
 impl HardShadows {
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
-        use softshadow_core::wgpu;
         let stage = wgpu::ShaderStages::FRAGMENT;
         let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hard/lookup"),
@@ -105,13 +100,11 @@ impl HardShadows {
             ],
         });
         Ok(Self {
-            depth: DepthMapRenderer::new(gpu)?,
+            shadow_map: CentreShadowMap::new(gpu)?,
             lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
-            view_buffer: uniform_buffer(gpu, "hard/view", &ShadowViewUniform::zeroed()),
             params_buffer: uniform_buffer(gpu, "hard/params", &HardParams::zeroed()),
             layout,
             settings,
-            map: None,
             stats: TechniqueStats::new(),
         })
     }
@@ -151,24 +144,15 @@ impl ShadowTechnique for HardShadows {
         inputs: &ShadowInputs<'_>,
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
-        use softshadow_core::wgpu;
         let gpu = frame.gpu;
         let size = self.settings.shadow_map_size;
-        let Some(frustum) = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO) else {
-            // No caster in front of the light: everything is lit, no shadow map needed.
+        if !self.shadow_map.render(frame, inputs, size, "hard/shadow_map") {
+            // No caster in front of the light: everything is lit, no lookup needed.
             out.clear_lit(frame, "hard/no_casters");
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
-        };
-        if self.map.as_ref().map(|m| m.0) != Some(size) {
-            let texture = create_depth_maps(gpu, "hard/shadow_map", size, 1);
-            let view = texture.create_view(&Default::default());
-            self.map = Some((size, texture, view));
         }
-        let (_, _, map_view) = self.map.as_ref().expect("created above");
-        let view = ShadowViewUniform::new(inputs.light, &frustum, size);
-        self.depth.set_views(gpu, &[view]);
-        gpu.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
+        let map_view = self.shadow_map.map_view().expect("rendered above");
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
@@ -177,14 +161,13 @@ impl ShadowTechnique for HardShadows {
                 _pad: [0.0; 3],
             }),
         );
-        self.depth.record(frame, "hard/shadow_map", inputs.scene, 0, map_view);
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("hard/lookup"),
             layout: &self.layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: self.view_buffer.as_entire_binding(),
+                    resource: self.shadow_map.view_buffer.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,

@@ -1,1 +1,415 @@
-//! softshadow-metrics
+//! softshadow-metrics: compare a technique's per-pixel visibility with a reference.
+//!
+//! Every soft-shadow technique in the workbench writes, for each screen pixel, a
+//! visibility `V` in `[0, 1]`: the fraction of the area light visible from the
+//! surface point seen through that pixel (`1` = fully lit, `0` = umbra). This
+//! crate compares such a buffer with a reference `V_ref` and summarises the
+//! difference. It is pure CPU code and does not depend on the GPU crates.
+//!
+//! Conventions shared by every function here:
+//!
+//! * Buffers are row-major, top-left first, one value per pixel
+//!   (`index = y * width + x`); RGB8 buffers are tightly packed (`3` bytes per
+//!   pixel).
+//! * A `receiver_mask` marks the pixels that show a shadow receiver; error
+//!   statistics ([`compare`]) only look at those pixels.
+//! * A non-finite technique value (NaN or ±Inf) is a failure of the technique,
+//!   not of the comparison: it is scored as an absolute error of `1.0` (the
+//!   worst possible for visibilities in `[0, 1]`) and counted by [`stability`].
+//! * A non-finite *reference* value on a receiver pixel means the reference is
+//!   broken, and is reported as [`MetricsError::NonFiniteReference`].
+//!
+//! Entry points: [`compare`] (error statistics), [`stability`] (NaN/Inf/range
+//! counts), [`flip_mean`] (NVIDIA FLIP on 8-bit sRGB images),
+//! [`difference_image`] (false-colour signed-error image) and
+//! [`visibility_to_gray8`] (8-bit preview of a visibility buffer).
+
+use serde::{Deserialize, Serialize};
+
+/// Errors returned by the metrics functions. Each message names the problem
+/// and what to do about it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MetricsError {
+    /// The visibility buffers and the receiver mask have different lengths.
+    #[error(
+        "input lengths differ: v has {v} values, v_ref has {v_ref}, receiver_mask has {mask}; \
+         all three must hold one entry per pixel of the same image"
+    )]
+    LengthMismatch {
+        /// Length of the technique's visibility buffer.
+        v: usize,
+        /// Length of the reference visibility buffer.
+        v_ref: usize,
+        /// Length of the receiver mask.
+        mask: usize,
+    },
+    /// The receiver mask has no `true` entry, so there is nothing to measure.
+    #[error("no receiver pixels in view: point the camera at a shadow receiver")]
+    NoReceivers,
+    /// The reference visibility is NaN or infinite on a receiver pixel.
+    #[error(
+        "reference visibility is non-finite ({value}) at pixel {index}: the reference is broken; \
+         re-render the reference before comparing"
+    )]
+    NonFiniteReference {
+        /// Pixel index (`y * width + x`) of the first offending value.
+        index: usize,
+        /// The offending value.
+        value: f32,
+    },
+    /// A buffer does not match the image size it was passed with.
+    #[error(
+        "{what} has {actual} entries but the image size requires {expected}; \
+         pass buffers that match width and height"
+    )]
+    SizeMismatch {
+        /// Which buffer is wrong.
+        what: &'static str,
+        /// Entries required by `width` and `height`.
+        expected: u64,
+        /// Entries actually passed.
+        actual: usize,
+    },
+    /// Width or height is zero.
+    #[error("image size {width}x{height} is empty: width and height must both be at least 1")]
+    EmptyImage {
+        /// Image width in pixels.
+        width: u32,
+        /// Image height in pixels.
+        height: u32,
+    },
+    /// The image is too large for the FLIP bindings (`width * height * 3` must fit in `u32`).
+    #[error(
+        "image size {width}x{height} is too large for FLIP (width*height*3 must fit in u32); \
+         compare a downscaled or cropped image"
+    )]
+    ImageTooLarge {
+        /// Image width in pixels.
+        width: u32,
+        /// Image height in pixels.
+        height: u32,
+    },
+}
+
+/// Error statistics of a technique's visibility against the reference,
+/// computed by [`compare`] over receiver pixels only.
+///
+/// The per-pixel error is `e = |V - V_ref|`, computed in `f64`; a non-finite
+/// `V` scores `e = 1.0`. Finite `V` outside `[0, 1]` is used as is (so `e` may
+/// exceed 1 there; [`stability`] counts such values).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorReport {
+    /// Mean of `e` over receiver pixels in shadow, i.e. where `V_ref < 1.0`
+    /// (umbra and penumbra), the "shadowed pixels" error of Atty et al. 2006,
+    /// sec. 4.2.1. The test is the exact comparison `v_ref < 1.0`: the reference
+    /// writes exactly `1.0` for fully lit pixels. `0.0` when there are no
+    /// shadowed pixels.
+    pub mae_shadowed: f64,
+    /// Mean of `e` over all receiver pixels.
+    pub mae_all: f64,
+    /// Root mean square of `e` over all receiver pixels.
+    pub rmse: f64,
+    /// Maximum of `e` over all receiver pixels.
+    pub max_abs: f64,
+    /// 99th percentile of `e` over receiver pixels, nearest-rank definition:
+    /// with the `n` errors sorted ascending, the value at 1-based rank
+    /// `ceil(0.99 * n)` (no interpolation; for `n <= 100` this is the maximum).
+    pub p99_abs: f64,
+    /// Number of receiver pixels with `V_ref < 1.0`.
+    pub shadowed_pixels: u64,
+    /// Number of receiver pixels (`true` entries in the mask).
+    pub receiver_pixels: u64,
+    /// Mean NVIDIA FLIP error of the rendered images, if computed. [`compare`]
+    /// leaves this `None`; set it from [`flip_mean`].
+    pub flip_mean: Option<f64>,
+}
+
+/// Counts of numerically unhealthy values in a visibility buffer (see [`stability`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Stability {
+    /// Number of NaN values.
+    pub nan: u64,
+    /// Number of `+Inf` or `-Inf` values.
+    pub inf: u64,
+    /// Number of finite values outside `[0, 1]` (`-0.0` counts as in range).
+    pub out_of_range: u64,
+}
+
+/// Absolute error of one pixel: `|v - v_ref|` in `f64`, or `1.0` for a
+/// non-finite technique value. `v_ref` must be finite.
+fn pixel_error(v: f32, v_ref: f32) -> f64 {
+    if v.is_finite() {
+        (f64::from(v) - f64::from(v_ref)).abs()
+    } else {
+        1.0
+    }
+}
+
+/// Compares a technique's visibility `v` with the reference `v_ref` over the
+/// pixels where `receiver_mask` is `true`.
+///
+/// See [`ErrorReport`] for the definition of every field. In short, with
+/// `e = |V - V_ref|`:
+///
+/// * `mae_shadowed` / `shadowed_pixels`: mean of `e` / count over receiver
+///   pixels with `v_ref < 1.0` exactly (the reference writes exactly `1.0`
+///   when fully lit); `0.0` / `0` if there are none.
+/// * `mae_all`, `rmse`, `max_abs`, `p99_abs` (nearest rank): over all receiver
+///   pixels.
+/// * `flip_mean` is `None`; fill it in with [`flip_mean`].
+///
+/// Non-finite technique values never make this fail nor produce NaN: each one
+/// scores the worst error, `1.0`. Values on non-receiver pixels are ignored
+/// entirely (including non-finite ones).
+///
+/// # Errors
+///
+/// * [`MetricsError::LengthMismatch`] if the three slices differ in length.
+/// * [`MetricsError::NoReceivers`] if no mask entry is `true`.
+/// * [`MetricsError::NonFiniteReference`] if `v_ref` is NaN or infinite on a
+///   receiver pixel.
+pub fn compare(
+    v: &[f32],
+    v_ref: &[f32],
+    receiver_mask: &[bool],
+) -> Result<ErrorReport, MetricsError> {
+    check_lengths(v, v_ref, receiver_mask)?;
+
+    let mut errors: Vec<f64> = Vec::new();
+    let mut sum = 0.0f64;
+    let mut sum_sq = 0.0f64;
+    let mut max_abs = 0.0f64;
+    let mut sum_shadowed = 0.0f64;
+    let mut shadowed_pixels = 0u64;
+
+    for (index, ((&vi, &ri), &receiver)) in v.iter().zip(v_ref).zip(receiver_mask).enumerate() {
+        if !receiver {
+            continue;
+        }
+        if !ri.is_finite() {
+            return Err(MetricsError::NonFiniteReference { index, value: ri });
+        }
+        let e = pixel_error(vi, ri);
+        sum += e;
+        sum_sq += e * e;
+        max_abs = max_abs.max(e);
+        // Exact test: the reference writes exactly 1.0 for fully lit pixels.
+        if ri < 1.0 {
+            sum_shadowed += e;
+            shadowed_pixels += 1;
+        }
+        errors.push(e);
+    }
+
+    if errors.is_empty() {
+        return Err(MetricsError::NoReceivers);
+    }
+    let n = errors.len() as u64;
+    let nf = n as f64;
+
+    Ok(ErrorReport {
+        mae_shadowed: if shadowed_pixels == 0 {
+            0.0
+        } else {
+            sum_shadowed / shadowed_pixels as f64
+        },
+        mae_all: sum / nf,
+        rmse: (sum_sq / nf).sqrt(),
+        max_abs,
+        p99_abs: percentile_nearest_rank(&mut errors, 99),
+        shadowed_pixels,
+        receiver_pixels: n,
+        flip_mean: None,
+    })
+}
+
+/// Nearest-rank percentile `p` (in percent, `1..=100`) of a non-empty slice of
+/// finite values: the value of 1-based rank `ceil(p * n / 100)` in ascending
+/// order. Reorders `values`.
+fn percentile_nearest_rank(values: &mut [f64], p: u64) -> f64 {
+    debug_assert!(!values.is_empty() && (1..=100).contains(&p));
+    let n = values.len() as u64;
+    // ceil(p * n / 100) in integer arithmetic; at least 1 because n >= 1, p >= 1.
+    let rank = (p * n).div_ceil(100);
+    let index = (rank - 1) as usize;
+    let (_, value, _) = values.select_nth_unstable_by(index, f64::total_cmp);
+    *value
+}
+
+fn check_lengths(v: &[f32], v_ref: &[f32], receiver_mask: &[bool]) -> Result<(), MetricsError> {
+    if v.len() != v_ref.len() || v.len() != receiver_mask.len() {
+        return Err(MetricsError::LengthMismatch {
+            v: v.len(),
+            v_ref: v_ref.len(),
+            mask: receiver_mask.len(),
+        });
+    }
+    Ok(())
+}
+
+/// Counts, over **all** values of `v` (receiver or not), the NaNs, the
+/// infinities (either sign) and the finite values outside `[0, 1]`.
+pub fn stability(v: &[f32]) -> Stability {
+    let mut s = Stability::default();
+    for &x in v {
+        if x.is_nan() {
+            s.nan += 1;
+        } else if x.is_infinite() {
+            s.inf += 1;
+        } else if !(0.0..=1.0).contains(&x) {
+            s.out_of_range += 1;
+        }
+    }
+    s
+}
+
+/// Pixel count `width * height` as `u64`, rejecting empty images.
+fn pixel_count(width: u32, height: u32) -> Result<u64, MetricsError> {
+    if width == 0 || height == 0 {
+        return Err(MetricsError::EmptyImage { width, height });
+    }
+    Ok(u64::from(width) * u64::from(height))
+}
+
+fn check_size(what: &'static str, len: usize, expected: u64) -> Result<(), MetricsError> {
+    if len as u64 != expected {
+        return Err(MetricsError::SizeMismatch {
+            what,
+            expected,
+            actual: len,
+        });
+    }
+    Ok(())
+}
+
+/// Mean NVIDIA FLIP error (LDR-FLIP, via the `nv-flip` crate) between a test
+/// image and a reference image, at the default viewing condition
+/// ([`nv_flip::DEFAULT_PIXELS_PER_DEGREE`], about 67 pixels per degree).
+///
+/// Both images are tightly packed, row-major 8-bit sRGB RGB (no alpha),
+/// `width * height * 3` bytes each. The result is the mean of FLIP's per-pixel
+/// error map, in `[0, 1]` (`0` = indistinguishable). For visibility buffers,
+/// convert with [`visibility_to_gray8`] and replicate each byte to R, G and B.
+///
+/// # Errors
+///
+/// * [`MetricsError::EmptyImage`] if `width` or `height` is zero.
+/// * [`MetricsError::SizeMismatch`] if either buffer is not exactly
+///   `width * height * 3` bytes.
+/// * [`MetricsError::ImageTooLarge`] if `width * height * 3` does not fit in
+///   `u32` (a limit of the bindings).
+pub fn flip_mean(
+    test_rgb8: &[u8],
+    reference_rgb8: &[u8],
+    width: u32,
+    height: u32,
+) -> Result<f64, MetricsError> {
+    let bytes = pixel_count(width, height)? * 3;
+    check_size("test_rgb8", test_rgb8.len(), bytes)?;
+    check_size("reference_rgb8", reference_rgb8.len(), bytes)?;
+    if bytes > u64::from(u32::MAX) {
+        return Err(MetricsError::ImageTooLarge { width, height });
+    }
+
+    let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference_rgb8);
+    let test = nv_flip::FlipImageRgb8::with_data(width, height, test_rgb8);
+    let error_map = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let values = error_map.to_vec();
+    let sum: f64 = values.iter().map(|&e| f64::from(e)).sum();
+    Ok(sum / values.len() as f64)
+}
+
+/// Signed error at which [`difference_image`] reaches full colour: a quarter
+/// of the visibility range.
+pub const DIFFERENCE_FULL_SCALE: f32 = 0.25;
+
+/// Colour of non-receiver pixels in [`difference_image`] (neutral mid-grey).
+pub const DIFFERENCE_NON_RECEIVER: [u8; 3] = [128, 128, 128];
+
+/// Colour of non-finite technique values in [`difference_image`] (magenta).
+pub const DIFFERENCE_NON_FINITE: [u8; 3] = [255, 0, 255];
+
+/// False-colour image of the signed error `d = V - V_ref`.
+///
+/// Colour map, per pixel, first rule that applies:
+///
+/// 1. `V` non-finite (NaN or ±Inf), receiver or not: magenta
+///    [`DIFFERENCE_NON_FINITE`] `(255, 0, 255)`.
+/// 2. Not a receiver pixel: mid-grey [`DIFFERENCE_NON_RECEIVER`] `(128, 128, 128)`.
+/// 3. Otherwise, with `t = min(|d| / DIFFERENCE_FULL_SCALE, 1)` and
+///    `c = round(255 * (1 - t))`:
+///    * `d < 0` (technique too dark): `(255, c, c)`, white fading to pure red
+///      `(255, 0, 0)` at `d <= -0.25`;
+///    * `d > 0` (technique too bright): `(c, c, 255)`, white fading to pure
+///      blue `(0, 0, 255)` at `d >= 0.25`;
+///    * `d = 0`: white `(255, 255, 255)`.
+///
+/// For example `d = -0.125` gives `(255, 128, 128)`.
+///
+/// # Errors
+///
+/// * [`MetricsError::EmptyImage`] if `width` or `height` is zero.
+/// * [`MetricsError::SizeMismatch`] if any slice is not `width * height` long.
+/// * [`MetricsError::NonFiniteReference`] if `v_ref` is non-finite on a
+///   receiver pixel.
+pub fn difference_image(
+    v: &[f32],
+    v_ref: &[f32],
+    receiver_mask: &[bool],
+    width: u32,
+    height: u32,
+) -> Result<image::RgbImage, MetricsError> {
+    let pixels = pixel_count(width, height)?;
+    check_size("v", v.len(), pixels)?;
+    check_size("v_ref", v_ref.len(), pixels)?;
+    check_size("receiver_mask", receiver_mask.len(), pixels)?;
+
+    let mut data = Vec::with_capacity(v.len() * 3);
+    for (index, ((&vi, &ri), &receiver)) in v.iter().zip(v_ref).zip(receiver_mask).enumerate() {
+        let rgb = if !vi.is_finite() {
+            DIFFERENCE_NON_FINITE
+        } else if !receiver {
+            DIFFERENCE_NON_RECEIVER
+        } else {
+            if !ri.is_finite() {
+                return Err(MetricsError::NonFiniteReference { index, value: ri });
+            }
+            difference_colour(vi - ri)
+        };
+        data.extend_from_slice(&rgb);
+    }
+    // The buffer holds exactly width * height * 3 bytes, checked above.
+    Ok(image::RgbImage::from_raw(width, height, data)
+        .expect("buffer size matches width * height * 3"))
+}
+
+/// Colour of a finite signed error `d` (rule 3 of [`difference_image`]).
+fn difference_colour(d: f32) -> [u8; 3] {
+    let t = (d.abs() / DIFFERENCE_FULL_SCALE).min(1.0);
+    let c = (255.0 * (1.0 - t)).round() as u8;
+    if d < 0.0 {
+        [255, c, c]
+    } else if d > 0.0 {
+        [c, c, 255]
+    } else {
+        [255, 255, 255]
+    }
+}
+
+/// Converts visibility to 8-bit grey for previews: `round(255 * clamp(v, 0, 1))`,
+/// one byte per value. NaN maps to `0`, `+Inf` to `255`, `-Inf` to `0`.
+/// The values are linear visibility written as bytes, with no sRGB encoding.
+pub fn visibility_to_gray8(v: &[f32]) -> Vec<u8> {
+    v.iter()
+        .map(|&x| {
+            if x.is_nan() {
+                0
+            } else {
+                (255.0 * x.clamp(0.0, 1.0)).round() as u8
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

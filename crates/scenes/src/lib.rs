@@ -1,1 +1,218 @@
-//! softshadow-scenes
+//! Scenes for the soft-shadow workbench: builtin paper set-ups, procedural primitives, TOML
+//! scene files and glTF 2.0 models, all producing a validated [`softshadow_core::Scene`].
+//!
+//! Entry point: [`load`], which accepts
+//! * a builtin id, optionally with parameters: `atty-square`,
+//!   `atty-square:occluder_height=1.5,light_width=0.2` (see [`builtin_scenes`]);
+//! * a `.toml` scene file (format in `docs/SCENES.md` and [`file`]);
+//! * a `.gltf` / `.glb` model, wrapped into a scene (see [`wrap_gltf`]).
+//!
+//! Every loaded scene has had [`Mesh::repair`] run on all meshes (what was dropped becomes a
+//! warning) and has passed [`Scene::validate`].
+
+pub mod builtin;
+mod error;
+pub mod file;
+pub mod gltf_import;
+pub mod primitives;
+
+use std::path::Path;
+
+use glam::{Mat4, Vec3};
+use softshadow_core::{AreaLight, Camera, Instance, Mesh, MeshRepair, Scene};
+
+pub use builtin::{builtin_scenes, AttySquare, BuiltinInfo, ParamInfo};
+pub use error::SceneError;
+pub use gltf_import::{load_gltf, GltfGeometry};
+
+/// A loaded, repaired and validated scene with what the loader had to fix or skip.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub scene: Scene,
+    /// One line each, e.g. "mesh `x` from file.glb: dropped 3 degenerate and 2 non-finite
+    /// triangles".
+    pub warnings: Vec<String>,
+}
+
+/// Loads a scene from a builtin id (`id` or `id:key=value,...`), a `.toml` scene file or a
+/// `.gltf` / `.glb` model.
+pub fn load(spec: &str) -> Result<Loaded, SceneError> {
+    let spec = spec.trim();
+    let path = Path::new(spec);
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match extension.as_deref() {
+        Some("toml") => load_scene_file(path),
+        Some("gltf" | "glb") => {
+            let geometry = load_gltf(path)?;
+            let scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+            let mut loaded = finalize(scene, &format!("glTF file `{spec}`"))?;
+            let mut warnings = geometry.warnings;
+            warnings.append(&mut loaded.warnings);
+            loaded.warnings = warnings;
+            Ok(loaded)
+        }
+        _ if path.is_file() => Err(SceneError::UnsupportedFile { path: spec.into() }),
+        _ => {
+            let (id, params) = builtin::parse_spec(spec)?;
+            let scene = builtin::build(&id, &params)?;
+            finalize(scene, &format!("builtin scene `{id}`"))
+        }
+    }
+}
+
+/// Builds builtin scene `id` with parameters given as (name, value); missing parameters take
+/// their defaults. The result is repaired and validated; procedural meshes never need repair,
+/// so any repair warning is only logged.
+pub fn builtin(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> {
+    let loaded = finalize(
+        builtin::build(id, params)?,
+        &format!("builtin scene `{id}`"),
+    )?;
+    for warning in &loaded.warnings {
+        log::warn!("{warning}");
+    }
+    Ok(loaded.scene)
+}
+
+/// Loads a `.toml` scene file (see [`file`] and `docs/SCENES.md`).
+pub fn load_scene_file(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
+    let path = path.as_ref();
+    let bytes = read_file(path, "scene file")?;
+    let text = String::from_utf8(bytes).map_err(|_| SceneError::SceneFile {
+        path: path.display().to_string(),
+        line: None,
+        message: "is not UTF-8 text: save it as UTF-8".into(),
+    })?;
+    let def = file::parse(&text, path)?;
+    let (scene, mut warnings) = file::build(&def, path)?;
+    let mut loaded = finalize(scene, &format!("scene file `{}`", path.display()))?;
+    warnings.append(&mut loaded.warnings);
+    loaded.warnings = warnings;
+    Ok(loaded)
+}
+
+/// Repairs every mesh (turning what was dropped into warnings naming the mesh and `source`),
+/// computes missing normals and validates the scene. `source` says where the scene came from,
+/// e.g. "scene file `x.toml`"; it starts every warning and the validation error.
+pub fn finalize(mut scene: Scene, source: &str) -> Result<Loaded, SceneError> {
+    let mut warnings = Vec::new();
+    for mesh in &mut scene.meshes {
+        let had_triangles = !mesh.indices.is_empty();
+        let repair = mesh.repair();
+        warnings.extend(repair_warnings(&mesh.name, source, &repair));
+        if had_triangles && mesh.indices.is_empty() {
+            warnings.push(format!(
+                "mesh `{}` from {source}: no triangles left after repair; it will not be drawn",
+                mesh.name
+            ));
+        }
+    }
+    scene.validate().map_err(|message| SceneError::Invalid {
+        origin: source.to_string(),
+        message,
+    })?;
+    Ok(Loaded { scene, warnings })
+}
+
+/// Turns a repair report into a warning such as
+/// "mesh `x` from file.glb: dropped 3 degenerate and 2 non-finite triangles" (none if nothing
+/// was dropped).
+pub fn repair_warnings(mesh: &str, source: &str, repair: &MeshRepair) -> Option<String> {
+    let parts: Vec<String> = [
+        (repair.degenerate_triangles, "degenerate"),
+        (repair.non_finite_triangles, "non-finite"),
+        (repair.out_of_range_triangles, "out-of-range"),
+    ]
+    .into_iter()
+    .filter(|(count, _)| *count > 0)
+    .map(|(count, kind)| format!("{count} {kind}"))
+    .collect();
+    let list = match parts.as_slice() {
+        [] => return None,
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    };
+    let noun = if repair.total() == 1 {
+        "triangle"
+    } else {
+        "triangles"
+    };
+    Some(format!(
+        "mesh `{mesh}` from {source}: dropped {list} {noun}"
+    ))
+}
+
+/// Wraps glTF geometry into a scene: every node use becomes a caster + receiver instance; a
+/// square ground plane (4 x the model's largest extent, receiver only) is put under the model's
+/// bounds (at their lowest y); a square light of 0.3 x that extent faces straight down from
+/// 2 extents above the top; the camera looks at the bounds' centre from the front (+z) and above.
+pub fn wrap_gltf(path: &Path, mut meshes: Vec<Mesh>, instances: &[(usize, Mat4)]) -> Scene {
+    let name = path
+        .file_stem()
+        .map_or_else(|| "gltf".into(), |s| s.to_string_lossy().into_owned());
+    let mut scene = Scene {
+        name,
+        meshes: Vec::new(),
+        instances: instances
+            .iter()
+            .map(|&(mesh, transform)| Instance::new(mesh, transform))
+            .collect(),
+        light: AreaLight::default(),
+        camera: Camera::default(),
+    };
+    scene.meshes.append(&mut meshes);
+    let bounds = scene.bounds(|_| true);
+    let (min, max) = if bounds.is_empty() {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (bounds.min, bounds.max)
+    };
+    let extent = (max - min).max_element().max(1e-3);
+    let center = (min + max) * 0.5;
+    let ground = softshadow_core::Mesh {
+        name: "ground".into(),
+        ..primitives::plane(4.0 * extent, 4.0 * extent)
+    };
+    scene.meshes.push(ground);
+    scene.instances.push(Instance {
+        casts_shadow: false,
+        receives_shadow: true,
+        ..Instance::new(
+            scene.meshes.len() - 1,
+            Mat4::from_translation(Vec3::new(center.x, min.y, center.z)),
+        )
+    });
+    scene.light = AreaLight {
+        center: Vec3::new(center.x, max.y + 2.0 * extent, center.z),
+        direction: Vec3::NEG_Y,
+        up: Vec3::Z,
+        width: 0.3 * extent,
+        height: 0.3 * extent,
+        intensity: 1.0,
+    };
+    scene.camera = Camera {
+        eye: center + Vec3::new(0.0, 1.2, 2.0) * extent,
+        target: center,
+        up: Vec3::Y,
+        fov_y_degrees: 45.0,
+        near: 0.01 * extent,
+        far: 50.0 * extent,
+    };
+    scene
+}
+
+/// Reads a whole file; a missing file becomes [`SceneError::FileNotFound`] naming `kind`.
+pub(crate) fn read_file(path: &Path, kind: &'static str) -> Result<Vec<u8>, SceneError> {
+    std::fs::read(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => SceneError::FileNotFound {
+            kind,
+            path: path.display().to_string(),
+        },
+        _ => SceneError::Io {
+            path: path.display().to_string(),
+            message: error::one_line(&e.to_string()),
+        },
+    })
+}

@@ -1,0 +1,130 @@
+//! `results.json`, versioned. Documented field by field in `docs/BENCHMARKS.md`.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use softshadow_core::ParamValue;
+use softshadow_metrics::{ErrorReport, Stability};
+
+/// Bump when a field changes meaning or is removed (adding a field keeps the version).
+pub const SCHEMA_VERSION: u32 = 1;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Results {
+    pub schema_version: u32,
+    pub adapter: Adapter,
+    pub runs: Vec<Run>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Adapter {
+    pub name: String,
+    pub backend: String,
+    pub driver: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    Ok,
+    Error,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Run {
+    pub scene: String,
+    pub technique: String,
+    pub params: BTreeMap<String, ParamValue>,
+    pub width: u32,
+    pub height: u32,
+    pub status: Status,
+    /// Error message when `status` is `error`; empty otherwise.
+    pub message: String,
+    pub timing: Option<Timing>,
+    pub error: Option<ErrorFields>,
+    pub stability: Option<Stability>,
+    pub stats: BTreeMap<String, f64>,
+    pub passes_run: Vec<String>,
+    /// kind (`visibility`, `reference`, `shaded`, `reference_shaded`, `difference`) -> file name in the
+    /// output folder.
+    pub images: BTreeMap<String, String>,
+    /// Scene loader warnings (repaired geometry).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Timing {
+    pub frames: u32,
+    /// GPU time of the whole frame (G-buffer + technique + shading), from timestamp queries.
+    /// `None` when the adapter has no timestamp queries.
+    pub gpu_ms: Option<Percentiles>,
+    /// GPU time of the technique's own passes only.
+    pub technique_gpu_ms: Option<Percentiles>,
+    /// Median GPU time per pass (passes of the same name in one frame are summed).
+    pub passes: Vec<PassTiming>,
+    /// Wall time of a frame: recording, submission and waiting for the GPU.
+    pub cpu_ms: Median,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Percentiles {
+    pub median: f64,
+    pub p10: f64,
+    pub p90: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Median {
+    pub median: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PassTiming {
+    pub name: String,
+    pub gpu_ms_median: f64,
+}
+
+/// The error block: which reference, then the metrics of `softshadow_metrics::ErrorReport`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ErrorFields {
+    /// Technique id and settings of the reference, e.g. `reference(samples_per_axis=32,...)`.
+    pub reference: String,
+    #[serde(flatten)]
+    pub report: ErrorReport,
+}
+
+/// Percentile by linear interpolation between closest ranks (`q` in [0, 1]).
+pub fn percentile(values: &[f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
+}
+
+pub fn percentiles(values: &[f64]) -> Percentiles {
+    Percentiles {
+        median: percentile(values, 0.5),
+        p10: percentile(values, 0.1),
+        p90: percentile(values, 0.9),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_interpolate() {
+        let v = [4.0, 1.0, 3.0, 2.0, 5.0];
+        assert_eq!(percentile(&v, 0.5), 3.0);
+        assert_eq!(percentile(&v, 0.0), 1.0);
+        assert_eq!(percentile(&v, 1.0), 5.0);
+        assert!((percentile(&v, 0.1) - 1.4).abs() < 1e-12);
+        assert_eq!(percentile(&[2.0], 0.9), 2.0);
+    }
+}

@@ -1,0 +1,192 @@
+//! Sweep files: scenes x techniques x parameter grids, in TOML.
+//!
+//! ```toml
+//! size = "256x256"        # optional, default 256x256
+//! frames = 10             # optional, default 10
+//! warmup = 2              # optional, default 2
+//! scenes = ["atty-square", "blob-floating"]
+//!
+//! [reference]             # optional: settings of the reference
+//! samples_per_axis = 16
+//!
+//! [[technique]]
+//! id = "pcss"
+//! [technique.params]      # a value or a list of values; lists multiply (a grid)
+//! filter_samples = [16, 32, 64]
+//! kernel = ["vogel", "grid"]
+//! ```
+
+use std::{collections::BTreeMap, path::Path};
+
+use serde::Deserialize;
+use softshadow_core::ParamValue;
+
+use crate::{parse_size, registry, BenchError, RunSpec};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SweepFile {
+    #[serde(default)]
+    size: Option<String>,
+    #[serde(default)]
+    frames: Option<u32>,
+    #[serde(default)]
+    warmup: Option<u32>,
+    scenes: Vec<String>,
+    #[serde(default)]
+    reference: BTreeMap<String, toml::Value>,
+    technique: Vec<TechniqueGrid>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TechniqueGrid {
+    id: String,
+    #[serde(default)]
+    params: BTreeMap<String, toml::Value>,
+}
+
+/// A parsed sweep: the runs and the shared options.
+#[derive(Debug)]
+pub struct Sweep {
+    pub runs: Vec<RunSpec>,
+    pub frames: Option<u32>,
+    pub warmup: Option<u32>,
+    pub reference_params: Vec<(String, ParamValue)>,
+}
+
+fn value_text(v: &toml::Value) -> Option<String> {
+    match v {
+        toml::Value::String(s) => Some(s.clone()),
+        toml::Value::Integer(i) => Some(i.to_string()),
+        toml::Value::Float(f) => Some(f.to_string()),
+        toml::Value::Boolean(b) => Some(b.to_string()),
+        _ => None,
+    }
+}
+
+impl Sweep {
+    pub fn load(path: &Path) -> Result<Self, BenchError> {
+        let err = |message: String| BenchError::Sweep {
+            path: path.display().to_string(),
+            message,
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| err(format!("cannot read it ({e}): check the path")))?;
+        Self::parse(&text).map_err(|e| match e {
+            BenchError::Sweep { message, .. } => err(message),
+            other => other,
+        })
+    }
+
+    pub fn parse(text: &str) -> Result<Self, BenchError> {
+        let err = |message: String| BenchError::Sweep {
+            path: "<sweep>".into(),
+            message,
+        };
+        let file: SweepFile = toml::from_str(text).map_err(|e| err(e.to_string().replace('\n', " ")))?;
+        let (width, height) = parse_size(file.size.as_deref().unwrap_or("256x256"))?;
+        if file.scenes.is_empty() {
+            return Err(err("`scenes` is empty: list at least one scene id or file".into()));
+        }
+        if file.technique.is_empty() {
+            return Err(err("no [[technique]] table: add one with `id = \"pcss\"`".into()));
+        }
+        let reference_info = softshadow_reference::info();
+        let mut reference_params = Vec::new();
+        for (name, value) in &file.reference {
+            let text = value_text(value).ok_or_else(|| err(format!("reference.{name}: give a single value")))?;
+            reference_params.push(reference_info.parse_param(&format!("{name}={text}"))?);
+        }
+        let mut runs = Vec::new();
+        for grid in &file.technique {
+            let info = registry::find(&grid.id)?;
+            // Expand the grid: each parameter contributes a list of values.
+            let mut combos: Vec<Vec<(String, ParamValue)>> = vec![Vec::new()];
+            for (name, value) in &grid.params {
+                let values: Vec<&toml::Value> = match value {
+                    toml::Value::Array(items) => items.iter().collect(),
+                    single => vec![single],
+                };
+                if values.is_empty() {
+                    return Err(err(format!("{}.{name} is an empty list: give at least one value", grid.id)));
+                }
+                let mut parsed = Vec::new();
+                for v in values {
+                    let text = value_text(v)
+                        .ok_or_else(|| err(format!("{}.{name}: values must be numbers, booleans or strings", grid.id)))?;
+                    parsed.push(info.parse_param(&format!("{name}={text}"))?);
+                }
+                combos = combos
+                    .into_iter()
+                    .flat_map(|combo| {
+                        parsed.iter().map(move |p| {
+                            let mut c = combo.clone();
+                            c.push(p.clone());
+                            c
+                        })
+                    })
+                    .collect();
+            }
+            for scene in &file.scenes {
+                for combo in &combos {
+                    runs.push(RunSpec {
+                        scene: scene.clone(),
+                        technique: grid.id.clone(),
+                        params: combo.clone(),
+                        width,
+                        height,
+                    });
+                }
+            }
+        }
+        Ok(Self {
+            runs,
+            frames: file.frames,
+            warmup: file.warmup,
+            reference_params,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_expands_to_the_product() {
+        let sweep = Sweep::parse(
+            r#"
+            size = "64x32"
+            scenes = ["a", "b"]
+            [reference]
+            samples_per_axis = 8
+            [[technique]]
+            id = "pcss"
+            [technique.params]
+            filter_samples = [16, 32, 64]
+            kernel = ["vogel", "grid"]
+            [[technique]]
+            id = "hard"
+            "#,
+        )
+        .unwrap();
+        assert_eq!(sweep.runs.len(), 2 * 3 * 2 + 2);
+        assert_eq!((sweep.runs[0].width, sweep.runs[0].height), (64, 32));
+        assert_eq!(sweep.reference_params.len(), 1);
+    }
+
+    #[test]
+    fn bad_sweeps_say_what_is_wrong() {
+        let e = Sweep::parse("scenes = []\n[[technique]]\nid = \"hard\"").unwrap_err().to_string();
+        assert!(e.contains("scenes"), "{e}");
+        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"nope\"").unwrap_err().to_string();
+        assert!(e.contains("unknown technique `nope`"), "{e}");
+        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = 100000")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("out of range"), "{e}");
+        let e = Sweep::parse("scenes = [\"a\"]\ncolour = 1\n[[technique]]\nid = \"hard\"").unwrap_err().to_string();
+        assert!(e.contains("colour"), "{e}");
+    }
+}

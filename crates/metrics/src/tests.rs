@@ -1,0 +1,305 @@
+//! Known-answer tests. Values are chosen to be exactly representable in `f32`
+//! so that most expected results are exact.
+
+use super::*;
+
+#[test]
+fn identical_images_give_zero_error() {
+    let v: Vec<f32> = (0..64).map(|i| (i % 9) as f32 / 8.0).collect();
+    let mask = vec![true; v.len()];
+    let r = compare(&v, &v, &mask).unwrap();
+    assert_eq!(r.mae_shadowed, 0.0);
+    assert_eq!(r.mae_all, 0.0);
+    assert_eq!(r.rmse, 0.0);
+    assert_eq!(r.max_abs, 0.0);
+    assert_eq!(r.p99_abs, 0.0);
+    assert_eq!(r.receiver_pixels, 64);
+    // i % 9 == 8 gives exactly 1.0 (lit); 64 values contain 7 such (i = 8, 17, ..., 62).
+    assert_eq!(r.shadowed_pixels, 64 - 7);
+    assert_eq!(r.flip_mean, None);
+}
+
+/// Hand-computed case: five pixels, one masked out, two lit reference pixels.
+///
+/// | pixel | V     | V_ref | receiver | e     | shadowed |
+/// |-------|-------|-------|----------|-------|----------|
+/// | 0     | 0.5   | 0.25  | yes      | 0.25  | yes      |
+/// | 1     | 0.0   | 0.5   | yes      | 0.5   | yes      |
+/// | 2     | 1.0   | 1.0   | yes      | 0     | no (lit) |
+/// | 3     | 0.875 | 1.0   | yes      | 0.125 | no (lit) |
+/// | 4     | 0.2   | 0.0   | no       | -     | -        |
+///
+/// mae_shadowed = (0.25 + 0.5) / 2 = 0.375; mae_all = 0.875 / 4 = 0.21875;
+/// rmse = sqrt((0.0625 + 0.25 + 0 + 0.015625) / 4) = sqrt(0.08203125) = 0.2864109809...;
+/// max = 0.5; p99 rank = ceil(0.99 * 4) = 4, i.e. the maximum 0.5.
+#[test]
+fn hand_computed_small_case() {
+    let v = [0.5, 0.0, 1.0, 0.875, 0.2];
+    let v_ref = [0.25, 0.5, 1.0, 1.0, 0.0];
+    let mask = [true, true, true, true, false];
+    let r = compare(&v, &v_ref, &mask).unwrap();
+    let expected = ErrorReport {
+        mae_shadowed: 0.375,
+        mae_all: 0.21875,
+        rmse: 0.08203125f64.sqrt(),
+        max_abs: 0.5,
+        p99_abs: 0.5,
+        shadowed_pixels: 2,
+        receiver_pixels: 4,
+        flip_mean: None,
+    };
+    assert_eq!(r, expected);
+    assert!((r.rmse - 0.286_410_980_9).abs() < 1e-9);
+}
+
+#[test]
+fn p99_is_nearest_rank_not_interpolated() {
+    // Errors i / 256 for i in 0..n (exact in f32), reference all in shadow.
+    for (n, expected_i) in [(1u32, 0u32), (100, 98), (101, 99), (200, 197), (1000, 989)] {
+        let v: Vec<f32> = (0..n).rev().map(|i| i as f32 / 256.0 / 8.0).collect();
+        let v_ref = vec![0.0; n as usize];
+        let mask = vec![true; n as usize];
+        let r = compare(&v, &v_ref, &mask).unwrap();
+        // rank = ceil(0.99 n): 1 -> 1, 100 -> 99, 101 -> 100, 200 -> 198, 1000 -> 990.
+        assert_eq!(r.p99_abs, f64::from(expected_i) / 2048.0, "n = {n}");
+        assert_eq!(r.max_abs, f64::from(n - 1) / 2048.0);
+    }
+}
+
+#[test]
+fn no_shadowed_pixels_gives_zero_mae_shadowed() {
+    let v = [0.5, 1.0];
+    let v_ref = [1.0, 1.0];
+    let r = compare(&v, &v_ref, &[true, true]).unwrap();
+    assert_eq!(r.shadowed_pixels, 0);
+    assert_eq!(r.mae_shadowed, 0.0);
+    assert_eq!(r.mae_all, 0.25);
+}
+
+#[test]
+fn shadowed_test_is_exact_below_one() {
+    // The largest f32 below 1.0 is in shadow (penumbra); 1.0 exactly is lit.
+    let just_below = f32::from_bits(1.0f32.to_bits() - 1);
+    let r = compare(&[1.0, 1.0], &[just_below, 1.0], &[true, true]).unwrap();
+    assert_eq!(r.shadowed_pixels, 1);
+}
+
+#[test]
+fn non_finite_technique_values_score_error_one() {
+    let v = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.5, f32::NAN];
+    let v_ref = [0.0, 1.0, 0.5, 0.5, 0.0];
+    // Last pixel is not a receiver: its NaN is ignored by compare.
+    let mask = [true, true, true, true, false];
+    let r = compare(&v, &v_ref, &mask).unwrap();
+    assert_eq!(r.mae_all, 0.75);
+    assert_eq!(r.max_abs, 1.0);
+    assert_eq!(r.p99_abs, 1.0);
+    assert_eq!(r.rmse, 0.75f64.sqrt());
+    // Shadowed: pixels 0 (e = 1), 2 (e = 1), 3 (e = 0).
+    assert_eq!(r.shadowed_pixels, 3);
+    assert_eq!(r.mae_shadowed, 2.0 / 3.0);
+    assert_eq!(r.receiver_pixels, 4);
+
+    // stability counts over all values, receivers or not.
+    assert_eq!(
+        stability(&v),
+        Stability {
+            nan: 2,
+            inf: 2,
+            out_of_range: 0
+        }
+    );
+}
+
+#[test]
+fn stability_counts_out_of_range() {
+    let v = [-0.1, 1.5, 0.0, -0.0, 1.0, 0.5, f32::NAN, f32::MAX];
+    assert_eq!(
+        stability(&v),
+        Stability {
+            nan: 1,
+            inf: 0,
+            out_of_range: 3
+        }
+    );
+    assert_eq!(stability(&[]), Stability::default());
+}
+
+#[test]
+fn mismatched_lengths_error() {
+    let e = compare(&[0.0; 3], &[0.0; 4], &[true; 3]).unwrap_err();
+    assert_eq!(
+        e,
+        MetricsError::LengthMismatch {
+            v: 3,
+            v_ref: 4,
+            mask: 3
+        }
+    );
+    let e = compare(&[0.0; 3], &[0.0; 3], &[true; 2]).unwrap_err();
+    assert!(matches!(e, MetricsError::LengthMismatch { mask: 2, .. }));
+}
+
+#[test]
+fn no_receivers_error() {
+    let e = compare(&[0.0; 3], &[0.0; 3], &[false; 3]).unwrap_err();
+    assert_eq!(e, MetricsError::NoReceivers);
+    assert_eq!(
+        e.to_string(),
+        "no receiver pixels in view: point the camera at a shadow receiver"
+    );
+    assert_eq!(
+        compare(&[], &[], &[]).unwrap_err(),
+        MetricsError::NoReceivers
+    );
+}
+
+#[test]
+fn non_finite_reference_is_an_error_on_receivers_only() {
+    let e = compare(&[0.0, 0.0], &[0.0, f32::INFINITY], &[true, true]).unwrap_err();
+    assert!(matches!(
+        e,
+        MetricsError::NonFiniteReference { index: 1, .. }
+    ));
+    assert!(e.to_string().contains("reference is broken"));
+    // Ignored where there is no receiver.
+    let r = compare(&[0.0, 0.0], &[0.0, f32::NAN], &[true, false]).unwrap();
+    assert_eq!(r.receiver_pixels, 1);
+}
+
+#[test]
+fn report_serde_round_trip() {
+    let r = compare(&[0.5, 1.0], &[0.25, 1.0], &[true, true]).unwrap();
+    let r = ErrorReport {
+        flip_mean: Some(0.125),
+        ..r
+    };
+    let json = serde_json::to_string(&r).unwrap();
+    assert!(json.contains("\"mae_shadowed\":0.25"));
+    assert!(json.contains("\"flip_mean\":0.125"));
+    let back: ErrorReport = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, r);
+}
+
+fn rgb_from_gray(gray: &[u8]) -> Vec<u8> {
+    gray.iter().flat_map(|&g| [g, g, g]).collect()
+}
+
+#[test]
+fn flip_identical_is_zero_and_black_vs_white_is_large() {
+    let (w, h) = (32u32, 24u32);
+    let v: Vec<f32> = (0..w * h)
+        .map(|i| ((i % w) as f32 / (w - 1) as f32) * ((i / w) as f32 / (h - 1) as f32))
+        .collect();
+    let img = rgb_from_gray(&visibility_to_gray8(&v));
+    let same = flip_mean(&img, &img, w, h).unwrap();
+    assert!(same.abs() < 1e-6, "identical images: FLIP mean {same}");
+
+    let black = vec![0u8; (w * h * 3) as usize];
+    let white = vec![255u8; (w * h * 3) as usize];
+    let bw = flip_mean(&black, &white, w, h).unwrap();
+    assert!(bw > 0.5 && bw <= 1.0, "black vs white: FLIP mean {bw}");
+    // A mild difference lies strictly between the two.
+    let grey = vec![200u8; (w * h * 3) as usize];
+    let mild = flip_mean(&grey, &white, w, h).unwrap();
+    assert!(mild > 0.0 && mild < bw, "grey vs white: FLIP mean {mild}");
+}
+
+#[test]
+fn flip_validates_sizes() {
+    let a = vec![0u8; 4 * 4 * 3];
+    let e = flip_mean(&a, &a[..47], 4, 4).unwrap_err();
+    assert_eq!(
+        e,
+        MetricsError::SizeMismatch {
+            what: "reference_rgb8",
+            expected: 48,
+            actual: 47
+        }
+    );
+    assert!(matches!(
+        flip_mean(&a, &a, 4, 5).unwrap_err(),
+        MetricsError::SizeMismatch {
+            what: "test_rgb8",
+            ..
+        }
+    ));
+    assert_eq!(
+        flip_mean(&[], &[], 0, 4).unwrap_err(),
+        MetricsError::EmptyImage {
+            width: 0,
+            height: 4
+        }
+    );
+}
+
+#[test]
+fn difference_image_colours_at_known_pixels() {
+    // 3x2 image, row-major.
+    //   (0,0) d = 0      -> white
+    //   (1,0) d = -0.25  -> full red
+    //   (2,0) d = +0.5   -> full blue (saturated beyond the full scale)
+    //   (0,1) d = -0.125 -> half red (255, 128, 128)
+    //   (1,1) not a receiver -> mid-grey
+    //   (2,1) V = NaN    -> magenta
+    let v = [0.5, 0.25, 1.0, 0.375, 0.0, f32::NAN];
+    let v_ref = [0.5, 0.5, 0.5, 0.5, 1.0, 0.5];
+    let mask = [true, true, true, true, false, true];
+    let img = difference_image(&v, &v_ref, &mask, 3, 2).unwrap();
+    assert_eq!((img.width(), img.height()), (3, 2));
+    assert_eq!(img.get_pixel(0, 0).0, [255, 255, 255]);
+    assert_eq!(img.get_pixel(1, 0).0, [255, 0, 0]);
+    assert_eq!(img.get_pixel(2, 0).0, [0, 0, 255]);
+    assert_eq!(img.get_pixel(0, 1).0, [255, 128, 128]);
+    assert_eq!(img.get_pixel(1, 1).0, DIFFERENCE_NON_RECEIVER);
+    assert_eq!(img.get_pixel(2, 1).0, DIFFERENCE_NON_FINITE);
+    assert_eq!(DIFFERENCE_NON_FINITE, [255, 0, 255]);
+
+    // Half-scale too bright: (128, 128, 255).
+    let img = difference_image(&[0.625], &[0.5], &[true], 1, 1).unwrap();
+    assert_eq!(img.get_pixel(0, 0).0, [128, 128, 255]);
+}
+
+#[test]
+fn difference_image_validates_sizes() {
+    let e = difference_image(&[0.0; 5], &[0.0; 6], &[true; 6], 3, 2).unwrap_err();
+    assert!(matches!(
+        e,
+        MetricsError::SizeMismatch {
+            what: "v",
+            expected: 6,
+            actual: 5
+        }
+    ));
+    let e = difference_image(&[0.0; 6], &[0.0; 6], &[true; 5], 3, 2).unwrap_err();
+    assert!(matches!(
+        e,
+        MetricsError::SizeMismatch {
+            what: "receiver_mask",
+            ..
+        }
+    ));
+    let e = difference_image(&[0.0], &[f32::NAN], &[true], 1, 1).unwrap_err();
+    assert!(matches!(
+        e,
+        MetricsError::NonFiniteReference { index: 0, .. }
+    ));
+}
+
+#[test]
+fn gray8_clamps_and_rounds() {
+    let v = [
+        0.0,
+        1.0,
+        0.5,
+        -3.0,
+        2.0,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    assert_eq!(
+        visibility_to_gray8(&v),
+        vec![0, 255, 128, 0, 255, 0, 255, 0]
+    );
+}

@@ -1,0 +1,96 @@
+//! The one error type of this crate. Every message is a single line that names the problem and
+//! says how to fix it, so a CLI can print it as-is.
+
+use thiserror::Error;
+
+/// Why a scene could not be built or loaded.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SceneError {
+    /// The spec is neither a builtin id nor a path to a supported file.
+    #[error("unknown scene `{spec}`: run `workbench list` to see scene ids, or give a path to a .toml/.gltf/.glb file")]
+    UnknownScene { spec: String },
+
+    /// A `id:key=value,...` parameter list could not be parsed.
+    #[error("scene spec `{spec}`: {detail}; write parameters as `id:key=value,key=value`")]
+    BadSpec { spec: String, detail: String },
+
+    /// A parameter name the builtin scene does not have.
+    #[error("unknown parameter `{name}` for scene `{scene}`: known parameters are {known}")]
+    UnknownParameter {
+        scene: String,
+        name: String,
+        known: String,
+    },
+
+    /// A parameter value that does not parse as a number.
+    #[error("parameter `{name}` = `{value}` for scene `{scene}` is not a number: give a number such as 1.5")]
+    ParameterNotANumber {
+        scene: String,
+        name: String,
+        value: String,
+    },
+
+    /// A NaN or infinite parameter value.
+    #[error("parameter `{name}` = {value} is not finite: give a finite number")]
+    ParameterNotFinite { name: String, value: f64 },
+
+    /// A parameter outside its allowed range.
+    #[error("parameter `{name}` = {value} for scene `{scene}` is out of range: {expected}")]
+    ParameterOutOfRange {
+        scene: String,
+        name: String,
+        value: f64,
+        /// What would be accepted, e.g. "use 0 to 4".
+        expected: String,
+    },
+
+    /// A scene or glTF file that does not exist. `kind` is "scene file" or "glTF file".
+    #[error("{kind} `{path}` not found: check the path")]
+    FileNotFound { kind: &'static str, path: String },
+
+    /// Any other I/O failure while reading a file.
+    #[error("cannot read `{path}`: {message}; check the file permissions")]
+    Io { path: String, message: String },
+
+    /// A file with an extension this crate does not read.
+    #[error(
+        "`{path}` is not a supported scene file: give a .toml scene file or a .gltf/.glb model"
+    )]
+    UnsupportedFile { path: String },
+
+    /// A TOML syntax or schema error (unknown field, wrong type, missing field).
+    #[error("scene file `{path}`{}: {message}", line.map(|l| format!(" line {l}")).unwrap_or_default())]
+    SceneFile {
+        path: String,
+        line: Option<usize>,
+        message: String,
+    },
+
+    /// A semantically invalid `[[object]]` entry (no or several mesh sources, bad primitive size).
+    #[error("scene file `{path}` object {index}{}: {message}", name.as_ref().map(|n| format!(" (`{n}`)")).unwrap_or_default())]
+    SceneObject {
+        path: String,
+        /// 1-based position of the `[[object]]` table in the file.
+        index: usize,
+        name: Option<String>,
+        message: String,
+    },
+
+    /// A glTF file the `gltf` crate rejects (syntax, truncated binary, missing buffer, ...).
+    #[error("glTF file `{path}` is malformed: {message}; re-export it as glTF 2.0")]
+    GltfMalformed { path: String, message: String },
+
+    /// A glTF file without any triangle geometry.
+    #[error("glTF file `{path}` contains no triangle meshes: export at least one mesh with triangle primitives")]
+    GltfNoGeometry { path: String },
+
+    /// The finished scene failed [`softshadow_core::Scene::validate`]. `origin` says where it
+    /// came from (e.g. "scene file `x.toml`" or "builtin scene `atty-square`").
+    #[error("{origin}: {message}")]
+    Invalid { origin: String, message: String },
+}
+
+/// Puts a message on one line (glTF and TOML errors sometimes span several).
+pub(crate) fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}

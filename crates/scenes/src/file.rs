@@ -1,0 +1,432 @@
+//! The TOML scene file format (documented with an example in `docs/SCENES.md`).
+//!
+//! ```toml
+//! name = "two-boxes"
+//! [light]
+//! center = [0, 4, 0]
+//! target = [0, 0, 0]
+//! width = 1.0
+//! [camera]
+//! eye = [0, 3, 5]
+//! target = [0, 0.5, 0]
+//! [[object]]
+//! plane = { size = [8, 8] }
+//! casts_shadow = false
+//! [[object]]
+//! box = { size = [1, 1, 1] }
+//! translation = [0, 0.5, 0]
+//! ```
+//!
+//! Every table rejects unknown keys, so a typo is reported with its line.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Vec3};
+use serde::Deserialize;
+use softshadow_core::{AreaLight, Camera, Instance, Scene};
+
+use crate::builtin::trs;
+use crate::{primitives, SceneError};
+
+/// A whole scene file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Scene name; defaults to the file stem.
+    pub name: Option<String>,
+    #[serde(default)]
+    pub light: LightDef,
+    #[serde(default)]
+    pub camera: CameraDef,
+    /// The `[[object]]` array.
+    #[serde(default, rename = "object")]
+    pub objects: Vec<ObjectDef>,
+}
+
+/// `[light]`: a rectangular area light. Give `direction` or `target`, not both (default: facing
+/// straight down).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightDef {
+    #[serde(default = "LightDef::default_center")]
+    pub center: [f32; 3],
+    pub direction: Option<[f32; 3]>,
+    pub target: Option<[f32; 3]>,
+    /// Light +y (the `height` edge); default +z for lights facing (nearly) straight up or down,
+    /// +y otherwise.
+    pub up: Option<[f32; 3]>,
+    #[serde(default = "one")]
+    pub width: f32,
+    /// Defaults to `width` (a square light).
+    pub height: Option<f32>,
+    #[serde(default = "one")]
+    pub intensity: f32,
+}
+
+impl LightDef {
+    fn default_center() -> [f32; 3] {
+        [0.0, 4.0, 0.0]
+    }
+}
+
+impl Default for LightDef {
+    fn default() -> Self {
+        Self {
+            center: Self::default_center(),
+            direction: None,
+            target: None,
+            up: None,
+            width: 1.0,
+            height: None,
+            intensity: 1.0,
+        }
+    }
+}
+
+/// `[camera]`; every field has a default.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraDef {
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    pub up: [f32; 3],
+    pub fov_y_degrees: f32,
+    pub near: f32,
+    pub far: f32,
+}
+
+impl Default for CameraDef {
+    fn default() -> Self {
+        Self {
+            eye: [0.0, 3.0, 5.0],
+            target: [0.0, 0.5, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y_degrees: 45.0,
+            near: 0.05,
+            far: 100.0,
+        }
+    }
+}
+
+/// `scale = 2.0` or `scale = [1, 2, 1]`.
+#[derive(Debug, Deserialize, Clone, Copy)]
+#[serde(untagged)]
+pub enum ScaleDef {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+impl ScaleDef {
+    fn to_vec3(self) -> Vec3 {
+        match self {
+            ScaleDef::Uniform(s) => Vec3::splat(s),
+            ScaleDef::PerAxis(v) => Vec3::from(v),
+        }
+    }
+}
+
+/// One `[[object]]`: exactly one mesh source plus placement and shadow flags.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectDef {
+    pub name: Option<String>,
+    pub plane: Option<PlaneDef>,
+    #[serde(rename = "box")]
+    pub cuboid: Option<BoxDef>,
+    pub sphere: Option<SphereDef>,
+    pub blob: Option<BlobDef>,
+    pub cylinder: Option<CylinderDef>,
+    /// Path of a `.gltf`/`.glb` file, relative to the scene file (or absolute).
+    pub gltf: Option<PathBuf>,
+    #[serde(default)]
+    pub translation: [f32; 3],
+    #[serde(default)]
+    pub rotation_degrees: [f32; 3],
+    pub scale: Option<ScaleDef>,
+    #[serde(default = "default_albedo")]
+    pub albedo: [f32; 3],
+    #[serde(default = "yes")]
+    pub casts_shadow: bool,
+    #[serde(default = "yes")]
+    pub receives_shadow: bool,
+    #[serde(default)]
+    pub dynamic: bool,
+}
+
+/// `plane = { size = [sx, sz] }`: facing +y at the object's origin.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneDef {
+    pub size: [f32; 2],
+}
+
+/// `box = { size = [x, y, z] }`: centred on the object's origin.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxDef {
+    pub size: [f32; 3],
+}
+
+/// `sphere = { radius, segments = 32 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereDef {
+    pub radius: f32,
+    #[serde(default = "default_segments")]
+    pub segments: u32,
+}
+
+/// `blob = { radius, triangles = 20000, seed = 1 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlobDef {
+    pub radius: f32,
+    #[serde(default = "default_blob_triangles")]
+    pub triangles: u32,
+    #[serde(default = "one_u64")]
+    pub seed: u64,
+}
+
+/// `cylinder = { radius, height, segments = 32 }`: axis +y, centred on the object's origin.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderDef {
+    pub radius: f32,
+    pub height: f32,
+    #[serde(default = "default_segments")]
+    pub segments: u32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+fn one_u64() -> u64 {
+    1
+}
+fn yes() -> bool {
+    true
+}
+fn default_albedo() -> [f32; 3] {
+    [0.8, 0.8, 0.8]
+}
+fn default_segments() -> u32 {
+    32
+}
+fn default_blob_triangles() -> u32 {
+    20_000
+}
+
+/// Parses scene-file text. `path` is only used in error messages.
+pub fn parse(text: &str, path: &Path) -> Result<SceneFile, SceneError> {
+    toml::from_str(text).map_err(|e| SceneError::SceneFile {
+        path: path.display().to_string(),
+        line: e.span().map(|span| line_of(text, span.start)),
+        message: crate::error::one_line(e.message()),
+    })
+}
+
+/// 1-based line of byte `offset`; an offset at the end of the text (an unexpected end of file)
+/// counts as the last non-blank line.
+fn line_of(text: &str, offset: usize) -> usize {
+    let end = offset.min(text.trim_end().len());
+    text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// Builds the scene described by `file`, resolving glTF paths relative to `path`'s directory.
+/// Returns the (unrepaired, unvalidated) scene and the warnings of any glTF import.
+pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), SceneError> {
+    let shown = path.display().to_string();
+    let base = path.parent().unwrap_or_else(|| Path::new("."));
+    let name = file.name.clone().unwrap_or_else(|| {
+        path.file_stem()
+            .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
+    });
+    let mut scene = Scene {
+        name,
+        meshes: Vec::new(),
+        instances: Vec::new(),
+        light: light(&file.light, &shown)?,
+        camera: camera(&file.camera),
+    };
+    let mut warnings = Vec::new();
+    for (k, object) in file.objects.iter().enumerate() {
+        let object_error = |message: String| SceneError::SceneObject {
+            path: shown.clone(),
+            index: k + 1,
+            name: object.name.clone(),
+            message,
+        };
+        let transform = object_transform(object);
+        let template = Instance {
+            albedo: Vec3::from(object.albedo),
+            casts_shadow: object.casts_shadow,
+            receives_shadow: object.receives_shadow,
+            dynamic: object.dynamic,
+            ..Instance::new(0, transform)
+        };
+        let label = object
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("object {}", k + 1));
+        match mesh_source(object).map_err(&object_error)? {
+            Source::Procedural(mut mesh) => {
+                mesh.name = label;
+                scene.meshes.push(mesh);
+                scene.instances.push(Instance {
+                    mesh: scene.meshes.len() - 1,
+                    ..template
+                });
+            }
+            Source::Gltf(relative) => {
+                let gltf_path = base.join(relative);
+                let geometry =
+                    crate::gltf_import::load_gltf(&gltf_path).map_err(|e| match e {
+                        SceneError::FileNotFound { path, .. } => object_error(format!(
+                            "glTF file `{path}` not found: check the path (relative paths start at the scene file's folder)"
+                        )),
+                        other => other,
+                    })?;
+                let first = scene.meshes.len();
+                scene.meshes.extend(geometry.meshes);
+                for (mesh, node_transform) in geometry.instances {
+                    scene.instances.push(Instance {
+                        mesh: first + mesh,
+                        transform: transform * node_transform,
+                        ..template.clone()
+                    });
+                }
+                warnings.extend(geometry.warnings);
+            }
+        }
+    }
+    Ok((scene, warnings))
+}
+
+enum Source<'a> {
+    Procedural(softshadow_core::Mesh),
+    Gltf(&'a Path),
+}
+
+/// Checks that exactly one mesh source is given, that its sizes are usable, and builds it.
+fn mesh_source(object: &ObjectDef) -> Result<Source<'_>, String> {
+    let given: Vec<&str> = [
+        ("plane", object.plane.is_some()),
+        ("box", object.cuboid.is_some()),
+        ("sphere", object.sphere.is_some()),
+        ("blob", object.blob.is_some()),
+        ("cylinder", object.cylinder.is_some()),
+        ("gltf", object.gltf.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(name, set)| set.then_some(name))
+    .collect();
+    if given.len() != 1 {
+        return Err(format!(
+            "found {} mesh sources ({}): give exactly one of plane, box, sphere, blob, cylinder or gltf",
+            given.len(),
+            if given.is_empty() { "none".into() } else { given.join(", ") }
+        ));
+    }
+    let positive = |what: &str, values: &[f32]| {
+        if values.iter().all(|v| v.is_finite() && *v > 0.0) {
+            Ok(())
+        } else {
+            Err(format!("{what} must be finite and > 0, got {values:?}"))
+        }
+    };
+    let segments = |n: u32| {
+        if (3..=4096).contains(&n) {
+            Ok(())
+        } else {
+            Err(format!("segments = {n} is out of range: use 3 to 4096"))
+        }
+    };
+    let mesh = if let Some(p) = &object.plane {
+        positive("plane size", &p.size)?;
+        primitives::plane(p.size[0], p.size[1])
+    } else if let Some(b) = &object.cuboid {
+        positive("box size", &b.size)?;
+        primitives::cuboid(Vec3::from(b.size))
+    } else if let Some(s) = &object.sphere {
+        positive("sphere radius", &[s.radius])?;
+        segments(s.segments)?;
+        primitives::uv_sphere(s.radius, s.segments)
+    } else if let Some(b) = &object.blob {
+        positive("blob radius", &[b.radius])?;
+        let (lo, hi) = primitives::BLOB_TRIANGLES_RANGE;
+        if !(lo..=hi).contains(&b.triangles) {
+            return Err(format!(
+                "blob triangles = {} is out of range: use {lo} to {hi}",
+                b.triangles
+            ));
+        }
+        primitives::blob(b.radius, b.triangles, b.seed)
+    } else if let Some(c) = &object.cylinder {
+        positive("cylinder radius and height", &[c.radius, c.height])?;
+        segments(c.segments)?;
+        primitives::cylinder(c.radius, c.height, c.segments)
+    } else if let Some(path) = &object.gltf {
+        return Ok(Source::Gltf(path));
+    } else {
+        unreachable!("exactly one source was checked above")
+    };
+    Ok(Source::Procedural(mesh))
+}
+
+fn light(def: &LightDef, path: &str) -> Result<AreaLight, SceneError> {
+    let center = Vec3::from(def.center);
+    let direction = match (def.direction, def.target) {
+        (Some(_), Some(_)) => {
+            return Err(SceneError::SceneFile {
+                path: path.into(),
+                line: None,
+                message: "[light] gives both `direction` and `target`: keep only one".into(),
+            })
+        }
+        (Some(d), None) => Vec3::from(d),
+        (None, Some(t)) => Vec3::from(t) - center,
+        (None, None) => Vec3::NEG_Y,
+    };
+    // Zero or non-finite directions are left for `AreaLight::validate` to report.
+    let direction = direction.try_normalize().unwrap_or(direction);
+    let up = def
+        .up
+        .map(Vec3::from)
+        .unwrap_or(if direction.y.abs() > 0.9 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        });
+    Ok(AreaLight {
+        center,
+        direction,
+        up,
+        width: def.width,
+        height: def.height.unwrap_or(def.width),
+        intensity: def.intensity,
+    })
+}
+
+fn camera(def: &CameraDef) -> Camera {
+    Camera {
+        eye: Vec3::from(def.eye),
+        target: Vec3::from(def.target),
+        up: Vec3::from(def.up),
+        fov_y_degrees: def.fov_y_degrees,
+        near: def.near,
+        far: def.far,
+    }
+}
+
+/// The transform a `[[object]]` applies (exposed for tests and tools).
+pub fn object_transform(object: &ObjectDef) -> Mat4 {
+    trs(
+        Vec3::from(object.translation),
+        Vec3::from(object.rotation_degrees),
+        object.scale.map_or(Vec3::ONE, ScaleDef::to_vec3),
+    )
+}
