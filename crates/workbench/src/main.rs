@@ -1,1 +1,222 @@
-fn main() {}
+//! `workbench`: the soft-shadow workbench.
+//!
+//! - `workbench list [--json]`: scenes, techniques and every parameter with range and default.
+//! - `workbench bench --scene ID|FILE --technique ID [--param name=value]... --out DIR`
+//! - `workbench bench --sweep FILE --out DIR`
+//! - `workbench bench --suite NAME --out DIR` (named sweeps shipped in `benches/`)
+
+use std::{path::PathBuf, process::ExitCode};
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use softshadow_bench::{registry, BenchOptions, RunSpec, Status, Sweep};
+use softshadow_core::{Gpu, ParamKind};
+
+#[derive(Parser)]
+#[command(name = "workbench", version, about = "Measure soft-shadow techniques: error against run time")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List scenes, techniques and their parameters.
+    List {
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run techniques headless and write results.json and images.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
+    #[arg(long, conflicts_with = "sweep")]
+    scene: Option<String>,
+    /// Technique id (see `list`).
+    #[arg(long, conflicts_with = "sweep")]
+    technique: Option<String>,
+    /// Technique parameter, `name=value` (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Reference parameter, `name=value` (repeatable), e.g. samples_per_axis=16.
+    #[arg(long = "reference-param", value_name = "NAME=VALUE")]
+    reference_params: Vec<String>,
+    /// Image size.
+    #[arg(long, default_value = "256x256", value_name = "WxH")]
+    size: String,
+    /// Timed frames per run.
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Untimed warm-up frames per run.
+    #[arg(long)]
+    warmup: Option<u32>,
+    /// A sweep file (scenes x techniques x parameter grids), see docs/BENCHMARKS.md.
+    #[arg(long)]
+    sweep: Option<PathBuf>,
+    /// Skip the reference and the error metrics (timings only).
+    #[arg(long)]
+    no_error: bool,
+    /// Do not write images.
+    #[arg(long)]
+    no_images: bool,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Some(Command::List { json }) => list(json),
+        Some(Command::Bench(args)) => bench(args),
+        None => {
+            eprintln!(
+                "The interactive viewer is not built yet (issue 3). Available now:\n  \
+                 workbench list [--json]\n  \
+                 workbench bench --scene atty-square --technique pcss --out /tmp/bench\n\
+                 Run `workbench --help` for everything."
+            );
+            list(false)
+        }
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            // One line: the chain of causes, most specific last.
+            let message: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            eprintln!("error: {}", message.join(": "));
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn list(json: bool) -> Result<ExitCode> {
+    let scenes = softshadow_scenes::builtin_scenes();
+    let techniques = registry::techniques();
+    if json {
+        let value = serde_json::json!({
+            "scenes": scenes.iter().map(|s| serde_json::json!({
+                "id": s.id,
+                "description": s.description,
+                "params": s.params.iter().map(|p| serde_json::json!({
+                    "name": p.name, "default": p.default, "description": p.description,
+                    "range": p.range_text(),
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+            "techniques": techniques.iter().map(|t| serde_json::json!({
+                "id": t.id,
+                "description": t.description,
+                "source": t.source,
+                "params": (t.params)(),
+            })).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&value)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("Scenes:");
+    for s in &scenes {
+        println!("  {:<20} {}", s.id, s.description);
+        for p in &s.params {
+            println!("      {:<20} default {:<8} {} ({})", p.name, p.default, p.description, p.range_text());
+        }
+    }
+    println!("\nTechniques:");
+    for t in &techniques {
+        println!("  {:<20} {} [{}]", t.id, t.description, t.source);
+        for p in (t.params)() {
+            let default = match &p.kind {
+                ParamKind::Float { default, .. } => default.to_string(),
+                ParamKind::Int { default, .. } => default.to_string(),
+                ParamKind::Bool { default } => default.to_string(),
+                ParamKind::Choice { default, .. } => default.to_string(),
+            };
+            println!("      {:<20} default {:<8} {} ({})", p.name, default, p.description, p.range_text());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn bench(args: BenchArgs) -> Result<ExitCode> {
+    // Everything that can be checked without a GPU is checked first, so bad input fails fast
+    // and writes nothing.
+    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(path) = &args.sweep {
+        let sweep = Sweep::load(path)?;
+        (sweep.runs, sweep.frames, sweep.warmup, sweep.reference_params)
+    } else {
+        let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
+            bail!("give --scene and --technique, or --sweep FILE (see `workbench list`)");
+        };
+        let (width, height) = softshadow_bench::parse_size(&args.size)?;
+        let params = softshadow_bench::parse_params(technique, &args.params)?;
+        let spec = RunSpec {
+            scene: scene.clone(),
+            technique: technique.clone(),
+            params,
+            width,
+            height,
+        };
+        softshadow_bench::validate(&spec)?;
+        (vec![spec], None, None, Vec::new())
+    };
+    let reference = registry::find("reference")?;
+    for text in &args.reference_params {
+        reference_params.push(reference.parse_param(text)?);
+    }
+    let frames = args.frames.or(sweep_frames).unwrap_or(10);
+    if frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let options = BenchOptions {
+        frames,
+        warmup: args.warmup.or(sweep_warmup).unwrap_or(2),
+        error: !args.no_error,
+        reference_params,
+        images: !args.no_images,
+    };
+    let gpu = Gpu::new_headless().context("cannot start the GPU")?;
+    let progress = ProgressBar::new(specs.len() as u64);
+    progress.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let results = softshadow_bench::run_all(gpu, &specs, options, &args.out, |_, run| {
+        progress.set_message(format!("{} / {}", run.scene, run.technique));
+        progress.inc(1);
+        if run.status == Status::Error {
+            progress.println(format!("run failed: {} / {}: {}", run.scene, run.technique, run.message));
+        }
+    })?;
+    progress.finish_and_clear();
+    let failed = results.runs.iter().filter(|r| r.status == Status::Error).count();
+    for run in &results.runs {
+        let gpu = run
+            .timing
+            .as_ref()
+            .and_then(|t| t.gpu_ms.as_ref())
+            .map_or("-".to_string(), |g| format!("{:.2} ms", g.median));
+        let err = run
+            .error
+            .as_ref()
+            .map_or("-".to_string(), |e| format!("{:.4}", e.report.mae_shadowed));
+        println!(
+            "{:<24} {:<16} {:<6} gpu {:>10}  mae_shadowed {}",
+            run.scene,
+            run.technique,
+            if run.status == Status::Ok { "ok" } else { "error" },
+            gpu,
+            err
+        );
+    }
+    println!("wrote {}", args.out.join("results.json").display());
+    if failed > 0 {
+        eprintln!("{failed} of {} runs failed; their messages are in results.json", results.runs.len());
+        return Ok(ExitCode::from(3));
+    }
+    Ok(ExitCode::SUCCESS)
+}
