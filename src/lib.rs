@@ -1,1 +1,27 @@
-//! softshadow facade
+//! `softshadow`: the soft-shadow workbench as a library.
+//!
+//! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
+//! need with cargo features (`hard`, `pcss`, `reference`; all on by default).
+//!
+//! ```no_run
+//! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
+//! let gpu = Gpu::new_headless()?;
+//! let scene = softshadow::scenes::load("atty-square")?.scene;
+//! let scene_gpu = SceneGpu::upload(&gpu, &scene);
+//! let mut renderer = Renderer::new(&gpu, 256, 256)?;
+//! let mut pcss = softshadow::pcss::Pcss::new(&gpu, Default::default())?;
+//! renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut pcss, Some(ShadingMode::Shaded))?;
+//! let visibility: Vec<f32> = renderer.read_visibility()?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub use softshadow_core as core;
+pub use softshadow_metrics as metrics;
+pub use softshadow_scenes as scenes;
+
+#[cfg(feature = "hard")]
+pub use softshadow_hard as hard;
+#[cfg(feature = "pcss")]
+pub use softshadow_pcss as pcss;
+#[cfg(feature = "reference")]
+pub use softshadow_reference as reference;

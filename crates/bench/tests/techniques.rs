@@ -59,7 +59,8 @@ fn pcss_with_the_grid_kernel_is_near_exact_for_a_square_parallel_to_the_light() 
     // of the penumbra width reproduces the linear ramp: only sampling error remains. The square's
     // edges are parallel to the 16 x 16 grid rows, so the estimate is quantised to 1/16 with a
     // random offset: mean error about 1/64 = 0.016, plus the reference's own 0.004.
-    ensure!(grid < 0.025, "pcss grid {grid}");
+    ensure!(grid < 0.03, "pcss grid {grid}");
+    ensure!(grid < vogel, "the grid kernel ({grid}) should beat the disk ({vogel}) on a square light");
     // The disk kernel does not match the square light: larger, but bounded.
     ensure!(vogel < 0.06, "pcss vogel {vogel}");
     // Hard shadows are wrong over the whole penumbra.
@@ -70,7 +71,7 @@ fn pcss_with_the_grid_kernel_is_near_exact_for_a_square_parallel_to_the_light() 
 #[test]
 fn every_technique_stays_bounded_on_the_blob() -> Result<()> {
     let mut bench = bench()?;
-    for (technique, bound) in [("pcss", 0.15), ("hard", 0.6)] {
+    for (technique, bound) in [("pcss", 0.12), ("hard", 0.25)] {
         let r = run(&mut bench, "blob-floating:triangles=20000", technique, &[])?;
         let e = mae_shadowed(&r);
         eprintln!("blob-floating {technique}: mae_shadowed {e:.4}");
