@@ -12,7 +12,11 @@ fn wgsl_files(dir: &Path, root: &Path, out: &mut Vec<String>) -> Result<()> {
         if path.is_dir() {
             wgsl_files(&path, root, out)?;
         } else if path.extension().is_some_and(|e| e == "wgsl") {
-            out.push(path.strip_prefix(root)?.to_string_lossy().replace('\\', "/"));
+            out.push(
+                path.strip_prefix(root)?
+                    .to_string_lossy()
+                    .replace('\\', "/"),
+            );
         }
     }
     Ok(())
@@ -26,19 +30,37 @@ fn every_shader_and_permutation_validates() -> Result<()> {
     }
     let mut files = Vec::new();
     wgsl_files(&root, &root, &mut files)?;
-    ensure!(!files.is_empty(), "shader folder {} holds no .wgsl file", root.display());
+    ensure!(
+        !files.is_empty(),
+        "shader folder {} holds no .wgsl file",
+        root.display()
+    );
 
     let specs = softshadow_bench::registry::all_shaders();
     let validated = softshadow_core::shader::validate_all(&specs)?;
-    ensure!(validated >= specs.len(), "validated {validated} permutations of {} shaders", specs.len());
+    ensure!(
+        validated >= specs.len(),
+        "validated {validated} permutations of {} shaders",
+        specs.len()
+    );
 
-    let common: Vec<&str> = softshadow_core::shader::COMMON_MODULES.iter().map(|(p, _)| *p).collect();
+    let common: Vec<&str> = softshadow_core::shader::COMMON_MODULES
+        .iter()
+        .map(|(p, _)| *p)
+        .collect();
     for file in &files {
         let declared = specs.iter().any(|s| s.path == file) || common.contains(&file.as_str());
-        ensure!(declared, "shaders/{file} is not declared by any crate's SHADERS list, so it is never validated");
+        ensure!(
+            declared,
+            "shaders/{file} is not declared by any crate's SHADERS list, so it is never validated"
+        );
     }
     for spec in &specs {
-        ensure!(files.contains(&spec.path.to_string()), "{} is declared but not under shaders/", spec.path);
+        ensure!(
+            files.contains(&spec.path.to_string()),
+            "{} is declared but not under shaders/",
+            spec.path
+        );
     }
     Ok(())
 }
@@ -50,6 +72,8 @@ fn a_broken_shader_is_reported_with_its_path() {
         source: "#import softshadow::frame::load_surface\n@fragment fn fs_main() -> @location(0) vec4<f32> { return undefined_name; }",
         permutations: &[&[]],
     };
-    let error = softshadow_core::shader::validate_all(&[broken]).unwrap_err().to_string();
+    let error = softshadow_core::shader::validate_all(&[broken])
+        .unwrap_err()
+        .to_string();
     assert!(error.contains("test/broken.wgsl"), "{error}");
 }

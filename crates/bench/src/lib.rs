@@ -15,8 +15,8 @@ use std::{
 };
 
 use softshadow_core::{
-    renderer::is_core_pass, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu,
-    ShadingMode, ShadowTechnique, TechniqueError,
+    Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu, ShadingMode,
+    ShadowTechnique, TechniqueError,
 };
 use thiserror::Error;
 
@@ -93,8 +93,14 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), BenchError> {
     let (w, h) = text
         .split_once(['x', 'X'])
         .ok_or_else(|| BenchError::BadSize(text.into()))?;
-    let w = w.trim().parse().map_err(|_| BenchError::BadSize(text.into()))?;
-    let h = h.trim().parse().map_err(|_| BenchError::BadSize(text.into()))?;
+    let w = w
+        .trim()
+        .parse()
+        .map_err(|_| BenchError::BadSize(text.into()))?;
+    let h = h
+        .trim()
+        .parse()
+        .map_err(|_| BenchError::BadSize(text.into()))?;
     check_size(w, h)?;
     Ok((w, h))
 }
@@ -108,7 +114,10 @@ pub fn check_size(width: u32, height: u32) -> Result<(), BenchError> {
 }
 
 /// Parses `name=value` texts for technique `technique`.
-pub fn parse_params(technique: &str, texts: &[String]) -> Result<Vec<(String, ParamValue)>, BenchError> {
+pub fn parse_params(
+    technique: &str,
+    texts: &[String],
+) -> Result<Vec<(String, ParamValue)>, BenchError> {
     let info = registry::find(technique)?;
     texts
         .iter()
@@ -205,7 +214,13 @@ impl Bench {
         run
     }
 
-    fn run_inner(&mut self, index: usize, spec: &RunSpec, out_dir: &Path, run: &mut Run) -> Result<(), BenchError> {
+    fn run_inner(
+        &mut self,
+        index: usize,
+        spec: &RunSpec,
+        out_dir: &Path,
+        run: &mut Run,
+    ) -> Result<(), BenchError> {
         check_size(spec.width, spec.height)?;
         let info = registry::find(&spec.technique)?;
         let mut technique = info.create_with(&self.gpu, &spec.params)?;
@@ -234,7 +249,13 @@ impl Bench {
         technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
 
         for _ in 0..self.options.warmup {
-            renderer.render(&scene.gpu, &camera, &light, technique.as_mut(), Some(ShadingMode::Shaded))?;
+            renderer.render(
+                &scene.gpu,
+                &camera,
+                &light,
+                technique.as_mut(),
+                Some(ShadingMode::Shaded),
+            )?;
         }
         let mut gpu_total = Vec::new();
         let mut gpu_technique = Vec::new();
@@ -242,7 +263,13 @@ impl Bench {
         let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
         let mut pass_order: Vec<String> = Vec::new();
         for _ in 0..self.options.frames {
-            let output = renderer.render(&scene.gpu, &camera, &light, technique.as_mut(), Some(ShadingMode::Shaded))?;
+            let output = renderer.render(
+                &scene.gpu,
+                &camera,
+                &light,
+                technique.as_mut(),
+                Some(ShadingMode::Shaded),
+            )?;
             cpu.push(output.cpu_ms);
             if let Some(gpu) = &output.gpu {
                 gpu_total.push(gpu.total_ms);
@@ -259,7 +286,8 @@ impl Bench {
         run.timing = Some(results::Timing {
             frames: self.options.frames,
             gpu_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
-            technique_gpu_ms: (!gpu_technique.is_empty()).then(|| results::percentiles(&gpu_technique)),
+            technique_gpu_ms: (!gpu_technique.is_empty())
+                .then(|| results::percentiles(&gpu_technique)),
             passes: pass_order
                 .iter()
                 .map(|name| results::PassTiming {
@@ -272,7 +300,6 @@ impl Bench {
             },
         });
         run.stats = technique.stats();
-        debug_assert!(run.passes_run.iter().any(|p| is_core_pass(p)));
 
         let visibility = renderer.read_visibility()?;
         let shaded = output::rgba_to_rgb(&renderer.read_shaded()?);
@@ -292,7 +319,8 @@ impl Bench {
         let write_images = self.options.images;
         if self.options.error {
             let reference = self.reference_for(spec, out_dir)?;
-            let mut report = softshadow_metrics::compare(&visibility, &reference.visibility, &mask)?;
+            let mut report =
+                softshadow_metrics::compare(&visibility, &reference.visibility, &mask)?;
             report.flip_mean = Some(softshadow_metrics::flip_mean(
                 &shaded,
                 &reference.shaded_rgb,
@@ -313,7 +341,13 @@ impl Bench {
                     spec.height,
                 )?;
                 let name = format!("{stem}_difference.png");
-                output::write_png(&out_dir.join(&name), spec.width, spec.height, 3, diff.as_raw())?;
+                output::write_png(
+                    &out_dir.join(&name),
+                    spec.width,
+                    spec.height,
+                    3,
+                    diff.as_raw(),
+                )?;
                 run.images.insert("difference".into(), name);
             }
         }
@@ -321,7 +355,11 @@ impl Bench {
     }
 
     /// The reference for this scene and size, computed once per benchmark.
-    fn reference_for(&mut self, spec: &RunSpec, out_dir: &Path) -> Result<&ReferenceResult, BenchError> {
+    fn reference_for(
+        &mut self,
+        spec: &RunSpec,
+        out_dir: &Path,
+    ) -> Result<&ReferenceResult, BenchError> {
         let key = (spec.scene.clone(), spec.width, spec.height);
         if !self.references.contains_key(&key) {
             if self.reference.is_none() {
@@ -335,7 +373,13 @@ impl Bench {
                 .get_mut(&(spec.width, spec.height))
                 .expect("created by the run");
             let (camera, light) = (scene.scene.camera, scene.scene.light);
-            renderer.render(&scene.gpu, &camera, &light, reference.as_mut(), Some(ShadingMode::Shaded))?;
+            renderer.render(
+                &scene.gpu,
+                &camera,
+                &light,
+                reference.as_mut(),
+                Some(ShadingMode::Shaded),
+            )?;
             let visibility = renderer.read_visibility()?;
             let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
             let settings: Vec<String> = reference
@@ -347,12 +391,23 @@ impl Bench {
             let label = format!("reference({})", settings.join(","));
             let mut images = BTreeMap::new();
             if self.options.images {
-                let stem = format!("reference_{}_{}x{}", sanitize(&spec.scene), spec.width, spec.height);
+                let stem = format!(
+                    "reference_{}_{}x{}",
+                    sanitize(&spec.scene),
+                    spec.width,
+                    spec.height
+                );
                 let name = format!("{stem}.exr");
                 output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
                 images.insert("reference".into(), name);
                 let name = format!("{stem}_shaded.png");
-                output::write_png(&out_dir.join(&name), spec.width, spec.height, 3, &shaded_rgb)?;
+                output::write_png(
+                    &out_dir.join(&name),
+                    spec.width,
+                    spec.height,
+                    3,
+                    &shaded_rgb,
+                )?;
                 images.insert("reference_shaded".into(), name);
             }
             self.references.insert(
@@ -372,7 +427,8 @@ impl Bench {
 fn parse_check_reference(params: &[(String, ParamValue)]) -> Result<(), BenchError> {
     let specs = softshadow_reference::param_specs();
     for (name, value) in params {
-        softshadow_core::params::find_spec(softshadow_reference::ID, &specs, name)?.check(value.clone())?;
+        softshadow_core::params::find_spec(softshadow_reference::ID, &specs, name)?
+            .check(value.clone())?;
     }
     Ok(())
 }
@@ -384,7 +440,13 @@ pub fn sanitize(text: &str) -> String {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| text.to_string());
     name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect()
 }
 

@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 use crate::BenchError;
 
 fn temp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
     name.push(format!(".{}.tmp", std::process::id()));
     path.with_file_name(name)
 }
@@ -29,7 +32,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
 }
 
 /// Single-channel 32-bit float OpenEXR (channel `V`).
-pub fn write_exr_gray(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<(), BenchError> {
+pub fn write_exr_gray(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[f32],
+) -> Result<(), BenchError> {
     use exr::prelude::*;
     let channel = AnyChannel::new("V", FlatSamples::F32(data.to_vec()));
     let layer = Layer::new(
@@ -47,7 +55,13 @@ pub fn write_exr_gray(path: &Path, width: u32, height: u32, data: &[f32]) -> Res
 }
 
 /// 8-bit PNG from RGB or RGBA bytes.
-pub fn write_png(path: &Path, width: u32, height: u32, channels: u8, data: &[u8]) -> Result<(), BenchError> {
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: u8,
+    data: &[u8],
+) -> Result<(), BenchError> {
     let color = match channels {
         3 => image::ExtendedColorType::Rgb8,
         4 => image::ExtendedColorType::Rgba8,
@@ -65,5 +79,7 @@ use image::ImageEncoder;
 
 /// RGBA8 -> RGB8.
 pub fn rgba_to_rgb(rgba: &[u8]) -> Vec<u8> {
-    rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+    rgba.chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect()
 }

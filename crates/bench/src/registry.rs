@@ -26,6 +26,10 @@ pub fn find(id: &str) -> Result<TechniqueInfo, crate::BenchError> {
         .find(|t| t.id == id)
         .ok_or_else(|| crate::BenchError::UnknownTechnique {
             id: id.into(),
-            known: techniques().iter().map(|t| t.id).collect::<Vec<_>>().join(", "),
+            known: techniques()
+                .iter()
+                .map(|t| t.id)
+                .collect::<Vec<_>>()
+                .join(", "),
         })
 }

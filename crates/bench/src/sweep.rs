@@ -84,18 +84,24 @@ impl Sweep {
             path: "<sweep>".into(),
             message,
         };
-        let file: SweepFile = toml::from_str(text).map_err(|e| err(e.to_string().replace('\n', " ")))?;
+        let file: SweepFile =
+            toml::from_str(text).map_err(|e| err(e.to_string().replace('\n', " ")))?;
         let (width, height) = parse_size(file.size.as_deref().unwrap_or("256x256"))?;
         if file.scenes.is_empty() {
-            return Err(err("`scenes` is empty: list at least one scene id or file".into()));
+            return Err(err(
+                "`scenes` is empty: list at least one scene id or file".into()
+            ));
         }
         if file.technique.is_empty() {
-            return Err(err("no [[technique]] table: add one with `id = \"pcss\"`".into()));
+            return Err(err(
+                "no [[technique]] table: add one with `id = \"pcss\"`".into()
+            ));
         }
         let reference_info = softshadow_reference::info();
         let mut reference_params = Vec::new();
         for (name, value) in &file.reference {
-            let text = value_text(value).ok_or_else(|| err(format!("reference.{name}: give a single value")))?;
+            let text = value_text(value)
+                .ok_or_else(|| err(format!("reference.{name}: give a single value")))?;
             reference_params.push(reference_info.parse_param(&format!("{name}={text}"))?);
         }
         let mut runs = Vec::new();
@@ -109,12 +115,19 @@ impl Sweep {
                     single => vec![single],
                 };
                 if values.is_empty() {
-                    return Err(err(format!("{}.{name} is an empty list: give at least one value", grid.id)));
+                    return Err(err(format!(
+                        "{}.{name} is an empty list: give at least one value",
+                        grid.id
+                    )));
                 }
                 let mut parsed = Vec::new();
                 for v in values {
-                    let text = value_text(v)
-                        .ok_or_else(|| err(format!("{}.{name}: values must be numbers, booleans or strings", grid.id)))?;
+                    let text = value_text(v).ok_or_else(|| {
+                        err(format!(
+                            "{}.{name}: values must be numbers, booleans or strings",
+                            grid.id
+                        ))
+                    })?;
                     parsed.push(info.parse_param(&format!("{name}={text}"))?);
                 }
                 combos = combos
@@ -178,15 +191,21 @@ mod tests {
 
     #[test]
     fn bad_sweeps_say_what_is_wrong() {
-        let e = Sweep::parse("scenes = []\n[[technique]]\nid = \"hard\"").unwrap_err().to_string();
+        let e = Sweep::parse("scenes = []\n[[technique]]\nid = \"hard\"")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("scenes"), "{e}");
-        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"nope\"").unwrap_err().to_string();
+        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"nope\"")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("unknown technique `nope`"), "{e}");
         let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = 100000")
             .unwrap_err()
             .to_string();
         assert!(e.contains("out of range"), "{e}");
-        let e = Sweep::parse("scenes = [\"a\"]\ncolour = 1\n[[technique]]\nid = \"hard\"").unwrap_err().to_string();
+        let e = Sweep::parse("scenes = [\"a\"]\ncolour = 1\n[[technique]]\nid = \"hard\"")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("colour"), "{e}");
     }
 }

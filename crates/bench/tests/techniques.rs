@@ -34,8 +34,12 @@ fn run(bench: &mut Bench, scene: &str, technique: &str, params: &[&str]) -> Resu
     };
     let dir = tempfile::tempdir()?;
     let run = bench.run(0, &spec, dir.path());
-    ensure!(run.status == Status::Ok, "{scene}/{technique} failed: {}", run.message);
-    let stability = run.stability.clone().context("stability")?;
+    ensure!(
+        run.status == Status::Ok,
+        "{scene}/{technique} failed: {}",
+        run.message
+    );
+    let stability = run.stability.context("stability")?;
     ensure!(
         stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
         "{scene}/{technique}: {stability:?}"
@@ -44,27 +48,48 @@ fn run(bench: &mut Bench, scene: &str, technique: &str, params: &[&str]) -> Resu
 }
 
 fn mae_shadowed(run: &Run) -> f64 {
-    run.error.as_ref().expect("error metrics requested").report.mae_shadowed
+    run.error
+        .as_ref()
+        .expect("error metrics requested")
+        .report
+        .mae_shadowed
 }
 
 #[test]
 fn pcss_with_the_grid_kernel_is_near_exact_for_a_square_parallel_to_the_light() -> Result<()> {
     let mut bench = bench()?;
-    let grid = run(&mut bench, "atty-square", "pcss", &["kernel=grid", "filter_samples=256"])?;
+    let grid = run(
+        &mut bench,
+        "atty-square",
+        "pcss",
+        &["kernel=grid", "filter_samples=256"],
+    )?;
     let vogel = run(&mut bench, "atty-square", "pcss", &[])?;
     let hard = run(&mut bench, "atty-square", "hard", &[])?;
-    let (grid, vogel, hard) = (mae_shadowed(&grid), mae_shadowed(&vogel), mae_shadowed(&hard));
-    eprintln!("atty-square mae_shadowed: pcss grid {grid:.4}, pcss vogel {vogel:.4}, hard {hard:.4}");
+    let (grid, vogel, hard) = (
+        mae_shadowed(&grid),
+        mae_shadowed(&vogel),
+        mae_shadowed(&hard),
+    );
+    eprintln!(
+        "atty-square mae_shadowed: pcss grid {grid:.4}, pcss vogel {vogel:.4}, hard {hard:.4}"
+    );
     // For one planar occluder parallel to the light, the blocker depth is exact and a box filter
     // of the penumbra width reproduces the linear ramp: only sampling error remains. The square's
     // edges are parallel to the 16 x 16 grid rows, so the estimate is quantised to 1/16 with a
     // random offset: mean error about 1/64 = 0.016, plus the reference's own 0.004.
     ensure!(grid < 0.03, "pcss grid {grid}");
-    ensure!(grid < vogel, "the grid kernel ({grid}) should beat the disk ({vogel}) on a square light");
+    ensure!(
+        grid < vogel,
+        "the grid kernel ({grid}) should beat the disk ({vogel}) on a square light"
+    );
     // The disk kernel does not match the square light: larger, but bounded.
     ensure!(vogel < 0.06, "pcss vogel {vogel}");
     // Hard shadows are wrong over the whole penumbra.
-    ensure!(hard > 2.0 * vogel, "hard {hard} should be far worse than pcss {vogel}");
+    ensure!(
+        hard > 2.0 * vogel,
+        "hard {hard} should be far worse than pcss {vogel}"
+    );
     Ok(())
 }
 
@@ -93,7 +118,11 @@ fn a_failing_run_is_recorded_and_the_next_one_still_runs() -> Result<()> {
     };
     let failed = bench.run(0, &bad, dir.path());
     assert_eq!(failed.status, Status::Error);
-    assert!(failed.message.contains("no-such-scene"), "{}", failed.message);
+    assert!(
+        failed.message.contains("no-such-scene"),
+        "{}",
+        failed.message
+    );
     let ok = run(&mut bench, "atty-square", "hard", &[])?;
     assert_eq!(ok.status, Status::Ok);
     Ok(())

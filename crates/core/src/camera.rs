@@ -34,7 +34,12 @@ impl Camera {
 
     /// Right-handed perspective with depth in [0, 1].
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        glam::camera::rh::proj::directx::perspective(self.fov_y_degrees.to_radians(), aspect, self.near, self.far)
+        glam::camera::rh::proj::directx::perspective(
+            self.fov_y_degrees.to_radians(),
+            aspect,
+            self.near,
+            self.far,
+        )
     }
 
     pub fn view_projection(&self, aspect: f32) -> Mat4 {
@@ -49,7 +54,9 @@ impl Camera {
             return Err("camera eye and target coincide: move the target away from the eye".into());
         }
         if (self.target - self.eye).cross(self.up).length_squared() < 1e-12 {
-            return Err("camera up is parallel to the view direction: pick another up vector".into());
+            return Err(
+                "camera up is parallel to the view direction: pick another up vector".into(),
+            );
         }
         if !(self.fov_y_degrees > 1.0 && self.fov_y_degrees < 179.0) {
             return Err(format!(

@@ -32,7 +32,9 @@ pub enum GpuError {
 /// Why a parameter could not be set. Messages name the parameter, the value and the valid range.
 #[derive(Debug, Clone, Error, PartialEq)]
 pub enum ParamError {
-    #[error("unknown parameter `{name}` for technique `{technique}`: known parameters are {known}")]
+    #[error(
+        "unknown parameter `{name}` for technique `{technique}`: known parameters are {known}"
+    )]
     Unknown {
         technique: String,
         name: String,
@@ -45,7 +47,9 @@ pub enum ParamError {
         min: String,
         max: String,
     },
-    #[error("parameter `{name}` = {value} is not finite: give a finite number from {min} to {max}")]
+    #[error(
+        "parameter `{name}` = {value} is not finite: give a finite number from {min} to {max}"
+    )]
     NotFinite {
         name: String,
         value: String,

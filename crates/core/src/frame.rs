@@ -32,7 +32,11 @@ impl FrameUniforms {
             world_to_light: light.view().to_cols_array_2d(),
             camera_pos: camera.eye.extend(1.0).to_array(),
             light_center: light.center.extend(light.intensity).to_array(),
-            light_dir: light.direction.normalize_or(glam::Vec3::NEG_Y).extend(AMBIENT).to_array(),
+            light_dir: light
+                .direction
+                .normalize_or(glam::Vec3::NEG_Y)
+                .extend(AMBIENT)
+                .to_array(),
             light_half: [half.x, half.y, 4.0 * half.x * half.y, 0.0],
             screen: [
                 width as f32,
@@ -59,7 +63,8 @@ pub struct CoreLayouts {
 
 impl CoreLayouts {
     pub fn new(device: &wgpu::Device) -> Self {
-        let all = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        let all =
+            wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let uniform = wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: all,
@@ -82,7 +87,10 @@ impl CoreLayouts {
             label: Some("core/frame-uniform"),
             entries: &[uniform],
         });
-        Self { frame, frame_uniform }
+        Self {
+            frame,
+            frame_uniform,
+        }
     }
 }
 
@@ -105,7 +113,11 @@ pub fn texture_entry(
 }
 
 /// A uniform-buffer layout entry.
-pub fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+pub fn uniform_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    dynamic: bool,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
@@ -181,10 +193,12 @@ impl<'a> Frame<'a> {
     pub fn compute_pass(&mut self, label: &str, record: impl FnOnce(&mut wgpu::ComputePass<'_>)) {
         let query = self.profiler.begin_pass_query(label, self.encoder);
         {
-            let mut pass = self.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: query.compute_pass_timestamp_writes(),
-            });
+            let mut pass = self
+                .encoder
+                .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(label),
+                    timestamp_writes: query.compute_pass_timestamp_writes(),
+                });
             record(&mut pass);
         }
         self.profiler.end_query(self.encoder, query);

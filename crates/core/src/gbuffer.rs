@@ -1,7 +1,11 @@
 //! G-buffer: what the camera sees, per pixel. Techniques read position and normal through
 //! bind group 0 (`shaders/common/frame.wgsl`).
 
-use crate::{frame::Frame, scene_gpu::{SceneGpu, Vertex}, shader, Gpu};
+use crate::{
+    frame::Frame,
+    scene_gpu::{SceneGpu, Vertex},
+    shader, Gpu,
+};
 
 pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -53,7 +57,14 @@ impl GBuffer {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC;
-        let position = create_texture(gpu, "gbuffer position", width, height, POSITION_FORMAT, usage);
+        let position = create_texture(
+            gpu,
+            "gbuffer position",
+            width,
+            height,
+            POSITION_FORMAT,
+            usage,
+        );
         let normal = create_texture(gpu, "gbuffer normal", width, height, NORMAL_FORMAT, usage);
         let albedo = create_texture(gpu, "gbuffer albedo", width, height, ALBEDO_FORMAT, usage);
         let depth = create_texture(gpu, "gbuffer depth", width, height, DEPTH_FORMAT, usage);
@@ -80,11 +91,13 @@ pub struct GBufferPass {
 impl GBufferPass {
     pub fn new(gpu: &Gpu) -> Result<Self, crate::GpuError> {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[0], &[])?;
-        let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("core/gbuffer"),
-            bind_group_layouts: &[Some(&gpu.layouts.frame_uniform)],
-            immediate_size: 0,
-        });
+        let layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("core/gbuffer"),
+                bind_group_layouts: &[Some(&gpu.layouts.frame_uniform)],
+                immediate_size: 0,
+            });
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -92,36 +105,42 @@ impl GBufferPass {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let pipeline = gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("core/gbuffer"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(Vertex::layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[target(POSITION_FORMAT), target(NORMAL_FORMAT), target(ALBEDO_FORMAT)],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = gpu
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("core/gbuffer"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(Vertex::layout())],
+                },
+                primitive: wgpu::PrimitiveState {
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[
+                        target(POSITION_FORMAT),
+                        target(NORMAL_FORMAT),
+                        target(ALBEDO_FORMAT),
+                    ],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
         Ok(Self { pipeline })
     }
 

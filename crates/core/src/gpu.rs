@@ -42,7 +42,8 @@ impl Gpu {
     /// adapter whose name contains it (case-insensitive). Without a match this returns an error
     /// that says what to install, never panics.
     pub fn new_headless() -> Result<Self, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pollster::block_on(Self::pick_adapter(&instance, None))?;
         pollster::block_on(Self::from_adapter(instance, adapter))
     }
@@ -87,7 +88,10 @@ impl Gpu {
     }
 
     /// Creates the device with every optional feature the adapter offers.
-    pub async fn from_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Self, GpuError> {
+    pub async fn from_adapter(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+    ) -> Result<Self, GpuError> {
         let features = adapter.features() & OPTIONAL_FEATURES;
         let adapter_limits = adapter.limits();
         let limits = wgpu::Limits {
@@ -133,7 +137,9 @@ impl Gpu {
         AdapterSummary {
             name: info.name,
             backend: format!("{:?}", info.backend).to_lowercase(),
-            driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
+            driver: format!("{} {}", info.driver, info.driver_info)
+                .trim()
+                .to_string(),
         }
     }
 
@@ -147,13 +153,19 @@ impl Gpu {
 
     /// Returns the first validation or device error raised since the last call, if any.
     pub fn take_errors(&self) -> Result<(), GpuError> {
-        let mut errors = self.errors.lock().map_err(|_| GpuError::Validation("error sink poisoned".into()))?;
+        let mut errors = self
+            .errors
+            .lock()
+            .map_err(|_| GpuError::Validation("error sink poisoned".into()))?;
         if errors.is_empty() {
             return Ok(());
         }
         let all = std::mem::take(&mut *errors);
         let first = all[0].clone();
-        if first.contains("lost") || first.contains("Out of Memory") || first.contains("OutOfMemory") {
+        if first.contains("lost")
+            || first.contains("Out of Memory")
+            || first.contains("OutOfMemory")
+        {
             Err(GpuError::DeviceLost(first))
         } else {
             Err(GpuError::Validation(first))

@@ -105,10 +105,16 @@ impl AreaLight {
             && self.height.is_finite()
             && self.intensity.is_finite();
         if !finite {
-            return Err("light has a non-finite centre, direction, size or intensity: give finite numbers".into());
+            return Err(
+                "light has a non-finite centre, direction, size or intensity: give finite numbers"
+                    .into(),
+            );
         }
         if self.direction.length_squared() < 1e-12 {
-            return Err("light direction is zero: give the direction the light faces, e.g. [0, -1, 0]".into());
+            return Err(
+                "light direction is zero: give the direction the light faces, e.g. [0, -1, 0]"
+                    .into(),
+            );
         }
         if self.width < 0.0 || self.height < 0.0 {
             return Err(format!(
@@ -203,7 +209,12 @@ impl SlopeFrustum {
     /// [near, far]).
     pub fn projection(&self) -> Mat4 {
         let (n, f) = (self.near, self.far);
-        let (l, r, b, t) = (self.s_min * n, self.s_max * n, self.t_min * n, self.t_max * n);
+        let (l, r, b, t) = (
+            self.s_min * n,
+            self.s_max * n,
+            self.t_min * n,
+            self.t_max * n,
+        );
         // Off-axis perspective with z in [0, 1] (wgpu convention), eye at (ex, ey, 0) looking down +z.
         let proj = Mat4::from_cols(
             glam::Vec4::new(2.0 * n / (r - l), 0.0, 0.0, 0.0),

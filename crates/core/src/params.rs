@@ -11,10 +11,24 @@ use crate::error::ParamError;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum ParamKind {
-    Float { min: f64, max: f64, default: f64, logarithmic: bool },
-    Int { min: i64, max: i64, default: i64 },
-    Bool { default: bool },
-    Choice { options: &'static [&'static str], default: &'static str },
+    Float {
+        min: f64,
+        max: f64,
+        default: f64,
+        logarithmic: bool,
+    },
+    Int {
+        min: i64,
+        max: i64,
+        default: i64,
+    },
+    Bool {
+        default: bool,
+    },
+    Choice {
+        options: &'static [&'static str],
+        default: &'static str,
+    },
 }
 
 /// One parameter: name, meaning and range.
@@ -58,7 +72,13 @@ impl ParamValue {
 }
 
 impl ParamSpec {
-    pub const fn float(name: &'static str, description: &'static str, min: f64, max: f64, default: f64) -> Self {
+    pub const fn float(
+        name: &'static str,
+        description: &'static str,
+        min: f64,
+        max: f64,
+        default: f64,
+    ) -> Self {
         Self {
             name,
             description,
@@ -71,7 +91,13 @@ impl ParamSpec {
         }
     }
 
-    pub const fn int(name: &'static str, description: &'static str, min: i64, max: i64, default: i64) -> Self {
+    pub const fn int(
+        name: &'static str,
+        description: &'static str,
+        min: i64,
+        max: i64,
+        default: i64,
+    ) -> Self {
         Self {
             name,
             description,
@@ -128,7 +154,10 @@ impl ParamSpec {
             value: value.to_string(),
         };
         match (&self.kind, value) {
-            (ParamKind::Float { min, max, .. }, v @ (ParamValue::Float(_) | ParamValue::Int(_))) => {
+            (
+                ParamKind::Float { min, max, .. },
+                v @ (ParamValue::Float(_) | ParamValue::Int(_)),
+            ) => {
                 let x = v.as_f64().unwrap_or(f64::NAN);
                 if !x.is_finite() {
                     return Err(ParamError::NotFinite {
@@ -173,7 +202,9 @@ impl ParamSpec {
                     })
                 }
             }
-            (ParamKind::Choice { options, .. }, v) => Err(wrong(&format!("one of {}", options.join(" | ")), &v)),
+            (ParamKind::Choice { options, .. }, v) => {
+                Err(wrong(&format!("one of {}", options.join(" | ")), &v))
+            }
             (ParamKind::Float { .. }, v) => Err(wrong("a number", &v)),
         }
     }
@@ -209,7 +240,10 @@ pub struct ParamSet {
 
 impl ParamSet {
     pub fn get(&self, name: &str) -> Option<&ParamValue> {
-        self.entries.iter().find(|(s, _)| s.name == name).map(|(_, v)| v)
+        self.entries
+            .iter()
+            .find(|(s, _)| s.name == name)
+            .map(|(_, v)| v)
     }
 
     /// `name -> value`, sorted by name (for results.json).
@@ -222,12 +256,19 @@ impl ParamSet {
 }
 
 /// Finds `name` in `specs` or says which names exist.
-pub fn find_spec<'a>(technique: &str, specs: &'a [ParamSpec], name: &str) -> Result<&'a ParamSpec, ParamError> {
-    specs.iter().find(|s| s.name == name).ok_or_else(|| ParamError::Unknown {
-        technique: technique.into(),
-        name: name.into(),
-        known: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
-    })
+pub fn find_spec<'a>(
+    technique: &str,
+    specs: &'a [ParamSpec],
+    name: &str,
+) -> Result<&'a ParamSpec, ParamError> {
+    specs
+        .iter()
+        .find(|s| s.name == name)
+        .ok_or_else(|| ParamError::Unknown {
+            technique: technique.into(),
+            name: name.into(),
+            known: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
+        })
 }
 
 /// Typed access for `Settings` structs.
@@ -260,16 +301,27 @@ mod tests {
         assert_eq!(spec.parse("2.5"), Ok(ParamValue::Float(2.5)));
         assert_eq!(spec.parse("3"), Ok(ParamValue::Float(3.0)));
         let err = spec.parse("9").unwrap_err().to_string();
-        assert!(err.contains("out of range") && err.contains("0 to 8"), "{err}");
+        assert!(
+            err.contains("out of range") && err.contains("0 to 8"),
+            "{err}"
+        );
         let err = spec.parse("NaN").unwrap_err().to_string();
         assert!(err.contains("not finite"), "{err}");
         assert!(spec.parse("inf").is_err());
-        assert!(spec.parse("abc").unwrap_err().to_string().contains("expects a number"));
+        assert!(spec
+            .parse("abc")
+            .unwrap_err()
+            .to_string()
+            .contains("expects a number"));
         let int = ParamSpec::int("samples", "", 1, 64, 32);
         assert!(int.parse("1.5").is_err());
         assert!(int.parse("65").is_err());
         let choice = ParamSpec::choice("kernel", "", &["vogel", "poisson"], "vogel");
-        assert!(choice.parse("box").unwrap_err().to_string().contains("vogel | poisson"));
+        assert!(choice
+            .parse("box")
+            .unwrap_err()
+            .to_string()
+            .contains("vogel | poisson"));
         let flag = ParamSpec::boolean("jitter", "", true);
         assert_eq!(flag.parse("off"), Ok(ParamValue::Bool(false)));
     }

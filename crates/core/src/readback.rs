@@ -5,12 +5,13 @@ use crate::{error::GpuError, Gpu};
 /// Reads mip 0, layer 0 of a 2D texture as tightly packed rows.
 pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
     let format = texture.format();
-    let bytes_per_pixel = format
-        .block_copy_size(None)
-        .ok_or_else(|| GpuError::Readback(format!("format {format:?} cannot be copied to a buffer")))?;
+    let bytes_per_pixel = format.block_copy_size(None).ok_or_else(|| {
+        GpuError::Readback(format!("format {format:?} cannot be copied to a buffer"))
+    })?;
     let (width, height) = (texture.width(), texture.height());
     let unpadded = width * bytes_per_pixel;
-    let padded = unpadded.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded =
+        unpadded.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
     let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: padded as u64 * height as u64,

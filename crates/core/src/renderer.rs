@@ -79,11 +79,18 @@ impl Renderer {
             return Err(RenderError::BadResolution { width, height, max });
         }
         let gbuffer = GBuffer::new(gpu, width, height);
-        let uniforms = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("core/frame uniforms"),
-            contents: bytemuck::bytes_of(&FrameUniforms::new(&Camera::default(), &AreaLight::default(), width, height)),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
+        let uniforms = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("core/frame uniforms"),
+                contents: bytemuck::bytes_of(&FrameUniforms::new(
+                    &Camera::default(),
+                    &AreaLight::default(),
+                    width,
+                    height,
+                )),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            });
         let uniform_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("core/frame-uniform"),
             layout: &gpu.layouts.frame_uniform,
@@ -134,7 +141,12 @@ impl Renderer {
             shaded,
             gbuffer,
             profiler,
-            last_uniforms: FrameUniforms::new(&Camera::default(), &AreaLight::default(), width, height),
+            last_uniforms: FrameUniforms::new(
+                &Camera::default(),
+                &AreaLight::default(),
+                width,
+                height,
+            ),
         })
     }
 
@@ -143,7 +155,12 @@ impl Renderer {
     }
 
     /// Inputs for [`ShadowTechnique::prepare`] outside a frame.
-    pub fn inputs<'a>(&'a self, scene: &'a SceneGpu, camera: &'a Camera, light: &'a AreaLight) -> ShadowInputs<'a> {
+    pub fn inputs<'a>(
+        &'a self,
+        scene: &'a SceneGpu,
+        camera: &'a Camera,
+        light: &'a AreaLight,
+    ) -> ShadowInputs<'a> {
         ShadowInputs {
             scene,
             light,
@@ -176,9 +193,12 @@ impl Renderer {
             .queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&self.last_uniforms));
 
-        let mut encoder = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some(technique.id()),
-        });
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some(technique.id()),
+            });
         let mut passes_run = Vec::new();
         let result = {
             let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);

@@ -58,7 +58,10 @@ impl Mesh {
                 continue;
             }
             let double_area = (b - a).cross(c - a).length();
-            let scale = (b - a).length().max((c - a).length()).max(f32::MIN_POSITIVE);
+            let scale = (b - a)
+                .length()
+                .max((c - a).length())
+                .max(f32::MIN_POSITIVE);
             // Relative test: a sliver whose area is at the level of f32 rounding is degenerate.
             #[allow(clippy::neg_cmp_op_on_partial_ord)] // also true for NaN areas
             if !(double_area > scale * scale * 1e-7) {
@@ -76,7 +79,10 @@ impl Mesh {
             }
         }
         if self.normals.len() == self.positions.len()
-            && self.normals.iter().any(|n| !n.is_finite() || n.length_squared() < 1e-12)
+            && self
+                .normals
+                .iter()
+                .any(|n| !n.is_finite() || n.length_squared() < 1e-12)
         {
             self.normals.clear();
         }

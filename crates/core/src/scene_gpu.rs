@@ -73,7 +73,8 @@ impl SceneGpu {
         puffin::profile_function!();
         let mut vertices: Vec<Vertex> = Vec::new();
         let (mut all, mut casters, mut receivers) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut bounds, mut caster_bounds, mut receiver_bounds) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
+        let (mut bounds, mut caster_bounds, mut receiver_bounds) =
+            (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
         let mut caster_positions = Vec::new();
         for instance in &scene.instances {
             let Some(mesh) = scene.meshes.get(instance.mesh) else {

@@ -17,7 +17,11 @@ macro_rules! shader_file {
     ($path:literal) => {
         (
             $path,
-            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders/", $path)),
+            include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../shaders/",
+                $path
+            )),
         )
     };
 }
@@ -103,8 +107,10 @@ fn composer() -> Result<Composer, GpuError> {
 /// Composes and validates one permutation into a naga module.
 pub fn compose(spec: &ShaderSpec, defs: &[(&str, DefValue)]) -> Result<naga::Module, GpuError> {
     let mut composer = composer()?;
-    let shader_defs: HashMap<String, ShaderDefValue> =
-        defs.iter().map(|(k, v)| (k.to_string(), (*v).into())).collect();
+    let shader_defs: HashMap<String, ShaderDefValue> = defs
+        .iter()
+        .map(|(k, v)| (k.to_string(), (*v).into()))
+        .collect();
     composer
         .make_naga_module(NagaModuleDescriptor {
             source: spec.source,
@@ -126,10 +132,12 @@ pub fn create_module(
     defs: &[(&str, DefValue)],
 ) -> Result<wgpu::ShaderModule, GpuError> {
     let module = compose(spec, defs)?;
-    Ok(gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(spec.path),
-        source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(module)),
-    }))
+    Ok(gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(spec.path),
+            source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(module)),
+        }))
 }
 
 /// Validates every permutation of every spec with naga. Used by the crates' tests.

@@ -37,40 +37,46 @@ impl ShadingPass {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[2], &[])?;
         let stage = wgpu::ShaderStages::FRAGMENT;
         let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("core/shading"),
-            entries: &[
-                texture_entry(0, stage, unfilterable),
-                texture_entry(1, stage, unfilterable),
-                uniform_entry(2, stage, false),
-            ],
-        });
-        let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("core/shading"),
-            bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("core/shading"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(SHADED_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("core/shading"),
+                entries: &[
+                    texture_entry(0, stage, unfilterable),
+                    texture_entry(1, stage, unfilterable),
+                    uniform_entry(2, stage, false),
+                ],
+            });
+        let pipeline_layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("core/shading"),
+                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
+                immediate_size: 0,
+            });
+        let pipeline = gpu
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("core/shading"),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(SHADED_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
         let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("core/shading params"),
             size: std::mem::size_of::<ShadingParams>() as u64,

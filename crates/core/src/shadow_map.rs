@@ -60,41 +60,47 @@ pub struct DepthMapRenderer {
 impl DepthMapRenderer {
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[1], &[])?;
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("core/depth"),
-            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX, true)],
-        });
-        let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("core/depth"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("core/depth"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(Vertex::position_layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                // Both faces: zero-thickness occluders must cast from either side.
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: SHADOW_DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: None,
-            multiview_mask: None,
-            cache: None,
-        });
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("core/depth"),
+                entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX, true)],
+            });
+        let pipeline_layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("core/depth"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        let pipeline = gpu
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("core/depth"),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(Vertex::position_layout())],
+                },
+                primitive: wgpu::PrimitiveState {
+                    // Both faces: zero-thickness occluders must cast from either side.
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: SHADOW_DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: None,
+                multiview_mask: None,
+                cache: None,
+            });
         let (buffer, bind_group) = Self::allocate(gpu, &layout, 16);
         Ok(Self {
             pipeline,
@@ -105,7 +111,11 @@ impl DepthMapRenderer {
         })
     }
 
-    fn allocate(gpu: &Gpu, layout: &wgpu::BindGroupLayout, capacity: u32) -> (wgpu::Buffer, wgpu::BindGroup) {
+    fn allocate(
+        gpu: &Gpu,
+        layout: &wgpu::BindGroupLayout,
+        capacity: u32,
+    ) -> (wgpu::Buffer, wgpu::BindGroup) {
         let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("core/depth views"),
             size: SLOT * capacity as u64,
@@ -149,7 +159,14 @@ impl DepthMapRenderer {
     }
 
     /// Records one depth pass of the casters into `target` using view slot `slot`.
-    pub fn record(&self, frame: &mut Frame<'_>, label: &str, scene: &SceneGpu, slot: u32, target: &wgpu::TextureView) {
+    pub fn record(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        slot: u32,
+        target: &wgpu::TextureView,
+    ) {
         frame.render_pass(
             label,
             wgpu::RenderPassDescriptor {
@@ -218,13 +235,23 @@ impl CentreShadowMap {
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
             map: None,
-            view_buffer: crate::fullscreen::uniform_buffer(gpu, "centre shadow view", &ShadowViewUniform::zeroed()),
+            view_buffer: crate::fullscreen::uniform_buffer(
+                gpu,
+                "centre shadow view",
+                &ShadowViewUniform::zeroed(),
+            ),
         })
     }
 
     /// Renders the casters into a `size`² map as the pass `label`. Returns `false` (and renders
     /// nothing) when no caster is in front of the light.
-    pub fn render(&mut self, frame: &mut Frame<'_>, inputs: &crate::ShadowInputs<'_>, size: u32, label: &str) -> bool {
+    pub fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &crate::ShadowInputs<'_>,
+        size: u32,
+        label: &str,
+    ) -> bool {
         let Some(frustum) = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO) else {
             return false;
         };
@@ -236,7 +263,8 @@ impl CentreShadowMap {
         }
         let view = ShadowViewUniform::new(inputs.light, &frustum, size);
         self.depth.set_views(gpu, &[view]);
-        gpu.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
+        gpu.queue
+            .write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
         let (_, _, map_view) = self.map.as_ref().expect("created above");
         self.depth.record(frame, label, inputs.scene, 0, map_view);
         true

@@ -101,7 +101,11 @@ impl TechniqueInfo {
 }
 
 /// Checks the adapter has what `requirements` lists.
-pub fn check_requirements(gpu: &Gpu, id: &str, requirements: &Requirements) -> Result<(), TechniqueError> {
+pub fn check_requirements(
+    gpu: &Gpu,
+    id: &str,
+    requirements: &Requirements,
+) -> Result<(), TechniqueError> {
     let missing = requirements.features - gpu.features();
     if missing.is_empty() {
         Ok(())

@@ -91,14 +91,16 @@ pub fn info() -> TechniqueInfo {
 impl HardShadows {
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::FRAGMENT;
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hard/lookup"),
-            entries: &[
-                uniform_entry(0, stage, false),
-                depth_texture_entry(1, false),
-                uniform_entry(2, stage, false),
-            ],
-        });
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("hard/lookup"),
+                entries: &[
+                    uniform_entry(0, stage, false),
+                    depth_texture_entry(1, false),
+                    uniform_entry(2, stage, false),
+                ],
+            });
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
             lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
@@ -146,7 +148,10 @@ impl ShadowTechnique for HardShadows {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         let size = self.settings.shadow_map_size;
-        if !self.shadow_map.render(frame, inputs, size, "hard/shadow_map") {
+        if !self
+            .shadow_map
+            .render(frame, inputs, size, "hard/shadow_map")
+        {
             // No caster in front of the light: everything is lit, no lookup needed.
             out.clear_lit(frame, "hard/no_casters");
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);

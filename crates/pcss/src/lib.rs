@@ -82,7 +82,13 @@ impl Default for PcssSettings {
 pub fn param_specs() -> Vec<ParamSpec> {
     let d = PcssSettings::default();
     vec![
-        ParamSpec::int("shadow_map_size", "Shadow-map edge in texels", 64, 4096, d.shadow_map_size as i64),
+        ParamSpec::int(
+            "shadow_map_size",
+            "Shadow-map edge in texels",
+            64,
+            4096,
+            d.shadow_map_size as i64,
+        ),
         ParamSpec::int(
             "blocker_samples",
             "Samples of the blocker search",
@@ -155,14 +161,16 @@ pub fn info() -> TechniqueInfo {
 impl Pcss {
     pub fn new(gpu: &Gpu, settings: PcssSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::FRAGMENT;
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("pcss/filter"),
-            entries: &[
-                uniform_entry(0, stage, false),
-                depth_texture_entry(1, false),
-                uniform_entry(2, stage, false),
-            ],
-        });
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("pcss/filter"),
+                entries: &[
+                    uniform_entry(0, stage, false),
+                    depth_texture_entry(1, false),
+                    uniform_entry(2, stage, false),
+                ],
+            });
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
             filter: FullscreenPipeline::new(gpu, "pcss/filter", &SHADERS[0], &[], &layout, None)?,
@@ -219,7 +227,10 @@ impl ShadowTechnique for Pcss {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         let s = &self.settings;
-        if !self.shadow_map.render(frame, inputs, s.shadow_map_size, "pcss/shadow_map") {
+        if !self
+            .shadow_map
+            .render(frame, inputs, s.shadow_map_size, "pcss/shadow_map")
+        {
             out.clear_lit(frame, "pcss/no_casters");
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
@@ -236,7 +247,8 @@ impl ShadowTechnique for Pcss {
             min_filter_texels: s.min_filter_texels,
             _pad1: [0.0; 2],
         };
-        gpu.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
+        gpu.queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
         let map_view = self.shadow_map.map_view().expect("rendered above");
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("pcss/filter"),
@@ -268,7 +280,10 @@ impl ShadowTechnique for Pcss {
         let pixels = inputs.width as f64 * inputs.height as f64;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
-            ("max_texel_reads_per_pixel".into(), (s.blocker_samples + s.filter_samples) as f64),
+            (
+                "max_texel_reads_per_pixel".into(),
+                (s.blocker_samples + s.filter_samples) as f64,
+            ),
             ("pixels".into(), pixels),
         ]);
         Ok(())

@@ -104,16 +104,28 @@ mod tests {
         };
         // Under the centre of the occluder, halfway between light and receiver: its shadow on the
         // light is [-1, 1]^2, covering the whole light.
-        assert_eq!(visible_fraction(half, &[square], Vec3::new(0.0, 0.0, 2.0)), 0.0);
+        assert_eq!(
+            visible_fraction(half, &[square], Vec3::new(0.0, 0.0, 2.0)),
+            0.0
+        );
         // Far to the side: fully lit.
-        assert_eq!(visible_fraction(half, &[square], Vec3::new(5.0, 0.0, 2.0)), 1.0);
+        assert_eq!(
+            visible_fraction(half, &[square], Vec3::new(5.0, 0.0, 2.0)),
+            1.0
+        );
         // Receiver at x = 1: the shadow spans x in [1 - 1.5*2, 1 - 0.5*2] = [-2, 0]: half the light.
         let v = visible_fraction(half, &[square], Vec3::new(1.0, 0.0, 2.0));
         assert!((v - 0.5).abs() < 1e-12, "{v}");
         // Occluder at or beyond the receiver casts nothing.
-        assert_eq!(visible_fraction(half, &[square], Vec3::new(0.0, 0.0, 1.0)), 1.0);
+        assert_eq!(
+            visible_fraction(half, &[square], Vec3::new(0.0, 0.0, 1.0)),
+            1.0
+        );
         // Behind the light plane.
-        assert_eq!(visible_fraction(half, &[square], Vec3::new(0.0, 0.0, -1.0)), 0.0);
+        assert_eq!(
+            visible_fraction(half, &[square], Vec3::new(0.0, 0.0, -1.0)),
+            0.0
+        );
     }
 
     #[test]

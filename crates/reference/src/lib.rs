@@ -19,7 +19,9 @@ use softshadow_core::{
     scene::Fnv1a,
     shader::ShaderSpec,
     shader_file,
-    shadow_map::{create_depth_maps, fit_caster_view, layer_view, DepthMapRenderer, ShadowViewUniform},
+    shadow_map::{
+        create_depth_maps, fit_caster_view, layer_view, DepthMapRenderer, ShadowViewUniform,
+    },
     wgpu, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, Requirements, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
 };
@@ -95,7 +97,13 @@ pub fn param_specs() -> Vec<ParamSpec> {
             d.bias_texels as f64,
         ),
         ParamSpec::boolean("jitter", "Jitter each sample inside its stratum", d.jitter),
-        ParamSpec::int("seed", "Seed of the jitter", 0, i32::MAX as i64, d.seed as i64),
+        ParamSpec::int(
+            "seed",
+            "Seed of the jitter",
+            0,
+            i32::MAX as i64,
+            d.seed as i64,
+        ),
     ]
 }
 
@@ -174,24 +182,37 @@ pub fn info() -> TechniqueInfo {
         description: "Reference: accumulated hard shadows from N x N stratified light samples",
         source: "Heckbert & Herf 1997 (accumulated hard shadows)",
         params: param_specs,
-        create: |gpu| Ok(Box::new(AccumulatedReference::new(gpu, ReferenceSettings::default())?)),
+        create: |gpu| {
+            Ok(Box::new(AccumulatedReference::new(
+                gpu,
+                ReferenceSettings::default(),
+            )?))
+        },
     }
 }
 
 impl AccumulatedReference {
     pub fn new(gpu: &Gpu, settings: ReferenceSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::FRAGMENT;
-        let accumulate_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("reference/accumulate"),
-            entries: &[uniform_entry(0, stage, true), depth_texture_entry(1, true)],
-        });
-        let resolve_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("reference/resolve"),
-            entries: &[
-                uniform_entry(0, stage, false),
-                texture_entry(1, stage, wgpu::TextureSampleType::Float { filterable: false }),
-            ],
-        });
+        let accumulate_layout =
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("reference/accumulate"),
+                    entries: &[uniform_entry(0, stage, true), depth_texture_entry(1, true)],
+                });
+        let resolve_layout =
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("reference/resolve"),
+                    entries: &[
+                        uniform_entry(0, stage, false),
+                        texture_entry(
+                            1,
+                            stage,
+                            wgpu::TextureSampleType::Float { filterable: false },
+                        ),
+                    ],
+                });
         let add = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -213,7 +234,14 @@ impl AccumulatedReference {
                 &accumulate_layout,
                 Some(blend),
             )?,
-            resolve: FullscreenPipeline::new(gpu, "reference/resolve", &SHADERS[1], &[], &resolve_layout, None)?,
+            resolve: FullscreenPipeline::new(
+                gpu,
+                "reference/resolve",
+                &SHADERS[1],
+                &[],
+                &resolve_layout,
+                None,
+            )?,
             batches: Self::batch_buffer(gpu, 4),
             batch_capacity: 4,
             resolve_buffer: uniform_buffer(gpu, "reference/resolve", &ResolveUniform::zeroed()),
@@ -356,7 +384,10 @@ impl AccumulatedReference {
         let gpu = frame.gpu;
         let size = self.settings.shadow_map_size;
         if self.maps.as_ref().map(|m| m.0) != Some(size) {
-            self.maps = Some((size, create_depth_maps(gpu, "reference/depth_maps", size, BATCH)));
+            self.maps = Some((
+                size,
+                create_depth_maps(gpu, "reference/depth_maps", size, BATCH),
+            ));
         }
         let batch_count = views.len().div_ceil(BATCH as usize) as u32;
         if batch_count > self.batch_capacity {
@@ -371,7 +402,8 @@ impl AccumulatedReference {
             uniform.count_bias = [chunk.len() as f32, self.settings.bias_texels, 0.0, 0.0];
             uniform.views[..chunk.len()].copy_from_slice(chunk);
             let at = b * BATCH_SLOT as usize;
-            bytes[at..at + std::mem::size_of::<BatchUniform>()].copy_from_slice(bytemuck::bytes_of(&uniform));
+            bytes[at..at + std::mem::size_of::<BatchUniform>()]
+                .copy_from_slice(bytemuck::bytes_of(&uniform));
         }
         gpu.queue.write_buffer(&self.batches, 0, &bytes);
         self.depth.set_views(gpu, views);
@@ -412,8 +444,13 @@ impl AccumulatedReference {
             let first = b * BATCH;
             let count = (views.len() as u32 - first).min(BATCH);
             for layer in 0..count {
-                self.depth
-                    .record(frame, "reference/depth", inputs.scene, first + layer, &layer_views[layer as usize]);
+                self.depth.record(
+                    frame,
+                    "reference/depth",
+                    inputs.scene,
+                    first + layer,
+                    &layer_views[layer as usize],
+                );
             }
             self.accumulate.record(
                 frame,

@@ -14,7 +14,11 @@ use softshadow_bench::{registry, BenchOptions, RunSpec, Status, Sweep};
 use softshadow_core::{Gpu, ParamKind};
 
 #[derive(Parser)]
-#[command(name = "workbench", version, about = "Measure soft-shadow techniques: error against run time")]
+#[command(
+    name = "workbench",
+    version,
+    about = "Measure soft-shadow techniques: error against run time"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -123,7 +127,13 @@ fn list(json: bool) -> Result<ExitCode> {
     for s in &scenes {
         println!("  {:<20} {}", s.id, s.description);
         for p in &s.params {
-            println!("      {:<20} default {:<8} {} ({})", p.name, p.default, p.description, p.range_text());
+            println!(
+                "      {:<20} default {:<8} {} ({})",
+                p.name,
+                p.default,
+                p.description,
+                p.range_text()
+            );
         }
     }
     println!("\nTechniques:");
@@ -136,7 +146,13 @@ fn list(json: bool) -> Result<ExitCode> {
                 ParamKind::Bool { default } => default.to_string(),
                 ParamKind::Choice { default, .. } => default.to_string(),
             };
-            println!("      {:<20} default {:<8} {} ({})", p.name, default, p.description, p.range_text());
+            println!(
+                "      {:<20} default {:<8} {} ({})",
+                p.name,
+                default,
+                p.description,
+                p.range_text()
+            );
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -145,9 +161,15 @@ fn list(json: bool) -> Result<ExitCode> {
 fn bench(args: BenchArgs) -> Result<ExitCode> {
     // Everything that can be checked without a GPU is checked first, so bad input fails fast
     // and writes nothing.
-    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(path) = &args.sweep {
+    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(path) = &args.sweep
+    {
         let sweep = Sweep::load(path)?;
-        (sweep.runs, sweep.frames, sweep.warmup, sweep.reference_params)
+        (
+            sweep.runs,
+            sweep.frames,
+            sweep.warmup,
+            sweep.reference_params,
+        )
     } else {
         let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
             bail!("give --scene and --technique, or --sweep FILE (see `workbench list`)");
@@ -189,11 +211,18 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         progress.set_message(format!("{} / {}", run.scene, run.technique));
         progress.inc(1);
         if run.status == Status::Error {
-            progress.println(format!("run failed: {} / {}: {}", run.scene, run.technique, run.message));
+            progress.println(format!(
+                "run failed: {} / {}: {}",
+                run.scene, run.technique, run.message
+            ));
         }
     })?;
     progress.finish_and_clear();
-    let failed = results.runs.iter().filter(|r| r.status == Status::Error).count();
+    let failed = results
+        .runs
+        .iter()
+        .filter(|r| r.status == Status::Error)
+        .count();
     for run in &results.runs {
         let gpu = run
             .timing
@@ -208,14 +237,21 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             "{:<24} {:<16} {:<6} gpu {:>10}  mae_shadowed {}",
             run.scene,
             run.technique,
-            if run.status == Status::Ok { "ok" } else { "error" },
+            if run.status == Status::Ok {
+                "ok"
+            } else {
+                "error"
+            },
             gpu,
             err
         );
     }
     println!("wrote {}", args.out.join("results.json").display());
     if failed > 0 {
-        eprintln!("{failed} of {} runs failed; their messages are in results.json", results.runs.len());
+        eprintln!(
+            "{failed} of {} runs failed; their messages are in results.json",
+            results.runs.len()
+        );
         return Ok(ExitCode::from(3));
     }
     Ok(ExitCode::SUCCESS)

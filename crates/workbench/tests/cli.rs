@@ -28,7 +28,11 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
     let ids = |key: &str| -> Vec<String> {
         v[key]
             .as_array()
-            .map(|a| a.iter().filter_map(|x| x["id"].as_str().map(String::from)).collect())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x["id"].as_str().map(String::from))
+                    .collect()
+            })
             .unwrap_or_default()
     };
     let techniques = ids("techniques");
@@ -52,7 +56,10 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
         ensure!(scenes.contains(&s.to_string()), "missing scene {s}");
     }
     let pcss = &v["techniques"][1];
-    ensure!(pcss["params"][0]["min"].is_number(), "parameters carry ranges: {pcss}");
+    ensure!(
+        pcss["params"][0]["min"].is_number(),
+        "parameters carry ranges: {pcss}"
+    );
     Ok(())
 }
 
@@ -62,8 +69,19 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
     let out = dir.path().join("b");
     let out_s = out.to_str().context("utf-8 path")?;
     let o = workbench(&[
-        "bench", "--scene", "atty-square", "--technique", "pcss", "--size", "64x64", "--frames", "3",
-        "--reference-param", "samples_per_axis=8", "--out", out_s,
+        "bench",
+        "--scene",
+        "atty-square",
+        "--technique",
+        "pcss",
+        "--size",
+        "64x64",
+        "--frames",
+        "3",
+        "--reference-param",
+        "samples_per_axis=8",
+        "--out",
+        out_s,
     ]);
     ensure!(o.status.success(), "{}", stderr(&o));
     let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
@@ -74,12 +92,19 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
     let run = &v["runs"][0];
     ensure!(run["status"] == "ok", "{run}");
     ensure!(run["timing"]["frames"] == 3);
-    let gpu = run["timing"]["gpu_ms"]["median"].as_f64().context("gpu_ms.median")?;
+    let gpu = run["timing"]["gpu_ms"]["median"]
+        .as_f64()
+        .context("gpu_ms.median")?;
     ensure!(gpu.is_finite() && gpu > 0.0, "gpu_ms {gpu}");
     for k in ["p10", "p90"] {
-        ensure!(run["timing"]["gpu_ms"][k].as_f64().is_some_and(|x| x > 0.0), "gpu_ms.{k}");
+        ensure!(
+            run["timing"]["gpu_ms"][k].as_f64().is_some_and(|x| x > 0.0),
+            "gpu_ms.{k}"
+        );
     }
-    ensure!(run["timing"]["cpu_ms"]["median"].as_f64().is_some_and(|x| x > 0.0));
+    ensure!(run["timing"]["cpu_ms"]["median"]
+        .as_f64()
+        .is_some_and(|x| x > 0.0));
     let passes: Vec<&str> = run["timing"]["passes"]
         .as_array()
         .context("passes")?
@@ -88,20 +113,37 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
         .collect();
     ensure!(passes.contains(&"pcss/filter"), "{passes:?}");
     for k in [
-        "reference", "mae_shadowed", "mae_all", "rmse", "max_abs", "p99_abs", "shadowed_pixels", "flip_mean",
+        "reference",
+        "mae_shadowed",
+        "mae_all",
+        "rmse",
+        "max_abs",
+        "p99_abs",
+        "shadowed_pixels",
+        "flip_mean",
     ] {
-        ensure!(!run["error"][k].is_null(), "error.{k} missing: {}", run["error"]);
+        ensure!(
+            !run["error"][k].is_null(),
+            "error.{k} missing: {}",
+            run["error"]
+        );
     }
     for k in ["nan", "inf", "out_of_range"] {
         ensure!(run["stability"][k] == 0, "stability.{k}");
     }
     ensure!(run["passes_run"].as_array().is_some_and(|p| !p.is_empty()));
     for kind in ["visibility", "reference", "shaded", "difference"] {
-        let file = run["images"][kind].as_str().with_context(|| format!("images.{kind}"))?;
+        let file = run["images"][kind]
+            .as_str()
+            .with_context(|| format!("images.{kind}"))?;
         ensure!(out.join(file).is_file(), "{file} not written");
     }
     // The reference must not have leaked into the technique's passes.
-    ensure!(!run["passes_run"].to_string().contains("reference"), "{}", run["passes_run"]);
+    ensure!(
+        !run["passes_run"].to_string().contains("reference"),
+        "{}",
+        run["passes_run"]
+    );
     Ok(())
 }
 
@@ -109,25 +151,118 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
 fn bad_input_gives_one_line_a_nonzero_exit_and_no_output() -> Result<()> {
     let dir = tempfile::tempdir()?;
     let malformed = dir.path().join("malformed.toml");
-    std::fs::write(&malformed, "name = \"x\"\n[[object]]\nplane = { size = [1, 1] }\ncolour = 3\n")?;
+    std::fs::write(
+        &malformed,
+        "name = \"x\"\n[[object]]\nplane = { size = [1, 1] }\ncolour = 3\n",
+    )?;
     let broken_glb = dir.path().join("broken.glb");
     std::fs::write(&broken_glb, b"glTF\x02\x00\x00\x00garbage")?;
     let malformed = malformed.to_str().context("utf-8")?;
     let broken_glb = broken_glb.to_str().context("utf-8")?;
     let cases: &[(&[&str], &str)] = &[
-        (&["--scene", "no-such-scene", "--technique", "pcss"], "no-such-scene"),
-        (&["--scene", "atty-square", "--technique", "nope"], "unknown technique `nope`"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--param", "wat=1"], "unknown parameter `wat`"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--param", "filter_samples=100000"], "out of range"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--param", "bias_texels=NaN"], "not finite"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--size", "0x64"], "0x64"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--size", "100000x64"], "100000x64"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--size", "big"], "WIDTHxHEIGHT"),
-        (&["--scene", "/nonexistent/scene.toml", "--technique", "pcss"], "not found"),
+        (
+            &["--scene", "no-such-scene", "--technique", "pcss"],
+            "no-such-scene",
+        ),
+        (
+            &["--scene", "atty-square", "--technique", "nope"],
+            "unknown technique `nope`",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--param",
+                "wat=1",
+            ],
+            "unknown parameter `wat`",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--param",
+                "filter_samples=100000",
+            ],
+            "out of range",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--param",
+                "bias_texels=NaN",
+            ],
+            "not finite",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--size",
+                "0x64",
+            ],
+            "0x64",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--size",
+                "100000x64",
+            ],
+            "100000x64",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--size",
+                "big",
+            ],
+            "WIDTHxHEIGHT",
+        ),
+        (
+            &["--scene", "/nonexistent/scene.toml", "--technique", "pcss"],
+            "not found",
+        ),
         (&["--scene", malformed, "--technique", "pcss"], "colour"),
-        (&["--scene", broken_glb, "--technique", "pcss"], "broken.glb"),
-        (&["--scene", "atty-square:light_width=NaN", "--technique", "pcss"], "light_width"),
-        (&["--scene", "atty-square", "--technique", "pcss", "--frames", "0"], "frames"),
+        (
+            &["--scene", broken_glb, "--technique", "pcss"],
+            "broken.glb",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square:light_width=NaN",
+                "--technique",
+                "pcss",
+            ],
+            "light_width",
+        ),
+        (
+            &[
+                "--scene",
+                "atty-square",
+                "--technique",
+                "pcss",
+                "--frames",
+                "0",
+            ],
+            "frames",
+        ),
     ];
     for (k, (args, expected)) in cases.iter().enumerate() {
         let out = dir.path().join(format!("out{k}"));
@@ -137,8 +272,14 @@ fn bad_input_gives_one_line_a_nonzero_exit_and_no_output() -> Result<()> {
         let o = workbench(&full);
         let err = stderr(&o);
         ensure!(!o.status.success(), "{args:?} succeeded");
-        ensure!(err.lines().count() == 1, "{args:?}: expected one line, got:\n{err}");
-        ensure!(err.contains(expected), "{args:?}: `{err}` does not mention `{expected}`");
+        ensure!(
+            err.lines().count() == 1,
+            "{args:?}: expected one line, got:\n{err}"
+        );
+        ensure!(
+            err.contains(expected),
+            "{args:?}: `{err}` does not mention `{expected}`"
+        );
         ensure!(!out.exists(), "{args:?} wrote output");
     }
     Ok(())
@@ -154,13 +295,54 @@ fn a_sweep_records_a_failed_run_and_keeps_the_others() -> Result<()> {
          [reference]\nsamples_per_axis = 4\n[[technique]]\nid = \"hard\"\n",
     )?;
     let out = dir.path().join("out");
-    let o = workbench(&["bench", "--sweep", sweep.to_str().context("utf-8")?, "--out", out.to_str().context("utf-8")?]);
-    ensure!(o.status.code() == Some(3), "exit {:?}: {}", o.status.code(), stderr(&o));
+    let o = workbench(&[
+        "bench",
+        "--sweep",
+        sweep.to_str().context("utf-8")?,
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    ensure!(
+        o.status.code() == Some(3),
+        "exit {:?}: {}",
+        o.status.code(),
+        stderr(&o)
+    );
     let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
     let runs = v["runs"].as_array().context("runs")?;
     ensure!(runs.len() == 2);
     ensure!(runs[0]["status"] == "ok", "{}", runs[0]);
     ensure!(runs[1]["status"] == "error");
-    ensure!(runs[1]["message"].as_str().is_some_and(|m| m.contains("missing-file.toml")), "{}", runs[1]);
+    ensure!(
+        runs[1]["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("missing-file.toml")),
+        "{}",
+        runs[1]
+    );
+    Ok(())
+}
+
+#[test]
+fn no_adapter_says_what_to_install() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out");
+    // No Metal adapter exists on Linux: this is the "no GPU" path.
+    let o = Command::new(env!("CARGO_BIN_EXE_workbench"))
+        .args([
+            "bench",
+            "--scene",
+            "atty-square",
+            "--technique",
+            "hard",
+            "--out",
+        ])
+        .arg(&out)
+        .env("WGPU_BACKEND", "metal")
+        .output()?;
+    let err = stderr(&o);
+    ensure!(o.status.code() == Some(2), "{err}");
+    ensure!(err.contains("mesa-vulkan-drivers"), "{err}");
+    ensure!(!out.exists());
     Ok(())
 }
