@@ -153,3 +153,81 @@ fn only_the_passes_a_scene_needs_run() -> Result<()> {
     }
     Ok(())
 }
+
+/// Known answers (pbrt-v4 style): where the exact visibility of `atty-square` is 0 (umbra) every
+/// technique gives 0, and where it is 1 (fully lit) every technique gives 1, except for a thin
+/// band at the boundaries one shadow-map texel wide (allowed: 2 % of those pixels).
+#[test]
+fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
+    use softshadow_core::{Renderer, SceneGpu};
+    use softshadow_reference::exact::{visible_fraction, ParallelRect};
+
+    let gpu = Gpu::new_headless().context("technique tests need a GPU adapter")?;
+    let params = softshadow_scenes::AttySquare::default();
+    let scene = params.scene()?;
+    let scene_gpu = SceneGpu::upload(&gpu, &scene);
+    let mut renderer = Renderer::new(&gpu, 96, 96)?;
+    let half = params.occluder_size as f32 / 2.0;
+    let y = params.occluder_height as f32;
+    let (c0, c1) = (
+        scene.light.to_light_space([-half, y, -half].into()),
+        scene.light.to_light_space([half, y, half].into()),
+    );
+    let occluder = ParallelRect {
+        min: c0.truncate().min(c1.truncate()),
+        max: c0.truncate().max(c1.truncate()),
+        z: c0.z,
+    };
+    for info in softshadow_bench::registry::techniques() {
+        let mut technique = (info.create)(&gpu)?;
+        renderer.render(
+            &scene_gpu,
+            &scene.camera,
+            &scene.light,
+            technique.as_mut(),
+            None,
+        )?;
+        let v = renderer.read_visibility()?;
+        let mask = renderer.read_receiver_mask()?;
+        let positions = renderer.read_world_positions()?;
+        let (mut umbra, mut umbra_wrong, mut lit, mut lit_wrong) = (0, 0, 0, 0);
+        for ((v, receiver), p) in v.iter().zip(&mask).zip(&positions) {
+            let (true, Some(p)) = (*receiver, p) else {
+                continue;
+            };
+            let exact = visible_fraction(
+                scene.light.half_extent(),
+                &[occluder],
+                scene.light.to_light_space(*p),
+            );
+            if exact == 0.0 {
+                umbra += 1;
+                umbra_wrong += usize::from(*v > 0.01);
+            } else if exact == 1.0 {
+                lit += 1;
+                lit_wrong += usize::from(*v < 0.99);
+            }
+        }
+        eprintln!(
+            "{}: umbra {umbra_wrong}/{umbra} wrong, lit {lit_wrong}/{lit} wrong",
+            info.id
+        );
+        ensure!(
+            umbra > 100 && lit > 100,
+            "{}: umbra {umbra}, lit {lit} pixels",
+            info.id
+        );
+        ensure!(
+            umbra_wrong * 50 <= umbra,
+            "{}: {umbra_wrong} of {umbra} umbra pixels not 0",
+            info.id
+        );
+        // Hard shadows are wrong over the outer penumbra only, which exact = 1 excludes.
+        ensure!(
+            lit_wrong * 50 <= lit,
+            "{}: {lit_wrong} of {lit} lit pixels not 1",
+            info.id
+        );
+    }
+    Ok(())
+}
