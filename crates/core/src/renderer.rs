@@ -154,7 +154,8 @@ impl Renderer {
         &self.gpu
     }
 
-    /// Inputs for [`ShadowTechnique::prepare`] outside a frame.
+    /// What a technique reads: the scene, light, camera, G-buffer and frame bind group (also used
+    /// for [`ShadowTechnique::prepare`] outside a frame, where `uniforms` are the last frame's).
     pub fn inputs<'a>(
         &'a self,
         scene: &'a SceneGpu,
@@ -204,16 +205,7 @@ impl Renderer {
             let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
             self.gbuffer_pass
                 .record(&mut frame, &self.gbuffer, &self.uniform_bind_group, scene);
-            let inputs = ShadowInputs {
-                scene,
-                light,
-                camera,
-                gbuffer: &self.gbuffer,
-                frame_bind_group: &self.frame_bind_group,
-                uniforms: &self.last_uniforms,
-                width: self.width,
-                height: self.height,
-            };
+            let inputs = self.inputs(scene, camera, light);
             let result = technique.render(&mut frame, &inputs, &self.visibility);
             if result.is_ok() {
                 if let Some(mode) = shade {

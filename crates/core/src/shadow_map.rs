@@ -270,6 +270,51 @@ impl CentreShadowMap {
         true
     }
 
+    /// Layout of the usual group 1 of a pass that reads this map: binding 0 = `ShadowView`
+    /// uniform, 1 = `texture_depth_2d`, 2 = the technique's own parameter uniform
+    /// (`hard.wgsl`, `pcss.wgsl`).
+    pub fn lookup_layout(gpu: &Gpu, label: &str) -> wgpu::BindGroupLayout {
+        let stage = wgpu::ShaderStages::FRAGMENT;
+        gpu.device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(label),
+                entries: &[
+                    uniform_entry(0, stage, false),
+                    crate::fullscreen::depth_texture_entry(1, false),
+                    uniform_entry(2, stage, false),
+                ],
+            })
+    }
+
+    /// Bind group for [`CentreShadowMap::lookup_layout`] over the last rendered map, or `None`
+    /// before the first map.
+    pub fn lookup_bind_group(
+        &self,
+        gpu: &Gpu,
+        layout: &wgpu::BindGroupLayout,
+        params: &wgpu::Buffer,
+    ) -> Option<wgpu::BindGroup> {
+        let map_view = self.map_view()?;
+        Some(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("centre shadow map lookup"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.view_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(map_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: params.as_entire_binding(),
+                },
+            ],
+        }))
+    }
+
     /// The depth view of the last rendered map.
     pub fn map_view(&self) -> Option<&wgpu::TextureView> {
         self.map.as_ref().map(|m| &m.2)

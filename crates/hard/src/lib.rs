@@ -6,8 +6,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    frame::uniform_entry,
-    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    fullscreen::{uniform_buffer, FullscreenPipeline},
     params::{expect_f32, expect_u32, find_spec},
     shader::ShaderSpec,
     shader_file,
@@ -90,17 +89,7 @@ pub fn info() -> TechniqueInfo {
 
 impl HardShadows {
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("hard/lookup"),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    depth_texture_entry(1, false),
-                    uniform_entry(2, stage, false),
-                ],
-            });
+        let layout = CentreShadowMap::lookup_layout(gpu, "hard/lookup");
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
             lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
@@ -157,7 +146,6 @@ impl ShadowTechnique for HardShadows {
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         }
-        let map_view = self.shadow_map.map_view().expect("rendered above");
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
@@ -166,24 +154,10 @@ impl ShadowTechnique for HardShadows {
                 _pad: [0.0; 3],
             }),
         );
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hard/lookup"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.shadow_map.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(map_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.params_buffer.as_entire_binding(),
-                },
-            ],
-        });
+        let bind_group = self
+            .shadow_map
+            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
+            .expect("rendered above");
         self.lookup.record(
             frame,
             "hard/lookup",

@@ -6,8 +6,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    frame::uniform_entry,
-    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    fullscreen::{uniform_buffer, FullscreenPipeline},
     params::{expect_choice, expect_f32, expect_u32, find_spec},
     shader::ShaderSpec,
     shader_file,
@@ -160,17 +159,7 @@ pub fn info() -> TechniqueInfo {
 
 impl Pcss {
     pub fn new(gpu: &Gpu, settings: PcssSettings) -> Result<Self, TechniqueError> {
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("pcss/filter"),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    depth_texture_entry(1, false),
-                    uniform_entry(2, stage, false),
-                ],
-            });
+        let layout = CentreShadowMap::lookup_layout(gpu, "pcss/filter");
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
             filter: FullscreenPipeline::new(gpu, "pcss/filter", &SHADERS[0], &[], &layout, None)?,
@@ -249,25 +238,10 @@ impl ShadowTechnique for Pcss {
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
-        let map_view = self.shadow_map.map_view().expect("rendered above");
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pcss/filter"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.shadow_map.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(map_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.params_buffer.as_entire_binding(),
-                },
-            ],
-        });
+        let bind_group = self
+            .shadow_map
+            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
+            .expect("rendered above");
         self.filter.record(
             frame,
             "pcss/filter",
