@@ -187,6 +187,14 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
             technique.as_mut(),
             None,
         )?;
+        if info.id != "reference" {
+            let views = technique.debug_views();
+            ensure!(
+                views.iter().any(|d| d.name == "shadow_map"),
+                "{}: no shadow-map debug view",
+                info.id
+            );
+        }
         let v = renderer.read_visibility()?;
         let mask = renderer.read_receiver_mask()?;
         let positions = renderer.read_world_positions()?;

@@ -323,4 +323,15 @@ impl CentreShadowMap {
     pub fn map_texture(&self) -> Option<&wgpu::Texture> {
         self.map.as_ref().map(|m| &m.1)
     }
+
+    /// The last map as a debug view (`shadow_map`, Depth32Float), for the viewer.
+    pub fn debug_views(&self) -> Vec<crate::DebugView> {
+        self.map_texture()
+            .map(|texture| crate::DebugView {
+                name: "shadow_map".into(),
+                texture: texture.clone(),
+            })
+            .into_iter()
+            .collect()
+    }
 }

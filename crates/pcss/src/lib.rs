@@ -11,8 +11,8 @@ use softshadow_core::{
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs, ShadowTechnique,
-    TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
 };
 
 pub const ID: &str = "pcss";
@@ -265,5 +265,9 @@ impl ShadowTechnique for Pcss {
 
     fn stats(&self) -> TechniqueStats {
         self.stats.clone()
+    }
+
+    fn debug_views(&self) -> Vec<DebugView> {
+        self.shadow_map.debug_views()
     }
 }

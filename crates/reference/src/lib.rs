@@ -5,10 +5,13 @@
 //!   per pixel into the visibility buffer. Cached by a hash of scene, light, camera, parameters
 //!   and resolution, so it is not recomputed while nothing changed.
 //! - [`exact`]: closed-form visibility for rectangles parallel to the light.
+//! - [`raycast`]: CPU ray-cast visibility (BVH over the casters, N x N stratified light samples)
+//!   for any scene.
 //!
 //! Reads: the casters and the G-buffer. Writes: the visibility buffer.
 
 pub mod exact;
+pub mod raycast;
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
