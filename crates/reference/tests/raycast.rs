@@ -280,3 +280,37 @@ fn bvh_agrees_with_brute_force_on_random_segments() -> Result<()> {
     assert!(hits > 40 && misses > 40, "{hits} hits, {misses} misses");
     Ok(())
 }
+
+#[test]
+fn receivers_on_a_caster_do_not_shadow_themselves_through_rounding() -> Result<()> {
+    // blob-floating: the blob casts and receives. Its topmost vertex faces the light; its
+    // bottommost vertex faces away, so every segment to the light crosses the blob.
+    let scene = softshadow_scenes::load("blob-floating:triangles=5000")?.scene;
+    let bvh = CasterBvh::from_scene(&scene);
+    let blob = scene
+        .instances
+        .iter()
+        .find(|i| i.casts_shadow)
+        .expect("the blob");
+    let world: Vec<Vec3> = scene.meshes[blob.mesh]
+        .positions
+        .iter()
+        .map(|p| blob.transform.transform_point3(*p))
+        .collect();
+    let top = world
+        .iter()
+        .copied()
+        .max_by(|a, b| a.y.total_cmp(&b.y))
+        .unwrap();
+    let bottom = world
+        .iter()
+        .copied()
+        .min_by(|a, b| a.y.total_cmp(&b.y))
+        .unwrap();
+    let v_top = visibility(&bvh, &scene.light, 16, top, 7);
+    let v_bottom = visibility(&bvh, &scene.light, 16, bottom, 7);
+    eprintln!("blob top vertex {top}: {v_top}; bottom vertex {bottom}: {v_bottom}");
+    assert!(v_top > 0.9, "top {v_top}");
+    assert_eq!(v_bottom, 0.0);
+    Ok(())
+}
