@@ -112,26 +112,36 @@ pub fn param_specs() -> Vec<ParamSpec> {
 
 /// Stratified sample positions on the light rectangle, light-space `(u, v)` (row-major).
 pub fn light_samples(settings: &ReferenceSettings, half: Vec2) -> Vec<Vec2> {
-    let n = settings.samples_per_axis.max(1);
-    let mut rng = SplitMix64(settings.seed as u64 ^ 0x9e37_79b9_7f4a_7c15);
-    let mut samples = Vec::with_capacity((n * n) as usize);
-    for j in 0..n {
-        for i in 0..n {
-            let (ju, jv) = if settings.jitter {
-                (rng.next_f32(), rng.next_f32())
-            } else {
-                (0.5, 0.5)
-            };
-            let u = ((i as f32 + ju) / n as f32) * 2.0 - 1.0;
-            let v = ((j as f32 + jv) / n as f32) * 2.0 - 1.0;
-            samples.push(Vec2::new(u * half.x, v * half.y));
-        }
-    }
-    samples
+    let jitter_seed = settings
+        .jitter
+        .then_some(settings.seed as u64 ^ 0x9e37_79b9_7f4a_7c15);
+    stratified_samples(settings.samples_per_axis.max(1), half, jitter_seed).collect()
+}
+
+/// `n x n` stratified points on the rectangle `[-half.x, half.x] x [-half.y, half.y]`, row-major.
+/// With `jitter_seed` each point is jittered inside its stratum (deterministically, two draws per
+/// point, u then v); without it, points sit at the strata centres. Shared by the accumulated and
+/// the ray-cast references.
+pub(crate) fn stratified_samples(
+    n: u32,
+    half: Vec2,
+    jitter_seed: Option<u64>,
+) -> impl Iterator<Item = Vec2> {
+    let mut rng = jitter_seed.map(SplitMix64);
+    (0..n * n).map(move |k| {
+        let (i, j) = (k % n, k / n);
+        let (ju, jv) = match rng.as_mut() {
+            Some(rng) => (rng.next_f32(), rng.next_f32()),
+            None => (0.5, 0.5),
+        };
+        let u = ((i as f32 + ju) / n as f32) * 2.0 - 1.0;
+        let v = ((j as f32 + jv) / n as f32) * 2.0 - 1.0;
+        Vec2::new(u * half.x, v * half.y)
+    })
 }
 
 /// Small deterministic generator for the jitter (splitmix64).
-struct SplitMix64(u64);
+pub(crate) struct SplitMix64(pub(crate) u64);
 
 impl SplitMix64 {
     fn next_u64(&mut self) -> u64 {

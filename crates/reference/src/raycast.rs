@@ -394,19 +394,12 @@ pub fn visibility(
     } else {
         1
     };
-    let mut rng = SplitMix64(seed ^ hash_point(point));
     let mut visible = 0u32;
-    for j in 0..n {
-        for i in 0..n {
-            let ju = rng.next_f32();
-            let jv = rng.next_f32();
-            let u = ((i as f32 + ju) / n as f32 * 2.0 - 1.0) * half.x;
-            let v = ((j as f32 + jv) / n as f32 * 2.0 - 1.0) * half.y;
-            let sample = light.center + x * u + y * v;
-            let dir = sample - point;
-            if !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - SEGMENT_EPSILON) {
-                visible += 1;
-            }
+    for s in crate::stratified_samples(n, half, Some(seed ^ hash_point(point))) {
+        let sample = light.center + x * s.x + y * s.y;
+        let dir = sample - point;
+        if !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - SEGMENT_EPSILON) {
+            visible += 1;
         }
     }
     visible as f64 / (n * n) as f64
@@ -444,21 +437,4 @@ fn hash_point(p: Vec3) -> u64 {
         h ^= h >> 29;
     }
     h
-}
-
-/// Small deterministic generator for the jitter (splitmix64).
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
 }
