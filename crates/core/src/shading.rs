@@ -4,6 +4,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::{
     frame::{texture_entry, uniform_entry, Frame},
+    fullscreen::FullscreenPipeline,
     gbuffer::{create_texture, GBuffer},
     shader,
     visibility::VisibilityBuffer,
@@ -27,14 +28,13 @@ struct ShadingParams {
 }
 
 pub struct ShadingPass {
-    pipeline: wgpu::RenderPipeline,
+    pipeline: FullscreenPipeline,
     layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
 }
 
 impl ShadingPass {
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
-        let module = shader::create_module(gpu, &shader::CORE_SHADERS[2], &[])?;
         let stage = wgpu::ShaderStages::FRAGMENT;
         let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
         let layout = gpu
@@ -47,36 +47,16 @@ impl ShadingPass {
                     uniform_entry(2, stage, false),
                 ],
             });
-        let pipeline_layout = gpu
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("core/shading"),
-                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("core/shading"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(SHADED_FORMAT.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        // Same fullscreen shape as every technique lookup pass, writing the sRGB colour target.
+        let pipeline = FullscreenPipeline::with_format(
+            gpu,
+            "core/shading",
+            &shader::CORE_SHADERS[2],
+            &[],
+            &layout,
+            SHADED_FORMAT,
+            None,
+        )?;
         let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("core/shading params"),
             size: std::mem::size_of::<ShadingParams>() as u64,
@@ -140,30 +120,15 @@ impl ShadingPass {
                 },
             ],
         });
-        frame.render_pass(
+        // The fragment shader writes every pixel with alpha 1, so the clear value never shows.
+        self.pipeline.record(
+            frame,
             "shading",
-            wgpu::RenderPassDescriptor {
-                label: None,
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            },
-            |pass| {
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, frame_bind_group, &[]);
-                pass.set_bind_group(1, &bind_group, &[]);
-                pass.draw(0..3, 0..1);
-            },
+            frame_bind_group,
+            &bind_group,
+            &[],
+            target,
+            Some(0.0),
         );
     }
 }
