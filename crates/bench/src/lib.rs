@@ -18,6 +18,7 @@ use softshadow_core::{
     Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu, ShadingMode,
     ShadowTechnique, TechniqueError,
 };
+use softshadow_metrics::ErrorReport;
 use thiserror::Error;
 
 pub use results::{Results, Run, Status};
@@ -39,6 +40,8 @@ pub enum BenchError {
     NoFrames,
     #[error("cannot write `{path}`: {message}. Check the --out folder exists and is writable")]
     Write { path: String, message: String },
+    #[error("unknown suite `{name}`: built-in suites are {known}; or give a sweep file with --sweep FILE")]
+    UnknownSuite { name: String, known: String },
     #[error("sweep file `{path}`: {message}")]
     Sweep { path: String, message: String },
     #[error(transparent)]
@@ -74,6 +77,10 @@ pub struct BenchOptions {
     pub reference_params: Vec<(String, ParamValue)>,
     /// Write EXR / PNG images.
     pub images: bool,
+    /// Exact ground truth for `error.vs_exact` and `error.reference_vs_exact` (only with
+    /// `error`): `None` skips it; `Some(n)` uses the closed form when every caster is a rectangle
+    /// parallel to the light, else the CPU ray-cast reference with `n x n` light samples.
+    pub exact_samples_per_axis: Option<u32>,
 }
 
 impl Default for BenchOptions {
@@ -84,9 +91,14 @@ impl Default for BenchOptions {
             error: true,
             reference_params: Vec::new(),
             images: true,
+            exact_samples_per_axis: Some(DEFAULT_EXACT_SAMPLES),
         }
     }
 }
+
+/// Light samples per axis of the ray-cast ground truth by default: its own error is then about
+/// 0.001 (mean) on penumbra pixels (docs/TECHNIQUES.md, `reference`).
+pub const DEFAULT_EXACT_SAMPLES: u32 = 16;
 
 /// Parses `WIDTHxHEIGHT`.
 pub fn parse_size(text: &str) -> Result<(u32, u32), BenchError> {
@@ -148,6 +160,14 @@ struct ReferenceResult {
     shaded_rgb: Vec<u8>,
     label: String,
     images: BTreeMap<String, String>,
+    exact: Option<ExactResult>,
+}
+
+/// The exact ground truth of one scene and size, and the reference's error against it.
+struct ExactResult {
+    visibility: Vec<f32>,
+    label: String,
+    reference_vs_exact: ErrorReport,
 }
 
 /// Runs benchmark runs on one GPU, caching scenes, renderers and reference images between runs.
@@ -327,9 +347,24 @@ impl Bench {
                 spec.width,
                 spec.height,
             )?);
+            let (exact, vs_exact, reference_vs_exact) = match &reference.exact {
+                Some(exact) => (
+                    Some(exact.label.clone()),
+                    Some(softshadow_metrics::compare(
+                        &visibility,
+                        &exact.visibility,
+                        &mask,
+                    )?),
+                    Some(exact.reference_vs_exact.clone()),
+                ),
+                None => (None, None, None),
+            };
             run.error = Some(results::ErrorFields {
                 reference: reference.label.clone(),
                 report,
+                exact,
+                vs_exact,
+                reference_vs_exact,
             });
             run.images.extend(reference.images.clone());
             if write_images {
@@ -389,6 +424,37 @@ impl Bench {
                 .map(|(s, v)| format!("{}={v}", s.name))
                 .collect();
             let label = format!("reference({})", settings.join(","));
+            let exact = match self.options.exact_samples_per_axis {
+                Some(samples) => {
+                    puffin::profile_scope!("exact ground truth");
+                    let positions = renderer.read_world_positions()?;
+                    let mask = renderer.read_receiver_mask()?;
+                    let (exact, label) = match softshadow_reference::exact::visibility_image(
+                        &scene.scene,
+                        &positions,
+                        &mask,
+                    ) {
+                        Some(v) => (v, "closed-form".to_string()),
+                        None => (
+                            softshadow_reference::raycast::visibility_image(
+                                &scene.scene,
+                                &positions,
+                                &mask,
+                                samples,
+                            ),
+                            format!("raycast(samples_per_axis={samples})"),
+                        ),
+                    };
+                    let reference_vs_exact =
+                        softshadow_metrics::compare(&visibility, &exact, &mask)?;
+                    Some(ExactResult {
+                        visibility: exact,
+                        label,
+                        reference_vs_exact,
+                    })
+                }
+                None => None,
+            };
             let mut images = BTreeMap::new();
             if self.options.images {
                 let stem = format!(
@@ -409,6 +475,16 @@ impl Bench {
                     &shaded_rgb,
                 )?;
                 images.insert("reference_shaded".into(), name);
+                if let Some(exact) = &exact {
+                    let name = format!("{stem}_exact.exr");
+                    output::write_exr_gray(
+                        &out_dir.join(&name),
+                        spec.width,
+                        spec.height,
+                        &exact.visibility,
+                    )?;
+                    images.insert("exact".into(), name);
+                }
             }
             self.references.insert(
                 key.clone(),
@@ -417,6 +493,7 @@ impl Bench {
                     shaded_rgb,
                     label,
                     images,
+                    exact,
                 },
             );
         }

@@ -92,6 +92,18 @@ pub struct ErrorFields {
     pub reference: String,
     #[serde(flatten)]
     pub report: ErrorReport,
+    /// The exact ground truth used for the two fields below: `closed-form` (every caster is a
+    /// rectangle parallel to the light) or `raycast(samples_per_axis=N)`. Absent when the
+    /// benchmark ran without it (`--no-exact`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exact: Option<String>,
+    /// The technique against the exact ground truth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vs_exact: Option<ErrorReport>,
+    /// The reference's own error against the exact ground truth (issue 6): how far the yardstick
+    /// of `report` is from the truth on this scene.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_vs_exact: Option<ErrorReport>,
 }
 
 /// Percentile by linear interpolation between closest ranks (`q` in [0, 1]).

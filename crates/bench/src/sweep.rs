@@ -162,9 +162,74 @@ impl Sweep {
     }
 }
 
+/// Suites built into the workbench (`workbench bench --suite NAME`), besides the sweep files in
+/// `benches/` that `--suite` also accepts by file stem.
+pub const SUITES: &[(&str, &str)] = &[(
+    "stiff",
+    "every registered technique, default settings, on every `stiff-*` scene at 128x128 (issue 6; see docs/STABILITY.md)",
+)];
+
+impl Sweep {
+    /// A built-in suite by name (see [`SUITES`]). Generated, not read from a file, so that a newly
+    /// registered technique or stiff case joins it without editing anything.
+    pub fn suite(name: &str) -> Result<Self, BenchError> {
+        match name {
+            "stiff" => {
+                let scenes: Vec<String> = softshadow_scenes::builtin_scenes()
+                    .into_iter()
+                    .filter(|s| s.id.starts_with(softshadow_scenes::stiff::PREFIX))
+                    .map(|s| s.id.to_string())
+                    .collect();
+                let runs = registry::techniques()
+                    .iter()
+                    .flat_map(|t| {
+                        scenes.iter().map(|scene| RunSpec {
+                            scene: scene.clone(),
+                            technique: t.id.to_string(),
+                            params: Vec::new(),
+                            width: 128,
+                            height: 128,
+                        })
+                    })
+                    .collect();
+                Ok(Self {
+                    runs,
+                    frames: Some(3),
+                    warmup: Some(1),
+                    reference_params: Vec::new(),
+                })
+            }
+            _ => Err(BenchError::UnknownSuite {
+                name: name.into(),
+                known: SUITES
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_stiff_suite_runs_every_technique_on_every_stiff_case() {
+        let sweep = Sweep::suite("stiff").unwrap();
+        let stiff = softshadow_scenes::builtin_scenes()
+            .iter()
+            .filter(|s| s.id.starts_with("stiff-"))
+            .count();
+        assert!(stiff >= 12, "{stiff} stiff cases");
+        assert_eq!(sweep.runs.len(), stiff * registry::techniques().len());
+        let e = Sweep::suite("nope").unwrap_err().to_string();
+        assert!(
+            e.contains("unknown suite `nope`") && e.contains("stiff"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn grid_expands_to_the_product() {

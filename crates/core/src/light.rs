@@ -159,42 +159,88 @@ impl SlopeFrustum {
     /// the light plane are ignored (a one-sided light cannot reach them). Returns `None` when
     /// nothing lies in front of the light.
     pub fn fit(eye: Vec2, light_space_points: &[Vec3]) -> Option<Self> {
-        let z_floor = 1e-4_f32;
-        let mut zmin = f32::INFINITY;
-        let mut zmax = f32::NEG_INFINITY;
-        for p in light_space_points {
-            if p.z > z_floor {
-                zmin = zmin.min(p.z);
-                zmax = zmax.max(p.z);
+        let (zmin, zmax) = depth_range(light_space_points)?;
+        let window = slope_window(eye, light_space_points, (zmin * 0.5).max(Z_FLOOR))?;
+        Some(Self::from_window(eye, window, zmin * 0.98, zmax * 1.02))
+    }
+
+    /// A window over `casters` (light-space points, e.g. the corners of their bounds) clipped to
+    /// the slopes at which `receivers` are seen from `eye`, for hard shadow maps: a caster seen
+    /// at a slope where no receiver is cannot shadow anything through this eye, and clipping
+    /// keeps the texels where they are needed when the casters subtend a huge angle (an occluder
+    /// next to the light, `stiff-depth-range`). When `casters_cross_light_plane`, the casters'
+    /// slopes are unbounded, so the receivers alone bound the window and the near plane drops to
+    /// 1e-3 of the far one (`stiff-partly-outside`). `None` when nothing in front of the light
+    /// can shadow a receiver.
+    pub fn fit_clipped(
+        eye: Vec2,
+        casters: &[Vec3],
+        casters_cross_light_plane: bool,
+        receivers: &[Vec3],
+    ) -> Option<Self> {
+        let (zmin, zmax) = depth_range(casters)?;
+        let (rzmin, _) = depth_range(receivers)?;
+        let receiver_window = slope_window(eye, receivers, (rzmin * 0.5).max(Z_FLOOR))?;
+        let (window, near) = if casters_cross_light_plane {
+            (receiver_window, (zmax * 1e-3).max(Z_FLOOR))
+        } else {
+            let caster_window = slope_window(eye, casters, (zmin * 0.5).max(Z_FLOOR))?;
+            let clipped = [
+                caster_window[0].max(receiver_window[0]),
+                caster_window[1].min(receiver_window[1]),
+                caster_window[2].max(receiver_window[2]),
+                caster_window[3].min(receiver_window[3]),
+            ];
+            if clipped[0] > clipped[1] || clipped[2] > clipped[3] {
+                return None;
+            }
+            (clipped, zmin * 0.98)
+        };
+        Some(Self::from_window(eye, window, near, zmax * 1.02))
+    }
+
+    /// Like [`Self::fit`] over `casters`, for techniques that need every caster (penumbrae reach
+    /// receivers from casters seen at other slopes). When `casters_cross_light_plane` their
+    /// slopes are unbounded: the window then also covers the receivers' slopes (where the
+    /// unbounded part can matter) and the near plane drops to 1e-3 of the far one.
+    pub fn fit_casters(
+        eye: Vec2,
+        casters: &[Vec3],
+        casters_cross_light_plane: bool,
+        receivers: &[Vec3],
+    ) -> Option<Self> {
+        if !casters_cross_light_plane {
+            return Self::fit(eye, casters);
+        }
+        let (zmin, zmax) = depth_range(casters)?;
+        let mut window = slope_window(eye, casters, (zmin * 0.5).max(Z_FLOOR))?;
+        if let Some((rzmin, _)) = depth_range(receivers) {
+            if let Some(r) = slope_window(eye, receivers, (rzmin * 0.5).max(Z_FLOOR)) {
+                window = [
+                    window[0].min(r[0]),
+                    window[1].max(r[1]),
+                    window[2].min(r[2]),
+                    window[3].max(r[3]),
+                ];
             }
         }
-        if !zmin.is_finite() {
-            return None;
-        }
-        // Corners behind the light plane are clamped onto a plane just in front of it, so the
-        // window still covers the part of the box the light can see.
-        let z_clamp = (zmin * 0.5).max(z_floor);
-        let (mut s0, mut s1, mut t0, mut t1) = (
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-        );
-        for p in light_space_points {
-            let z = p.z.max(z_clamp);
-            let s = (p.x - eye.x) / z;
-            let t = (p.y - eye.y) / z;
-            s0 = s0.min(s);
-            s1 = s1.max(s);
-            t0 = t0.min(t);
-            t1 = t1.max(t);
-        }
-        // Square window, 2 % margin, and a floor so a flat scene still gets a usable window.
+        Some(Self::from_window(
+            eye,
+            window,
+            (zmax * 1e-3).max(Z_FLOOR),
+            zmax * 1.02,
+        ))
+    }
+
+    /// Square window around `[s0, s1, t0, t1]` with a 2 % margin and a floor (so a flat scene
+    /// still gets a usable window), between `near` and `far`.
+    fn from_window(eye: Vec2, window: [f32; 4], near: f32, far: f32) -> Self {
+        let [s0, s1, t0, t1] = window;
         let half = ((s1 - s0).max(t1 - t0) * 0.5 * 1.02).max(1e-3);
         let (sc, tc) = ((s0 + s1) * 0.5, (t0 + t1) * 0.5);
-        let near = (zmin * 0.98).max(z_floor);
-        let far = (zmax * 1.02).max(near * 1.01 + 1e-4);
-        Some(Self {
+        let near = near.max(Z_FLOOR);
+        let far = far.max(near * 1.01 + 1e-4);
+        Self {
             eye,
             s_min: sc - half,
             s_max: sc + half,
@@ -202,7 +248,7 @@ impl SlopeFrustum {
             t_max: tc + half,
             near,
             far,
-        })
+        }
     }
 
     /// Light space to clip space for this window (off-axis perspective, depth in [0, 1] over
@@ -224,4 +270,35 @@ impl SlopeFrustum {
         );
         proj * Mat4::from_translation(Vec3::new(-self.eye.x, -self.eye.y, 0.0))
     }
+}
+
+/// Depths closer than this to the light plane are treated as on it.
+const Z_FLOOR: f32 = 1e-4;
+
+/// Depth range of the points strictly in front of the light (z > [`Z_FLOOR`]).
+fn depth_range(points: &[Vec3]) -> Option<(f32, f32)> {
+    let (mut zmin, mut zmax) = (f32::INFINITY, f32::NEG_INFINITY);
+    for p in points.iter().filter(|p| p.z > Z_FLOOR) {
+        zmin = zmin.min(p.z);
+        zmax = zmax.max(p.z);
+    }
+    zmin.is_finite().then_some((zmin, zmax))
+}
+
+/// Slope window `[s0, s1, t0, t1]` of `points` seen from `eye`. Points closer than `z_clamp` to
+/// the light plane (or behind it) are moved onto the plane `z_clamp`, so the window still covers
+/// the part of a box the light can see.
+fn slope_window(eye: Vec2, points: &[Vec3], z_clamp: f32) -> Option<[f32; 4]> {
+    let mut w = [
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    for p in points {
+        let z = p.z.max(z_clamp);
+        let (s, t) = ((p.x - eye.x) / z, (p.y - eye.y) / z);
+        w = [w[0].min(s), w[1].max(s), w[2].min(t), w[3].max(t)];
+    }
+    (w[0].is_finite() && w[1].is_finite() && w[2].is_finite() && w[3].is_finite()).then_some(w)
 }

@@ -64,7 +64,23 @@ pub struct SceneGpu {
     pub caster_triangle_count: usize,
     /// World positions of caster vertices (for tight light-space bounds).
     caster_positions: Vec<Vec3>,
-    light_bounds_cache: Mutex<Option<(u64, Option<Aabb>)>>,
+    /// World positions of receiver vertices (to clip hard shadow maps to what receivers see).
+    receiver_positions: Vec<Vec3>,
+    light_bounds_cache: Mutex<Option<(u64, LightBounds)>>,
+}
+
+/// Light-space bounds of the scene's casters and receivers for one light (the part in front of
+/// the light plane), with what fitting a shadow-map window needs to know about the rest.
+#[derive(Clone, Copy, Debug)]
+pub struct LightBounds {
+    /// Casters in front of the light plane; `None` when nothing can cast a shadow.
+    pub casters: Option<Aabb>,
+    /// Some caster vertex lies at or behind the light plane while others are in front: the
+    /// casters reach arbitrarily close to the light plane, so their slopes are unbounded (the
+    /// `stiff-partly-outside` case).
+    pub casters_cross_light_plane: bool,
+    /// Receivers in front of the light plane; `None` when no receiver can be lit.
+    pub receivers: Option<Aabb>,
 }
 
 impl SceneGpu {
@@ -76,6 +92,7 @@ impl SceneGpu {
         let (mut bounds, mut caster_bounds, mut receiver_bounds) =
             (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
         let mut caster_positions = Vec::new();
+        let mut receiver_positions = Vec::new();
         for instance in &scene.instances {
             let Some(mesh) = scene.meshes.get(instance.mesh) else {
                 continue;
@@ -108,6 +125,7 @@ impl SceneGpu {
                 }
                 if instance.receives_shadow {
                     receiver_bounds.extend(world);
+                    receiver_positions.push(world);
                 }
             }
             let indices = mesh.indices.iter().map(|i| base + i);
@@ -152,6 +170,7 @@ impl SceneGpu {
             caster_bounds,
             receiver_bounds,
             caster_positions,
+            receiver_positions,
             light_bounds_cache: Mutex::new(None),
         }
     }
@@ -163,6 +182,11 @@ impl SceneGpu {
     /// Light-space bounds of the part of the casters in front of the light plane, or `None` when
     /// no caster is in front of the light (nothing can cast a shadow). Cached per light.
     pub fn caster_bounds_in_light(&self, light: &AreaLight) -> Option<Aabb> {
+        self.light_bounds(light).casters
+    }
+
+    /// Light-space bounds of casters and receivers for `light`. Cached per light.
+    pub fn light_bounds(&self, light: &AreaLight) -> LightBounds {
         let key = light.content_hash();
         if let Ok(cache) = self.light_bounds_cache.lock() {
             if let Some((k, b)) = *cache {
@@ -172,14 +196,26 @@ impl SceneGpu {
             }
         }
         let view = light.view();
-        let mut b = Aabb::EMPTY;
-        for p in &self.caster_positions {
-            let q = view.transform_point3(*p);
-            if q.z > 0.0 {
-                b.extend(q);
+        let in_front = |positions: &[Vec3]| {
+            let mut b = Aabb::EMPTY;
+            let mut behind = false;
+            for p in positions {
+                let q = view.transform_point3(*p);
+                if q.z > 0.0 {
+                    b.extend(q);
+                } else {
+                    behind = true;
+                }
             }
-        }
-        let result = (!b.is_empty()).then_some(b);
+            ((!b.is_empty()).then_some(b), behind)
+        };
+        let (casters, casters_behind) = in_front(&self.caster_positions);
+        let (receivers, _) = in_front(&self.receiver_positions);
+        let result = LightBounds {
+            casters,
+            casters_cross_light_plane: casters.is_some() && casters_behind,
+            receivers,
+        };
         if let Ok(mut cache) = self.light_bounds_cache.lock() {
             *cache = Some((key, result));
         }

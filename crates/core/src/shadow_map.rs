@@ -38,11 +38,26 @@ impl ShadowViewUniform {
 }
 
 /// The tightest square slope window from `eye` (light-space, on the light plane) over the casters,
-/// or `None` when no caster lies in front of the light (then every receiver is lit).
+/// or `None` when no caster lies in front of the light (then every receiver is lit). For soft
+/// techniques, which need every caster (see [`SlopeFrustum::fit_casters`]).
 pub fn fit_caster_view(scene: &SceneGpu, light: &AreaLight, eye: Vec2) -> Option<SlopeFrustum> {
-    let bounds = scene.caster_bounds_in_light(light)?;
-    let corners: Vec<Vec3> = bounds.corners().to_vec();
-    SlopeFrustum::fit(eye, &corners)
+    let bounds = scene.light_bounds(light);
+    let casters: Vec<Vec3> = bounds.casters?.corners().to_vec();
+    let receivers: Vec<Vec3> = bounds
+        .receivers
+        .map(|r| r.corners().to_vec())
+        .unwrap_or_default();
+    SlopeFrustum::fit_casters(eye, &casters, bounds.casters_cross_light_plane, &receivers)
+}
+
+/// The window of a hard shadow map from `eye`: the casters clipped to the slopes where receivers
+/// are (see [`SlopeFrustum::fit_clipped`]), or `None` when no caster can shadow a receiver
+/// through `eye`. Used by `hard` and by every sample of the accumulated reference.
+pub fn fit_hard_view(scene: &SceneGpu, light: &AreaLight, eye: Vec2) -> Option<SlopeFrustum> {
+    let bounds = scene.light_bounds(light);
+    let casters: Vec<Vec3> = bounds.casters?.corners().to_vec();
+    let receivers: Vec<Vec3> = bounds.receivers?.corners().to_vec();
+    SlopeFrustum::fit_clipped(eye, &casters, bounds.casters_cross_light_plane, &receivers)
 }
 
 /// Uniform stride for dynamic offsets (the WebGPU minimum alignment).
@@ -226,6 +241,8 @@ pub fn layer_view(texture: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
 pub struct CentreShadowMap {
     depth: DepthMapRenderer,
     map: Option<(u32, wgpu::Texture, wgpu::TextureView)>,
+    /// Fit with [`fit_hard_view`] (hard shadows) instead of [`fit_caster_view`].
+    clip_to_receivers: bool,
     /// `ShadowView` uniform of the last rendered map.
     pub view_buffer: wgpu::Buffer,
 }
@@ -235,12 +252,20 @@ impl CentreShadowMap {
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
             map: None,
+            clip_to_receivers: false,
             view_buffer: crate::fullscreen::uniform_buffer(
                 gpu,
                 "centre shadow view",
                 &ShadowViewUniform::zeroed(),
             ),
         })
+    }
+
+    /// Fits the map to the receivers' slopes too ([`fit_hard_view`]): for techniques that only
+    /// look up the map at each receiver's own slope (hard shadows).
+    pub fn clipped_to_receivers(mut self) -> Self {
+        self.clip_to_receivers = true;
+        self
     }
 
     /// Renders the casters into a `size`² map as the pass `label`. Returns `false` (and renders
@@ -252,7 +277,12 @@ impl CentreShadowMap {
         size: u32,
         label: &str,
     ) -> bool {
-        let Some(frustum) = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO) else {
+        let fit = if self.clip_to_receivers {
+            fit_hard_view
+        } else {
+            fit_caster_view
+        };
+        let Some(frustum) = fit(inputs.scene, inputs.light, Vec2::ZERO) else {
             return false;
         };
         let gpu = frame.gpu;

@@ -91,7 +91,7 @@ impl HardShadows {
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
         let layout = CentreShadowMap::lookup_layout(gpu, "hard/lookup");
         Ok(Self {
-            shadow_map: CentreShadowMap::new(gpu)?,
+            shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
             lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
             params_buffer: uniform_buffer(gpu, "hard/params", &HardParams::zeroed()),
             layout,

@@ -3,7 +3,11 @@
 //! an axis-aligned rectangle, and the visible fraction is one minus the area of the union of those
 //! rectangles clipped to the light, over the light's area.
 
-use softshadow_core::glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use softshadow_core::{
+    glam::{Vec2, Vec3},
+    Scene,
+};
 
 /// A rectangle `[min, max]` (light-space x, y) in the plane `z` (distance from the light plane).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,6 +92,91 @@ pub fn union_area(rects: &[[f64; 4]]) -> f64 {
         area += covered * (xb - xa);
     }
     area
+}
+
+/// The scene's casters as rectangles parallel to the light, when every caster instance is one:
+/// all its referenced vertices share one light-space depth (within 1e-5 relative) and sit on the
+/// corners of its light-space bounding rectangle, and its triangles cover that rectangle a whole
+/// number of times (1 for a quad, 2 for a two-sided quad or a flattened box). `None` when any
+/// caster is something else: use the ray-cast reference then. `Some(vec![])` without casters.
+pub fn parallel_rects(scene: &Scene) -> Option<Vec<ParallelRect>> {
+    let mut rects = Vec::new();
+    for instance in scene.instances.iter().filter(|i| i.casts_shadow) {
+        let mesh = scene.meshes.get(instance.mesh)?;
+        if mesh.indices.is_empty() {
+            continue;
+        }
+        let corners: Vec<Vec3> = mesh
+            .indices
+            .iter()
+            .map(|&i| {
+                let p = mesh.positions.get(i as usize)?;
+                Some(
+                    scene
+                        .light
+                        .to_light_space(instance.transform.transform_point3(*p)),
+                )
+            })
+            .collect::<Option<_>>()?;
+        let (min, max) = corners.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let size = (max - min).truncate();
+        let scale = size.max_element().max(max.z.abs()).max(1e-6);
+        if !(max.z - min.z <= 1e-5 * scale) || size.min_element() <= 1e-6 * scale {
+            return None;
+        }
+        let on_corner = |p: &Vec3| {
+            let tol = 1e-5 * scale;
+            ((p.x - min.x).abs() <= tol || (p.x - max.x).abs() <= tol)
+                && ((p.y - min.y).abs() <= tol || (p.y - max.y).abs() <= tol)
+        };
+        if !corners.iter().all(on_corner) {
+            return None;
+        }
+        let covered: f64 = corners
+            .chunks_exact(3)
+            .map(|t| {
+                let (a, b, c) = (t[0].truncate(), t[1].truncate(), t[2].truncate());
+                0.5 * ((b - a).perp_dot(c - a) as f64).abs()
+            })
+            .sum();
+        let times = covered / (size.x as f64 * size.y as f64);
+        if (times - times.round()).abs() > 1e-3 || times.round() < 1.0 {
+            return None;
+        }
+        rects.push(ParallelRect {
+            min: min.truncate(),
+            max: max.truncate(),
+            z: 0.5 * (min.z + max.z),
+        });
+    }
+    Some(rects)
+}
+
+/// Exact per-pixel visibility for a scene whose casters are all [`parallel_rects`]: 1.0 where
+/// the position is `None` or the pixel is not a receiver, else [`visible_fraction`] of the
+/// light-space point. `None` when the casters are not all rectangles parallel to the light.
+pub fn visibility_image(
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    receiver_mask: &[bool],
+) -> Option<Vec<f32>> {
+    let rects = parallel_rects(scene)?;
+    let half = scene.light.half_extent();
+    Some(
+        positions
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| match p {
+                Some(p) if receiver_mask.get(i).copied().unwrap_or(false) => {
+                    visible_fraction(half, &rects, scene.light.to_light_space(*p)) as f32
+                }
+                _ => 1.0,
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]

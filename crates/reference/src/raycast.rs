@@ -12,8 +12,9 @@
 //! of them for a straight edge, so the error at a penumbra pixel is `O(1/N)` (worst case about
 //! `2/N` for an edge crossing the light diagonally; typically far smaller because the jitter
 //! errors of the cut strata partly cancel). Fully lit and umbra points are exact (0 error) as long
-//! as every sample agrees. The segment epsilon ([`SEGMENT_EPSILON`]) ignores occluders within
-//! `SEGMENT_EPSILON * |s - p|` of either end, which can miss contact shadows thinner than that.
+//! as every sample agrees. The segment epsilons ignore occluders within
+//! `SEGMENT_EPSILON * |s - p|` of the receiver (which can miss contact shadows thinner than that)
+//! and within `LIGHT_END_EPSILON * |s - p|` of the light.
 //!
 //! **Cost.** Building the [`CasterBvh`] is `O(T log T)` for `T` caster triangles (binned SAH).
 //! Each point costs `N^2` any-hit queries of about `O(log T)` node visits each, so an image is
@@ -27,11 +28,16 @@ use softshadow_core::{
     AreaLight, Scene,
 };
 
-/// Relative epsilon at both ends of every shadow segment: hits with segment parameter
-/// `t <= SEGMENT_EPSILON` or `t >= 1 - SEGMENT_EPSILON` (that is, within `SEGMENT_EPSILON` times
-/// the segment length of the receiver or of the light sample) are ignored. It keeps the receiver's
-/// own surface (and the light's) from shadowing the receiver through rounding.
+/// Relative epsilon at the receiver end of every shadow segment: hits with segment parameter
+/// `t <= SEGMENT_EPSILON` (within `SEGMENT_EPSILON` times the segment length of the receiver) are
+/// ignored. It keeps the receiver's own surface from shadowing the receiver through rounding.
 pub const SEGMENT_EPSILON: f32 = 1e-4;
+
+/// Relative epsilon at the light end: hits with `t >= 1 - LIGHT_END_EPSILON` are ignored. Much
+/// smaller than [`SEGMENT_EPSILON`] because nothing sits on the light but occluders may come
+/// within 1e-4 of the light's distance (the `stiff-near-light` and `stiff-depth-range` cases);
+/// 1e-6 is about 8 f32 ulps of t = 1.
+pub const LIGHT_END_EPSILON: f32 = 1e-6;
 
 /// Seed of the jitter used by [`visibility_image`].
 pub const IMAGE_SEED: u64 = 1;
@@ -366,8 +372,8 @@ pub fn ray_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3; 3]) -> Option<f32> {
 /// `point` (so neighbouring pixels get independent jitter, and equal inputs equal results).
 ///
 /// A sample counts as visible when [`CasterBvh::any_hit`] finds nothing on the segment from
-/// `point` to the sample with parameter in `(SEGMENT_EPSILON, 1 - SEGMENT_EPSILON)` (see
-/// [`SEGMENT_EPSILON`]).
+/// `point` to the sample with parameter in `(SEGMENT_EPSILON, 1 - LIGHT_END_EPSILON)` (see
+/// [`SEGMENT_EPSILON`], [`LIGHT_END_EPSILON`]).
 ///
 /// Returns 0 when `point` is at or behind the light plane (the light is one-sided) or is not
 /// finite. A zero-width or zero-height light degenerates to its centre line (the samples keep
@@ -398,7 +404,7 @@ pub fn visibility(
     for s in crate::stratified_samples(n, half, Some(seed ^ hash_point(point))) {
         let sample = light.center + x * s.x + y * s.y;
         let dir = sample - point;
-        if !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - SEGMENT_EPSILON) {
+        if !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON) {
             visible += 1;
         }
     }

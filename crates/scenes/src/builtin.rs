@@ -36,7 +36,7 @@ pub struct ParamInfo {
 }
 
 impl ParamInfo {
-    const fn new(
+    pub(crate) const fn new(
         name: &'static str,
         default: f64,
         min: f64,
@@ -53,7 +53,7 @@ impl ParamInfo {
         }
     }
 
-    const fn min_exclusive(mut self) -> Self {
+    pub(crate) const fn min_exclusive(mut self) -> Self {
         self.min_exclusive = true;
         self
     }
@@ -96,7 +96,7 @@ impl ParamInfo {
 const LIGHT_WIDTH_RANGE: (f64, f64) = (0.0, 4.0);
 const TRIANGLES_RANGE: (f64, f64) = (1_000.0, 2_000_000.0);
 
-fn light_width(default: f64) -> ParamInfo {
+pub(crate) fn light_width(default: f64) -> ParamInfo {
     ParamInfo::new(
         "light_width",
         default,
@@ -213,6 +213,7 @@ pub fn builtin_scenes() -> Vec<BuiltinInfo> {
             params: vec![light_width(1.2)],
         });
     }
+    list.extend(crate::stiff::infos());
     list
 }
 
@@ -321,6 +322,7 @@ pub fn build(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> {
         "single-silhouette" => Ok(single_silhouette(width)),
         "pdsm-cylinder" => Ok(pdsm_cylinder(width)),
         "pdsm-quads" => Ok(pdsm_quads(width)),
+        _ if id.starts_with(crate::stiff::PREFIX) => crate::stiff::build(id, &value),
         _ => match POLYCOUNTS.iter().find(|(pid, _)| *pid == id) {
             Some(&(_, total)) => Ok(polycount(id, total, width)),
             None => Err(SceneError::UnknownScene { spec: id.into() }),
@@ -527,7 +529,7 @@ fn polycount(id: &str, total: u32, light_width: f32) -> Scene {
 }
 
 /// A square light facing straight down, its +y (height edge) along world +z.
-fn down_light(center: Vec3, width: f32) -> AreaLight {
+pub(crate) fn down_light(center: Vec3, width: f32) -> AreaLight {
     AreaLight {
         center,
         direction: Vec3::NEG_Y,
@@ -539,7 +541,7 @@ fn down_light(center: Vec3, width: f32) -> AreaLight {
 }
 
 /// The builtin cameras: fov 45, near 0.05, far 50, +y up.
-fn camera(eye: Vec3, target: Vec3) -> Camera {
+pub(crate) fn camera(eye: Vec3, target: Vec3) -> Camera {
     Camera {
         eye,
         target,
@@ -551,14 +553,14 @@ fn camera(eye: Vec3, target: Vec3) -> Camera {
 }
 
 /// Small helper that collects meshes and instances.
-struct Builder {
+pub(crate) struct Builder {
     name: String,
     meshes: Vec<Mesh>,
     instances: Vec<Instance>,
 }
 
 impl Builder {
-    fn new(name: &str) -> Self {
+    pub(crate) fn new(name: &str) -> Self {
         Self {
             name: name.into(),
             meshes: Vec::new(),
@@ -566,14 +568,14 @@ impl Builder {
         }
     }
 
-    fn mesh(&mut self, mut mesh: Mesh, name: &str) -> usize {
+    pub(crate) fn mesh(&mut self, mut mesh: Mesh, name: &str) -> usize {
         mesh.name = name.into();
         self.meshes.push(mesh);
         self.meshes.len() - 1
     }
 
     /// The 8 x 8 ground plane at y = 0: receiver only.
-    fn ground(&mut self) {
+    pub(crate) fn ground(&mut self) {
         let mesh = self.mesh(primitives::plane(8.0, 8.0), "ground");
         self.instances.push(Instance {
             casts_shadow: false,
@@ -583,7 +585,7 @@ impl Builder {
     }
 
     /// A caster; `receives` also makes it a receiver (self-shadowing).
-    fn caster(&mut self, mesh: usize, transform: Mat4, receives: bool) {
+    pub(crate) fn caster(&mut self, mesh: usize, transform: Mat4, receives: bool) {
         self.instances.push(Instance {
             albedo: Vec3::new(0.75, 0.55, 0.4),
             casts_shadow: true,
@@ -592,7 +594,7 @@ impl Builder {
         });
     }
 
-    fn finish(self, light: AreaLight, camera: Camera) -> Scene {
+    pub(crate) fn finish(self, light: AreaLight, camera: Camera) -> Scene {
         Scene {
             name: self.name,
             meshes: self.meshes,

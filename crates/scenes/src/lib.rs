@@ -15,6 +15,7 @@ mod error;
 pub mod file;
 pub mod gltf_import;
 pub mod primitives;
+pub mod stiff;
 
 use std::path::Path;
 

@@ -15,7 +15,7 @@ pub const BLOB_TRIANGLES_RANGE: (u32, u32) = (8, 8_000_000);
 
 /// Appends the quad `a, b, c, d` (counter-clockwise around `normal`) as two triangles with four
 /// vertices of their own.
-fn push_quad(mesh: &mut Mesh, corners: [Vec3; 4], normal: Vec3) {
+pub(crate) fn push_quad(mesh: &mut Mesh, corners: [Vec3; 4], normal: Vec3) {
     let base = mesh.positions.len() as u32;
     mesh.positions.extend_from_slice(&corners);
     mesh.normals.extend_from_slice(&[normal; 4]);
@@ -25,7 +25,7 @@ fn push_quad(mesh: &mut Mesh, corners: [Vec3; 4], normal: Vec3) {
 
 /// Corners of a face centred at `center` spanned by the half-extent vectors `u` and `v`, ordered
 /// counter-clockwise around `u × v`.
-fn face(center: Vec3, u: Vec3, v: Vec3) -> [Vec3; 4] {
+pub(crate) fn face(center: Vec3, u: Vec3, v: Vec3) -> [Vec3; 4] {
     [
         center - u - v,
         center + u - v,

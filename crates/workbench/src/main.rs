@@ -3,7 +3,7 @@
 //! - `workbench list [--json]`: scenes, techniques and every parameter with range and default.
 //! - `workbench bench --scene ID|FILE --technique ID [--param name=value]... --out DIR`
 //! - `workbench bench --sweep FILE --out DIR`
-//! - `workbench bench --suite NAME --out DIR` (named sweeps shipped in `benches/`)
+//! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `benches/NAME.toml`)
 
 use std::{path::PathBuf, process::ExitCode};
 
@@ -39,10 +39,10 @@ enum Command {
 #[derive(Args)]
 struct BenchArgs {
     /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
-    #[arg(long, conflicts_with = "sweep")]
+    #[arg(long, conflicts_with_all = ["sweep", "suite"])]
     scene: Option<String>,
     /// Technique id (see `list`).
-    #[arg(long, conflicts_with = "sweep")]
+    #[arg(long, conflicts_with_all = ["sweep", "suite"])]
     technique: Option<String>,
     /// Technique parameter, `name=value` (repeatable).
     #[arg(long = "param", value_name = "NAME=VALUE")]
@@ -60,11 +60,21 @@ struct BenchArgs {
     #[arg(long)]
     warmup: Option<u32>,
     /// A sweep file (scenes x techniques x parameter grids), see docs/BENCHMARKS.md.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "suite")]
     sweep: Option<PathBuf>,
+    /// A named suite: `stiff` (every technique on every stiff case, docs/STABILITY.md) or the
+    /// stem of a sweep file in `benches/` (e.g. `pcss`).
+    #[arg(long)]
+    suite: Option<String>,
     /// Skip the reference and the error metrics (timings only).
     #[arg(long)]
     no_error: bool,
+    /// Skip the exact ground truth (closed form or CPU ray cast) and `error.reference_vs_exact`.
+    #[arg(long)]
+    no_exact: bool,
+    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form).
+    #[arg(long, default_value_t = softshadow_bench::DEFAULT_EXACT_SAMPLES)]
+    exact_samples: u32,
     /// Do not write images.
     #[arg(long)]
     no_images: bool,
@@ -158,12 +168,34 @@ fn list(json: bool) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// `--suite NAME`: a built-in suite, else `benches/NAME.toml` (from the current folder or the
+/// repository this binary was built from).
+fn load_suite(name: &str) -> Result<Sweep> {
+    let file = format!("{name}.toml");
+    let candidates = [
+        PathBuf::from("benches").join(&file),
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../benches")
+            .join(&file),
+    ];
+    if softshadow_bench::sweep::SUITES.iter().any(|(n, _)| *n == name) {
+        return Ok(Sweep::suite(name)?);
+    }
+    match candidates.iter().find(|p| p.is_file()) {
+        Some(path) => Ok(Sweep::load(path)?),
+        None => Ok(Sweep::suite(name)?),
+    }
+}
+
 fn bench(args: BenchArgs) -> Result<ExitCode> {
     // Everything that can be checked without a GPU is checked first, so bad input fails fast
     // and writes nothing.
-    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(path) = &args.sweep
-    {
-        let sweep = Sweep::load(path)?;
+    let sweep = match (&args.sweep, &args.suite) {
+        (Some(path), _) => Some(Sweep::load(path)?),
+        (None, Some(name)) => Some(load_suite(name)?),
+        (None, None) => None,
+    };
+    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(sweep) = sweep {
         (
             sweep.runs,
             sweep.frames,
@@ -172,7 +204,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         )
     } else {
         let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
-            bail!("give --scene and --technique, or --sweep FILE (see `workbench list`)");
+            bail!("give --scene and --technique, or --sweep FILE, or --suite NAME (see `workbench list`)");
         };
         let (width, height) = softshadow_bench::parse_size(&args.size)?;
         let params = softshadow_bench::parse_params(technique, &args.params)?;
@@ -200,6 +232,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         error: !args.no_error,
         reference_params,
         images: !args.no_images,
+        exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
     };
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
     let progress = ProgressBar::new(specs.len() as u64);
@@ -233,8 +266,17 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             .error
             .as_ref()
             .map_or("-".to_string(), |e| format!("{:.4}", e.report.mae_shadowed));
+        let exact = run
+            .error
+            .as_ref()
+            .and_then(|e| e.vs_exact.as_ref())
+            .map_or("-".to_string(), |r| format!("{:.4}", r.mae_all));
+        let invalid = run
+            .stability
+            .as_ref()
+            .map_or(0, |s| s.nan + s.inf + s.out_of_range);
         println!(
-            "{:<24} {:<16} {:<6} gpu {:>10}  mae_shadowed {}",
+            "{:<24} {:<16} {:<6} gpu {:>10}  mae_shadowed {:<7} exact mae_all {:<7} invalid {}",
             run.scene,
             run.technique,
             if run.status == Status::Ok {
@@ -243,13 +285,24 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
                 "error"
             },
             gpu,
-            err
+            err,
+            exact,
+            invalid
         );
     }
+    let invalid = results
+        .runs
+        .iter()
+        .filter(|r| {
+            r.stability
+                .as_ref()
+                .is_some_and(|s| s.nan + s.inf + s.out_of_range > 0)
+        })
+        .count();
     println!("wrote {}", args.out.join("results.json").display());
-    if failed > 0 {
+    if failed > 0 || invalid > 0 {
         eprintln!(
-            "{failed} of {} runs failed; their messages are in results.json",
+            "{failed} of {} runs failed and {invalid} wrote NaN, Inf or values outside [0, 1]; details are in results.json",
             results.runs.len()
         );
         return Ok(ExitCode::from(3));

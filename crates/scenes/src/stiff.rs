@@ -1,0 +1,357 @@
+//! The stiff-case family (issue 6): scenes built to break soft-shadow techniques where they
+//! divide by distances that go to zero, sum many tiny numbers or search areas that blow up, and
+//! to break the references too. Every id starts with `stiff-`; `workbench bench --suite stiff`
+//! runs every registered technique on every one of them.
+//!
+//! Most cases use only rectangles parallel to the light, so the benchmark can score them against
+//! the exact closed form (`softshadow_reference::exact`); the others (contact, grazing light,
+//! occluder crossing the light plane) are scored against the CPU ray-cast reference.
+//!
+//! Conventions as in [`crate::builtin`]: an 8 x 8 receiver-only ground at y = 0, casters are not
+//! receivers unless said, lights face the ground.
+
+use glam::{Mat4, Vec3};
+use softshadow_core::{AreaLight, Mesh, Scene};
+
+use crate::builtin::{camera, down_light, light_width, Builder, BuiltinInfo, ParamInfo};
+use crate::primitives::{self, face, push_quad};
+use crate::SceneError;
+
+/// Every stiff-case id starts with this.
+pub const PREFIX: &str = "stiff-";
+
+/// Every stiff case with its parameters (listed by `workbench list` with the other builtins).
+pub fn infos() -> Vec<BuiltinInfo> {
+    vec![
+        BuiltinInfo {
+            id: "stiff-contact",
+            description: "stiff: a cube resting on the ground and a quad leaning on it at 30 degrees (occluder touching the receiver: z_R - z_O -> 0)",
+            params: vec![
+                light_width(1.0),
+                ParamInfo::new("gap", 0.0, 0.0, 1.0, "height of the occluders' lowest points above the ground (0 = touching)"),
+            ],
+        },
+        BuiltinInfo {
+            id: "stiff-near-light",
+            description: "stiff: a square occluder just below the light (distance light_gap x light height: z_O -> 0)",
+            params: vec![
+                light_width(1.0),
+                ParamInfo::new("light_gap", 1e-3, 0.0, 0.5, "distance between occluder and light, as a fraction of the light's height (2)")
+                    .min_exclusive(),
+            ],
+        },
+        BuiltinInfo {
+            id: "stiff-point-light",
+            description: "stiff: the atty-square set-up under a point-like light (width 1e-4): soft techniques must reduce to hard shadows",
+            params: vec![ParamInfo::new("light_width", 1e-4, 0.0, 0.01, "side of the square light")],
+        },
+        BuiltinInfo {
+            id: "stiff-wide-light",
+            description: "stiff: a 0.3 square occluder under a light light_ratio times wider (no umbra, wide penumbra)",
+            params: vec![ParamInfo::new("light_ratio", 10.0, 1.0, 20.0, "light width over occluder width")],
+        },
+        BuiltinInfo {
+            id: "stiff-grazing",
+            description: "stiff: light at angle_degrees from the receiver normal, occluder square parallel to the light (shadow stretched ~11x)",
+            params: vec![ParamInfo::new("angle_degrees", 85.0, 0.0, 89.0, "angle between the ground normal and the direction to the light")],
+        },
+        BuiltinInfo {
+            id: "stiff-depth-range",
+            description: "stiff: light at height 10, one occluder `near` below it and one 0.1 above the ground (caster near/far ~ 1e-4)",
+            params: vec![
+                ParamInfo::new("near", 1e-3, 0.0, 1.0, "distance of the upper occluder below the light")
+                    .min_exclusive(),
+            ],
+        },
+        BuiltinInfo {
+            id: "stiff-zero-thickness",
+            description: "stiff: zero-thickness occluders: one-sided quads facing the light and facing away, and a box flattened to zero height",
+            params: vec![light_width(1.0)],
+        },
+        BuiltinInfo {
+            id: "stiff-partly-outside",
+            description: "stiff: a vertical wall that crosses the light plane beside the light (part of the occluder behind the light, outside every light frustum)",
+            params: vec![light_width(1.0)],
+        },
+        BuiltinInfo {
+            id: "stiff-no-occluder",
+            description: "stiff: the ground alone (nothing casts a shadow: V = 1 everywhere)",
+            params: vec![light_width(1.0)],
+        },
+        BuiltinInfo {
+            id: "stiff-aspect-100",
+            description: "stiff: a 4-wide light of aspect ratio `aspect`:1 over a square occluder",
+            params: vec![ParamInfo::new("aspect", 100.0, 1.0, 1000.0, "light width over light height")],
+        },
+        BuiltinInfo {
+            id: "stiff-tiny-patches",
+            description: "stiff (FP16 trap, Atty et al. appendix A): a large square just below a large light, so thousands of micro-patches each hide ~1e-3 of the light",
+            params: vec![
+                ParamInfo::new("occluder_gap", 0.1, 0.0, 1.0, "distance between the occluder and the light (height 2)")
+                    .min_exclusive(),
+            ],
+        },
+        BuiltinInfo {
+            id: "stiff-degenerate",
+            description: "stiff: an occluder mesh with degenerate, non-finite and out-of-range triangles (repaired with a warning naming them)",
+            params: Vec::new(),
+        },
+        BuiltinInfo {
+            id: "stiff-fusion",
+            description: "stiff: three overlapping squares at different heights (occluder fusion: the exact answer is the area of the union)",
+            params: vec![light_width(1.0)],
+        },
+    ]
+}
+
+/// Builds stiff case `id`; `value(name)` returns its (checked) parameters.
+pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, SceneError> {
+    let v = |name: &str| value(name) as f32;
+    let scene = match id {
+        "stiff-contact" => contact(v("light_width"), v("gap")),
+        "stiff-near-light" => {
+            let height = 2.0;
+            let occluder_y = height * (1.0 - v("light_gap"));
+            squares(
+                id,
+                down_light(Vec3::Y * height, v("light_width")),
+                &[Square::at(0.0, occluder_y, 0.0, 0.5)],
+            )
+        }
+        "stiff-point-light" => squares(
+            id,
+            down_light(Vec3::Y * 2.0, v("light_width")),
+            &[Square::at(0.0, 1.0, 0.0, 1.0)],
+        ),
+        "stiff-wide-light" => {
+            let size = 0.3;
+            squares(
+                id,
+                down_light(Vec3::Y * 2.0, size * v("light_ratio")),
+                &[Square::at(0.0, 1.0, 0.0, size)],
+            )
+        }
+        "stiff-grazing" => grazing(v("angle_degrees")),
+        "stiff-depth-range" => {
+            let height = 10.0;
+            let mut scene = squares(
+                id,
+                down_light(Vec3::Y * height, 0.5),
+                &[
+                    Square::at(0.0, height - v("near"), 0.0, 0.25),
+                    Square::at(0.6, 0.1, 0.0, 0.5),
+                ],
+            );
+            scene.camera.eye = Vec3::new(0.0, 3.0, 4.0);
+            scene
+        }
+        "stiff-zero-thickness" => zero_thickness(v("light_width")),
+        "stiff-partly-outside" => partly_outside(v("light_width")),
+        "stiff-no-occluder" => squares(id, down_light(Vec3::Y * 2.0, v("light_width")), &[]),
+        "stiff-aspect-100" => {
+            let mut light = down_light(Vec3::Y * 2.0, 4.0);
+            light.height = 4.0 / v("aspect");
+            squares(id, light, &[Square::at(0.0, 1.0, 0.0, 0.8)])
+        }
+        "stiff-tiny-patches" => squares(
+            id,
+            down_light(Vec3::Y * 2.0, 2.0),
+            &[Square::at(0.0, 2.0 - v("occluder_gap"), 0.0, 1.6)],
+        ),
+        "stiff-degenerate" => degenerate(),
+        "stiff-fusion" => squares(
+            id,
+            down_light(Vec3::Y * 2.5, v("light_width")),
+            &[
+                Square::at(-0.3, 0.6, 0.0, 0.8),
+                Square::at(0.2, 1.1, 0.2, 0.7),
+                Square::at(0.5, 1.6, -0.2, 0.5),
+            ],
+        ),
+        _ => return Err(SceneError::UnknownScene { spec: id.into() }),
+    };
+    Ok(scene)
+}
+
+/// A two-sided horizontal square occluder, caster only.
+#[derive(Clone, Copy)]
+struct Square {
+    center: Vec3,
+    size: f32,
+}
+
+impl Square {
+    fn at(x: f32, y: f32, z: f32, size: f32) -> Self {
+        Self {
+            center: Vec3::new(x, y, z),
+            size,
+        }
+    }
+}
+
+/// The atty-square layout with any light and any set of horizontal squares (all parallel to a
+/// downward light, so the closed form applies).
+fn squares(id: &str, light: AreaLight, squares: &[Square]) -> Scene {
+    let mut b = Builder::new(id);
+    b.ground();
+    for (k, square) in squares.iter().enumerate() {
+        let mesh = b.mesh(
+            primitives::two_sided_quad(square.size, square.size),
+            &format!("square {k}"),
+        );
+        b.caster(mesh, Mat4::from_translation(square.center), false);
+    }
+    b.finish(
+        light,
+        camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.0, 0.0, 0.4)),
+    )
+}
+
+/// A unit cube whose bottom face lies `gap` above the ground, and a 1 x 1 quad leaning at 30
+/// degrees whose lowest edge is `gap` above the ground: the occluder-receiver distance goes to
+/// zero along both contact lines.
+fn contact(light_width: f32, gap: f32) -> Scene {
+    let mut b = Builder::new("stiff-contact");
+    b.ground();
+    let cube = b.mesh(primitives::cuboid(Vec3::ONE), "cube");
+    b.caster(
+        cube,
+        Mat4::from_translation(Vec3::new(-0.8, 0.5 + gap, 0.0)),
+        false,
+    );
+    // The quad's lower edge runs along z at (0.3, gap); it rises towards +x at 30 degrees.
+    let (c, s) = (30f32.to_radians().cos(), 30f32.to_radians().sin());
+    let along = Vec3::new(c, s, 0.0) * 0.5;
+    let across = Vec3::Z * 0.5;
+    let center = Vec3::new(0.3, gap, 0.0) + along;
+    let lean = b.mesh(two_sided(center, along, across), "leaning quad");
+    b.caster(lean, Mat4::IDENTITY, false);
+    b.finish(
+        down_light(Vec3::new(0.0, 3.0, 0.0), light_width),
+        camera(Vec3::new(0.0, 3.0, 3.6), Vec3::new(0.0, 0.2, 0.0)),
+    )
+}
+
+/// A 0.6 x 0.6 light at `angle_degrees` from the ground normal, 7 units from the point it aims
+/// at, (2, 0, 0); a 0.4 square occluder halfway, parallel to the light.
+fn grazing(angle_degrees: f32) -> Scene {
+    let mut b = Builder::new("stiff-grazing");
+    b.ground();
+    let angle = angle_degrees.to_radians();
+    let target = Vec3::new(2.0, 0.0, 0.0);
+    let center = target + 7.0 * Vec3::new(-angle.sin(), angle.cos(), 0.0);
+    let light = AreaLight::looking_at(center, target, 0.6, 0.6);
+    let (x, y, z) = light.basis();
+    let occluder = b.mesh(
+        two_sided(center + z * 3.5, x * 0.2, y * 0.2),
+        "square parallel to the light",
+    );
+    b.caster(occluder, Mat4::IDENTITY, false);
+    b.finish(
+        light,
+        camera(Vec3::new(1.0, 3.5, 4.5), Vec3::new(1.5, 0.0, 0.0)),
+    )
+}
+
+/// Three 0.6 squares at height 1: one-sided facing the light, one-sided facing the ground, and a
+/// box of zero height (its side faces are degenerate and are dropped by the repair).
+fn zero_thickness(light_width: f32) -> Scene {
+    let mut b = Builder::new("stiff-zero-thickness");
+    b.ground();
+    let h = 0.3;
+    let facing_light = b.mesh(
+        one_sided(Vec3::ZERO, Vec3::Z * h, Vec3::X * h),
+        "one-sided quad facing the light",
+    );
+    let facing_ground = b.mesh(
+        one_sided(Vec3::ZERO, Vec3::X * h, Vec3::Z * h),
+        "one-sided quad facing the ground",
+    );
+    let flat_box = b.mesh(
+        primitives::cuboid(Vec3::new(0.6, 0.0, 0.6)),
+        "box of zero height",
+    );
+    for (mesh, x) in [(facing_light, -1.2), (facing_ground, 0.0), (flat_box, 1.2)] {
+        b.caster(mesh, Mat4::from_translation(Vec3::new(x, 1.0, 0.0)), false);
+    }
+    b.finish(
+        down_light(Vec3::Y * 2.0, light_width),
+        camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.0, 0.0, 0.4)),
+    )
+}
+
+/// A vertical two-sided wall in the plane x = 0.8 (beside the light's edge), from y = 1 to
+/// y = 3, crossing the light plane y = 2: its upper half lies behind the light.
+fn partly_outside(light_width: f32) -> Scene {
+    let mut b = Builder::new("stiff-partly-outside");
+    b.ground();
+    let wall = b.mesh(
+        two_sided(Vec3::new(0.8, 2.0, 0.0), Vec3::Y, Vec3::Z * 0.6),
+        "wall through the light plane",
+    );
+    b.caster(wall, Mat4::IDENTITY, false);
+    b.finish(
+        down_light(Vec3::Y * 2.0, light_width),
+        camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.4, 0.0, 0.2)),
+    )
+}
+
+/// The atty-square occluder (1 x 1 at height 1, two-sided) in a mesh that also carries two
+/// degenerate triangles (a repeated index, three collinear points), two non-finite ones (NaN
+/// and infinite vertices) and one with an index past the vertex array. Loading repairs it and
+/// warns: "dropped 2 degenerate, 2 non-finite and 1 out-of-range triangles".
+fn degenerate() -> Scene {
+    let mut b = Builder::new("stiff-degenerate");
+    b.ground();
+    let mut mesh = primitives::two_sided_quad(1.0, 1.0);
+    let base = mesh.positions.len() as u32;
+    mesh.positions.extend_from_slice(&[
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(0.1, 0.0, 0.0),
+        Vec3::new(0.2, 0.0, 0.0),
+        Vec3::new(f32::NAN, 0.0, 0.0),
+        Vec3::new(0.0, f32::INFINITY, 0.0),
+    ]);
+    mesh.normals.extend_from_slice(&[Vec3::Y; 5]);
+    mesh.indices.extend_from_slice(&[
+        base,
+        base,
+        base + 1, // repeated index
+        base,
+        base + 1,
+        base + 2, // collinear
+        base,
+        base + 1,
+        base + 3, // NaN vertex
+        base,
+        base + 4,
+        base + 1, // infinite vertex
+        base,
+        base + 1,
+        base + 99, // index out of range
+    ]);
+    let occluder = b.mesh(mesh, "occluder with bad triangles");
+    b.caster(
+        occluder,
+        Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)),
+        false,
+    );
+    b.finish(
+        down_light(Vec3::Y * 2.0, 1.0),
+        camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.0, 0.0, 0.4)),
+    )
+}
+
+/// A one-sided quad centred at `center` spanned by half-extents `u`, `v`, facing `u x v`.
+fn one_sided(center: Vec3, u: Vec3, v: Vec3) -> Mesh {
+    let mut mesh = Mesh::default();
+    push_quad(&mut mesh, face(center, u, v), u.cross(v).normalize());
+    mesh
+}
+
+/// The same quad facing both ways (so back-face culling never removes it).
+fn two_sided(center: Vec3, u: Vec3, v: Vec3) -> Mesh {
+    let mut mesh = one_sided(center, u, v);
+    push_quad(&mut mesh, face(center, v, u), v.cross(u).normalize());
+    mesh
+}
