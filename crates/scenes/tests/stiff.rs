@@ -1,0 +1,128 @@
+//! The stiff-case family (issue 6): every case loads and validates, says what it repaired, and
+//! its parameter puts the geometry where its description says.
+
+use glam::Vec3;
+use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
+
+const EXPECTED: [&str; 13] = [
+    "stiff-contact",
+    "stiff-near-light",
+    "stiff-point-light",
+    "stiff-wide-light",
+    "stiff-grazing",
+    "stiff-depth-range",
+    "stiff-zero-thickness",
+    "stiff-partly-outside",
+    "stiff-no-occluder",
+    "stiff-aspect-100",
+    "stiff-tiny-patches",
+    "stiff-degenerate",
+    "stiff-fusion",
+];
+
+fn caster_depths(spec: &str) -> Vec<f32> {
+    let scene = load(spec).unwrap().scene;
+    let (_, _, z) = scene.light.basis();
+    let mut depths = Vec::new();
+    for instance in scene.instances.iter().filter(|i| i.casts_shadow) {
+        let mesh = &scene.meshes[instance.mesh];
+        for &i in &mesh.indices {
+            let p = instance.transform.transform_point3(mesh.positions[i as usize]);
+            depths.push((p - scene.light.center).dot(z));
+        }
+    }
+    depths
+}
+
+#[test]
+fn every_stiff_case_loads_and_only_the_broken_ones_warn() {
+    let ids: Vec<&str> = builtin_scenes()
+        .iter()
+        .map(|b| b.id)
+        .filter(|id| id.starts_with(PREFIX))
+        .collect();
+    assert_eq!(ids, EXPECTED);
+    for id in EXPECTED {
+        let loaded = load(id).unwrap_or_else(|e| panic!("{id}: {e}"));
+        let scene = &loaded.scene;
+        assert!(scene.instances.iter().any(|i| i.receives_shadow), "{id}");
+        assert_eq!(
+            scene.instances.iter().any(|i| i.casts_shadow),
+            id != "stiff-no-occluder",
+            "{id}"
+        );
+        for mesh in &scene.meshes {
+            assert!(mesh.positions.iter().all(|p| p.is_finite()), "{id}");
+        }
+        match id {
+            "stiff-degenerate" => assert_eq!(
+                loaded.warnings,
+                ["mesh `occluder with bad triangles` from builtin scene `stiff-degenerate`: \
+                  dropped 2 degenerate, 2 non-finite and 1 out-of-range triangles"]
+            ),
+            // The zero-height box's eight side triangles have no area.
+            "stiff-zero-thickness" => assert_eq!(
+                loaded.warnings,
+                ["mesh `box of zero height` from builtin scene `stiff-zero-thickness`: \
+                  dropped 8 degenerate triangles"]
+            ),
+            _ => assert!(loaded.warnings.is_empty(), "{id}: {:?}", loaded.warnings),
+        }
+    }
+}
+
+#[test]
+fn parameters_put_the_geometry_where_the_description_says() {
+    // Occluder 1e-3 x 2 below the light.
+    let near = caster_depths("stiff-near-light");
+    assert!(near.iter().all(|d| (d - 2e-3).abs() < 1e-5), "{near:?}");
+    let near = caster_depths("stiff-near-light:light_gap=0.25");
+    assert!(near.iter().all(|d| (d - 0.5).abs() < 1e-5), "{near:?}");
+    // Caster depth range near/far about 1e-4.
+    let range = caster_depths("stiff-depth-range");
+    let (lo, hi) = range
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), d| (a.min(*d), b.max(*d)));
+    assert!((lo - 1e-3).abs() < 1e-5 && lo / hi < 1.1e-4, "{lo} {hi}");
+    // The wall crosses the light plane.
+    let wall = caster_depths("stiff-partly-outside");
+    assert!(wall.iter().any(|d| *d < 0.0) && wall.iter().any(|d| *d > 0.0));
+    // Touching: the lowest caster point is on the ground.
+    let contact = load("stiff-contact").unwrap().scene;
+    let lowest = contact
+        .instances
+        .iter()
+        .filter(|i| i.casts_shadow)
+        .flat_map(|i| {
+            contact.meshes[i.mesh]
+                .positions
+                .iter()
+                .map(|p| i.transform.transform_point3(*p).y)
+        })
+        .fold(f32::MAX, f32::min);
+    assert!(lowest.abs() < 1e-6, "{lowest}");
+
+    let light = |spec: &str| load(spec).unwrap().scene.light;
+    assert_eq!(light("stiff-point-light").width, 1e-4);
+    let wide = light("stiff-wide-light");
+    assert!((wide.width - 3.0).abs() < 1e-5);
+    let aspect = light("stiff-aspect-100");
+    assert!((aspect.width / aspect.height - 100.0).abs() < 1e-3);
+    // 85 degrees between the ground normal and the direction to the light.
+    let grazing = light("stiff-grazing");
+    let to_light = -grazing.direction.normalize();
+    let angle = to_light.dot(Vec3::Y).acos().to_degrees();
+    assert!((angle - 85.0).abs() < 1e-3, "{angle}");
+}
+
+#[test]
+fn out_of_range_parameters_say_what_to_use() {
+    for (spec, hint) in [
+        ("stiff-near-light:light_gap=0", "use a value > 0 and <= 0.5"),
+        ("stiff-grazing:angle_degrees=90", "use 0 to 89"),
+        ("stiff-aspect-100:aspect=0.5", "use 1 to 1000"),
+    ] {
+        let e = load(spec).unwrap_err().to_string();
+        assert!(e.contains(hint), "{spec}: {e}");
+    }
+}
