@@ -19,6 +19,7 @@ fn bench() -> Result<Bench> {
                 ("shadow_map_size".into(), ParamValue::Int(512)),
             ],
             images: false,
+            exact_samples_per_axis: None,
         },
     )?)
 }

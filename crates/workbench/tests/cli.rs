@@ -131,8 +131,16 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
     for k in ["nan", "inf", "out_of_range"] {
         ensure!(run["stability"][k] == 0, "stability.{k}");
     }
+    // Exact ground truth (issue 6): atty-square has the closed form; the reference's own error
+    // against it is small and reported beside the technique's.
+    ensure!(run["error"]["exact"] == "closed-form", "{}", run["error"]);
+    ensure!(run["error"]["vs_exact"]["mae_all"].is_number());
+    let own = run["error"]["reference_vs_exact"]["mae_shadowed"]
+        .as_f64()
+        .context("error.reference_vs_exact.mae_shadowed")?;
+    ensure!(own < 0.05, "8x8 reference vs exact {own}");
     ensure!(run["passes_run"].as_array().is_some_and(|p| !p.is_empty()));
-    for kind in ["visibility", "reference", "shaded", "difference"] {
+    for kind in ["visibility", "reference", "shaded", "difference", "exact"] {
         let file = run["images"][kind]
             .as_str()
             .with_context(|| format!("images.{kind}"))?;
@@ -239,6 +247,7 @@ fn bad_input_gives_one_line_a_nonzero_exit_and_no_output() -> Result<()> {
             "not found",
         ),
         (&["--scene", malformed, "--technique", "pcss"], "colour"),
+        (&["--suite", "nope"], "unknown suite `nope`"),
         (
             &["--scene", broken_glb, "--technique", "pcss"],
             "broken.glb",
