@@ -1,7 +1,7 @@
 //! `softshadow`: the soft-shadow workbench as a library.
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
-//! need with cargo features (`hard`, `pcss`, `reference`; all on by default).
+//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -19,9 +19,13 @@ pub use softshadow_core as core;
 pub use softshadow_metrics as metrics;
 pub use softshadow_scenes as scenes;
 
+#[cfg(feature = "backprojection")]
+pub use softshadow_backprojection as backprojection;
 #[cfg(feature = "hard")]
 pub use softshadow_hard as hard;
 #[cfg(feature = "pcss")]
 pub use softshadow_pcss as pcss;
 #[cfg(feature = "reference")]
 pub use softshadow_reference as reference;
+#[cfg(feature = "ssm")]
+pub use softshadow_ssm as ssm;

@@ -7,6 +7,8 @@ pub fn techniques() -> Vec<TechniqueInfo> {
     vec![
         softshadow_hard::info(),
         softshadow_pcss::info(),
+        softshadow_ssm::info(),
+        softshadow_backprojection::info(),
         softshadow_reference::info(),
     ]
 }
@@ -16,6 +18,8 @@ pub fn all_shaders() -> Vec<softshadow_core::shader::ShaderSpec> {
     let mut specs = softshadow_core::shader::CORE_SHADERS.to_vec();
     specs.extend_from_slice(softshadow_hard::SHADERS);
     specs.extend_from_slice(softshadow_pcss::SHADERS);
+    specs.extend_from_slice(softshadow_ssm::SHADERS);
+    specs.extend_from_slice(softshadow_backprojection::SHADERS);
     specs.extend_from_slice(softshadow_reference::SHADERS);
     specs
 }

@@ -64,6 +64,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/fullscreen.wgsl"),
     shader_file!("common/shadow_view.wgsl"),
     shader_file!("common/sampling.wgsl"),
+    shader_file!("common/search_area.wgsl"),
 ];
 
 /// The core crate's own entry shaders.
@@ -81,6 +82,11 @@ pub const CORE_SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "core/shading.wgsl",
         source: shader_file!("core/shading.wgsl").1,
+        permutations: &[&[]],
+    },
+    ShaderSpec {
+        path: "core/hierarchy.wgsl",
+        source: shader_file!("core/hierarchy.wgsl").1,
         permutations: &[&[]],
     },
 ];

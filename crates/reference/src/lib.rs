@@ -23,7 +23,8 @@ use softshadow_core::{
     shader::ShaderSpec,
     shader_file,
     shadow_map::{
-        create_depth_maps, fit_caster_view, layer_view, DepthMapRenderer, ShadowViewUniform,
+        create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
+        ShadowViewUniform,
     },
     wgpu, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, Requirements, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
@@ -187,6 +188,43 @@ pub struct AccumulatedReference {
     maps: Option<(u32, wgpu::Texture)>,
     cache: Option<Cached>,
     stats: TechniqueStats,
+    /// Batches of [`BATCH`] light samples added per `render` in progressive mode (the viewer);
+    /// `None` computes the whole reference in one frame (the benchmark).
+    batches_per_frame: Option<u32>,
+    progress: Option<InProgress>,
+}
+
+/// How far a progressive reference has come: `done` of `total` light samples accumulated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Progress {
+    pub done: u32,
+    pub total: u32,
+}
+
+impl Progress {
+    pub fn is_complete(&self) -> bool {
+        self.done >= self.total
+    }
+
+    /// Fraction done, 0 to 1 (1 when there is nothing to do).
+    pub fn fraction(&self) -> f32 {
+        if self.total == 0 {
+            1.0
+        } else {
+            self.done as f32 / self.total as f32
+        }
+    }
+}
+
+/// A reference being accumulated over several frames.
+struct InProgress {
+    key: u64,
+    /// Depth views in accumulation order (strata interleaved, so partial sums cover the light).
+    views: Vec<ShadowViewUniform>,
+    light_samples: usize,
+    done: usize,
+    counts: VisibilityBuffer,
+    result: VisibilityBuffer,
 }
 
 pub fn info() -> TechniqueInfo {
@@ -264,6 +302,8 @@ impl AccumulatedReference {
             maps: None,
             cache: None,
             stats: TechniqueStats::new(),
+            batches_per_frame: None,
+            progress: None,
         })
     }
 
@@ -299,6 +339,37 @@ impl AccumulatedReference {
     /// Forgets the cached result (the next frame recomputes).
     pub fn invalidate(&mut self) {
         self.cache = None;
+        self.progress = None;
+    }
+
+    /// Progressive mode for interactive use: each `render` adds at most `batches` batches of
+    /// 16 light samples to a running sum and resolves the average of the samples summed so far,
+    /// so a viewer shows a converging reference without stalling. `None` (the default) computes
+    /// everything in one frame. The finished result is bit-identical either way (whole-number
+    /// counts) and cached the same way.
+    pub fn set_progressive(&mut self, batches: Option<u32>) {
+        self.batches_per_frame = batches.map(|b| b.max(1));
+    }
+
+    /// Progress of the reference for the inputs of the last `render`: complete when it was
+    /// served from the cache or finished in that frame.
+    pub fn progress(&self) -> Progress {
+        match &self.progress {
+            Some(p) => Progress {
+                done: p.done as u32,
+                total: p.views.len() as u32,
+            },
+            None => {
+                let total = self.stats.get("depth_maps").copied().unwrap_or(0.0) as u32;
+                Progress { done: total, total }
+            }
+        }
+    }
+
+    /// The finished reference for `inputs`, if it is cached (no GPU work).
+    pub fn is_cached_for(&self, inputs: &ShadowInputs<'_>) -> bool {
+        let key = self.cache_key(inputs);
+        self.cache.as_ref().is_some_and(|c| c.key == key)
     }
 }
 
@@ -354,11 +425,15 @@ impl ShadowTechnique for AccumulatedReference {
             self.stats.insert("cached".into(), 1.0);
             return Ok(());
         }
+        if let Some(batches) = self.batches_per_frame {
+            return self.render_progressive(frame, inputs, out, key, batches);
+        }
+        self.progress = None;
         let samples = light_samples(&self.settings, inputs.light.half_extent());
         let size = self.settings.shadow_map_size;
         let views: Vec<ShadowViewUniform> = samples
             .iter()
-            .filter_map(|eye| fit_caster_view(inputs.scene, inputs.light, *eye))
+            .filter_map(|eye| sample_view(inputs.scene, inputs.light, *eye))
             .map(|frustum| ShadowViewUniform::new(inputs.light, &frustum, size))
             .collect();
         let result = VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height);
@@ -366,7 +441,10 @@ impl ShadowTechnique for AccumulatedReference {
             // No caster in front of the light: all lit, no depth map needed.
             result.clear_lit(frame, "reference/no_casters");
         } else {
-            self.accumulate_views(frame, inputs, &views, &result)?;
+            let counts =
+                VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height);
+            self.accumulate_views(frame, inputs, &views, &counts, true);
+            self.resolve_counts(frame, inputs, &counts, views.len(), &result);
         }
         out.copy_from(frame.encoder, &result.texture);
         self.stats = TechniqueStats::from([
@@ -387,13 +465,82 @@ impl ShadowTechnique for AccumulatedReference {
 }
 
 impl AccumulatedReference {
+    /// One step of progressive accumulation (see [`AccumulatedReference::set_progressive`]).
+    fn render_progressive(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        key: u64,
+        batches: u32,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        if self.progress.as_ref().map(|p| p.key) != Some(key) {
+            let samples = light_samples(&self.settings, inputs.light.half_extent());
+            let size = self.settings.shadow_map_size;
+            let views: Vec<ShadowViewUniform> = interleaved(self.settings.samples_per_axis)
+                .filter_map(|k| sample_view(inputs.scene, inputs.light, samples[k]))
+                .map(|frustum| ShadowViewUniform::new(inputs.light, &frustum, size))
+                .collect();
+            self.progress = Some(InProgress {
+                key,
+                views,
+                light_samples: samples.len(),
+                done: 0,
+                counts: VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height),
+                result: VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height),
+            });
+        }
+        let mut progress = self.progress.take().expect("set above");
+        if progress.views.is_empty() {
+            progress.result.clear_lit(frame, "reference/no_casters");
+        } else {
+            let start = progress.done;
+            let end = (start + (batches * BATCH) as usize).min(progress.views.len());
+            self.accumulate_views(
+                frame,
+                inputs,
+                &progress.views[start..end],
+                &progress.counts,
+                start == 0,
+            );
+            progress.done = end;
+            self.resolve_counts(
+                frame,
+                inputs,
+                &progress.counts,
+                progress.done,
+                &progress.result,
+            );
+        }
+        out.copy_from(frame.encoder, &progress.result.texture);
+        let complete = progress.done >= progress.views.len();
+        self.stats = TechniqueStats::from([
+            ("cached".into(), 0.0),
+            ("light_samples".into(), progress.light_samples as f64),
+            ("depth_maps".into(), progress.views.len() as f64),
+            ("depth_maps_done".into(), progress.done as f64),
+        ]);
+        if complete {
+            self.cache = Some(Cached {
+                key,
+                texture: progress.result.texture,
+            });
+        } else {
+            self.progress = Some(progress);
+        }
+        Ok(())
+    }
+
+    /// Adds the lit counts of `views` to `counts` (cleared first when `clear`).
     fn accumulate_views(
         &mut self,
         frame: &mut Frame<'_>,
         inputs: &ShadowInputs<'_>,
         views: &[ShadowViewUniform],
-        result: &VisibilityBuffer,
-    ) -> Result<(), TechniqueError> {
+        counts: &VisibilityBuffer,
+        clear: bool,
+    ) {
         let gpu = frame.gpu;
         let size = self.settings.shadow_map_size;
         if self.maps.as_ref().map(|m| m.0) != Some(size) {
@@ -420,13 +567,6 @@ impl AccumulatedReference {
         }
         gpu.queue.write_buffer(&self.batches, 0, &bytes);
         self.depth.set_views(gpu, views);
-        gpu.queue.write_buffer(
-            &self.resolve_buffer,
-            0,
-            bytemuck::bytes_of(&ResolveUniform {
-                samples: [views.len() as f32, 0.0, 0.0, 0.0],
-            }),
-        );
 
         let (_, maps) = self.maps.as_ref().expect("created above");
         let layer_views: Vec<wgpu::TextureView> = (0..BATCH).map(|l| layer_view(maps, l)).collect();
@@ -452,7 +592,6 @@ impl AccumulatedReference {
                 },
             ],
         });
-        let counts = VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height);
         for b in 0..batch_count {
             let first = b * BATCH;
             let count = (views.len() as u32 - first).min(BATCH);
@@ -472,9 +611,28 @@ impl AccumulatedReference {
                 &accumulate_group,
                 &[(b as u64 * BATCH_SLOT) as u32],
                 &counts.view,
-                if b == 0 { Some(0.0) } else { None },
+                if b == 0 && clear { Some(0.0) } else { None },
             );
         }
+    }
+
+    /// Writes `counts / samples` (0 behind the light, 1 off receivers) into `result`.
+    fn resolve_counts(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        counts: &VisibilityBuffer,
+        samples: usize,
+        result: &VisibilityBuffer,
+    ) {
+        let gpu = frame.gpu;
+        gpu.queue.write_buffer(
+            &self.resolve_buffer,
+            0,
+            bytemuck::bytes_of(&ResolveUniform {
+                samples: [samples as f32, 0.0, 0.0, 0.0],
+            }),
+        );
         let resolve_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("reference/resolve"),
             layout: &self.resolve_layout,
@@ -498,6 +656,64 @@ impl AccumulatedReference {
             &result.view,
             Some(1.0),
         );
-        Ok(())
+    }
+}
+
+/// The depth-map window of the light sample `eye`: clipped to the receivers' slopes (a hard
+/// shadow map; keeps its texels where receivers are when casters subtend a huge angle, as next
+/// to the light). When no caster can shadow a receiver through `eye` the clipped window is
+/// empty; the caster window then serves (every receiver is outside it, so lit), keeping one
+/// view per sample so the resolve divides by the right count. `None` only without casters.
+fn sample_view(
+    scene: &softshadow_core::SceneGpu,
+    light: &softshadow_core::AreaLight,
+    eye: Vec2,
+) -> Option<softshadow_core::SlopeFrustum> {
+    fit_hard_view(scene, light, eye).or_else(|| fit_caster_view(scene, light, eye))
+}
+
+/// Indices of the `n x n` row-major strata in an order whose every prefix is spread over the
+/// whole light: strata sorted by their bit-reversed Morton code, so the first 4 lie in the four
+/// quadrants, the first 16 in the 16 sub-quadrants, and so on. A partial progressive sum is then a
+/// coarse estimate of the full one, not the average over one edge of the light.
+fn interleaved(n: u32) -> impl Iterator<Item = usize> {
+    let bits = n.max(1).next_power_of_two().trailing_zeros();
+    let key = move |k: u32| -> u64 {
+        let (i, j) = (k % n, k / n);
+        let mut morton = 0u64;
+        for bit in 0..bits {
+            morton |= (((i >> bit) & 1) as u64) << (2 * bit);
+            morton |= (((j >> bit) & 1) as u64) << (2 * bit + 1);
+        }
+        if bits == 0 {
+            0
+        } else {
+            morton.reverse_bits() >> (64 - 2 * bits)
+        }
+    };
+    let mut order: Vec<u32> = (0..n * n).collect();
+    order.sort_by_key(|&k| key(k));
+    order.into_iter().map(|k| k as usize)
+}
+
+#[cfg(test)]
+mod progressive_tests {
+    use super::*;
+
+    #[test]
+    fn interleaved_order_visits_every_stratum_once_and_spreads_prefixes() {
+        for n in [1, 2, 3, 7, 16, 32] {
+            let mut all: Vec<usize> = interleaved(n).collect();
+            assert_eq!(all.len(), (n * n) as usize);
+            all.sort_unstable();
+            all.dedup();
+            assert_eq!(all.len(), (n * n) as usize, "n = {n}");
+        }
+        // The first 4 of 16 x 16 strata lie in different quadrants of the light.
+        let first: Vec<(usize, usize)> =
+            interleaved(16).take(4).map(|k| (k % 16, k / 16)).collect();
+        let quadrants: std::collections::BTreeSet<(bool, bool)> =
+            first.iter().map(|&(i, j)| (i < 8, j < 8)).collect();
+        assert_eq!(quadrants.len(), 4, "{first:?}");
     }
 }

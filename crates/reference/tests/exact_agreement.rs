@@ -34,7 +34,8 @@ fn rectangles_parallel_to_the_light_are_recognised_and_nothing_else() -> Result<
         let scene = softshadow_scenes::load(id)?.scene;
         ensure!(parallel_rects(&scene).is_some(), "{id}: not recognised");
     }
-    let fusion = parallel_rects(&softshadow_scenes::load("stiff-fusion")?.scene).context("fusion")?;
+    let fusion =
+        parallel_rects(&softshadow_scenes::load("stiff-fusion")?.scene).context("fusion")?;
     ensure!(fusion.len() == 3, "{fusion:?}");
     for id in [
         "stiff-contact",
@@ -43,7 +44,10 @@ fn rectangles_parallel_to_the_light_are_recognised_and_nothing_else() -> Result<
         "single-silhouette",
     ] {
         let scene = softshadow_scenes::load(id)?.scene;
-        ensure!(parallel_rects(&scene).is_none(), "{id}: wrongly taken for rectangles");
+        ensure!(
+            parallel_rects(&scene).is_none(),
+            "{id}: wrongly taken for rectangles"
+        );
     }
     Ok(())
 }

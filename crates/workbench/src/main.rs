@@ -1,5 +1,7 @@
 //! `workbench`: the soft-shadow workbench.
 //!
+//! - `workbench` or `workbench view [--scene ID|FILE] [--technique ID] [--state FILE]
+//!   [--screenshot FILE --frames N]`: the interactive viewer.
 //! - `workbench list [--json]`: scenes, techniques and every parameter with range and default.
 //! - `workbench bench --scene ID|FILE --technique ID [--param name=value]... --out DIR`
 //! - `workbench bench --sweep FILE --out DIR`
@@ -34,6 +36,33 @@ enum Command {
     },
     /// Run techniques headless and write results.json and images.
     Bench(BenchArgs),
+    /// The interactive viewer (the default without a subcommand).
+    View(ViewArgs),
+}
+
+#[derive(Args, Default)]
+struct ViewArgs {
+    /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
+    #[arg(long, default_value = "atty-square")]
+    scene: String,
+    /// Technique id (see `list`).
+    #[arg(long, default_value = "pcss")]
+    technique: String,
+    /// Technique parameter, `name=value` (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Start from a viewer state saved with "Save state".
+    #[arg(long)]
+    state: Option<PathBuf>,
+    /// Window size in pixels.
+    #[arg(long, default_value = "960x540", value_name = "WxH")]
+    size: String,
+    /// Render this many frames, then exit (prints the mean frame time).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Save the last frame, UI included, to this PNG file (with --frames).
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -89,15 +118,13 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Command::List { json }) => list(json),
         Some(Command::Bench(args)) => bench(args),
-        None => {
-            eprintln!(
-                "The interactive viewer is not built yet (issue 3). Available now:\n  \
-                 workbench list [--json]\n  \
-                 workbench bench --scene atty-square --technique pcss --out /tmp/bench\n\
-                 Run `workbench --help` for everything."
-            );
-            list(false)
-        }
+        Some(Command::View(args)) => view(args),
+        None => view(ViewArgs {
+            scene: "atty-square".into(),
+            technique: "pcss".into(),
+            size: "960x540".into(),
+            ..ViewArgs::default()
+        }),
     };
     match result {
         Ok(code) => code,
@@ -178,7 +205,10 @@ fn load_suite(name: &str) -> Result<Sweep> {
             .join("../../benches")
             .join(&file),
     ];
-    if softshadow_bench::sweep::SUITES.iter().any(|(n, _)| *n == name) {
+    if softshadow_bench::sweep::SUITES
+        .iter()
+        .any(|(n, _)| *n == name)
+    {
         return Ok(Sweep::suite(name)?);
     }
     match candidates.iter().find(|p| p.is_file()) {
@@ -306,6 +336,44 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             results.runs.len()
         );
         return Ok(ExitCode::from(3));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn view(args: ViewArgs) -> Result<ExitCode> {
+    // Bad input fails before a window opens.
+    let (width, height) = softshadow_bench::parse_size(&args.size)?;
+    let params = softshadow_bench::parse_params(&args.technique, &args.params)?;
+    let options = softshadow_viewer::ViewOptions {
+        app: softshadow_viewer::ViewerOptions {
+            scene: args.scene,
+            technique: args.technique,
+            params,
+            state: args.state,
+        },
+        width,
+        height,
+        frames: args.frames,
+        screenshot: args.screenshot.clone(),
+    };
+    let summary = softshadow_viewer::run(options)?;
+    if args.frames.is_some() {
+        println!(
+            "{} frames at {width}x{height} on {}: frame time mean {} ms, median {} ms, mean after the reference converged {} ms; technique GPU {} ms; reference {}/{} light samples",
+            summary.frames,
+            summary.adapter,
+            summary.mean_frame_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary.median_frame_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary
+                .converged_mean_frame_ms
+                .map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary.technique_gpu_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary.reference_progress.0,
+            summary.reference_progress.1,
+        );
+    }
+    if let Some(path) = &args.screenshot {
+        println!("wrote {}", path.display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,0 +1,567 @@
+//! `backprojection`: gather backprojection soft shadows (Guennebaud, Barthe & Paulin 2006;
+//! `shared/notes/ALGORITHMS.md` section 1) with the improvements of the bitmask soft shadows paper
+//! (Schwarz & Stamminger 2007): micro-quads (section 4) and the multi-scale shadow map (section 5).
+//!
+//! Reads: the casters (one shadow map from the light centre) and the G-buffer.
+//! Writes: the visibility buffer. Passes: `backprojection/shadow_map`,
+//! `backprojection/hierarchy/level0` (linearised depth), `backprojection/hierarchy/hsm` or
+//! `.../mssm` (the levels this light and map can need; `.../fence` around them when the build is
+//! timed), `backprojection/gather` (per pixel: search
+//! area, two refinements with lit / umbra early outs, level choice, backprojection of the
+//! micro-primitives and area accumulation; also the counters behind the stats and the debug
+//! views).
+
+use bytemuck::{Pod, Zeroable};
+use softshadow_core::{
+    frame::uniform_entry,
+    fullscreen::uniform_buffer,
+    gbuffer::create_texture,
+    glam::Vec2,
+    hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind},
+    params::{expect_bool, expect_choice, expect_f32, expect_u32, find_spec},
+    shader::{self, ShaderSpec},
+    shader_file,
+    shadow_map::{fit_caster_view, CentreShadowMap},
+    wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+};
+
+pub const ID: &str = "backprojection";
+
+pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
+    path: "backprojection/gather.wgsl",
+    source: shader_file!("backprojection/gather.wgsl").1,
+    permutations: &[&[]],
+}];
+
+/// Micro-patches per axis a full search (`hierarchy = none`) gathers before it must use coarser
+/// blocks (`FULL_SEARCH_PATCHES` in `gather.wgsl`).
+pub const FULL_SEARCH_PATCHES: u32 = 256;
+
+/// How a shadow-map texel becomes an occluder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Primitive {
+    /// Each texel is a rectangle parallel to the light at its depth (Guennebaud et al. 2006).
+    Micropatch,
+    /// Unprojected texel centres are the vertices of quads; a quad occludes when all four
+    /// vertices do (bitmask paper section 4).
+    Microquad,
+}
+
+impl Primitive {
+    pub const NAMES: &'static [&'static str] = &["micropatch", "microquad"];
+    pub fn name(self) -> &'static str {
+        match self {
+            Primitive::Micropatch => "micropatch",
+            Primitive::Microquad => "microquad",
+        }
+    }
+    fn from_name(name: &str) -> Self {
+        if name == "microquad" {
+            Primitive::Microquad
+        } else {
+            Primitive::Micropatch
+        }
+    }
+}
+
+/// Settings of gather backprojection. Defaults: the MSSM, 16 x 16 micro-patches at most, gap
+/// filling on (the paper's Table 3 uses 12-20 per axis).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BackprojectionSettings {
+    /// Shadow-map edge in texels (the hierarchies pad it to a power of two).
+    pub shadow_map_size: u32,
+    /// Depth hierarchy used to refine the search area and classify pixels; `None` gathers every
+    /// texel of the unrefined search area (a full search, for comparison).
+    pub hierarchy: HierarchyKind,
+    /// Most micro-primitives per axis per pixel (4 to 32); larger areas use coarser blocks.
+    pub max_patches: u32,
+    pub primitive: Primitive,
+    /// Extend micro-patches to their occluding left and bottom neighbours (no effect on quads).
+    pub gap_filling: bool,
+    /// Depth bias in texel footprints at the receiver (scaled by 1/cos and by the block size).
+    pub bias_texels: f32,
+}
+
+impl Default for BackprojectionSettings {
+    fn default() -> Self {
+        Self {
+            shadow_map_size: 1024,
+            hierarchy: HierarchyKind::Mssm,
+            max_patches: 16,
+            primitive: Primitive::Micropatch,
+            gap_filling: true,
+            bias_texels: 1.5,
+        }
+    }
+}
+
+pub fn param_specs() -> Vec<ParamSpec> {
+    let d = BackprojectionSettings::default();
+    vec![
+        ParamSpec::int(
+            "shadow_map_size",
+            "Shadow-map edge in texels",
+            64,
+            4096,
+            d.shadow_map_size as i64,
+        ),
+        ParamSpec::choice(
+            "hierarchy",
+            "Depth hierarchy for search-area refinement: none (full search), hsm (min/max mip pyramid), mssm (multi-scale shadow map)",
+            HierarchyKind::NAMES,
+            "mssm",
+        ),
+        ParamSpec::int(
+            "max_patches",
+            "Most micro-primitives per axis per pixel; larger search areas use coarser blocks",
+            4,
+            32,
+            d.max_patches as i64,
+        ),
+        ParamSpec::choice(
+            "primitive",
+            "Texel interpretation: micropatch (rectangle parallel to the light) or microquad (texel centres as quad vertices)",
+            Primitive::NAMES,
+            "micropatch",
+        ),
+        ParamSpec::boolean(
+            "gap_filling",
+            "Extend micro-patches to their occluding left and bottom neighbours",
+            d.gap_filling,
+        ),
+        ParamSpec::float(
+            "bias_texels",
+            "Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the block size)",
+            0.0,
+            16.0,
+            d.bias_texels as f64,
+        ),
+    ]
+}
+
+/// Mirrors `GatherParams` in `shaders/backprojection/gather.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct GatherUniform {
+    hierarchy: u32,
+    primitive: u32,
+    gap_filling: u32,
+    max_patches: u32,
+    bias_texels: f32,
+    max_level: i32,
+    _pad: [u32; 2],
+}
+
+/// Mirrors `Counters` in `gather.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Counters {
+    receivers: u32,
+    lit: u32,
+    umbra: u32,
+    backprojected: u32,
+    primitives_lo: u32,
+    primitives_hi: u32,
+    _pad: [u32; 2],
+}
+
+const COUNTERS_SIZE: u64 = std::mem::size_of::<Counters>() as u64;
+
+/// Per-pixel debug images, reallocated with the screen size.
+struct DebugTargets {
+    size: (u32, u32),
+    classification: wgpu::Texture,
+    classification_view: wgpu::TextureView,
+    level: wgpu::Texture,
+    level_view: wgpu::TextureView,
+}
+
+pub struct Backprojection {
+    pub settings: BackprojectionSettings,
+    gpu: Gpu,
+    shadow_map: CentreShadowMap,
+    hierarchy: DepthHierarchy,
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    params_buffer: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    counters_readback: wgpu::Buffer,
+    debug: Option<DebugTargets>,
+    /// Stats known when recording; the GPU counters are added by `stats()`.
+    stats: TechniqueStats,
+    /// The last frame ran the gather pass (its counters are worth reading).
+    gathered: bool,
+}
+
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        id: ID,
+        description: "Gather backprojection of shadow-map micro-patches or micro-quads, HSM or MSSM search-area refinement",
+        source: "Guennebaud, Barthe & Paulin 2006; Schwarz & Stamminger 2007 (sections 4-5)",
+        params: param_specs,
+        create: |gpu| Ok(Box::new(Backprojection::new(gpu, BackprojectionSettings::default())?)),
+    }
+}
+
+impl Backprojection {
+    pub fn new(gpu: &Gpu, settings: BackprojectionSettings) -> Result<Self, TechniqueError> {
+        let stage = wgpu::ShaderStages::COMPUTE;
+        let float_texture = |binding, dimension| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: stage,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: dimension,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let storage_texture = |binding, format| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: stage,
+            ty: wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format,
+                view_dimension: wgpu::TextureViewDimension::D2,
+            },
+            count: None,
+        };
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("backprojection/gather"),
+                entries: &[
+                    uniform_entry(0, stage, false),
+                    float_texture(1, wgpu::TextureViewDimension::D2),
+                    float_texture(2, wgpu::TextureViewDimension::D2Array),
+                    uniform_entry(3, stage, false),
+                    storage_texture(4, wgpu::TextureFormat::R32Float),
+                    storage_texture(5, wgpu::TextureFormat::Rgba8Unorm),
+                    storage_texture(6, wgpu::TextureFormat::R32Float),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 7,
+                        visibility: stage,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Storage { read_only: false },
+                            has_dynamic_offset: false,
+                            min_binding_size: wgpu::BufferSize::new(COUNTERS_SIZE),
+                        },
+                        count: None,
+                    },
+                ],
+            });
+        let module = shader::create_module(gpu, &SHADERS[0], &[])?;
+        let pipeline_layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("backprojection/gather"),
+                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
+                immediate_size: 0,
+            });
+        let pipeline = gpu
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("backprojection/gather"),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some("gather"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        let counters = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("backprojection/counters"),
+            size: COUNTERS_SIZE,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let counters_readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("backprojection/counters readback"),
+            size: COUNTERS_SIZE,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Ok(Self {
+            settings,
+            gpu: gpu.clone(),
+            shadow_map: CentreShadowMap::new(gpu)?,
+            hierarchy: DepthHierarchy::new(gpu)?,
+            pipeline,
+            layout,
+            params_buffer: uniform_buffer(gpu, "backprojection/params", &GatherUniform::zeroed()),
+            counters,
+            counters_readback,
+            debug: None,
+            stats: TechniqueStats::new(),
+            gathered: false,
+        })
+    }
+
+    fn ensure_debug_targets(&mut self, width: u32, height: u32) {
+        if self.debug.as_ref().map(|d| d.size) == Some((width, height)) {
+            return;
+        }
+        let usage = wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC;
+        let classification = create_texture(
+            &self.gpu,
+            "backprojection/classification",
+            width,
+            height,
+            wgpu::TextureFormat::Rgba8Unorm,
+            usage,
+        );
+        let level = create_texture(
+            &self.gpu,
+            "backprojection/level",
+            width,
+            height,
+            wgpu::TextureFormat::R32Float,
+            usage,
+        );
+        self.debug = Some(DebugTargets {
+            size: (width, height),
+            classification_view: classification.create_view(&Default::default()),
+            classification,
+            level_view: level.create_view(&Default::default()),
+            level,
+        });
+    }
+
+    /// Reads the gather pass's counters of the last frame (waits for the GPU).
+    fn read_counters(&self) -> Option<Counters> {
+        let slice = self.counters_readback.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sender.send(r);
+        });
+        self.gpu.wait_idle().ok()?;
+        receiver.recv().ok()?.ok()?;
+        let counters = {
+            let data = slice.get_mapped_range().ok()?;
+            *bytemuck::from_bytes::<Counters>(&data[..COUNTERS_SIZE as usize])
+        };
+        self.counters_readback.unmap();
+        Some(counters)
+    }
+}
+
+impl ShadowTechnique for Backprojection {
+    fn id(&self) -> &'static str {
+        ID
+    }
+
+    fn params(&self) -> ParamSet {
+        let s = &self.settings;
+        let values = [
+            ParamValue::Int(s.shadow_map_size as i64),
+            ParamValue::Choice(s.hierarchy.name().into()),
+            ParamValue::Int(s.max_patches as i64),
+            ParamValue::Choice(s.primitive.name().into()),
+            ParamValue::Bool(s.gap_filling),
+            ParamValue::Float(s.bias_texels as f64),
+        ];
+        ParamSet {
+            entries: param_specs().into_iter().zip(values).collect(),
+        }
+    }
+
+    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
+        let specs = param_specs();
+        let spec = find_spec(ID, &specs, name)?;
+        let value = spec.check(value)?;
+        let s = &mut self.settings;
+        match spec.name {
+            "shadow_map_size" => s.shadow_map_size = expect_u32(&value),
+            "hierarchy" => {
+                s.hierarchy = HierarchyKind::from_name(expect_choice(&value))
+                    .expect("checked against the spec's options")
+            }
+            "max_patches" => s.max_patches = expect_u32(&value),
+            "primitive" => s.primitive = Primitive::from_name(expect_choice(&value)),
+            "gap_filling" => s.gap_filling = expect_bool(&value),
+            "bias_texels" => s.bias_texels = expect_f32(&value),
+            _ => unreachable!("every spec is matched"),
+        }
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        let s = self.settings.clone();
+        // The settings are range-checked by set_param; a library user may set any value.
+        let max_patches = s.max_patches.clamp(4, 32);
+        let map_size = s
+            .shadow_map_size
+            .clamp(1, gpu.device.limits().max_texture_dimension_2d);
+        self.gathered = false;
+        let frustum = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO);
+        let rendered = frustum.is_some()
+            && self
+                .shadow_map
+                .render(frame, inputs, map_size, "backprojection/shadow_map");
+        let Some(frustum) = frustum.filter(|_| rendered) else {
+            out.clear_lit(frame, "backprojection/no_casters");
+            self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
+            return Ok(());
+        };
+
+        // Only the levels this light and map can need (core::hierarchy::needed_levels).
+        let search = max_search_texels(
+            inputs.light.half_extent(),
+            frustum.near,
+            frustum.s_max - frustum.s_min,
+            map_size,
+        );
+        let levels = match s.hierarchy {
+            HierarchyKind::None => needed_levels(map_size, search, FULL_SEARCH_PATCHES, false),
+            _ => needed_levels(map_size, search, max_patches, true),
+        };
+        let depth = self.shadow_map.map_view().expect("rendered above");
+        self.hierarchy.build(
+            frame,
+            depth,
+            &self.shadow_map.view_buffer,
+            map_size,
+            s.hierarchy,
+            levels,
+            "backprojection/hierarchy",
+        );
+
+        let uniform = GatherUniform {
+            hierarchy: s.hierarchy.shader_value(),
+            primitive: match s.primitive {
+                Primitive::Micropatch => 0,
+                Primitive::Microquad => 1,
+            },
+            gap_filling: u32::from(s.gap_filling),
+            max_patches,
+            bias_texels: s.bias_texels.max(0.0),
+            max_level: levels as i32,
+            _pad: [0; 2],
+        };
+        gpu.queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
+        gpu.queue
+            .write_buffer(&self.counters, 0, bytemuck::bytes_of(&Counters::default()));
+        self.ensure_debug_targets(inputs.width, inputs.height);
+        let debug = self.debug.as_ref().expect("allocated above");
+        let hsm = self.hierarchy.hsm_view().expect("built above");
+        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("backprojection/gather"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.shadow_map.view_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(hsm),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(self.hierarchy.mssm_view()),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: self.params_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&out.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&debug.classification_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::TextureView(&debug.level_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: self.counters.as_entire_binding(),
+                },
+            ],
+        });
+        frame.compute_pass("backprojection/gather", |pass| {
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
+            pass.set_bind_group(1, &bind_group, &[]);
+            pass.dispatch_workgroups(inputs.width.div_ceil(8), inputs.height.div_ceil(8), 1);
+        });
+        frame.encoder.copy_buffer_to_buffer(
+            &self.counters,
+            0,
+            &self.counters_readback,
+            0,
+            COUNTERS_SIZE,
+        );
+        self.gathered = true;
+        self.stats = TechniqueStats::from([
+            ("shadow_maps".into(), 1.0),
+            ("hierarchy_levels".into(), levels as f64),
+            ("max_search_texels".into(), search.min(1e9) as f64),
+        ]);
+        Ok(())
+    }
+
+    /// `backprojected_pixel_fraction` (receiver pixels that needed any backprojection, paper
+    /// Fig. 8), `lit_pixel_fraction` and `umbra_pixel_fraction` (early outs),
+    /// `mean_primitives_per_pixel` (micro-primitives processed per receiver pixel) and
+    /// `mean_primitives_per_backprojected_pixel`, `hierarchy_build_ms` (GPU time of the level
+    /// passes, from the hierarchy's own timestamp queries), `hierarchy_levels`.
+    fn stats(&self) -> TechniqueStats {
+        let mut stats = self.stats.clone();
+        if !self.gathered {
+            return stats;
+        }
+        if let Some(c) = self.read_counters() {
+            let receivers = c.receivers.max(1) as f64;
+            let primitives = (((c.primitives_hi as u64) << 32) | c.primitives_lo as u64) as f64;
+            stats.insert("receiver_pixels".into(), c.receivers as f64);
+            stats.insert(
+                "backprojected_pixel_fraction".into(),
+                c.backprojected as f64 / receivers,
+            );
+            stats.insert("lit_pixel_fraction".into(), c.lit as f64 / receivers);
+            stats.insert("umbra_pixel_fraction".into(), c.umbra as f64 / receivers);
+            stats.insert("mean_primitives_per_pixel".into(), primitives / receivers);
+            stats.insert(
+                "mean_primitives_per_backprojected_pixel".into(),
+                primitives / c.backprojected.max(1) as f64,
+            );
+        }
+        if let Some(ms) = self.hierarchy.last_build_ms(&self.gpu) {
+            stats.insert("hierarchy_build_ms".into(), ms);
+        }
+        stats
+    }
+
+    /// `shadow_map`, `classification` (Rgba8Unorm: light grey lit, dark blue umbra, red to blue
+    /// backprojected with few to max_patches² primitives, transparent off-receiver) and `level`
+    /// (R32Float: the gather level, -1 where nothing was backprojected).
+    fn debug_views(&self) -> Vec<DebugView> {
+        let mut views = self.shadow_map.debug_views();
+        if let Some(debug) = &self.debug {
+            views.push(DebugView {
+                name: "classification".into(),
+                texture: debug.classification.clone(),
+            });
+            views.push(DebugView {
+                name: "level".into(),
+                texture: debug.level.clone(),
+            });
+        }
+        views
+    }
+}

@@ -1,0 +1,314 @@
+//! Gather backprojection (`crates/backprojection`) against the closed form, against its own full
+//! search, and at the extremes, with the bounds stated in docs/TECHNIQUES.md. Small images (96²),
+//! small shadow maps (256²) and a 16 x 16 reference keep this affordable on lavapipe.
+
+use anyhow::{ensure, Context, Result};
+use softshadow_backprojection::{Backprojection, BackprojectionSettings, Primitive};
+use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec, Status};
+use softshadow_core::Gpu;
+use softshadow_core::{
+    glam::Vec3, HierarchyKind, ParamValue, Renderer, Scene, SceneGpu, ShadowTechnique,
+    TechniqueStats,
+};
+use softshadow_reference::exact::{visible_fraction, ParallelRect};
+
+const SIZE: u32 = 96;
+
+struct Output {
+    v: Vec<f32>,
+    receiver: Vec<bool>,
+    positions: Vec<Option<Vec3>>,
+    stats: TechniqueStats,
+}
+
+fn gpu() -> Result<Gpu> {
+    Gpu::new_headless().context("backprojection tests need a GPU adapter")
+}
+
+fn render(gpu: &Gpu, scene: &Scene, technique: &mut dyn ShadowTechnique) -> Result<Output> {
+    let scene_gpu = SceneGpu::upload(gpu, scene);
+    let mut renderer = Renderer::new(gpu, SIZE, SIZE)?;
+    renderer.render(&scene_gpu, &scene.camera, &scene.light, technique, None)?;
+    let v = renderer.read_visibility()?;
+    ensure!(
+        v.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+        "visibility outside [0, 1] or not finite"
+    );
+    Ok(Output {
+        v,
+        receiver: renderer.read_receiver_mask()?,
+        positions: renderer.read_world_positions()?,
+        stats: technique.stats(),
+    })
+}
+
+fn backprojection(gpu: &Gpu, settings: BackprojectionSettings) -> Result<Backprojection> {
+    Ok(Backprojection::new(gpu, settings)?)
+}
+
+fn settings(
+    hierarchy: HierarchyKind,
+    primitive: Primitive,
+    max_patches: u32,
+) -> BackprojectionSettings {
+    BackprojectionSettings {
+        shadow_map_size: 256,
+        hierarchy,
+        primitive,
+        max_patches,
+        ..Default::default()
+    }
+}
+
+fn stat(stats: &TechniqueStats, name: &str) -> Result<f64> {
+    stats
+        .get(name)
+        .copied()
+        .with_context(|| format!("stat `{name}` missing: {stats:?}"))
+}
+
+/// Mean and max |V - exact| over receiver pixels that the exact answer or V puts in shadow.
+fn error_against_exact(scene: &Scene, out: &Output) -> (f64, f64, usize) {
+    let params = softshadow_scenes::AttySquare::default();
+    let half = params.occluder_size as f32 / 2.0;
+    let y = params.occluder_height as f32;
+    let (c0, c1) = (
+        scene.light.to_light_space([-half, y, -half].into()),
+        scene.light.to_light_space([half, y, half].into()),
+    );
+    let occluder = ParallelRect {
+        min: c0.truncate().min(c1.truncate()),
+        max: c0.truncate().max(c1.truncate()),
+        z: c0.z,
+    };
+    let (mut sum, mut max, mut count) = (0.0, 0.0f64, 0);
+    for ((v, receiver), p) in out.v.iter().zip(&out.receiver).zip(&out.positions) {
+        let (true, Some(p)) = (*receiver, p) else {
+            continue;
+        };
+        let exact = visible_fraction(
+            scene.light.half_extent(),
+            &[occluder],
+            scene.light.to_light_space(*p),
+        );
+        if exact < 1.0 || *v < 1.0 {
+            let e = (*v as f64 - exact).abs();
+            sum += e;
+            max = max.max(e);
+            count += 1;
+        }
+    }
+    (sum / count.max(1) as f64, max, count)
+}
+
+/// One planar square parallel to the light: micro-patches at its single depth reproduce it up to
+/// the texel grid, so the error is shadow-map aliasing only.
+#[test]
+fn atty_square_matches_the_closed_form() -> Result<()> {
+    let gpu = gpu()?;
+    let scene = softshadow_scenes::AttySquare::default().scene()?;
+    // (hierarchy, primitive, max_patches, bound on the mean, bound on the max). The full search
+    // reads level-0 texels only: aliasing error. With a hierarchy the search area holds more than
+    // max_patches^2 texels, so coarse blocks at their minimum depth are gathered: a block holding
+    // the square's edge also covers the empty 2 % margin of the fitted map window, which widens
+    // the square by that margin whatever the block size (measured 0.017 / 0.038). Micro-quads span
+    // block centres: at 32 per axis (4-texel blocks) 0.006 / 0.023; at 16 per axis 0.023 / 0.082.
+    let cases = [
+        (HierarchyKind::None, Primitive::Micropatch, 32, 0.006, 0.015),
+        (HierarchyKind::Hsm, Primitive::Micropatch, 16, 0.025, 0.05),
+        (HierarchyKind::Mssm, Primitive::Micropatch, 16, 0.025, 0.05),
+        (HierarchyKind::Mssm, Primitive::Micropatch, 4, 0.025, 0.05),
+        (HierarchyKind::Hsm, Primitive::Microquad, 32, 0.01, 0.04),
+        (HierarchyKind::Mssm, Primitive::Microquad, 32, 0.01, 0.04),
+    ];
+    for (hierarchy, primitive, max_patches, mean_bound, max_bound) in cases {
+        let what = format!("{hierarchy:?} {primitive:?} max_patches={max_patches}");
+        let mut technique = backprojection(&gpu, settings(hierarchy, primitive, max_patches))?;
+        let out = render(&gpu, &scene, &mut technique)?;
+        let (mean, max, count) = error_against_exact(&scene, &out);
+        eprintln!("atty-square {what}: mean {mean:.4}, max {max:.4} over {count} pixels");
+        ensure!(count > 1000, "only {count} shadowed pixels");
+        ensure!(mean < mean_bound, "{what}: mean {mean} >= {mean_bound}");
+        ensure!(max < max_bound, "{what}: max {max} >= {max_bound}");
+    }
+    Ok(())
+}
+
+/// The MSSM's depth bounds are never looser than the HSM's for the same area, so it classifies
+/// at least as many pixels as lit or umbra; and skipping work never changes the answer much: the
+/// refined, capped gather (MSSM, 32 x 32) agrees with the full search over the unrefined area.
+#[test]
+fn mssm_classifies_at_least_as_much_as_the_hsm_and_agrees_with_the_full_search() -> Result<()> {
+    let gpu = gpu()?;
+    for (id, mean_bound) in [
+        ("balls-3x3x3", 0.06),
+        ("blob-floating:triangles=20000", 0.015),
+    ] {
+        let scene = softshadow_scenes::load(id)?.scene;
+        let mut early_outs = Vec::new();
+        let mut outputs = Vec::new();
+        for hierarchy in [HierarchyKind::Hsm, HierarchyKind::Mssm, HierarchyKind::None] {
+            let mut technique =
+                backprojection(&gpu, settings(hierarchy, Primitive::Micropatch, 32))?;
+            let out = render(&gpu, &scene, &mut technique)?;
+            let classified =
+                stat(&out.stats, "lit_pixel_fraction")? + stat(&out.stats, "umbra_pixel_fraction")?;
+            eprintln!(
+                "{id} {hierarchy:?}: lit+umbra {classified:.4}, backprojected {:.4}, primitives/pixel {:.1}",
+                stat(&out.stats, "backprojected_pixel_fraction")?,
+                stat(&out.stats, "mean_primitives_per_pixel")?,
+            );
+            early_outs.push(classified);
+            outputs.push(out);
+        }
+        ensure!(
+            early_outs[1] >= early_outs[0],
+            "{id}: MSSM classified {} of the pixels, the HSM {}",
+            early_outs[1],
+            early_outs[0]
+        );
+        let (mssm, full) = (&outputs[1], &outputs[2]);
+        let (mut sum, mut count, mut far_off) = (0.0, 0usize, 0usize);
+        for ((a, b), receiver) in mssm.v.iter().zip(&full.v).zip(&full.receiver) {
+            if *receiver {
+                let d = (a - b).abs() as f64;
+                sum += d;
+                count += 1;
+                far_off += usize::from(d > 0.25);
+            }
+        }
+        let mean = sum / count.max(1) as f64;
+        eprintln!(
+            "{id}: |V_mssm - V_full| mean {mean:.4}, {far_off} of {count} pixels off by > 0.25"
+        );
+        ensure!(
+            mean < mean_bound,
+            "{id}: mean difference {mean} >= {mean_bound}"
+        );
+        ensure!(
+            far_off * 25 <= count,
+            "{id}: {far_off} of {count} pixels off by > 0.25"
+        );
+    }
+    Ok(())
+}
+
+/// No light leaks at contact: where every light sample of the reference is blocked on the ground
+/// around the blob resting on it, backprojection stays dark.
+#[test]
+fn blob_contact_umbra_stays_dark() -> Result<()> {
+    let gpu = gpu()?;
+    let scene = softshadow_scenes::load("blob-contact:triangles=20000")?.scene;
+    let mut reference = softshadow_reference::info().create_with(
+        &gpu,
+        &[
+            ("samples_per_axis".into(), ParamValue::Int(16)),
+            ("shadow_map_size".into(), ParamValue::Int(512)),
+        ],
+    )?;
+    let reference = render(&gpu, &scene, reference.as_mut())?;
+    for primitive in [Primitive::Micropatch, Primitive::Microquad] {
+        for hierarchy in [HierarchyKind::Hsm, HierarchyKind::Mssm] {
+            let mut technique = backprojection(&gpu, settings(hierarchy, primitive, 16))?;
+            let out = render(&gpu, &scene, &mut technique)?;
+            let (mut sum, mut count, mut leaks) = (0.0, 0usize, 0usize);
+            for (((v, v_ref), receiver), p) in out
+                .v
+                .iter()
+                .zip(&reference.v)
+                .zip(&reference.receiver)
+                .zip(&reference.positions)
+            {
+                // Umbra on the ground (y = 0) next to the contact.
+                let on_ground = p.is_some_and(|p| p.y.abs() < 0.02);
+                if *receiver && on_ground && *v_ref == 0.0 {
+                    sum += *v as f64;
+                    count += 1;
+                    leaks += usize::from(*v > 0.2);
+                }
+            }
+            let mean = sum / count.max(1) as f64;
+            eprintln!(
+                "blob-contact {primitive:?} {hierarchy:?}: umbra V mean {mean:.4}, {leaks} of {count} pixels above 0.2"
+            );
+            ensure!(count >= 50, "only {count} umbra pixels on the ground");
+            ensure!(
+                mean < 0.05,
+                "{primitive:?} {hierarchy:?}: umbra V mean {mean}"
+            );
+            ensure!(
+                leaks * 50 <= count,
+                "{primitive:?} {hierarchy:?}: {leaks} of {count} umbra pixels leak"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Occluder almost on the receiver, occluder next to the light (search-area blow-up), a huge and a
+/// zero-size light: every hierarchy and primitive finishes with finite V in [0, 1].
+#[test]
+fn extremes_stay_finite_and_bounded() -> Result<()> {
+    let mut bench = Bench::new(
+        gpu()?,
+        BenchOptions {
+            frames: 1,
+            warmup: 0,
+            error: false,
+            images: false,
+            exact_samples_per_axis: None,
+            ..Default::default()
+        },
+    )?;
+    let scenes = [
+        "atty-square:occluder_height=0.001",
+        "atty-square:occluder_height=1.999",
+        "atty-square:light_width=4",
+        "atty-square:light_width=0",
+    ];
+    let dir = tempfile::tempdir()?;
+    for scene in scenes {
+        for hierarchy in ["none", "hsm", "mssm"] {
+            for primitive in ["micropatch", "microquad"] {
+                let texts = [
+                    format!("hierarchy={hierarchy}"),
+                    format!("primitive={primitive}"),
+                    "shadow_map_size=128".to_string(),
+                    "max_patches=4".to_string(),
+                ];
+                let spec = RunSpec {
+                    scene: scene.into(),
+                    technique: "backprojection".into(),
+                    params: parse_params("backprojection", &texts)?,
+                    width: 48,
+                    height: 48,
+                };
+                let run = bench.run(0, &spec, dir.path());
+                let what = format!("{scene} {hierarchy} {primitive}");
+                ensure!(run.status == Status::Ok, "{what}: {}", run.message);
+                let stability = run.stability.context("stability")?;
+                ensure!(
+                    stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
+                    "{what}: {stability:?}"
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn bad_settings_are_rejected_with_the_range() -> Result<()> {
+    let info = softshadow_backprojection::info();
+    for (text, expected) in [
+        ("max_patches=3", "4 to 32"),
+        ("max_patches=33", "4 to 32"),
+        ("hierarchy=quadtree", "none | hsm | mssm"),
+        ("primitive=triangle", "micropatch | microquad"),
+        ("bias_texels=NaN", "not finite"),
+    ] {
+        let err = info.parse_param(text).unwrap_err().to_string();
+        ensure!(err.contains(expected), "{text}: {err}");
+    }
+    Ok(())
+}

@@ -1,0 +1,153 @@
+//! Error against time: one point per technique and setting tried on the current scene, the
+//! Pareto front (no other point is both faster and more accurate), and export of the points as a
+//! benchmark sweep file (`workbench bench --sweep`).
+
+use softshadow_core::ParamValue;
+
+/// One technique with one setting, measured on the current scene, light and camera.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TradeoffPoint {
+    pub technique: String,
+    /// Every parameter with its value.
+    pub params: Vec<(String, ParamValue)>,
+    /// Rolling median GPU time of the technique's own passes, ms.
+    pub gpu_ms: f64,
+    /// `mae_shadowed` against the converged reference.
+    pub error: f64,
+}
+
+impl TradeoffPoint {
+    /// `pcss(filter_samples=32, kernel=grid)`, non-default values only.
+    pub fn label(&self, defaults: &[(String, ParamValue)]) -> String {
+        let changed: Vec<String> = self
+            .params
+            .iter()
+            .filter(|(name, value)| !defaults.iter().any(|(n, v)| n == name && v == value))
+            .map(|(name, value)| format!("{name}={value}"))
+            .collect();
+        if changed.is_empty() {
+            self.technique.clone()
+        } else {
+            format!("{}({})", self.technique, changed.join(", "))
+        }
+    }
+
+    /// Same technique and settings (the time and error may differ).
+    pub fn same_setting(&self, technique: &str, params: &[(String, ParamValue)]) -> bool {
+        self.technique == technique && self.params == params
+    }
+}
+
+/// Indices of the points on the Pareto front, fastest first: a point is on it when no other point
+/// is at least as fast and at least as accurate, and strictly better in one of the two.
+pub fn pareto_front(points: &[TradeoffPoint]) -> Vec<usize> {
+    let dominated = |i: usize| {
+        let p = &points[i];
+        points.iter().any(|q| {
+            q.gpu_ms <= p.gpu_ms && q.error <= p.error && (q.gpu_ms < p.gpu_ms || q.error < p.error)
+        })
+    };
+    let mut front: Vec<usize> = (0..points.len()).filter(|&i| !dominated(i)).collect();
+    front.sort_by(|&a, &b| points[a].gpu_ms.total_cmp(&points[b].gpu_ms));
+    front
+}
+
+/// The points as a sweep file: the scene, the image size, and one `[[technique]]` table per point
+/// with every parameter as a single value (so each table is exactly one run).
+pub fn sweep_toml(
+    points: &[TradeoffPoint],
+    scene: &str,
+    width: u32,
+    height: u32,
+    reference_params: &[(String, ParamValue)],
+) -> String {
+    let mut out = String::from("# Exported by the viewer: one run per technique setting tried.\n");
+    out.push_str(&format!("size = \"{width}x{height}\"\n"));
+    out.push_str(&format!("scenes = [{}]\n", toml_string(scene)));
+    if !reference_params.is_empty() {
+        out.push_str("\n[reference]\n");
+        for (name, value) in reference_params {
+            out.push_str(&format!("{name} = {}\n", toml_value(value)));
+        }
+    }
+    for point in points {
+        out.push_str(&format!(
+            "\n# gpu {:.3} ms, mae_shadowed {:.5}\n[[technique]]\nid = {}\n",
+            point.gpu_ms,
+            point.error,
+            toml_string(&point.technique)
+        ));
+        if !point.params.is_empty() {
+            out.push_str("[technique.params]\n");
+            for (name, value) in &point.params {
+                out.push_str(&format!("{name} = {}\n", toml_value(value)));
+            }
+        }
+    }
+    out
+}
+
+fn toml_value(value: &ParamValue) -> String {
+    match value {
+        ParamValue::Bool(b) => b.to_string(),
+        ParamValue::Int(i) => i.to_string(),
+        // `{:?}` keeps a decimal point, so TOML reads a float back.
+        ParamValue::Float(x) => format!("{x:?}"),
+        ParamValue::Choice(s) => toml_string(s),
+    }
+}
+
+fn toml_string(text: &str) -> String {
+    toml::Value::String(text.to_string()).to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(technique: &str, gpu_ms: f64, error: f64) -> TradeoffPoint {
+        TradeoffPoint {
+            technique: technique.into(),
+            params: vec![
+                ("filter_samples".into(), ParamValue::Int(gpu_ms as i64)),
+                ("kernel".into(), ParamValue::Choice("grid".into())),
+                ("bias_texels".into(), ParamValue::Float(1.0)),
+            ],
+            gpu_ms,
+            error,
+        }
+    }
+
+    #[test]
+    fn the_front_keeps_only_undominated_points_fastest_first() {
+        let points = vec![
+            point("pcss", 30.0, 0.05),
+            point("pcss", 10.0, 0.20),
+            point("pcss", 40.0, 0.06), // slower and worse than the first
+            point("pcss", 20.0, 0.05), // dominates the first
+        ];
+        assert_eq!(pareto_front(&points), vec![1, 3]);
+        assert!(pareto_front(&[]).is_empty());
+    }
+
+    #[test]
+    fn exported_sweep_parses_back_into_one_run_per_point() {
+        let points = vec![point("pcss", 16.0, 0.05), point("pcss", 32.0, 0.03)];
+        let text = sweep_toml(
+            &points,
+            "atty-square",
+            320,
+            180,
+            &[("samples_per_axis".into(), ParamValue::Int(8))],
+        );
+        let sweep = softshadow_bench::Sweep::parse(&text).expect(&text);
+        assert_eq!(sweep.runs.len(), 2);
+        assert_eq!(sweep.runs[1].params.len(), 3);
+        assert_eq!((sweep.runs[0].width, sweep.runs[0].height), (320, 180));
+        assert_eq!(sweep.reference_params.len(), 1);
+        assert_eq!(
+            points[1].label(&[("kernel".into(), ParamValue::Choice("grid".into()))]),
+            "pcss(filter_samples=32, bias_texels=1)"
+        );
+    }
+}

@@ -1,0 +1,280 @@
+//! The viewer driven through its UI with egui_kittest, on the same wgpu device as the renderer
+//! (lavapipe here). Snapshots live in `tests/snapshots/`: a missing or different snapshot fails;
+//! `UPDATE_SNAPSHOTS=1 cargo test -p softshadow-viewer` writes new ones to review and commit.
+
+use anyhow::{ensure, Context, Result};
+use egui::accesskit::Role;
+use egui_kittest::{kittest::Queryable, wgpu::WgpuTestRenderer, Harness, SnapshotOptions};
+use softshadow_core::{wgpu, Gpu, ParamValue};
+use softshadow_viewer::{ViewMode, ViewerApp, ViewerOptions};
+
+/// A small window: the image area is about 300 x 400 pixels, so every frame stays cheap.
+const SIZE: egui::Vec2 = egui::vec2(860.0, 420.0);
+
+fn harness(technique: &str) -> Result<Harness<'static, ViewerApp>> {
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    // kittest reads its frames back as RGBA8.
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut app = ViewerApp::new(
+        gpu,
+        render_state.renderer.clone(),
+        &ViewerOptions {
+            scene: "atty-square".into(),
+            technique: technique.into(),
+            ..ViewerOptions::default()
+        },
+    )?;
+    // A 4 x 4 reference at 256^2 converges in one frame.
+    app.set_reference_param("samples_per_axis", ParamValue::Int(4));
+    app.set_reference_param("shadow_map_size", ParamValue::Int(256));
+    let harness = Harness::builder()
+        .with_size(SIZE)
+        .renderer(WgpuTestRenderer::from_render_state(render_state))
+        .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
+    Ok(harness)
+}
+
+#[test]
+fn the_technique_picker_switches_the_technique_and_the_timing_table_follows() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.run_steps(3);
+    ensure!(harness.state().technique_id() == "hard");
+    let rows: Vec<String> = harness
+        .state()
+        .timing_rows()
+        .into_iter()
+        .map(|r| r.name)
+        .collect();
+    ensure!(
+        rows.iter().any(|r| r.starts_with("hard/")),
+        "timings of hard: {rows:?}"
+    );
+    harness
+        .query_by_label("hard/lookup")
+        .context("the table lists hard's pass")?;
+
+    harness
+        .get_by_role_and_label(Role::ComboBox, "Technique")
+        .click();
+    harness.run_steps(2);
+    harness.get_by_label("pcss").click();
+    harness.run_steps(3);
+
+    let app = harness.state();
+    ensure!(
+        app.technique_id() == "pcss",
+        "active: {}",
+        app.technique_id()
+    );
+    let rows: Vec<String> = app.timing_rows().into_iter().map(|r| r.name).collect();
+    ensure!(
+        rows.iter().any(|r| r == "pcss/filter") && !rows.iter().any(|r| r.starts_with("hard/")),
+        "timings after the switch: {rows:?}"
+    );
+    // The table on screen lists the new technique's passes.
+    harness
+        .query_by_label("pcss/filter")
+        .context("the timing table shows pcss/filter")?;
+    ensure!(harness.query_by_label("hard/lookup").is_none());
+    ensure!(
+        harness.state().errors().is_empty(),
+        "{:?}",
+        harness.state().errors()
+    );
+    Ok(())
+}
+
+#[test]
+fn parameter_widgets_change_the_technique_parameters() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    harness.run_steps(2);
+    let param = |h: &Harness<ViewerApp>, name: &str| {
+        h.state()
+            .technique_params()
+            .and_then(|p| p.get(name).cloned())
+    };
+    ensure!(param(&harness, "filter_samples") == Some(ParamValue::Int(32)));
+
+    // A slider generated from the spec (1 to 256).
+    harness
+        .get_by_role_and_label(Role::Slider, "filter_samples")
+        .set_value_accesskit(64.0);
+    harness.run_steps(2);
+    ensure!(
+        param(&harness, "filter_samples") == Some(ParamValue::Int(64)),
+        "filter_samples = {:?}",
+        param(&harness, "filter_samples")
+    );
+
+    // A choice generated from the spec.
+    harness
+        .get_by_role_and_label(Role::ComboBox, "kernel")
+        .click();
+    harness.run_steps(2);
+    harness.get_by_label("grid").click();
+    harness.run_steps(2);
+    ensure!(
+        param(&harness, "kernel") == Some(ParamValue::Choice("grid".into())),
+        "kernel = {:?}",
+        param(&harness, "kernel")
+    );
+
+    // "Defaults" puts both back.
+    harness.get_by_label("Defaults").click();
+    harness.run_steps(2);
+    ensure!(param(&harness, "filter_samples") == Some(ParamValue::Int(32)));
+    ensure!(param(&harness, "kernel") == Some(ParamValue::Choice("vogel".into())));
+    Ok(())
+}
+
+#[test]
+fn a_scene_that_fails_to_load_shows_its_error_and_keeps_the_scene() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let broken = dir.path().join("broken.toml");
+    std::fs::write(&broken, "this is = not [ a scene")?;
+    let mut harness = harness("hard")?;
+    harness.run_steps(1);
+    let camera = *harness.state().camera();
+    harness
+        .state_mut()
+        .open_scene(&broken.display().to_string());
+    harness.state_mut().open_scene("no-such-scene");
+    harness.run_steps(2);
+    let app = harness.state();
+    ensure!(
+        app.scene_spec() == "atty-square",
+        "scene: {}",
+        app.scene_spec()
+    );
+    ensure!(*app.camera() == camera);
+    ensure!(app.errors().len() == 2, "{:?}", app.errors());
+    ensure!(
+        app.errors()[0].contains("broken.toml"),
+        "{:?}",
+        app.errors()
+    );
+    harness
+        .query_by_label_contains("no-such-scene")
+        .context("the error is on screen")?;
+    Ok(())
+}
+
+#[test]
+fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    // 16 light samples, one batch: converged after the first frame; the point needs 5 timed frames.
+    harness.run_steps(7);
+    let app = harness.state();
+    ensure!(
+        app.reference_progress().is_complete(),
+        "{:?}",
+        app.reference_progress()
+    );
+    let report = app.metrics().context("metrics after convergence")?;
+    ensure!(
+        report.receiver_pixels > 0 && report.mae_shadowed.is_finite() && report.mae_shadowed < 0.2,
+        "{report:?}"
+    );
+    ensure!(report.flip_mean.is_some());
+    ensure!(app.points().len() == 1, "{:?}", app.points());
+    harness
+        .query_by_label("mae_shadowed")
+        .context("metrics shown")?;
+
+    // Another setting adds a second point; moving the light invalidates the reference.
+    harness
+        .state_mut()
+        .set_param("filter_samples", ParamValue::Int(8));
+    harness.run_steps(7);
+    ensure!(
+        harness.state().points().len() == 2,
+        "{:?}",
+        harness.state().points()
+    );
+    let mut light = *harness.state().light();
+    light.center.x += 0.2;
+    let mut state = harness.state().state();
+    state.light = light;
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("state.json");
+    state.save(&path)?;
+    harness.state_mut().load_state(&path);
+    harness.run_steps(1);
+    let app = harness.state();
+    ensure!(*app.light() == light, "the state's light was loaded");
+    ensure!(
+        app.points().is_empty() && app.metrics().is_none()
+            || app.reference_progress().is_complete(),
+        "a moved light starts a new reference"
+    );
+    Ok(())
+}
+
+/// Snapshot tolerance: lavapipe renders deterministically here, so the threshold is egui's
+/// usual per-pixel colour distance (0.6) and at most 0.1 % of the pixels may differ more, to absorb
+/// anti-aliasing differences between Mesa versions. The measurements panel (timings change
+/// every run) is masked.
+fn snapshot(harness: &mut Harness<ViewerApp>, name: &str) -> Result<()> {
+    let panel = harness.get_by_label("GPU time").rect();
+    harness.mask(egui::Rect::from_min_max(
+        egui::pos2(panel.left() - 6.0, 0.0),
+        egui::pos2(SIZE.x, SIZE.y),
+    ));
+    let pixels = (SIZE.x * SIZE.y) as usize;
+    harness.snapshot_options(
+        name,
+        &SnapshotOptions::new()
+            .threshold(0.6)
+            .max_failed_pixels(pixels / 1000),
+    );
+    Ok(())
+}
+
+#[test]
+fn snapshots_of_the_shaded_and_difference_views() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    harness.run_steps(3);
+    snapshot(&mut harness, "viewer_pcss_shaded")?;
+    harness.state_mut().set_view_mode(ViewMode::Difference);
+    harness.run_steps(2);
+    snapshot(&mut harness, "viewer_pcss_difference")?;
+    Ok(())
+}
+
+#[test]
+fn every_view_mode_renders_and_a_failing_technique_keeps_the_viewer_running() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    harness.run_steps(1);
+    for mode in ViewMode::ALL {
+        harness.get_by_label(mode.label()).click();
+        harness.run_steps(2);
+        let app = harness.state();
+        ensure!(app.view_mode() == mode, "{:?} != {mode:?}", app.view_mode());
+        ensure!(
+            app.technique_error().is_none() && app.errors().is_empty(),
+            "{mode:?}: {:?} {:?}",
+            app.technique_error(),
+            app.errors()
+        );
+    }
+    // The debug view shows pcss's shadow map (no "cannot show" message).
+    ensure!(harness.query_by_label_contains("cannot show").is_none());
+
+    // A technique that cannot start: its error is shown, frames go on, another one works.
+    harness.state_mut().select_technique("no-such-technique");
+    harness.run_steps(2);
+    ensure!(harness.state().technique_params().is_none());
+    let error = harness
+        .state()
+        .technique_error()
+        .context("the failure is shown")?
+        .to_string();
+    ensure!(error.contains("no-such-technique"), "{error}");
+    let frames = harness.state().stats().frames;
+    harness.run_steps(2);
+    ensure!(harness.state().stats().frames == frames + 2);
+    harness.state_mut().select_technique("hard");
+    harness.run_steps(2);
+    ensure!(harness.state().technique_error().is_none());
+    Ok(())
+}
