@@ -23,7 +23,10 @@ fn bench(reference_samples: i64) -> Result<Bench> {
             warmup: 0,
             error: true,
             reference_params: vec![
-                ("samples_per_axis".into(), ParamValue::Int(reference_samples)),
+                (
+                    "samples_per_axis".into(),
+                    ParamValue::Int(reference_samples),
+                ),
                 ("shadow_map_size".into(), ParamValue::Int(512)),
             ],
             images: false,
@@ -46,6 +49,15 @@ fn bound(technique: &str, case: &str) -> Option<f64> {
         ("pcss", "stiff-partly-outside") => 0.2,
         ("pcss", "stiff-near-light" | "stiff-tiny-patches") => 0.2,
         ("pcss", _) => 0.05,
+        // Occluder crossing the light plane: only the part seen through the occluder map's near
+        // plane scatters.
+        ("ssm", "stiff-partly-outside") => 0.08,
+        ("ssm", _) => 0.02,
+        // One centre map over every caster: +-250 slopes for an occluder 1e-3 from the light.
+        ("backprojection", "stiff-depth-range") => 0.3,
+        ("backprojection", "stiff-partly-outside") => 0.12,
+        ("backprojection", "stiff-zero-thickness" | "stiff-fusion") => 0.05,
+        ("backprojection", _) => 0.02,
         ("reference", _) => 0.02,
         _ => return None,
     };
@@ -81,7 +93,7 @@ fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result
             failures.push(format!("{label}: failed: {}", run.message));
             continue;
         }
-        let stability = run.stability.clone().context("stability")?;
+        let stability = run.stability.context("stability")?;
         if stability.nan + stability.inf + stability.out_of_range > 0 {
             failures.push(format!("{label}: {stability:?}"));
         }
@@ -182,13 +194,7 @@ fn every_technique_approaches_hard_shadows_as_the_light_shrinks() -> Result<()> 
             let scene = softshadow_scenes::load(&format!("atty-square:light_width={width}"))?.scene;
             let scene_gpu = SceneGpu::upload(&gpu, &scene);
             let mut hard = (hard.create)(&gpu)?;
-            renderer.render(
-                &scene_gpu,
-                &scene.camera,
-                &scene.light,
-                hard.as_mut(),
-                None,
-            )?;
+            renderer.render(&scene_gpu, &scene.camera, &scene.light, hard.as_mut(), None)?;
             let v_hard = renderer.read_visibility()?;
             let mut technique = (info.create)(&gpu)?;
             renderer.render(
@@ -203,7 +209,10 @@ fn every_technique_approaches_hard_shadows_as_the_light_shrinks() -> Result<()> 
             let report = softshadow_metrics::compare(&v, &v_hard, &mask)?;
             distances.push(report.mae_all);
         }
-        eprintln!("{}: mean |V - V_hard| at light widths {widths:?}: {distances:?}", info.id);
+        eprintln!(
+            "{}: mean |V - V_hard| at light widths {widths:?}: {distances:?}",
+            info.id
+        );
         if !(distances[0] > distances[2] && distances[1] >= distances[2]) {
             failures.push(format!("{}: not converging: {distances:?}", info.id));
         }

@@ -124,7 +124,8 @@ pub fn parallel_rects(scene: &Scene) -> Option<Vec<ParallelRect>> {
         );
         let size = (max - min).truncate();
         let scale = size.max_element().max(max.z.abs()).max(1e-6);
-        if !(max.z - min.z <= 1e-5 * scale) || size.min_element() <= 1e-6 * scale {
+        let flat = max.z - min.z <= 1e-5 * scale; // false for NaN too
+        if !flat || size.min_element() <= 1e-6 * scale {
             return None;
         }
         let on_corner = |p: &Vec3| {

@@ -27,7 +27,9 @@ fn caster_depths(spec: &str) -> Vec<f32> {
     for instance in scene.instances.iter().filter(|i| i.casts_shadow) {
         let mesh = &scene.meshes[instance.mesh];
         for &i in &mesh.indices {
-            let p = instance.transform.transform_point3(mesh.positions[i as usize]);
+            let p = instance
+                .transform
+                .transform_point3(mesh.positions[i as usize]);
             depths.push((p - scene.light.center).dot(z));
         }
     }
@@ -55,16 +57,20 @@ fn every_stiff_case_loads_and_only_the_broken_ones_warn() {
             assert!(mesh.positions.iter().all(|p| p.is_finite()), "{id}");
         }
         match id {
-            "stiff-degenerate" => assert_eq!(
+            "stiff-degenerate" => {
+                assert_eq!(
                 loaded.warnings,
                 ["mesh `occluder with bad triangles` from builtin scene `stiff-degenerate`: \
                   dropped 2 degenerate, 2 non-finite and 1 out-of-range triangles"]
-            ),
+            )
+            }
             // The zero-height box's eight side triangles have no area.
             "stiff-zero-thickness" => assert_eq!(
                 loaded.warnings,
-                ["mesh `box of zero height` from builtin scene `stiff-zero-thickness`: \
-                  dropped 8 degenerate triangles"]
+                [
+                    "mesh `box of zero height` from builtin scene `stiff-zero-thickness`: \
+                  dropped 8 degenerate triangles"
+                ]
             ),
             _ => assert!(loaded.warnings.is_empty(), "{id}: {:?}", loaded.warnings),
         }
