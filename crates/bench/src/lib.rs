@@ -269,6 +269,7 @@ impl Bench {
         technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
 
         for _ in 0..self.options.warmup {
+            technique.invalidate_cache();
             renderer.render(
                 &scene.gpu,
                 &camera,
@@ -283,6 +284,8 @@ impl Bench {
         let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
         let mut pass_order: Vec<String> = Vec::new();
         for _ in 0..self.options.frames {
+            // Time the work, not a cache hit (the reference keeps its image between frames).
+            technique.invalidate_cache();
             let output = renderer.render(
                 &scene.gpu,
                 &camera,

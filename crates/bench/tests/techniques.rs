@@ -240,3 +240,39 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
     }
     Ok(())
 }
+
+/// Timed frames measure the work: the reference recomputes every frame in the benchmark instead
+/// of timing its cache (a texture copy).
+#[test]
+fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
+    let gpu = Gpu::new_headless().context("technique tests need a GPU adapter")?;
+    let mut bench = Bench::new(
+        gpu,
+        BenchOptions {
+            frames: 2,
+            warmup: 1,
+            error: false,
+            reference_params: vec![],
+            images: false,
+            exact_samples_per_axis: None,
+        },
+    )?;
+    let spec = RunSpec {
+        scene: "atty-square".into(),
+        technique: "reference".into(),
+        params: parse_params("reference", &["samples_per_axis=4".into()])?,
+        width: 64,
+        height: 64,
+    };
+    let dir = tempfile::tempdir()?;
+    let run = bench.run(0, &spec, dir.path());
+    ensure!(run.status == Status::Ok, "{}", run.message);
+    ensure!(
+        run.passes_run.iter().any(|p| p == "reference/accumulate")
+            && !run.passes_run.iter().any(|p| p == "reference/cached_copy"),
+        "{:?}",
+        run.passes_run
+    );
+    ensure!(run.stats.get("cached") == Some(&0.0), "{:?}", run.stats);
+    Ok(())
+}

@@ -53,6 +53,10 @@ pub trait ShadowTechnique {
         inputs: &ShadowInputs<'_>,
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError>;
+    /// Drops results cached across frames (the reference caches its image while nothing
+    /// changes), so that the next `render` does the full work. The benchmark calls it before
+    /// every frame so that timings measure the technique, not a cache hit. Default: nothing.
+    fn invalidate_cache(&mut self) {}
     /// Counters of the last frame.
     fn stats(&self) -> TechniqueStats {
         TechniqueStats::new()

@@ -459,6 +459,10 @@ impl ShadowTechnique for AccumulatedReference {
         Ok(())
     }
 
+    fn invalidate_cache(&mut self) {
+        self.invalidate();
+    }
+
     fn stats(&self) -> TechniqueStats {
         self.stats.clone()
     }
