@@ -16,12 +16,11 @@ use softshadow_core::{
     frame::uniform_entry,
     fullscreen::uniform_buffer,
     gbuffer::create_texture,
-    glam::Vec2,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind},
     params::{expect_bool, expect_choice, expect_f32, expect_u32, find_spec},
     shader::{self, ShaderSpec},
     shader_file,
-    shadow_map::{fit_caster_view, CentreShadowMap},
+    shadow_map::CentreShadowMap,
     wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
 };
@@ -403,12 +402,10 @@ impl ShadowTechnique for Backprojection {
             .shadow_map_size
             .clamp(1, gpu.device.limits().max_texture_dimension_2d);
         self.gathered = false;
-        let frustum = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO);
-        let rendered = frustum.is_some()
-            && self
-                .shadow_map
-                .render(frame, inputs, map_size, "backprojection/shadow_map");
-        let Some(frustum) = frustum.filter(|_| rendered) else {
+        let Some(frustum) =
+            self.shadow_map
+                .render(frame, inputs, map_size, "backprojection/shadow_map")
+        else {
             out.clear_lit(frame, "backprojection/no_casters");
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());

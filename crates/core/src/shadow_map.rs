@@ -268,23 +268,21 @@ impl CentreShadowMap {
         self
     }
 
-    /// Renders the casters into a `size`² map as the pass `label`. Returns `false` (and renders
-    /// nothing) when no caster is in front of the light.
+    /// Renders the casters into a `size`² map as the pass `label` and returns the window it
+    /// used. Returns `None` (and renders nothing) when no caster is in front of the light.
     pub fn render(
         &mut self,
         frame: &mut Frame<'_>,
         inputs: &crate::ShadowInputs<'_>,
         size: u32,
         label: &str,
-    ) -> bool {
+    ) -> Option<SlopeFrustum> {
         let fit = if self.clip_to_receivers {
             fit_hard_view
         } else {
             fit_caster_view
         };
-        let Some(frustum) = fit(inputs.scene, inputs.light, Vec2::ZERO) else {
-            return false;
-        };
+        let frustum = fit(inputs.scene, inputs.light, Vec2::ZERO)?;
         let gpu = frame.gpu;
         if self.map.as_ref().map(|m| m.0) != Some(size) {
             let texture = create_depth_maps(gpu, label, size, 1);
@@ -297,7 +295,7 @@ impl CentreShadowMap {
             .write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
         let (_, _, map_view) = self.map.as_ref().expect("created above");
         self.depth.record(frame, label, inputs.scene, 0, map_view);
-        true
+        Some(frustum)
     }
 
     /// Layout of the usual group 1 of a pass that reads this map: binding 0 = `ShadowView`

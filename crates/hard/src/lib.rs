@@ -137,9 +137,10 @@ impl ShadowTechnique for HardShadows {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         let size = self.settings.shadow_map_size;
-        if !self
+        if self
             .shadow_map
             .render(frame, inputs, size, "hard/shadow_map")
+            .is_none()
         {
             // No caster in front of the light: everything is lit, no lookup needed.
             out.clear_lit(frame, "hard/no_casters");

@@ -216,9 +216,10 @@ impl ShadowTechnique for Pcss {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         let s = &self.settings;
-        if !self
+        if self
             .shadow_map
             .render(frame, inputs, s.shadow_map_size, "pcss/shadow_map")
+            .is_none()
         {
             out.clear_lit(frame, "pcss/no_casters");
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
