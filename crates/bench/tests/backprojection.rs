@@ -2,15 +2,18 @@
 //! search, and at the extremes, with the bounds stated in docs/TECHNIQUES.md. Small images (96²),
 //! small shadow maps (256²) and a 16 x 16 reference keep this affordable on lavapipe.
 
+mod common;
+
 use anyhow::{ensure, Context, Result};
+use common::{gpu, run_checked};
 use softshadow_backprojection::{Backprojection, BackprojectionSettings, Primitive};
-use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec, Status};
+use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec};
 use softshadow_core::Gpu;
 use softshadow_core::{
     glam::Vec3, HierarchyKind, ParamValue, Renderer, Scene, SceneGpu, ShadowTechnique,
     TechniqueStats,
 };
-use softshadow_reference::exact::{visible_fraction, ParallelRect};
+use softshadow_reference::exact::{parallel_rects, visible_fraction};
 
 const SIZE: u32 = 96;
 
@@ -19,10 +22,6 @@ struct Output {
     receiver: Vec<bool>,
     positions: Vec<Option<Vec3>>,
     stats: TechniqueStats,
-}
-
-fn gpu() -> Result<Gpu> {
-    Gpu::new_headless().context("backprojection tests need a GPU adapter")
 }
 
 fn render(gpu: &Gpu, scene: &Scene, technique: &mut dyn ShadowTechnique) -> Result<Output> {
@@ -68,19 +67,8 @@ fn stat(stats: &TechniqueStats, name: &str) -> Result<f64> {
 }
 
 /// Mean and max |V - exact| over receiver pixels that the exact answer or V puts in shadow.
-fn error_against_exact(scene: &Scene, out: &Output) -> (f64, f64, usize) {
-    let params = softshadow_scenes::AttySquare::default();
-    let half = params.occluder_size as f32 / 2.0;
-    let y = params.occluder_height as f32;
-    let (c0, c1) = (
-        scene.light.to_light_space([-half, y, -half].into()),
-        scene.light.to_light_space([half, y, half].into()),
-    );
-    let occluder = ParallelRect {
-        min: c0.truncate().min(c1.truncate()),
-        max: c0.truncate().max(c1.truncate()),
-        z: c0.z,
-    };
+fn error_against_exact(scene: &Scene, out: &Output) -> Result<(f64, f64, usize)> {
+    let occluders = parallel_rects(scene).context("atty-square is one parallel rectangle")?;
     let (mut sum, mut max, mut count) = (0.0, 0.0f64, 0);
     for ((v, receiver), p) in out.v.iter().zip(&out.receiver).zip(&out.positions) {
         let (true, Some(p)) = (*receiver, p) else {
@@ -88,7 +76,7 @@ fn error_against_exact(scene: &Scene, out: &Output) -> (f64, f64, usize) {
         };
         let exact = visible_fraction(
             scene.light.half_extent(),
-            &[occluder],
+            &occluders,
             scene.light.to_light_space(*p),
         );
         if exact < 1.0 || *v < 1.0 {
@@ -98,7 +86,7 @@ fn error_against_exact(scene: &Scene, out: &Output) -> (f64, f64, usize) {
             count += 1;
         }
     }
-    (sum / count.max(1) as f64, max, count)
+    Ok((sum / count.max(1) as f64, max, count))
 }
 
 /// One planar square parallel to the light: micro-patches at its single depth reproduce it up to
@@ -125,7 +113,7 @@ fn atty_square_matches_the_closed_form() -> Result<()> {
         let what = format!("{hierarchy:?} {primitive:?} max_patches={max_patches}");
         let mut technique = backprojection(&gpu, settings(hierarchy, primitive, max_patches))?;
         let out = render(&gpu, &scene, &mut technique)?;
-        let (mean, max, count) = error_against_exact(&scene, &out);
+        let (mean, max, count) = error_against_exact(&scene, &out)?;
         eprintln!("atty-square {what}: mean {mean:.4}, max {max:.4} over {count} pixels");
         ensure!(count > 1000, "only {count} shadowed pixels");
         ensure!(mean < mean_bound, "{what}: mean {mean} >= {mean_bound}");
@@ -266,7 +254,6 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
         "atty-square:light_width=4",
         "atty-square:light_width=0",
     ];
-    let dir = tempfile::tempdir()?;
     for scene in scenes {
         for hierarchy in ["none", "hsm", "mssm"] {
             for primitive in ["micropatch", "microquad"] {
@@ -283,14 +270,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
                     width: 48,
                     height: 48,
                 };
-                let run = bench.run(0, &spec, dir.path());
-                let what = format!("{scene} {hierarchy} {primitive}");
-                ensure!(run.status == Status::Ok, "{what}: {}", run.message);
-                let stability = run.stability.context("stability")?;
-                ensure!(
-                    stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
-                    "{what}: {stability:?}"
-                );
+                run_checked(&mut bench, &spec)?;
             }
         }
     }

@@ -4,17 +4,15 @@
 //! and the extremes of the backprojection (occluder touching the receiver or the light, a point
 //! light, occluders partly outside the light's reach). Small images keep this fast on lavapipe.
 
-use anyhow::{ensure, Context, Result};
-use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec, Status};
+mod common;
+
+use anyhow::{ensure, Result};
+use common::{closed_form, gpu, mae_shadowed, run_checked};
+use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
 use softshadow_core::{Gpu, ParamValue, Renderer, SceneGpu, ShadowTechnique, TechniqueStats};
 use softshadow_metrics::ErrorReport;
-use softshadow_reference::exact::{visible_fraction, ParallelRect};
 use softshadow_scenes::AttySquare;
 use softshadow_ssm::{Precision, SoftShadowMaps, SsmSettings};
-
-fn gpu() -> Result<Gpu> {
-    Gpu::new_headless().context("ssm tests need a GPU adapter")
-}
 
 /// Renders `atty-square` (with `params`) with `settings` at `size`² and compares it with the
 /// closed form (`reference::exact`) over the receiver pixels.
@@ -32,31 +30,7 @@ fn against_closed_form(
     let v = renderer.read_visibility()?;
     let mask = renderer.read_receiver_mask()?;
     let positions = renderer.read_world_positions()?;
-    let half = params.occluder_size as f32 / 2.0;
-    let (cx, y) = (
-        params.occluder_offset_x as f32,
-        params.occluder_height as f32,
-    );
-    let (c0, c1) = (
-        scene.light.to_light_space([cx - half, y, -half].into()),
-        scene.light.to_light_space([cx + half, y, half].into()),
-    );
-    let occluder = ParallelRect {
-        min: c0.truncate().min(c1.truncate()),
-        max: c0.truncate().max(c1.truncate()),
-        z: c0.z,
-    };
-    let exact: Vec<f32> = positions
-        .iter()
-        .map(|p| match p {
-            Some(p) => visible_fraction(
-                scene.light.half_extent(),
-                &[occluder],
-                scene.light.to_light_space(*p),
-            ) as f32,
-            None => 1.0,
-        })
-        .collect();
+    let exact = closed_form(&scene, &positions, &mask)?;
     let stability = softshadow_metrics::stability(&v);
     ensure!(
         stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
@@ -157,27 +131,7 @@ fn run(bench: &mut Bench, scene: &str, params: &[&str]) -> Result<Run> {
         width: 96,
         height: 96,
     };
-    let dir = tempfile::tempdir()?;
-    let run = bench.run(0, &spec, dir.path());
-    ensure!(
-        run.status == Status::Ok,
-        "{scene}/ssm {params:?} failed: {}",
-        run.message
-    );
-    let stability = run.stability.context("stability")?;
-    ensure!(
-        stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
-        "{scene} {params:?}: {stability:?}"
-    );
-    Ok(run)
-}
-
-fn mae_shadowed(run: &Run) -> f64 {
-    run.error
-        .as_ref()
-        .expect("error metrics requested")
-        .report
-        .mae_shadowed
+    run_checked(bench, &spec)
 }
 
 /// Section 3.5: the second occluder map (farthest surfaces) adds the occlusion of the parts of a
@@ -264,13 +218,7 @@ fn extremes_give_finite_visibility_in_range() -> Result<()> {
                 width: 64,
                 height: 64,
             };
-            let r = bench.run(0, &spec, dir.path());
-            ensure!(r.status == Status::Ok, "{scene} {params:?}: {}", r.message);
-            let s = r.stability.context("stability")?;
-            ensure!(
-                s.nan == 0 && s.inf == 0 && s.out_of_range == 0,
-                "{scene} {params:?}: {s:?}"
-            );
+            run_checked(&mut bench, &spec)?;
         }
     }
     Ok(())

@@ -6,18 +6,18 @@
 //! Small images (64^2) and an 8 x 8 reference keep this under a minute on lavapipe; the benchmark
 //! (`workbench bench --suite stiff`) does the 128^2, 32 x 32 runs recorded in STABILITY.md.
 
+mod common;
+
 use anyhow::{bail, ensure, Context, Result};
+use common::{gpu, run_checked};
 use softshadow_bench::{registry, results::Run, Bench, BenchOptions, RunSpec, Status, Sweep};
-use softshadow_core::{Gpu, ParamValue, Renderer, SceneGpu};
+use softshadow_core::{ParamValue, Renderer, SceneGpu};
 
 const SIZE: u32 = 64;
 
 fn bench(reference_samples: i64) -> Result<Bench> {
-    let gpu = Gpu::new_headless().context(
-        "stiff-case tests need a GPU adapter: install Mesa's lavapipe (apt-get install -y mesa-vulkan-drivers)",
-    )?;
     Ok(Bench::new(
-        gpu,
+        gpu()?,
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -121,7 +121,6 @@ fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result
 #[test]
 fn degenerate_input_is_repaired_with_a_warning_in_the_results() -> Result<()> {
     let mut bench = bench(4)?;
-    let dir = tempfile::tempdir()?;
     let spec = RunSpec {
         scene: "stiff-degenerate".into(),
         technique: "hard".into(),
@@ -129,8 +128,7 @@ fn degenerate_input_is_repaired_with_a_warning_in_the_results() -> Result<()> {
         width: SIZE,
         height: SIZE,
     };
-    let run = bench.run(0, &spec, dir.path());
-    ensure!(run.status == Status::Ok, "{}", run.message);
+    let run = run_checked(&mut bench, &spec)?;
     let warnings = run.warnings.join("\n");
     ensure!(
         warnings.contains("occluder with bad triangles")
@@ -147,7 +145,6 @@ fn the_reference_converges_to_the_exact_answer() -> Result<()> {
     let mut errors = Vec::new();
     for samples in [2, 4, 8, 16] {
         let mut bench = bench(samples)?;
-        let dir = tempfile::tempdir()?;
         let spec = RunSpec {
             scene: "stiff-fusion".into(),
             technique: "hard".into(),
@@ -155,8 +152,7 @@ fn the_reference_converges_to_the_exact_answer() -> Result<()> {
             width: SIZE,
             height: SIZE,
         };
-        let run = bench.run(0, &spec, dir.path());
-        ensure!(run.status == Status::Ok, "{}", run.message);
+        let run = run_checked(&mut bench, &spec)?;
         let error = run.error.as_ref().context("error block")?;
         ensure!(error.exact.as_deref() == Some("closed-form"), "{error:?}");
         let e = error
@@ -178,9 +174,7 @@ fn the_reference_converges_to_the_exact_answer() -> Result<()> {
 /// the mean |V - V_hard| over receiver pixels falls with the light width and is small at 0.01.
 #[test]
 fn every_technique_approaches_hard_shadows_as_the_light_shrinks() -> Result<()> {
-    let gpu = Gpu::new_headless().context(
-        "convergence tests need a GPU adapter: install Mesa's lavapipe (apt-get install -y mesa-vulkan-drivers)",
-    )?;
+    let gpu = gpu()?;
     let mut renderer = Renderer::new(&gpu, SIZE, SIZE)?;
     let widths = [0.5, 0.1, 0.01];
     let hard = registry::find("hard")?;

@@ -2,14 +2,16 @@
 //! work, with the bounds stated in docs/TECHNIQUES.md. Small images (96^2) and a 16 x 16
 //! reference keep this fast on lavapipe; the benchmark does the large runs.
 
+mod common;
+
 use anyhow::{ensure, Context, Result};
+use common::{gpu, mae_shadowed, run_checked};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec, Status};
-use softshadow_core::{Gpu, ParamValue};
+use softshadow_core::ParamValue;
 
 fn bench() -> Result<Bench> {
-    let gpu = Gpu::new_headless().context("technique tests need a GPU adapter")?;
     Ok(Bench::new(
-        gpu,
+        gpu()?,
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -33,27 +35,7 @@ fn run(bench: &mut Bench, scene: &str, technique: &str, params: &[&str]) -> Resu
         width: 96,
         height: 96,
     };
-    let dir = tempfile::tempdir()?;
-    let run = bench.run(0, &spec, dir.path());
-    ensure!(
-        run.status == Status::Ok,
-        "{scene}/{technique} failed: {}",
-        run.message
-    );
-    let stability = run.stability.context("stability")?;
-    ensure!(
-        stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
-        "{scene}/{technique}: {stability:?}"
-    );
-    Ok(run)
-}
-
-fn mae_shadowed(run: &Run) -> f64 {
-    run.error
-        .as_ref()
-        .expect("error metrics requested")
-        .report
-        .mae_shadowed
+    run_checked(bench, &spec)
 }
 
 #[test]
@@ -161,24 +143,13 @@ fn only_the_passes_a_scene_needs_run() -> Result<()> {
 #[test]
 fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
     use softshadow_core::{Renderer, SceneGpu};
-    use softshadow_reference::exact::{visible_fraction, ParallelRect};
+    use softshadow_reference::exact::{parallel_rects, visible_fraction};
 
-    let gpu = Gpu::new_headless().context("technique tests need a GPU adapter")?;
-    let params = softshadow_scenes::AttySquare::default();
-    let scene = params.scene()?;
+    let gpu = gpu()?;
+    let scene = softshadow_scenes::AttySquare::default().scene()?;
     let scene_gpu = SceneGpu::upload(&gpu, &scene);
     let mut renderer = Renderer::new(&gpu, 96, 96)?;
-    let half = params.occluder_size as f32 / 2.0;
-    let y = params.occluder_height as f32;
-    let (c0, c1) = (
-        scene.light.to_light_space([-half, y, -half].into()),
-        scene.light.to_light_space([half, y, half].into()),
-    );
-    let occluder = ParallelRect {
-        min: c0.truncate().min(c1.truncate()),
-        max: c0.truncate().max(c1.truncate()),
-        z: c0.z,
-    };
+    let occluders = parallel_rects(&scene).context("atty-square is one parallel rectangle")?;
     for info in softshadow_bench::registry::techniques() {
         let mut technique = (info.create)(&gpu)?;
         renderer.render(
@@ -206,7 +177,7 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
             };
             let exact = visible_fraction(
                 scene.light.half_extent(),
-                &[occluder],
+                &occluders,
                 scene.light.to_light_space(*p),
             );
             if exact == 0.0 {
@@ -245,9 +216,8 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
 /// of timing its cache (a texture copy).
 #[test]
 fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
-    let gpu = Gpu::new_headless().context("technique tests need a GPU adapter")?;
     let mut bench = Bench::new(
-        gpu,
+        gpu()?,
         BenchOptions {
             frames: 2,
             warmup: 1,
@@ -264,9 +234,7 @@ fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
         width: 64,
         height: 64,
     };
-    let dir = tempfile::tempdir()?;
-    let run = bench.run(0, &spec, dir.path());
-    ensure!(run.status == Status::Ok, "{}", run.message);
+    let run = run_checked(&mut bench, &spec)?;
     ensure!(
         run.passes_run.iter().any(|p| p == "reference/accumulate")
             && !run.passes_run.iter().any(|p| p == "reference/cached_copy"),
