@@ -17,12 +17,11 @@ use softshadow_core::{
     fullscreen::uniform_buffer,
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind},
-    params::{expect_bool, expect_choice, expect_f32, expect_u32, find_spec},
     shader::{self, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs,
-    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 pub const ID: &str = "backprojection";
@@ -37,106 +36,37 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
 /// blocks (`FULL_SEARCH_PATCHES` in `gather.wgsl`).
 pub const FULL_SEARCH_PATCHES: u32 = 256;
 
-/// How a shadow-map texel becomes an occluder.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Primitive {
-    /// Each texel is a rectangle parallel to the light at its depth (Guennebaud et al. 2006).
-    Micropatch,
-    /// Unprojected texel centres are the vertices of quads; a quad occludes when all four
-    /// vertices do (bitmask paper section 4).
-    Microquad,
-}
-
-impl Primitive {
-    pub const NAMES: &'static [&'static str] = &["micropatch", "microquad"];
-    pub fn name(self) -> &'static str {
-        match self {
-            Primitive::Micropatch => "micropatch",
-            Primitive::Microquad => "microquad",
-        }
-    }
-    fn from_name(name: &str) -> Self {
-        if name == "microquad" {
-            Primitive::Microquad
-        } else {
-            Primitive::Micropatch
-        }
+softshadow_core::param_choice! {
+    /// How a shadow-map texel becomes an occluder.
+    pub enum Primitive {
+        /// Each texel is a rectangle parallel to the light at its depth (Guennebaud et al. 2006).
+        Micropatch = "micropatch",
+        /// Unprojected texel centres are the vertices of quads; a quad occludes when all four
+        /// vertices do (bitmask paper section 4).
+        Microquad = "microquad",
     }
 }
 
-/// Settings of gather backprojection. Defaults: the MSSM, 16 x 16 micro-patches at most, gap
-/// filling on (the paper's Table 3 uses 12-20 per axis).
-#[derive(Clone, Debug, PartialEq)]
-pub struct BackprojectionSettings {
-    /// Shadow-map edge in texels (the hierarchies pad it to a power of two).
-    pub shadow_map_size: u32,
-    /// Depth hierarchy used to refine the search area and classify pixels; `None` gathers every
-    /// texel of the unrefined search area (a full search, for comparison).
-    pub hierarchy: HierarchyKind,
-    /// Most micro-primitives per axis per pixel (4 to 32); larger areas use coarser blocks.
-    pub max_patches: u32,
-    pub primitive: Primitive,
-    /// Extend micro-patches to their occluding left and bottom neighbours (no effect on quads).
-    pub gap_filling: bool,
-    /// Depth bias in texel footprints at the receiver (scaled by 1/cos and by the block size).
-    pub bias_texels: f32,
-}
-
-impl Default for BackprojectionSettings {
-    fn default() -> Self {
-        Self {
-            shadow_map_size: 1024,
-            hierarchy: HierarchyKind::Mssm,
-            max_patches: 16,
-            primitive: Primitive::Micropatch,
-            gap_filling: true,
-            bias_texels: 1.5,
-        }
+softshadow_core::technique_settings! {
+    /// Settings of gather backprojection. Defaults: the MSSM, 16 x 16 micro-patches at most, gap
+    /// filling on (the paper's Table 3 uses 12-20 per axis).
+    pub struct BackprojectionSettings {
+        /// Shadow-map edge in texels (the hierarchies pad it to a power of two)
+        shadow_map_size: u32 = 1024, in 64..=4096;
+        /// Depth hierarchy for search-area refinement: none (full search), hsm (min/max mip
+        /// pyramid), mssm (multi-scale shadow map)
+        hierarchy: HierarchyKind = HierarchyKind::Mssm;
+        /// Most micro-primitives per axis per pixel; larger search areas use coarser blocks
+        max_patches: u32 = 16, in 4..=32;
+        /// Texel interpretation: micropatch (rectangle parallel to the light) or microquad
+        /// (texel centres as quad vertices)
+        primitive: Primitive = Primitive::Micropatch;
+        /// Extend micro-patches to their occluding left and bottom neighbours
+        gap_filling: bool = true;
+        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
+        /// block size)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
     }
-}
-
-pub fn param_specs() -> Vec<ParamSpec> {
-    let d = BackprojectionSettings::default();
-    vec![
-        ParamSpec::int(
-            "shadow_map_size",
-            "Shadow-map edge in texels",
-            64,
-            4096,
-            d.shadow_map_size as i64,
-        ),
-        ParamSpec::choice(
-            "hierarchy",
-            "Depth hierarchy for search-area refinement: none (full search), hsm (min/max mip pyramid), mssm (multi-scale shadow map)",
-            HierarchyKind::NAMES,
-            "mssm",
-        ),
-        ParamSpec::int(
-            "max_patches",
-            "Most micro-primitives per axis per pixel; larger search areas use coarser blocks",
-            4,
-            32,
-            d.max_patches as i64,
-        ),
-        ParamSpec::choice(
-            "primitive",
-            "Texel interpretation: micropatch (rectangle parallel to the light) or microquad (texel centres as quad vertices)",
-            Primitive::NAMES,
-            "micropatch",
-        ),
-        ParamSpec::boolean(
-            "gap_filling",
-            "Extend micro-patches to their occluding left and bottom neighbours",
-            d.gap_filling,
-        ),
-        ParamSpec::float(
-            "bias_texels",
-            "Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the block size)",
-            0.0,
-            16.0,
-            d.bias_texels as f64,
-        ),
-    ]
 }
 
 /// Mirrors `GatherParams` in `shaders/backprojection/gather.wgsl`.
@@ -191,6 +121,8 @@ pub struct Backprojection {
     stats: TechniqueStats,
     /// The last frame ran the gather pass (its counters are worth reading).
     gathered: bool,
+    /// The last frame rebuilt the hierarchy (rather than keeping it from an earlier frame).
+    hierarchy_built: bool,
 }
 
 pub fn info() -> TechniqueInfo {
@@ -198,7 +130,7 @@ pub fn info() -> TechniqueInfo {
         id: ID,
         description: "Gather backprojection of shadow-map micro-patches or micro-quads, HSM or MSSM search-area refinement",
         source: "Guennebaud, Barthe & Paulin 2006; Schwarz & Stamminger 2007 (sections 4-5)",
-        params: param_specs,
+        params: BackprojectionSettings::param_specs,
         create: |gpu| Ok(Box::new(Backprojection::new(gpu, BackprojectionSettings::default())?)),
     }
 }
@@ -295,6 +227,7 @@ impl Backprojection {
             debug: None,
             stats: TechniqueStats::new(),
             gathered: false,
+            hierarchy_built: false,
         })
     }
 
@@ -353,39 +286,12 @@ impl ShadowTechnique for Backprojection {
         ID
     }
 
-    fn params(&self) -> ParamSet {
-        let s = &self.settings;
-        let values = [
-            ParamValue::Int(s.shadow_map_size as i64),
-            ParamValue::Choice(s.hierarchy.name().into()),
-            ParamValue::Int(s.max_patches as i64),
-            ParamValue::Choice(s.primitive.name().into()),
-            ParamValue::Bool(s.gap_filling),
-            ParamValue::Float(s.bias_texels as f64),
-        ];
-        ParamSet {
-            entries: param_specs().into_iter().zip(values).collect(),
-        }
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
     }
 
-    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
-        let specs = param_specs();
-        let spec = find_spec(ID, &specs, name)?;
-        let value = spec.check(value)?;
-        let s = &mut self.settings;
-        match spec.name {
-            "shadow_map_size" => s.shadow_map_size = expect_u32(&value),
-            "hierarchy" => {
-                s.hierarchy = HierarchyKind::from_name(expect_choice(&value))
-                    .expect("checked against the spec's options")
-            }
-            "max_patches" => s.max_patches = expect_u32(&value),
-            "primitive" => s.primitive = Primitive::from_name(expect_choice(&value)),
-            "gap_filling" => s.gap_filling = expect_bool(&value),
-            "bias_texels" => s.bias_texels = expect_f32(&value),
-            _ => unreachable!("every spec is matched"),
-        }
-        Ok(())
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
     }
 
     fn render(
@@ -422,16 +328,20 @@ impl ShadowTechnique for Backprojection {
             HierarchyKind::None => needed_levels(map_size, search, FULL_SEARCH_PATCHES, false),
             _ => needed_levels(map_size, search, max_patches, true),
         };
-        let depth = self.shadow_map.map_view().expect("rendered above");
-        self.hierarchy.build(
-            frame,
-            depth,
-            &self.shadow_map.view_buffer,
-            map_size,
-            s.hierarchy,
-            levels,
-            "backprojection/hierarchy",
-        );
+        // The hierarchy is light-space too: rebuilt only with the map it is built over.
+        self.hierarchy_built = self.shadow_map.rebuilt();
+        if self.hierarchy_built {
+            let depth = self.shadow_map.map_view().expect("rendered above");
+            self.hierarchy.build(
+                frame,
+                depth,
+                &self.shadow_map.view_buffer,
+                map_size,
+                s.hierarchy,
+                levels,
+                "backprojection/hierarchy",
+            );
+        }
 
         let uniform = GatherUniform {
             hierarchy: s.hierarchy.shader_value(),
@@ -512,6 +422,10 @@ impl ShadowTechnique for Backprojection {
         Ok(())
     }
 
+    fn invalidate_cache(&mut self) {
+        self.shadow_map.invalidate();
+    }
+
     /// `backprojected_pixel_fraction` (receiver pixels that needed any backprojection, paper
     /// Fig. 8), `lit_pixel_fraction` and `umbra_pixel_fraction` (early outs),
     /// `mean_primitives_per_pixel` (micro-primitives processed per receiver pixel) and
@@ -538,8 +452,10 @@ impl ShadowTechnique for Backprojection {
                 primitives / c.backprojected.max(1) as f64,
             );
         }
-        if let Some(ms) = self.hierarchy.last_build_ms(&self.gpu) {
-            stats.insert("hierarchy_build_ms".into(), ms);
+        if self.hierarchy_built {
+            if let Some(ms) = self.hierarchy.last_build_ms(&self.gpu) {
+                stats.insert("hierarchy_build_ms".into(), ms);
+            }
         }
         stats
     }

@@ -15,8 +15,8 @@ use std::{
 };
 
 use softshadow_core::{
-    Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu, ShadingMode,
-    ShadowTechnique, TechniqueError,
+    Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu,
+    ShadingMode, ShadowTechnique, TechniqueError,
 };
 use softshadow_metrics::ErrorReport;
 use thiserror::Error;
@@ -81,6 +81,9 @@ pub struct BenchOptions {
     /// `error`): `None` skips it; `Some(n)` uses the closed form when every caster is a rectangle
     /// parallel to the light, else the CPU ray-cast reference with `n x n` light samples.
     pub exact_samples_per_axis: Option<u32>,
+    /// Also time frames in which only the camera moves (`timing_camera_only`): light-space work
+    /// is then kept from the first frame.
+    pub camera_only: bool,
 }
 
 impl Default for BenchOptions {
@@ -92,6 +95,7 @@ impl Default for BenchOptions {
             reference_params: Vec::new(),
             images: true,
             exact_samples_per_axis: Some(DEFAULT_EXACT_SAMPLES),
+            camera_only: true,
         }
     }
 }
@@ -218,6 +222,7 @@ impl Bench {
             status: Status::Ok,
             message: String::new(),
             timing: None,
+            timing_camera_only: None,
             error: None,
             stability: None,
             stats: BTreeMap::new(),
@@ -278,50 +283,44 @@ impl Bench {
                 Some(ShadingMode::Shaded),
             )?;
         }
-        let mut gpu_total = Vec::new();
-        let mut gpu_technique = Vec::new();
-        let mut cpu = Vec::new();
-        let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-        let mut pass_order: Vec<String> = Vec::new();
-        for _ in 0..self.options.frames {
-            // Time the work, not a cache hit (the reference keeps its image between frames).
+        if self.options.camera_only {
+            // Light-space work is built once here (untimed), then only the camera moves.
             technique.invalidate_cache();
-            let output = renderer.render(
+            renderer.render(
                 &scene.gpu,
                 &camera,
                 &light,
                 technique.as_mut(),
                 Some(ShadingMode::Shaded),
             )?;
-            cpu.push(output.cpu_ms);
-            if let Some(gpu) = &output.gpu {
-                gpu_total.push(gpu.total_ms);
-                gpu_technique.push(gpu.technique_ms());
-                for (name, ms) in &gpu.passes {
-                    per_pass.entry(name.clone()).or_default().push(*ms);
-                    if !pass_order.contains(name) {
-                        pass_order.push(name.clone());
-                    }
-                }
-            }
-            run.passes_run = output.passes_run;
+            let (timing, passes) = time_frames(self.options.frames, |k| {
+                renderer.render(
+                    &scene.gpu,
+                    &orbit_camera(&camera, k),
+                    &light,
+                    technique.as_mut(),
+                    Some(ShadingMode::Shaded),
+                )
+            })?;
+            run.timing_camera_only = Some(results::Timing {
+                passes_run: Some(passes),
+                ..timing
+            });
         }
-        run.timing = Some(results::Timing {
-            frames: self.options.frames,
-            gpu_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
-            technique_gpu_ms: (!gpu_technique.is_empty())
-                .then(|| results::percentiles(&gpu_technique)),
-            passes: pass_order
-                .iter()
-                .map(|name| results::PassTiming {
-                    name: name.clone(),
-                    gpu_ms_median: results::percentile(&per_pass[name], 0.5),
-                })
-                .collect(),
-            cpu_ms: results::Median {
-                median: results::percentile(&cpu, 0.5),
-            },
-        });
+        // Full cost: every frame rebuilds everything (the reference keeps its image between
+        // frames, every technique its light-space maps), so the timing measures the work.
+        let (timing, passes) = time_frames(self.options.frames, |_| {
+            technique.invalidate_cache();
+            renderer.render(
+                &scene.gpu,
+                &camera,
+                &light,
+                technique.as_mut(),
+                Some(ShadingMode::Shaded),
+            )
+        })?;
+        run.timing = Some(timing);
+        run.passes_run = passes;
         run.stats = technique.stats();
 
         let visibility = renderer.read_visibility()?;
@@ -505,7 +504,7 @@ impl Bench {
 }
 
 fn parse_check_reference(params: &[(String, ParamValue)]) -> Result<(), BenchError> {
-    let specs = softshadow_reference::param_specs();
+    let specs = softshadow_reference::ReferenceSettings::param_specs();
     for (name, value) in params {
         softshadow_core::params::find_spec(softshadow_reference::ID, &specs, name)?
             .check(value.clone())?;
@@ -514,6 +513,69 @@ fn parse_check_reference(params: &[(String, ParamValue)]) -> Result<(), BenchErr
 }
 
 /// File-name-safe form of a scene spec (ids may carry `:key=value,...`; paths have slashes).
+/// Degrees the camera turns about the scene's up axis per camera-only frame.
+pub const ORBIT_STEP_DEGREES: f32 = 1.0;
+
+/// The camera of camera-only frame `k`: the scene's camera turned `(k + 1)` x
+/// [`ORBIT_STEP_DEGREES`] about the vertical axis through its target (a small deterministic
+/// orbit, so the G-buffer changes every frame while light and casters stand still).
+pub fn orbit_camera(camera: &Camera, k: u32) -> Camera {
+    let angle = ((k + 1) as f32 * ORBIT_STEP_DEGREES).to_radians();
+    let rotation =
+        softshadow_core::glam::Quat::from_axis_angle(softshadow_core::glam::Vec3::Y, angle);
+    Camera {
+        eye: camera.target + rotation * (camera.eye - camera.target),
+        up: rotation * camera.up,
+        ..*camera
+    }
+}
+
+/// Renders `frames` frames (`render(k)` draws frame `k`) and summarises their timings; returns
+/// them with the passes the last frame ran.
+fn time_frames(
+    frames: u32,
+    mut render: impl FnMut(u32) -> Result<FrameOutput, RenderError>,
+) -> Result<(results::Timing, Vec<String>), BenchError> {
+    let mut gpu_total = Vec::new();
+    let mut gpu_technique = Vec::new();
+    let mut cpu = Vec::new();
+    let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut pass_order: Vec<String> = Vec::new();
+    let mut passes_run = Vec::new();
+    for k in 0..frames {
+        let output = render(k)?;
+        cpu.push(output.cpu_ms);
+        if let Some(gpu) = &output.gpu {
+            gpu_total.push(gpu.total_ms);
+            gpu_technique.push(gpu.technique_ms());
+            for (name, ms) in &gpu.passes {
+                per_pass.entry(name.clone()).or_default().push(*ms);
+                if !pass_order.contains(name) {
+                    pass_order.push(name.clone());
+                }
+            }
+        }
+        passes_run = output.passes_run;
+    }
+    let timing = results::Timing {
+        frames,
+        gpu_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
+        technique_gpu_ms: (!gpu_technique.is_empty()).then(|| results::percentiles(&gpu_technique)),
+        passes: pass_order
+            .iter()
+            .map(|name| results::PassTiming {
+                name: name.clone(),
+                gpu_ms_median: results::percentile(&per_pass[name], 0.5),
+            })
+            .collect(),
+        cpu_ms: results::Median {
+            median: results::percentile(&cpu, 0.5),
+        },
+        passes_run: None,
+    };
+    Ok((timing, passes_run))
+}
+
 pub fn sanitize(text: &str) -> String {
     let name = Path::new(text)
         .file_stem()

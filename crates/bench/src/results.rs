@@ -7,7 +7,7 @@ use softshadow_core::ParamValue;
 use softshadow_metrics::{ErrorReport, Stability};
 
 /// Bump when a field changes meaning or is removed (adding a field keeps the version).
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Results {
@@ -40,7 +40,11 @@ pub struct Run {
     pub status: Status,
     /// Error message when `status` is `error`; empty otherwise.
     pub message: String,
+    /// Full cost: every frame rebuilds everything (`invalidate_cache` before each).
     pub timing: Option<Timing>,
+    /// Frames in which only the camera moves (a small orbit): light-space work is kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timing_camera_only: Option<Timing>,
     pub error: Option<ErrorFields>,
     pub stability: Option<Stability>,
     pub stats: BTreeMap<String, f64>,
@@ -65,6 +69,10 @@ pub struct Timing {
     pub passes: Vec<PassTiming>,
     /// Wall time of a frame: recording, submission and waiting for the GPU.
     pub cpu_ms: Median,
+    /// Passes the last frame of this block ran (only in `timing_camera_only`; the full block's
+    /// are the run's `passes_run`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub passes_run: Option<Vec<String>>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

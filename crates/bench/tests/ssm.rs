@@ -118,6 +118,7 @@ fn bench() -> Result<Bench> {
             images: false,
             // The closed form is used directly where it applies; skip the ray-cast truth.
             exact_samples_per_axis: None,
+            camera_only: false,
         },
     )?)
 }
@@ -177,6 +178,7 @@ fn extremes_give_finite_visibility_in_range() -> Result<()> {
             reference_params: Vec::new(),
             images: false,
             exact_samples_per_axis: None,
+            camera_only: false,
         },
     )?;
     let dir = tempfile::tempdir()?;
@@ -242,7 +244,7 @@ fn a_point_light_gives_the_hard_shadow() -> Result<()> {
 
 #[test]
 fn parameters_are_checked_and_listed() -> Result<()> {
-    let specs = softshadow_ssm::param_specs();
+    let specs = softshadow_ssm::SsmSettings::param_specs();
     let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
     for name in ["occluder_map_size", "two_pass", "precision"] {
         ensure!(names.contains(&name), "{names:?}");

@@ -22,6 +22,7 @@ fn bench() -> Result<Bench> {
             ],
             images: false,
             exact_samples_per_axis: None,
+            camera_only: false,
         },
     )?)
 }
@@ -225,6 +226,7 @@ fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
             reference_params: vec![],
             images: false,
             exact_samples_per_axis: None,
+            camera_only: false,
         },
     )?;
     let spec = RunSpec {

@@ -130,8 +130,94 @@ pub fn uniform_entry(
     }
 }
 
+/// What changed since the last frame this renderer drew with the same technique (by id).
+/// Light-space results (shadow maps, depth hierarchies, soft shadow maps, precomputes) depend
+/// only on the light, the casters and the technique's parameters, so a technique keeps them
+/// while [`FrameChanges::light_space`] is false, and leaves their passes out of `passes_run`.
+/// A technique that has nothing cached (first frame, or after
+/// [`ShadowTechnique::invalidate_cache`](crate::ShadowTechnique::invalidate_cache)) builds
+/// whatever the flags say.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameChanges {
+    /// Camera position, orientation or field of view.
+    pub camera: bool,
+    /// Light position, orientation, size or intensity.
+    pub light: bool,
+    /// Geometry or placement of instances with `dynamic == false`.
+    pub static_instances: bool,
+    /// Geometry or placement of instances with `dynamic == true`.
+    pub dynamic_instances: bool,
+    /// Frame width or height.
+    pub size: bool,
+    /// Any of the technique's own parameters.
+    pub params: bool,
+}
+
+impl FrameChanges {
+    /// Everything changed: the first frame, or inputs made outside a frame.
+    pub const ALL: Self = Self {
+        camera: true,
+        light: true,
+        static_instances: true,
+        dynamic_instances: true,
+        size: true,
+        params: true,
+    };
+    /// Nothing changed.
+    pub const NONE: Self = Self {
+        camera: false,
+        light: false,
+        static_instances: false,
+        dynamic_instances: false,
+        size: false,
+        params: false,
+    };
+
+    /// Something a light-space result over every caster depends on changed: the light, any
+    /// caster (static or dynamic) or the technique's parameters.
+    pub fn light_space(&self) -> bool {
+        self.light || self.static_instances || self.dynamic_instances || self.params
+    }
+
+    /// Something a precompute over the static casters only depends on changed (the light, the
+    /// static instances or the parameters; dynamic instances do not matter).
+    pub fn static_light_space(&self) -> bool {
+        self.light || self.static_instances || self.params
+    }
+}
+
+/// What [`FrameChanges`] is computed from: the inputs of one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameState {
+    pub camera: Camera,
+    pub light: AreaLight,
+    pub static_hash: u64,
+    pub dynamic_hash: u64,
+    pub size: (u32, u32),
+    pub params: crate::params::ParamSet,
+}
+
+impl FrameState {
+    /// What differs from `previous` (everything when there is none).
+    pub fn changes_since(&self, previous: Option<&FrameState>) -> FrameChanges {
+        match previous {
+            None => FrameChanges::ALL,
+            Some(p) => FrameChanges {
+                camera: self.camera != p.camera,
+                light: self.light != p.light,
+                static_instances: self.static_hash != p.static_hash,
+                dynamic_instances: self.dynamic_hash != p.dynamic_hash,
+                size: self.size != p.size,
+                params: self.params != p.params,
+            },
+        }
+    }
+}
+
 /// What a technique reads each frame.
 pub struct ShadowInputs<'a> {
+    /// What changed since this technique's last frame on this renderer.
+    pub changes: FrameChanges,
     pub scene: &'a SceneGpu,
     pub light: &'a AreaLight,
     pub camera: &'a Camera,

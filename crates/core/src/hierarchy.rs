@@ -26,35 +26,19 @@ pub const HIERARCHY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float
 /// Loops over levels in the shaders stop here (`MAX_HIERARCHY_LEVELS`).
 pub const MAX_HIERARCHY_LEVELS: u32 = 16;
 
-/// Which hierarchy to build above level 0.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum HierarchyKind {
-    /// Level 0 only (and HSM levels a full search may need to bound its loop).
-    None,
-    Hsm,
-    Mssm,
+crate::param_choice! {
+    /// Which hierarchy to build above level 0.
+    pub enum HierarchyKind {
+        /// Level 0 only (and HSM levels a full search may need to bound its loop).
+        None = "none",
+        /// Min/max mip pyramid (Guennebaud et al. 2006).
+        Hsm = "hsm",
+        /// Multi-scale shadow map (Schwarz & Stamminger 2007, section 5).
+        Mssm = "mssm",
+    }
 }
 
 impl HierarchyKind {
-    pub const NAMES: &'static [&'static str] = &["none", "hsm", "mssm"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            HierarchyKind::None => "none",
-            HierarchyKind::Hsm => "hsm",
-            HierarchyKind::Mssm => "mssm",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "none" => Some(HierarchyKind::None),
-            "hsm" => Some(HierarchyKind::Hsm),
-            "mssm" => Some(HierarchyKind::Mssm),
-            _ => None,
-        }
-    }
-
     /// The value of `HIERARCHY_*` in `search_area.wgsl`.
     pub fn shader_value(self) -> u32 {
         match self {

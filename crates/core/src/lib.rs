@@ -26,11 +26,13 @@ pub mod visibility;
 
 pub use camera::Camera;
 pub use error::{GpuError, ParamError, RenderError, TechniqueError};
-pub use frame::{Frame, FrameUniforms, ShadowInputs};
+pub use frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs};
 pub use gpu::Gpu;
 pub use hierarchy::{DepthHierarchy, HierarchyKind};
 pub use light::{AreaLight, SlopeFrustum};
-pub use params::{ParamKind, ParamSet, ParamSpec, ParamValue};
+pub use params::{
+    ParamChoice, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, TechniqueSettings,
+};
 pub use renderer::{FrameOutput, GpuFrameTiming, Renderer};
 pub use scene::{Aabb, Instance, Mesh, MeshRepair, Scene};
 pub use scene_gpu::SceneGpu;

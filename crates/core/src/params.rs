@@ -271,24 +271,304 @@ pub fn find_spec<'a>(
         })
 }
 
-/// Typed access for `Settings` structs.
-pub fn expect_f32(value: &ParamValue) -> f32 {
-    value.as_f64().unwrap_or(0.0) as f32
+/// A Rust type a technique parameter can have, and how it maps to a [`ParamValue`]. Implemented
+/// for `u32`, `f32`, `bool` and every enum declared with [`param_choice!`](crate::param_choice).
+pub trait ParamType: Sized + Clone + PartialEq {
+    /// The spec for a parameter of this type. `range` is `(min, max)` for numbers (ignored
+    /// otherwise); `logarithmic` asks the GUI for a logarithmic slider.
+    fn spec(
+        name: &'static str,
+        description: &'static str,
+        default: &Self,
+        range: Option<(f64, f64)>,
+        logarithmic: bool,
+    ) -> ParamSpec;
+    fn to_value(&self) -> ParamValue;
+    /// Converts a value that [`ParamSpec::check`] accepted.
+    fn from_value(value: &ParamValue) -> Option<Self>;
 }
-pub fn expect_u32(value: &ParamValue) -> u32 {
-    match value {
-        ParamValue::Int(i) => (*i).max(0) as u32,
-        other => other.as_f64().unwrap_or(0.0).max(0.0) as u32,
+
+impl ParamType for u32 {
+    fn spec(
+        name: &'static str,
+        description: &'static str,
+        default: &Self,
+        range: Option<(f64, f64)>,
+        _logarithmic: bool,
+    ) -> ParamSpec {
+        let (min, max) = range.unwrap_or((0.0, u32::MAX as f64));
+        ParamSpec::int(name, description, min as i64, max as i64, *default as i64)
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Int(*self as i64)
+    }
+    fn from_value(value: &ParamValue) -> Option<Self> {
+        match value {
+            ParamValue::Int(i) => u32::try_from(*i).ok(),
+            _ => None,
+        }
     }
 }
-pub fn expect_bool(value: &ParamValue) -> bool {
-    matches!(value, ParamValue::Bool(true))
-}
-pub fn expect_choice(value: &ParamValue) -> &str {
-    match value {
-        ParamValue::Choice(s) => s,
-        _ => "",
+
+impl ParamType for f32 {
+    fn spec(
+        name: &'static str,
+        description: &'static str,
+        default: &Self,
+        range: Option<(f64, f64)>,
+        logarithmic: bool,
+    ) -> ParamSpec {
+        let (min, max) = range.unwrap_or((f32::MIN as f64, f32::MAX as f64));
+        ParamSpec {
+            name,
+            description,
+            kind: ParamKind::Float {
+                min,
+                max,
+                default: *default as f64,
+                logarithmic,
+            },
+        }
     }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Float(*self as f64)
+    }
+    fn from_value(value: &ParamValue) -> Option<Self> {
+        value.as_f64().map(|x| x as f32)
+    }
+}
+
+impl ParamType for bool {
+    fn spec(
+        name: &'static str,
+        description: &'static str,
+        default: &Self,
+        _range: Option<(f64, f64)>,
+        _logarithmic: bool,
+    ) -> ParamSpec {
+        ParamSpec::boolean(name, description, *default)
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Bool(*self)
+    }
+    fn from_value(value: &ParamValue) -> Option<Self> {
+        match value {
+            ParamValue::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
+}
+
+/// An enum whose variants are the options of a choice parameter (declare it with
+/// [`param_choice!`](crate::param_choice)).
+pub trait ParamChoice: Copy + PartialEq + 'static {
+    /// Option names in declaration order (what the CLI, sweeps and JSON use).
+    const NAMES: &'static [&'static str];
+    fn name(self) -> &'static str;
+    fn from_name(name: &str) -> Option<Self>;
+}
+
+/// The settings of one technique, declared with [`technique_settings!`](crate::technique_settings):
+/// the spec list, current values and range-checked setting all come from one declaration per
+/// parameter. Object safe, so the [`ShadowTechnique`](crate::ShadowTechnique) trait can reach
+/// it through `settings()` / `settings_mut()`.
+pub trait TechniqueSettings {
+    /// Specs in declaration order (defaults are those of `Default`).
+    fn specs(&self) -> Vec<ParamSpec>;
+    /// Current values with their specs.
+    fn param_set(&self) -> ParamSet;
+    /// Checks `value` against the spec named `name` (type, finiteness, range) and stores it.
+    fn set_param(
+        &mut self,
+        technique: &str,
+        name: &str,
+        value: ParamValue,
+    ) -> Result<(), ParamError>;
+}
+
+/// Declares an enum usable as a choice parameter: variants with their option names.
+///
+/// ```
+/// softshadow_core::param_choice! {
+///     /// How texels become occluders.
+///     pub enum Primitive {
+///         /// A rectangle parallel to the light.
+///         Micropatch = "micropatch",
+///         /// Texel centres as quad corners.
+///         Microquad = "microquad",
+///     }
+/// }
+/// use softshadow_core::params::ParamChoice;
+/// assert_eq!(Primitive::from_name("microquad"), Some(Primitive::Microquad));
+/// assert_eq!(Primitive::NAMES, &["micropatch", "microquad"]);
+/// ```
+#[macro_export]
+macro_rules! param_choice {
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $name:ident {
+            $( $(#[$vmeta:meta])* $variant:ident = $text:literal ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        $vis enum $name {
+            $( $(#[$vmeta])* $variant ),+
+        }
+
+        impl $name {
+            /// Option names in declaration order.
+            pub const NAMES: &'static [&'static str] = &[$($text),+];
+            /// The option name of this variant.
+            pub fn name(self) -> &'static str {
+                match self { $( $name::$variant => $text ),+ }
+            }
+            /// The variant named `name`, if any.
+            pub fn from_name(name: &str) -> Option<Self> {
+                match name { $( $text => Some($name::$variant), )+ _ => None }
+            }
+        }
+
+        impl $crate::params::ParamChoice for $name {
+            const NAMES: &'static [&'static str] = &[$($text),+];
+            fn name(self) -> &'static str {
+                $name::name(self)
+            }
+            fn from_name(name: &str) -> Option<Self> {
+                $name::from_name(name)
+            }
+        }
+
+        impl $crate::params::ParamType for $name {
+            fn spec(
+                name: &'static str,
+                description: &'static str,
+                default: &Self,
+                _range: Option<(f64, f64)>,
+                _logarithmic: bool,
+            ) -> $crate::params::ParamSpec {
+                $crate::params::ParamSpec::choice(name, description, &[$($text),+], default.name())
+            }
+            fn to_value(&self) -> $crate::params::ParamValue {
+                $crate::params::ParamValue::Choice(self.name().to_string())
+            }
+            fn from_value(value: &$crate::params::ParamValue) -> Option<Self> {
+                match value {
+                    $crate::params::ParamValue::Choice(s) => $name::from_name(s),
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+/// Declares a technique's settings struct, one line per parameter: its doc comment (also the
+/// parameter's description in the GUI, `workbench list` and results.json), its type, its default
+/// and, for numbers, its range (`in min..=max`, optionally followed by `log` for a logarithmic
+/// slider: `epsilon: f32 = 0.01, in 0.0001..=1.0 log;`).
+/// Generates the struct with public fields, `Default`, and [`TechniqueSettings`] (spec list,
+/// values, range-checked `set_param`).
+///
+/// ```
+/// softshadow_core::technique_settings! {
+///     /// Settings of an example technique.
+///     pub struct ExampleSettings {
+///         /// Shadow-map edge in texels.
+///         shadow_map_size: u32 = 1024, in 64..=4096;
+///         /// Depth bias in texels.
+///         bias_texels: f32 = 1.5, in 0.0..=16.0;
+///         /// Jitter the samples.
+///         jitter: bool = true;
+///     }
+/// }
+/// use softshadow_core::params::{TechniqueSettings, ParamValue};
+/// let mut s = ExampleSettings::default();
+/// assert_eq!(s.shadow_map_size, 1024);
+/// s.set_param("example", "bias_texels", ParamValue::Float(2.0)).unwrap();
+/// assert_eq!(s.bias_texels, 2.0);
+/// assert!(s.set_param("example", "shadow_map_size", ParamValue::Int(1)).is_err());
+/// assert_eq!(s.specs()[0].description, "Shadow-map edge in texels.");
+/// ```
+#[macro_export]
+macro_rules! technique_settings {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {
+            $(
+                $(#[doc = $doc:literal])*
+                $field:ident : $ty:ty = $default:expr
+                    $(, in $min:literal ..= $max:literal $($log:ident)?)? ;
+            )+
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $name {
+            $( $(#[doc = $doc])* pub $field: $ty, )+
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                Self { $( $field: $default, )+ }
+            }
+        }
+
+        impl $name {
+            /// Parameter specs with this struct's defaults (for `TechniqueInfo::params`).
+            pub fn param_specs() -> Vec<$crate::params::ParamSpec> {
+                let defaults = Self::default();
+                vec![ $(
+                    <$ty as $crate::params::ParamType>::spec(
+                        stringify!($field),
+                        concat!($($doc),*).trim_ascii(),
+                        &defaults.$field,
+                        $crate::technique_settings!(@range $($min, $max)?),
+                        $crate::technique_settings!(@log $($($log)?)?),
+                    ),
+                )+ ]
+            }
+        }
+
+        impl $crate::params::TechniqueSettings for $name {
+            fn specs(&self) -> Vec<$crate::params::ParamSpec> {
+                Self::param_specs()
+            }
+
+            fn param_set(&self) -> $crate::params::ParamSet {
+                let values = [ $( $crate::params::ParamType::to_value(&self.$field), )+ ];
+                $crate::params::ParamSet {
+                    entries: Self::param_specs().into_iter().zip(values).collect(),
+                }
+            }
+
+            fn set_param(
+                &mut self,
+                technique: &str,
+                name: &str,
+                value: $crate::params::ParamValue,
+            ) -> Result<(), $crate::ParamError> {
+                let specs = Self::param_specs();
+                let spec = $crate::params::find_spec(technique, &specs, name)?;
+                let value = spec.check(value)?;
+                $(
+                    if spec.name == stringify!($field) {
+                        self.$field = <$ty as $crate::params::ParamType>::from_value(&value)
+                            .ok_or_else(|| $crate::ParamError::WrongType {
+                                name: name.to_string(),
+                                expected: spec.range_text(),
+                                value: value.to_string(),
+                            })?;
+                        return Ok(());
+                    }
+                )+
+                unreachable!("find_spec returned a declared parameter")
+            }
+        }
+    };
+    (@range $min:literal, $max:literal) => { Some(($min as f64, $max as f64)) };
+    (@range) => { None };
+    (@log log) => { true };
+    (@log) => { false };
 }
 
 #[cfg(test)]

@@ -2,14 +2,14 @@
 //! G-buffer pass -> technique passes -> visibility buffer -> shading pass (only when asked),
 //! with every pass timed on the GPU and listed in `passes_run`.
 
-use std::time::Instant;
+use std::{collections::HashMap, time::Instant};
 
 use wgpu::util::DeviceExt;
 use wgpu_profiler::{GpuProfiler, GpuProfilerSettings, GpuTimerQueryResult};
 
 use crate::{
     error::{GpuError, RenderError},
-    frame::{Frame, FrameUniforms, ShadowInputs},
+    frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs},
     gbuffer::{GBuffer, GBufferPass},
     readback,
     scene_gpu::SceneGpu,
@@ -70,6 +70,8 @@ pub struct Renderer {
     shaded_view: wgpu::TextureView,
     profiler: GpuProfiler,
     last_uniforms: FrameUniforms,
+    /// The inputs of the last frame drawn with each technique id, for [`FrameChanges`].
+    last_states: HashMap<&'static str, FrameState>,
 }
 
 impl Renderer {
@@ -147,6 +149,7 @@ impl Renderer {
                 width,
                 height,
             ),
+            last_states: HashMap::new(),
         })
     }
 
@@ -155,7 +158,8 @@ impl Renderer {
     }
 
     /// What a technique reads: the scene, light, camera, G-buffer and frame bind group (also used
-    /// for [`ShadowTechnique::prepare`] outside a frame, where `uniforms` are the last frame's).
+    /// for [`ShadowTechnique::prepare`] outside a frame, where `uniforms` are the last frame's and
+    /// `changes` says everything changed).
     pub fn inputs<'a>(
         &'a self,
         scene: &'a SceneGpu,
@@ -163,6 +167,7 @@ impl Renderer {
         light: &'a AreaLight,
     ) -> ShadowInputs<'a> {
         ShadowInputs {
+            changes: FrameChanges::ALL,
             scene,
             light,
             camera,
@@ -189,6 +194,16 @@ impl Renderer {
         light.validate().map_err(RenderError::Scene)?;
         check_requirements(&self.gpu, technique.id(), &technique.requirements())?;
         let start = Instant::now();
+        let state = FrameState {
+            camera: *camera,
+            light: *light,
+            static_hash: scene.static_hash,
+            dynamic_hash: scene.dynamic_hash,
+            size: (self.width, self.height),
+            params: technique.params(),
+        };
+        // A failed frame leaves nothing to compare with: the next one sees everything changed.
+        let changes = state.changes_since(self.last_states.remove(technique.id()).as_ref());
         self.last_uniforms = FrameUniforms::new(camera, light, self.width, self.height);
         self.gpu
             .queue
@@ -205,7 +220,8 @@ impl Renderer {
             let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
             self.gbuffer_pass
                 .record(&mut frame, &self.gbuffer, &self.uniform_bind_group, scene);
-            let inputs = self.inputs(scene, camera, light);
+            let mut inputs = self.inputs(scene, camera, light);
+            inputs.changes = changes;
             let result = technique.render(&mut frame, &inputs, &self.visibility);
             if result.is_ok() {
                 if let Some(mode) = shade {
@@ -227,6 +243,7 @@ impl Renderer {
         self.gpu.wait_idle()?;
         self.gpu.take_errors()?;
         result?;
+        self.last_states.insert(technique.id(), state);
         let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         let gpu = self.collect_timings();
         Ok(FrameOutput {

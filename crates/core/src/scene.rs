@@ -283,6 +283,26 @@ impl Scene {
         h.write_u64(self.camera.content_hash());
         h.finish()
     }
+
+    /// Hash of the geometry of the static (`dynamic == false`) or the dynamic instances only:
+    /// meshes, transforms and flags. Light-space caches key on these (a moved dynamic
+    /// instance changes only the dynamic hash; PDSM-like precomputes depend on the static one).
+    pub fn instances_hash(&self, dynamic: bool) -> u64 {
+        let mut h = Fnv1a::default();
+        for inst in self.instances.iter().filter(|i| i.dynamic == dynamic) {
+            let mesh = &self.meshes[inst.mesh];
+            h.write_u64(mesh.positions.len() as u64);
+            for p in &mesh.positions {
+                h.write_f32s(&p.to_array());
+            }
+            for i in &mesh.indices {
+                h.write_u64(*i as u64);
+            }
+            h.write_f32s(&inst.transform.to_cols_array());
+            h.write_u64(inst.casts_shadow as u64 | (inst.receives_shadow as u64) << 1);
+        }
+        h.finish()
+    }
 }
 
 /// FNV-1a hasher used for cache keys (deterministic, unlike `DefaultHasher` across Rust versions).

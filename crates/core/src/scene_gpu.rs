@@ -53,9 +53,17 @@ pub struct IndexList {
 pub struct SceneGpu {
     pub name: String,
     pub content_hash: u64,
+    /// [`Scene::instances_hash`] of the static instances.
+    pub static_hash: u64,
+    /// [`Scene::instances_hash`] of the dynamic instances.
+    pub dynamic_hash: u64,
     pub vertices: wgpu::Buffer,
     pub all: Option<IndexList>,
     pub casters: Option<IndexList>,
+    /// Casters of static instances only (precomputes such as the PDSM).
+    pub static_casters: Option<IndexList>,
+    /// Casters of dynamic instances only (drawn per frame beside a static precompute).
+    pub dynamic_casters: Option<IndexList>,
     pub receivers: Option<IndexList>,
     pub bounds: Aabb,
     pub caster_bounds: Aabb,
@@ -89,6 +97,7 @@ impl SceneGpu {
         puffin::profile_function!();
         let mut vertices: Vec<Vertex> = Vec::new();
         let (mut all, mut casters, mut receivers) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut static_casters, mut dynamic_casters) = (Vec::new(), Vec::new());
         let (mut bounds, mut caster_bounds, mut receiver_bounds) =
             (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
         let mut caster_positions = Vec::new();
@@ -132,6 +141,11 @@ impl SceneGpu {
             all.extend(indices.clone());
             if instance.casts_shadow {
                 casters.extend(indices.clone());
+                if instance.dynamic {
+                    dynamic_casters.extend(indices.clone());
+                } else {
+                    static_casters.extend(indices.clone());
+                }
             }
             if instance.receives_shadow {
                 receivers.extend(indices);
@@ -160,11 +174,15 @@ impl SceneGpu {
         Self {
             name: scene.name.clone(),
             content_hash: scene.content_hash(),
+            static_hash: scene.instances_hash(false),
+            dynamic_hash: scene.instances_hash(true),
             vertices: vertex_buffer,
             triangle_count: all.len() / 3,
             caster_triangle_count: casters.len() / 3,
             all: make("scene indices (all)", &all),
             casters: make("scene indices (casters)", &casters),
+            static_casters: make("scene indices (static casters)", &static_casters),
+            dynamic_casters: make("scene indices (dynamic casters)", &dynamic_casters),
             receivers: make("scene indices (receivers)", &receivers),
             bounds,
             caster_bounds,

@@ -245,6 +245,11 @@ pub struct CentreShadowMap {
     clip_to_receivers: bool,
     /// `ShadowView` uniform of the last rendered map.
     pub view_buffer: wgpu::Buffer,
+    /// The fit of the map kept from an earlier frame (`Some(None)`: no casters), while the
+    /// light, the casters and the size stand still.
+    kept: Option<(u32, Option<SlopeFrustum>)>,
+    /// The last `render` drew the map (rather than keeping the earlier one).
+    rebuilt: bool,
 }
 
 impl CentreShadowMap {
@@ -258,6 +263,8 @@ impl CentreShadowMap {
                 "centre shadow view",
                 &ShadowViewUniform::zeroed(),
             ),
+            kept: None,
+            rebuilt: false,
         })
     }
 
@@ -270,6 +277,9 @@ impl CentreShadowMap {
 
     /// Renders the casters into a `size`² map as the pass `label` and returns the window it
     /// used. Returns `None` (and renders nothing) when no caster is in front of the light.
+    /// Keeps the map of an earlier frame, recording nothing, while `inputs.changes` says the
+    /// light, the casters and the technique's parameters stand still and `size` is the same;
+    /// [`CentreShadowMap::rebuilt`] says which happened.
     pub fn render(
         &mut self,
         frame: &mut Frame<'_>,
@@ -277,12 +287,21 @@ impl CentreShadowMap {
         size: u32,
         label: &str,
     ) -> Option<SlopeFrustum> {
+        if let Some((kept_size, frustum)) = self.kept {
+            if kept_size == size && !inputs.changes.light_space() {
+                self.rebuilt = false;
+                return frustum;
+            }
+        }
+        self.rebuilt = true;
         let fit = if self.clip_to_receivers {
             fit_hard_view
         } else {
             fit_caster_view
         };
+        self.kept = Some((size, None));
         let frustum = fit(inputs.scene, inputs.light, Vec2::ZERO)?;
+        self.kept = Some((size, Some(frustum)));
         let gpu = frame.gpu;
         if self.map.as_ref().map(|m| m.0) != Some(size) {
             let texture = create_depth_maps(gpu, label, size, 1);
@@ -296,6 +315,16 @@ impl CentreShadowMap {
         let (_, _, map_view) = self.map.as_ref().expect("created above");
         self.depth.record(frame, label, inputs.scene, 0, map_view);
         Some(frustum)
+    }
+
+    /// The last [`CentreShadowMap::render`] drew the map (it did not keep an earlier one).
+    pub fn rebuilt(&self) -> bool {
+        self.rebuilt
+    }
+
+    /// Drops the kept map: the next `render` draws it whatever the changes say.
+    pub fn invalidate(&mut self) {
+        self.kept = None;
     }
 
     /// Layout of the usual group 1 of a pass that reads this map: binding 0 = `ShadowView`

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use crate::{
     error::{ParamError, TechniqueError},
     frame::{Frame, ShadowInputs},
-    params::{ParamSet, ParamSpec, ParamValue},
+    params::{ParamSet, ParamSpec, ParamValue, TechniqueSettings},
     visibility::VisibilityBuffer,
     Gpu,
 };
@@ -38,10 +38,18 @@ pub trait ShadowTechnique {
     fn requirements(&self) -> Requirements {
         Requirements::default()
     }
+    /// The technique's settings (declared with [`technique_settings!`](crate::technique_settings)).
+    fn settings(&self) -> &dyn TechniqueSettings;
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings;
     /// Current parameter values with their specs.
-    fn params(&self) -> ParamSet;
+    fn params(&self) -> ParamSet {
+        self.settings().param_set()
+    }
     /// Sets one parameter (range-checked). Takes effect on the next `render`.
-    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError>;
+    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
+        let id = self.id();
+        self.settings_mut().set_param(id, name, value)
+    }
     /// Work that depends only on the scene and light; not timed per frame. Default: nothing.
     fn prepare(&mut self, _gpu: &Gpu, _inputs: &ShadowInputs<'_>) -> Result<(), TechniqueError> {
         Ok(())
@@ -53,9 +61,10 @@ pub trait ShadowTechnique {
         inputs: &ShadowInputs<'_>,
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError>;
-    /// Drops results cached across frames (the reference caches its image while nothing
-    /// changes), so that the next `render` does the full work. The benchmark calls it before
-    /// every frame so that timings measure the technique, not a cache hit. Default: nothing.
+    /// Drops results cached across frames (light-space maps kept while only the camera moves,
+    /// the reference's image), so that the next `render` does the full work whatever
+    /// [`ShadowInputs::changes`] says. The benchmark calls it before every frame of its `timing`
+    /// block so that timings measure the technique, not a cache hit. Default: nothing.
     fn invalidate_cache(&mut self) {}
     /// Counters of the last frame.
     fn stats(&self) -> TechniqueStats {

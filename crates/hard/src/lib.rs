@@ -7,12 +7,11 @@
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     fullscreen::{uniform_buffer, FullscreenPipeline},
-    params::{expect_f32, expect_u32, find_spec},
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs,
-    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 pub const ID: &str = "hard";
@@ -23,42 +22,14 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     permutations: &[&[]],
 }];
 
-/// Settings of the `hard` technique.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HardSettings {
-    /// Shadow-map edge in texels.
-    pub shadow_map_size: u32,
-    /// Depth bias in texel footprints at the receiver (scaled up on slopes).
-    pub bias_texels: f32,
-}
-
-impl Default for HardSettings {
-    fn default() -> Self {
-        Self {
-            shadow_map_size: 1024,
-            bias_texels: 1.5,
-        }
+softshadow_core::technique_settings! {
+    /// Settings of the `hard` technique.
+    pub struct HardSettings {
+        /// Shadow-map edge in texels
+        shadow_map_size: u32 = 1024, in 64..=4096;
+        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
     }
-}
-
-pub fn param_specs() -> Vec<ParamSpec> {
-    let d = HardSettings::default();
-    vec![
-        ParamSpec::int(
-            "shadow_map_size",
-            "Shadow-map edge in texels",
-            64,
-            4096,
-            d.shadow_map_size as i64,
-        ),
-        ParamSpec::float(
-            "bias_texels",
-            "Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)",
-            0.0,
-            16.0,
-            d.bias_texels as f64,
-        ),
-    ]
 }
 
 #[repr(C)]
@@ -82,7 +53,7 @@ pub fn info() -> TechniqueInfo {
         id: ID,
         description: "Hard shadows: one shadow map from the light centre (cost floor)",
         source: "Williams 1978",
-        params: param_specs,
+        params: HardSettings::param_specs,
         create: |gpu| Ok(Box::new(HardShadows::new(gpu, HardSettings::default())?)),
     }
 }
@@ -106,27 +77,12 @@ impl ShadowTechnique for HardShadows {
         ID
     }
 
-    fn params(&self) -> ParamSet {
-        let s = &self.settings;
-        let values = [
-            ParamValue::Int(s.shadow_map_size as i64),
-            ParamValue::Float(s.bias_texels as f64),
-        ];
-        ParamSet {
-            entries: param_specs().into_iter().zip(values).collect(),
-        }
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
     }
 
-    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
-        let specs = param_specs();
-        let spec = find_spec(ID, &specs, name)?;
-        let value = spec.check(value)?;
-        match spec.name {
-            "shadow_map_size" => self.settings.shadow_map_size = expect_u32(&value),
-            "bias_texels" => self.settings.bias_texels = expect_f32(&value),
-            _ => unreachable!("every spec is matched"),
-        }
-        Ok(())
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
     }
 
     fn render(
@@ -173,6 +129,10 @@ impl ShadowTechnique for HardShadows {
             ("shadow_map_texels".into(), (size as f64) * (size as f64)),
         ]);
         Ok(())
+    }
+
+    fn invalidate_cache(&mut self) {
+        self.shadow_map.invalidate();
     }
 
     fn stats(&self) -> TechniqueStats {

@@ -7,12 +7,11 @@
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     fullscreen::{uniform_buffer, FullscreenPipeline},
-    params::{expect_choice, expect_f32, expect_u32, find_spec},
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, ShadowInputs,
-    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 pub const ID: &str = "pcss";
@@ -23,106 +22,34 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     permutations: &[&[]],
 }];
 
-/// Filter kernel shape.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kernel {
-    /// Vogel (golden-angle) disk rotated per pixel: what engines ship.
-    Vogel,
-    /// Jittered grid over the light's rectangle: exact for a planar occluder parallel to the light
-    /// when the blocker depth is right (a box filter of the penumbra width gives the linear ramp).
-    Grid,
-}
-
-impl Kernel {
-    pub const NAMES: &'static [&'static str] = &["vogel", "grid"];
-    fn name(self) -> &'static str {
-        match self {
-            Kernel::Vogel => "vogel",
-            Kernel::Grid => "grid",
-        }
-    }
-    fn from_name(name: &str) -> Self {
-        if name == "grid" {
-            Kernel::Grid
-        } else {
-            Kernel::Vogel
-        }
+softshadow_core::param_choice! {
+    /// Filter kernel shape.
+    pub enum Kernel {
+        /// Vogel (golden-angle) disk rotated per pixel: what engines ship.
+        Vogel = "vogel",
+        /// Jittered grid over the light's rectangle: exact for a planar occluder parallel to the
+        /// light when the blocker depth is right (a box filter of the penumbra width gives the
+        /// linear ramp).
+        Grid = "grid",
     }
 }
 
-/// Settings of PCSS. Defaults follow common engine practice (16 blocker, 32 filter samples).
-#[derive(Clone, Debug, PartialEq)]
-pub struct PcssSettings {
-    pub shadow_map_size: u32,
-    /// Samples of the blocker search (step 1).
-    pub blocker_samples: u32,
-    /// Samples of the percentage-closer filter (step 3).
-    pub filter_samples: u32,
-    pub kernel: Kernel,
-    /// Depth bias in texel footprints at the receiver.
-    pub bias_texels: f32,
-    /// Smallest filter half extent, in texels (keeps contact shadows anti-aliased).
-    pub min_filter_texels: f32,
-}
-
-impl Default for PcssSettings {
-    fn default() -> Self {
-        Self {
-            shadow_map_size: 1024,
-            blocker_samples: 16,
-            filter_samples: 32,
-            kernel: Kernel::Vogel,
-            bias_texels: 1.5,
-            min_filter_texels: 1.0,
-        }
+softshadow_core::technique_settings! {
+    /// Settings of PCSS. Defaults follow common engine practice (16 blocker, 32 filter samples).
+    pub struct PcssSettings {
+        /// Shadow-map edge in texels
+        shadow_map_size: u32 = 1024, in 64..=4096;
+        /// Samples of the blocker search
+        blocker_samples: u32 = 16, in 1..=64;
+        /// Samples of the percentage-closer filter
+        filter_samples: u32 = 32, in 1..=256;
+        /// Sample pattern: rotated Vogel disk, or jittered grid over the light rectangle
+        kernel: Kernel = Kernel::Vogel;
+        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
+        /// Smallest filter half extent in texels
+        min_filter_texels: f32 = 1.0, in 0.0..=8.0;
     }
-}
-
-pub fn param_specs() -> Vec<ParamSpec> {
-    let d = PcssSettings::default();
-    vec![
-        ParamSpec::int(
-            "shadow_map_size",
-            "Shadow-map edge in texels",
-            64,
-            4096,
-            d.shadow_map_size as i64,
-        ),
-        ParamSpec::int(
-            "blocker_samples",
-            "Samples of the blocker search",
-            1,
-            64,
-            d.blocker_samples as i64,
-        ),
-        ParamSpec::int(
-            "filter_samples",
-            "Samples of the percentage-closer filter",
-            1,
-            256,
-            d.filter_samples as i64,
-        ),
-        ParamSpec::choice(
-            "kernel",
-            "Sample pattern: rotated Vogel disk, or jittered grid over the light rectangle",
-            Kernel::NAMES,
-            "vogel",
-        ),
-        ParamSpec::float(
-            "bias_texels",
-            "Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)",
-            0.0,
-            16.0,
-            d.bias_texels as f64,
-        ),
-        ParamSpec::float(
-            "min_filter_texels",
-            "Smallest filter half extent in texels",
-            0.0,
-            8.0,
-            d.min_filter_texels as f64,
-        ),
-    ]
 }
 
 /// Mirrors `PcssParams` in `shaders/pcss/pcss.wgsl`.
@@ -152,7 +79,7 @@ pub fn info() -> TechniqueInfo {
         id: ID,
         description: "PCSS: blocker search, penumbra estimate, percentage-closer filtering",
         source: "Fernando 2005",
-        params: param_specs,
+        params: PcssSettings::param_specs,
         create: |gpu| Ok(Box::new(Pcss::new(gpu, PcssSettings::default())?)),
     }
 }
@@ -176,36 +103,12 @@ impl ShadowTechnique for Pcss {
         ID
     }
 
-    fn params(&self) -> ParamSet {
-        let s = &self.settings;
-        let values = [
-            ParamValue::Int(s.shadow_map_size as i64),
-            ParamValue::Int(s.blocker_samples as i64),
-            ParamValue::Int(s.filter_samples as i64),
-            ParamValue::Choice(s.kernel.name().into()),
-            ParamValue::Float(s.bias_texels as f64),
-            ParamValue::Float(s.min_filter_texels as f64),
-        ];
-        ParamSet {
-            entries: param_specs().into_iter().zip(values).collect(),
-        }
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
     }
 
-    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
-        let specs = param_specs();
-        let spec = find_spec(ID, &specs, name)?;
-        let value = spec.check(value)?;
-        let s = &mut self.settings;
-        match spec.name {
-            "shadow_map_size" => s.shadow_map_size = expect_u32(&value),
-            "blocker_samples" => s.blocker_samples = expect_u32(&value),
-            "filter_samples" => s.filter_samples = expect_u32(&value),
-            "kernel" => s.kernel = Kernel::from_name(expect_choice(&value)),
-            "bias_texels" => s.bias_texels = expect_f32(&value),
-            "min_filter_texels" => s.min_filter_texels = expect_f32(&value),
-            _ => unreachable!("every spec is matched"),
-        }
-        Ok(())
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
     }
 
     fn render(
@@ -262,6 +165,10 @@ impl ShadowTechnique for Pcss {
             ("pixels".into(), pixels),
         ]);
         Ok(())
+    }
+
+    fn invalidate_cache(&mut self) {
+        self.shadow_map.invalidate();
     }
 
     fn stats(&self) -> TechniqueStats {

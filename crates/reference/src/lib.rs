@@ -18,7 +18,6 @@ use softshadow_core::{
     frame::{texture_entry, uniform_entry},
     fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
     glam::Vec2,
-    params::{expect_bool, expect_f32, expect_u32, find_spec},
     scene::Fnv1a,
     shader::ShaderSpec,
     shader_file,
@@ -26,8 +25,8 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
-    wgpu, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, Requirements, ShadowInputs,
-    ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, VisibilityBuffer,
+    wgpu, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 pub const ID: &str = "reference";
@@ -50,65 +49,20 @@ const BATCH: u32 = 16;
 /// Bytes per batch slot in the uniform buffer (dynamic offsets need 256-byte alignment).
 const BATCH_SLOT: u64 = 2048;
 
-/// Settings of the accumulated reference.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ReferenceSettings {
-    /// Light samples per axis; N x N depth maps in all.
-    pub samples_per_axis: u32,
-    /// Edge of each depth map in texels.
-    pub shadow_map_size: u32,
-    /// Depth bias in texel footprints at the receiver.
-    pub bias_texels: f32,
-    /// Jitter each sample inside its stratum (deterministic, from `seed`).
-    pub jitter: bool,
-    pub seed: u32,
-}
-
-impl Default for ReferenceSettings {
-    fn default() -> Self {
-        Self {
-            samples_per_axis: 32,
-            shadow_map_size: 1024,
-            bias_texels: 1.5,
-            jitter: true,
-            seed: 1,
-        }
+softshadow_core::technique_settings! {
+    /// Settings of the accumulated reference.
+    pub struct ReferenceSettings {
+        /// Light samples per axis (N x N depth maps, averaged)
+        samples_per_axis: u32 = 32, in 1..=64;
+        /// Edge of each depth map in texels
+        shadow_map_size: u32 = 1024, in 64..=4096;
+        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
+        /// Jitter each sample inside its stratum (deterministic, from `seed`)
+        jitter: bool = true;
+        /// Seed of the jitter
+        seed: u32 = 1, in 0..=2147483647;
     }
-}
-
-pub fn param_specs() -> Vec<ParamSpec> {
-    let d = ReferenceSettings::default();
-    vec![
-        ParamSpec::int(
-            "samples_per_axis",
-            "Light samples per axis (N x N depth maps, averaged)",
-            1,
-            64,
-            d.samples_per_axis as i64,
-        ),
-        ParamSpec::int(
-            "shadow_map_size",
-            "Edge of each depth map in texels",
-            64,
-            4096,
-            d.shadow_map_size as i64,
-        ),
-        ParamSpec::float(
-            "bias_texels",
-            "Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)",
-            0.0,
-            16.0,
-            d.bias_texels as f64,
-        ),
-        ParamSpec::boolean("jitter", "Jitter each sample inside its stratum", d.jitter),
-        ParamSpec::int(
-            "seed",
-            "Seed of the jitter",
-            0,
-            i32::MAX as i64,
-            d.seed as i64,
-        ),
-    ]
 }
 
 /// Stratified sample positions on the light rectangle, light-space `(u, v)` (row-major).
@@ -232,7 +186,7 @@ pub fn info() -> TechniqueInfo {
         id: ID,
         description: "Reference: accumulated hard shadows from N x N stratified light samples",
         source: "Heckbert & Herf 1997 (accumulated hard shadows)",
-        params: param_specs,
+        params: ReferenceSettings::param_specs,
         create: |gpu| {
             Ok(Box::new(AccumulatedReference::new(
                 gpu,
@@ -382,33 +336,12 @@ impl ShadowTechnique for AccumulatedReference {
         Self::requirements_static()
     }
 
-    fn params(&self) -> ParamSet {
-        let s = &self.settings;
-        let values = [
-            ParamValue::Int(s.samples_per_axis as i64),
-            ParamValue::Int(s.shadow_map_size as i64),
-            ParamValue::Float(s.bias_texels as f64),
-            ParamValue::Bool(s.jitter),
-            ParamValue::Int(s.seed as i64),
-        ];
-        ParamSet {
-            entries: param_specs().into_iter().zip(values).collect(),
-        }
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
     }
 
-    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
-        let specs = param_specs();
-        let spec = find_spec(ID, &specs, name)?;
-        let value = spec.check(value)?;
-        match spec.name {
-            "samples_per_axis" => self.settings.samples_per_axis = expect_u32(&value),
-            "shadow_map_size" => self.settings.shadow_map_size = expect_u32(&value),
-            "bias_texels" => self.settings.bias_texels = expect_f32(&value),
-            "jitter" => self.settings.jitter = expect_bool(&value),
-            "seed" => self.settings.seed = expect_u32(&value),
-            _ => unreachable!("every spec is matched"),
-        }
-        Ok(())
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
     }
 
     fn render(

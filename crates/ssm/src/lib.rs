@@ -23,14 +23,12 @@ use softshadow_core::{
     frame::{texture_entry, uniform_entry},
     fullscreen::{uniform_buffer, FullscreenPipeline},
     glam::Vec3,
-    params::{expect_bool, expect_choice, expect_f32, expect_u32, find_spec},
     scene_gpu::Vertex,
     shader::{create_module, ShaderSpec},
     shader_file,
     shadow_map::ShadowViewUniform,
-    wgpu, DebugView, Frame, Gpu, ParamError, ParamSet, ParamSpec, ParamValue, Requirements,
-    ShadowInputs, ShadowTechnique, SlopeFrustum, TechniqueError, TechniqueInfo, TechniqueStats,
-    VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, SlopeFrustum,
+    TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 pub const ID: &str = "ssm";
@@ -65,38 +63,22 @@ pub const SHADERS: &[ShaderSpec] = &[
 
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// How the micro-patches' occlusion is summed in the soft shadow map (appendix A).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Precision {
-    /// FP32 blending (needs `FLOAT32_BLENDABLE`; the paper's "future hardware").
-    Fp32,
-    /// FP16 blending, as on the paper's GeForce 6800: contributions below 2^-10 of the running
-    /// sum are lost, more so with larger occluder maps.
-    Fp16,
-    /// The paper's workaround: the M = N² patch slots split into floor(sqrt(M)) = N batches (one
-    /// occluder-map row each), each summed with FP16 blending, the batch sums added in FP32.
-    Fp16Batched,
+softshadow_core::param_choice! {
+    /// How the micro-patches' occlusion is summed in the soft shadow map (appendix A).
+    pub enum Precision {
+        /// FP32 blending (needs `FLOAT32_BLENDABLE`; the paper's "future hardware").
+        Fp32 = "fp32",
+        /// FP16 blending, as on the paper's GeForce 6800: contributions below 2^-10 of the running
+        /// sum are lost, more so with larger occluder maps.
+        Fp16 = "fp16",
+        /// The paper's workaround: the M = N² patch slots split into floor(sqrt(M)) = N batches
+        /// (one occluder-map row each), each summed with FP16 blending, the batch sums added in
+        /// FP32.
+        Fp16Batched = "fp16-batched",
+    }
 }
 
 impl Precision {
-    pub const NAMES: &'static [&'static str] = &["fp32", "fp16", "fp16-batched"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Precision::Fp32 => "fp32",
-            Precision::Fp16 => "fp16",
-            Precision::Fp16Batched => "fp16-batched",
-        }
-    }
-
-    fn from_name(name: &str) -> Self {
-        match name {
-            "fp16" => Precision::Fp16,
-            "fp16-batched" => Precision::Fp16Batched,
-            _ => Precision::Fp32,
-        }
-    }
-
     /// Format of the soft shadow map that micro-patches are blended into.
     fn scatter_format(self) -> wgpu::TextureFormat {
         match self {
@@ -106,72 +88,22 @@ impl Precision {
     }
 }
 
-/// Settings of soft shadow maps. Defaults: the paper's usual 128² occluder map (sections 4.2.4-5,
-/// 5.2), one pass, FP32 blending.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SsmSettings {
-    /// Occluder-map edge N: N² texels, each a potential micro-patch (64 to 1024).
-    pub occluder_map_size: u32,
-    /// Two-sided soft shadow maps (section 3.5): a second occluder map of the farthest surfaces,
-    /// its soft shadow map merged with the first by maximum.
-    pub two_pass: bool,
-    /// Accumulation precision of the soft shadow map (appendix A).
-    pub precision: Precision,
-    /// Edge of the soft shadow map and the receiver map (the grid the penumbrae are computed on).
-    pub ssm_size: u32,
-    /// Depth tolerance, in texel footprints at the receiver, for telling receiver pixels from
-    /// pixels on occluders (which fall back to a hard-shadow test).
-    pub bias_texels: f32,
-}
-
-impl Default for SsmSettings {
-    fn default() -> Self {
-        Self {
-            occluder_map_size: 128,
-            two_pass: false,
-            precision: Precision::Fp32,
-            ssm_size: 128,
-            bias_texels: 1.5,
-        }
+softshadow_core::technique_settings! {
+    /// Settings of soft shadow maps. Defaults: the paper's usual 128² occluder map (sections
+    /// 4.2.4-5, 5.2), one pass, FP32 blending.
+    pub struct SsmSettings {
+        /// Occluder-map edge N (N² micro-patches at most)
+        occluder_map_size: u32 = 128, in 64..=1024;
+        /// Second occluder map of the farthest surfaces, merged by maximum (section 3.5)
+        two_pass: bool = false;
+        /// Blending precision of the soft shadow map: fp32, fp16, or fp16 in sqrt(M) batches
+        /// summed in fp32 (appendix A)
+        precision: Precision = Precision::Fp32;
+        /// Soft-shadow-map and receiver-map edge in texels
+        ssm_size: u32 = 128, in 32..=1024;
+        /// Depth tolerance in texel footprints (receiver test and hard fallback on occluders)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
     }
-}
-
-pub fn param_specs() -> Vec<ParamSpec> {
-    let d = SsmSettings::default();
-    vec![
-        ParamSpec::int(
-            "occluder_map_size",
-            "Occluder-map edge N (N² micro-patches at most)",
-            64,
-            1024,
-            d.occluder_map_size as i64,
-        ),
-        ParamSpec::boolean(
-            "two_pass",
-            "Second occluder map of the farthest surfaces, merged by maximum (section 3.5)",
-            d.two_pass,
-        ),
-        ParamSpec::choice(
-            "precision",
-            "Blending precision of the soft shadow map: fp32, fp16, or fp16 in sqrt(M) batches summed in fp32 (appendix A)",
-            Precision::NAMES,
-            "fp32",
-        ),
-        ParamSpec::int(
-            "ssm_size",
-            "Soft-shadow-map and receiver-map edge in texels",
-            32,
-            1024,
-            d.ssm_size as i64,
-        ),
-        ParamSpec::float(
-            "bias_texels",
-            "Depth tolerance in texel footprints (receiver test and hard fallback on occluders)",
-            0.0,
-            16.0,
-            d.bias_texels as f64,
-        ),
-    ]
 }
 
 /// Mirrors `SsmParams` in `shaders/ssm/*.wgsl`.
@@ -336,6 +268,9 @@ pub struct SoftShadowMaps {
     counters: wgpu::Buffer,
     resources: Option<Resources>,
     last: LastFrame,
+    /// The light-space maps in `resources` are complete and match the last frame's light,
+    /// casters and settings.
+    light_space_ready: bool,
 }
 
 pub fn info() -> TechniqueInfo {
@@ -343,7 +278,7 @@ pub fn info() -> TechniqueInfo {
         id: ID,
         description: "Soft shadow maps: per occluder-map texel, the occluded fraction of the light scattered over its penumbra",
         source: "Atty et al. 2006",
-        params: param_specs,
+        params: SsmSettings::param_specs,
         create: |gpu| Ok(Box::new(SoftShadowMaps::new(gpu, SsmSettings::default())?)),
     }
 }
@@ -616,6 +551,7 @@ impl SoftShadowMaps {
             stats_layout,
             resources: None,
             last: LastFrame::default(),
+            light_space_ready: false,
             settings,
         })
     }
@@ -706,34 +642,12 @@ impl ShadowTechnique for SoftShadowMaps {
         }
     }
 
-    fn params(&self) -> ParamSet {
-        let s = &self.settings;
-        let values = [
-            ParamValue::Int(s.occluder_map_size as i64),
-            ParamValue::Bool(s.two_pass),
-            ParamValue::Choice(s.precision.name().into()),
-            ParamValue::Int(s.ssm_size as i64),
-            ParamValue::Float(s.bias_texels as f64),
-        ];
-        ParamSet {
-            entries: param_specs().into_iter().zip(values).collect(),
-        }
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
     }
 
-    fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
-        let specs = param_specs();
-        let spec = find_spec(ID, &specs, name)?;
-        let value = spec.check(value)?;
-        let s = &mut self.settings;
-        match spec.name {
-            "occluder_map_size" => s.occluder_map_size = expect_u32(&value),
-            "two_pass" => s.two_pass = expect_bool(&value),
-            "precision" => s.precision = Precision::from_name(expect_choice(&value)),
-            "ssm_size" => s.ssm_size = expect_u32(&value),
-            "bias_texels" => s.bias_texels = expect_f32(&value),
-            _ => unreachable!("every spec is matched"),
-        }
-        Ok(())
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
     }
 
     fn render(
@@ -789,7 +703,12 @@ impl ShadowTechnique for SoftShadowMaps {
         let key = (n, r, s.two_pass, s.precision);
         if self.resources.as_ref().map(|res| res.key) != Some(key) {
             self.resources = Some(Resources::new(gpu, &s));
+            self.light_space_ready = false;
         }
+        // Everything but the projection is light-space (occluder, receiver and soft shadow
+        // maps, counters): kept while light, casters and settings stand still.
+        let rebuild = inputs.changes.light_space() || !self.light_space_ready;
+        self.light_space_ready = false;
         let res = self.resources.as_ref().expect("created above");
 
         // Uniforms.
@@ -822,129 +741,131 @@ impl ShadowTechnique for SoftShadowMaps {
         gpu.queue
             .write_buffer(&self.params_back, 0, bytemuck::bytes_of(&params(0.0)));
 
-        // 1. Occluder map(s): nearest surfaces (cleared to 1, Less) and, for two passes, the
-        //    farthest (cleared to 0, Greater), section 3.5.
-        let scene = inputs.scene;
-        depth_pass(
-            frame,
-            "ssm/occluder_map",
-            &self.occluder_front_pipeline,
-            &self.occluder_view_group,
-            &res.occluder_front.view,
-            1.0,
-            |pass| scene.draw_casters(pass),
-        );
-        if let Some(back) = &res.occluder_back {
-            depth_pass(
-                frame,
-                "ssm/occluder_map_back",
-                &self.occluder_back_pipeline,
-                &self.occluder_view_group,
-                &back.view,
-                0.0,
-                |pass| scene.draw_casters(pass),
-            );
-        }
-        // 2. Receiver map over the soft shadow map's window.
-        depth_pass(
-            frame,
-            "ssm/receiver_map",
-            &self.receiver_pipeline,
-            &self.receiver_view_group,
-            &res.receiver.view,
-            1.0,
-            |pass| scene.draw_receivers(pass),
-        );
-
-        // 3. Scatter, per occluder map.
-        let scatter_pipeline = match s.precision {
-            Precision::Fp32 => &self.scatter_fp32,
-            Precision::Fp16 | Precision::Fp16Batched => &self.scatter_fp16,
-        };
-        let mut maps: Vec<(&Target, &Target, Option<&Target>, &wgpu::Buffer, &str)> = vec![(
-            &res.occluder_front,
-            &res.ssm_front,
-            res.sum_front.as_ref(),
-            &self.params_front,
-            "",
-        )];
-        if let (Some(occluder_back), Some(ssm_back)) = (&res.occluder_back, &res.ssm_back) {
-            maps.push((
-                occluder_back,
-                ssm_back,
-                res.sum_back.as_ref(),
-                &self.params_back,
-                "_back",
-            ));
-        }
         let mut query = 0u32;
         let texels = n * n;
-        for (occluder_map, scatter_target, sum, params_buffer, suffix) in maps {
-            let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("ssm/scatter"),
-                layout: &self.scatter_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: params_buffer.as_entire_binding(),
-                    },
-                    view_entry(1, &occluder_map.view),
-                    view_entry(2, &res.receiver.view),
-                ],
-            });
-            let batch_group = sum.map(|_| {
-                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("ssm/batch_add"),
-                    layout: &self.batch_layout,
-                    entries: &[view_entry(0, &scatter_target.view)],
-                })
-            });
-            // Appendix A: N batches of one occluder-map row (floor(sqrt(N²)) = N), or one draw.
-            let batches: Vec<std::ops::Range<u32>> = if sum.is_some() {
-                (0..n).map(|row| row * n..(row + 1) * n).collect()
-            } else {
-                std::iter::once(0..texels).collect()
-            };
-            let scatter_label = format!("ssm/scatter{suffix}");
-            let add_label = format!("ssm/batch_add{suffix}");
-            for (b, instances) in batches.into_iter().enumerate() {
-                frame.render_pass(
-                    &scatter_label,
-                    wgpu::RenderPassDescriptor {
-                        label: None,
-                        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                            view: &scatter_target.view,
-                            depth_slice: None,
-                            resolve_target: None,
-                            ops: wgpu::Operations {
-                                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                                store: wgpu::StoreOp::Store,
-                            },
-                        })],
-                        depth_stencil_attachment: None,
-                        timestamp_writes: None,
-                        occlusion_query_set: Some(&res.queries),
-                        multiview_mask: None,
-                    },
-                    |pass| {
-                        pass.set_pipeline(scatter_pipeline);
-                        pass.set_bind_group(0, &group, &[]);
-                        pass.begin_occlusion_query(query);
-                        pass.draw(0..4, instances);
-                        pass.end_occlusion_query();
-                    },
+        if rebuild {
+            // 1. Occluder map(s): nearest surfaces (cleared to 1, Less) and, for two passes, the
+            //    farthest (cleared to 0, Greater), section 3.5.
+            let scene = inputs.scene;
+            depth_pass(
+                frame,
+                "ssm/occluder_map",
+                &self.occluder_front_pipeline,
+                &self.occluder_view_group,
+                &res.occluder_front.view,
+                1.0,
+                |pass| scene.draw_casters(pass),
+            );
+            if let Some(back) = &res.occluder_back {
+                depth_pass(
+                    frame,
+                    "ssm/occluder_map_back",
+                    &self.occluder_back_pipeline,
+                    &self.occluder_view_group,
+                    &back.view,
+                    0.0,
+                    |pass| scene.draw_casters(pass),
                 );
-                query += 1;
-                if let (Some(sum), Some(batch_group)) = (sum, &batch_group) {
-                    self.batch_add.record(
-                        frame,
-                        &add_label,
-                        inputs.frame_bind_group,
-                        batch_group,
-                        &[],
-                        &sum.view,
-                        (b == 0).then_some(0.0),
+            }
+            // 2. Receiver map over the soft shadow map's window.
+            depth_pass(
+                frame,
+                "ssm/receiver_map",
+                &self.receiver_pipeline,
+                &self.receiver_view_group,
+                &res.receiver.view,
+                1.0,
+                |pass| scene.draw_receivers(pass),
+            );
+
+            // 3. Scatter, per occluder map.
+            let scatter_pipeline = match s.precision {
+                Precision::Fp32 => &self.scatter_fp32,
+                Precision::Fp16 | Precision::Fp16Batched => &self.scatter_fp16,
+            };
+            let mut maps: Vec<(&Target, &Target, Option<&Target>, &wgpu::Buffer, &str)> = vec![(
+                &res.occluder_front,
+                &res.ssm_front,
+                res.sum_front.as_ref(),
+                &self.params_front,
+                "",
+            )];
+            if let (Some(occluder_back), Some(ssm_back)) = (&res.occluder_back, &res.ssm_back) {
+                maps.push((
+                    occluder_back,
+                    ssm_back,
+                    res.sum_back.as_ref(),
+                    &self.params_back,
+                    "_back",
+                ));
+            }
+            for (occluder_map, scatter_target, sum, params_buffer, suffix) in maps {
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("ssm/scatter"),
+                    layout: &self.scatter_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: params_buffer.as_entire_binding(),
+                        },
+                        view_entry(1, &occluder_map.view),
+                        view_entry(2, &res.receiver.view),
+                    ],
+                });
+                let batch_group = sum.map(|_| {
+                    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("ssm/batch_add"),
+                        layout: &self.batch_layout,
+                        entries: &[view_entry(0, &scatter_target.view)],
+                    })
+                });
+                // Appendix A: N batches of one occluder-map row (floor(sqrt(N²)) = N), or one draw.
+                let batches: Vec<std::ops::Range<u32>> = if sum.is_some() {
+                    (0..n).map(|row| row * n..(row + 1) * n).collect()
+                } else {
+                    std::iter::once(0..texels).collect()
+                };
+                let scatter_label = format!("ssm/scatter{suffix}");
+                let add_label = format!("ssm/batch_add{suffix}");
+                for (b, instances) in batches.into_iter().enumerate() {
+                    frame.render_pass(
+                        &scatter_label,
+                        wgpu::RenderPassDescriptor {
+                            label: None,
+                            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                                view: &scatter_target.view,
+                                depth_slice: None,
+                                resolve_target: None,
+                                ops: wgpu::Operations {
+                                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                                    store: wgpu::StoreOp::Store,
+                                },
+                            })],
+                            depth_stencil_attachment: None,
+                            timestamp_writes: None,
+                            occlusion_query_set: Some(&res.queries),
+                            multiview_mask: None,
+                        },
+                        |pass| {
+                            pass.set_pipeline(scatter_pipeline);
+                            pass.set_bind_group(0, &group, &[]);
+                            pass.begin_occlusion_query(query);
+                            pass.draw(0..4, instances);
+                            pass.end_occlusion_query();
+                        },
                     );
+                    query += 1;
+                    if let (Some(sum), Some(batch_group)) = (sum, &batch_group) {
+                        self.batch_add.record(
+                            frame,
+                            &add_label,
+                            inputs.frame_bind_group,
+                            batch_group,
+                            &[],
+                            &sum.view,
+                            (b == 0).then_some(0.0),
+                        );
+                    }
                 }
             }
         }
@@ -975,65 +896,72 @@ impl ShadowTechnique for SoftShadowMaps {
             Some(1.0),
         );
 
-        // 5. Counters: micro-patches and texels with occlusion (compute), fragments blended
-        //    (occlusion queries over the scatter passes).
-        let stats_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("ssm/stats"),
-            layout: &self.stats_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.params_front.as_entire_binding(),
-                },
-                view_entry(1, &res.occluder_front.view),
-                view_entry(
-                    2,
-                    &res.occluder_back
-                        .as_ref()
-                        .unwrap_or(&res.occluder_front)
-                        .view,
-                ),
-                view_entry(3, &final_front.view),
-                view_entry(4, &final_back.view),
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: self.counters.as_entire_binding(),
-                },
-            ],
-        });
-        frame.encoder.clear_buffer(&self.counters, 0, None);
-        let groups = n.max(r).div_ceil(8);
-        frame.compute_pass("ssm/stats", |pass| {
-            pass.set_pipeline(&self.stats_pipeline);
-            pass.set_bind_group(0, &stats_group, &[]);
-            pass.dispatch_workgroups(groups, groups, 1);
-        });
-        frame
-            .encoder
-            .copy_buffer_to_buffer(&self.counters, 0, &res.readback, 0, 8);
-        debug_assert!(query <= res.query_capacity);
-        frame
-            .encoder
-            .resolve_query_set(&res.queries, 0..query, &res.resolve, 0);
-        frame.encoder.copy_buffer_to_buffer(
-            &res.resolve,
-            0,
-            &res.readback,
-            QUERY_OFFSET,
-            8 * query as u64,
-        );
+        if rebuild {
+            // 5. Counters: micro-patches and texels with occlusion (compute), fragments blended
+            //    (occlusion queries over the scatter passes).
+            let stats_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("ssm/stats"),
+                layout: &self.stats_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.params_front.as_entire_binding(),
+                    },
+                    view_entry(1, &res.occluder_front.view),
+                    view_entry(
+                        2,
+                        &res.occluder_back
+                            .as_ref()
+                            .unwrap_or(&res.occluder_front)
+                            .view,
+                    ),
+                    view_entry(3, &final_front.view),
+                    view_entry(4, &final_back.view),
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: self.counters.as_entire_binding(),
+                    },
+                ],
+            });
+            frame.encoder.clear_buffer(&self.counters, 0, None);
+            let groups = n.max(r).div_ceil(8);
+            frame.compute_pass("ssm/stats", |pass| {
+                pass.set_pipeline(&self.stats_pipeline);
+                pass.set_bind_group(0, &stats_group, &[]);
+                pass.dispatch_workgroups(groups, groups, 1);
+            });
+            frame
+                .encoder
+                .copy_buffer_to_buffer(&self.counters, 0, &res.readback, 0, 8);
+            debug_assert!(query <= res.query_capacity);
+            frame
+                .encoder
+                .resolve_query_set(&res.queries, 0..query, &res.resolve, 0);
+            frame.encoder.copy_buffer_to_buffer(
+                &res.resolve,
+                0,
+                &res.readback,
+                QUERY_OFFSET,
+                8 * query as u64,
+            );
 
-        let maps = if s.two_pass { 2.0 } else { 1.0 };
-        self.last = LastFrame {
-            stats: TechniqueStats::from([
-                ("occluder_maps".into(), maps),
-                ("occluder_map_texels".into(), maps * texels as f64),
-                ("ssm_texels".into(), (r as f64) * (r as f64)),
-                ("scatter_passes".into(), query as f64),
-            ]),
-            queries: Some(query),
-        };
+            let maps = if s.two_pass { 2.0 } else { 1.0 };
+            self.last = LastFrame {
+                stats: TechniqueStats::from([
+                    ("occluder_maps".into(), maps),
+                    ("occluder_map_texels".into(), maps * texels as f64),
+                    ("ssm_texels".into(), (r as f64) * (r as f64)),
+                    ("scatter_passes".into(), query as f64),
+                ]),
+                queries: Some(query),
+            };
+        }
+        self.light_space_ready = true;
         Ok(())
+    }
+
+    fn invalidate_cache(&mut self) {
+        self.light_space_ready = false;
     }
 
     fn stats(&self) -> TechniqueStats {

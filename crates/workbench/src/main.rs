@@ -107,6 +107,10 @@ struct BenchArgs {
     /// Do not write images.
     #[arg(long)]
     no_images: bool,
+    /// Skip `timing_camera_only` (frames in which only the camera moves and light-space work is
+    /// kept).
+    #[arg(long)]
+    no_camera_only: bool,
     /// Output folder (created if missing).
     #[arg(long)]
     out: PathBuf,
@@ -263,6 +267,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         reference_params,
         images: !args.no_images,
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
+        camera_only: !args.no_camera_only,
     };
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
     let progress = ProgressBar::new(specs.len() as u64);

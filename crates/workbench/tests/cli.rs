@@ -85,7 +85,7 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
     ]);
     ensure!(o.status.success(), "{}", stderr(&o));
     let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
-    ensure!(v["schema_version"] == 1);
+    ensure!(v["schema_version"] == 2);
     for k in ["name", "backend", "driver"] {
         ensure!(v["adapter"][k].is_string(), "adapter.{k}");
     }
