@@ -291,6 +291,22 @@ impl<'a> Frame<'a> {
         self.note_pass(label);
     }
 
+    /// Submits everything recorded so far and waits until the GPU has finished it; recording
+    /// goes on in a fresh encoder. For techniques whose next passes depend on GPU answers read
+    /// back mid-frame (occlusion query counts, say): every call is a CPU-GPU round trip, so call
+    /// it as rarely as the algorithm allows.
+    pub fn submit_and_wait(&mut self) -> Result<(), crate::GpuError> {
+        let fresh = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame (after a mid-frame submission)"),
+            });
+        let recorded = std::mem::replace(&mut *self.encoder, fresh);
+        self.gpu.queue.submit([recorded.finish()]);
+        self.gpu.wait_idle()
+    }
+
     /// Records a pass name for work that is not a render or compute pass (a texture copy).
     pub fn note_pass(&mut self, label: &str) {
         if !self.passes_run.iter().any(|p| p == label) {
