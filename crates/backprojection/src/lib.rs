@@ -312,7 +312,7 @@ impl ShadowTechnique for Backprojection {
             self.shadow_map
                 .render(frame, inputs, map_size, "backprojection/shadow_map")
         else {
-            out.clear_lit(frame, "backprojection/no_casters");
+            out.write_unshadowed(frame, inputs.frame_bind_group, "backprojection/no_casters")?;
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         };

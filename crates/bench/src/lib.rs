@@ -172,6 +172,9 @@ struct ExactResult {
     visibility: Vec<f32>,
     label: String,
     reference_vs_exact: ErrorReport,
+    /// An answer with no shadow at all (V = 1) against the exact one: the error a technique that
+    /// draws nothing would get, the floor every bound must stay below.
+    all_lit_vs_exact: ErrorReport,
 }
 
 /// Runs benchmark runs on one GPU, caching scenes, renderers and reference images between runs.
@@ -349,7 +352,7 @@ impl Bench {
                 spec.width,
                 spec.height,
             )?);
-            let (exact, vs_exact, reference_vs_exact) = match &reference.exact {
+            let (exact, vs_exact, reference_vs_exact, all_lit_vs_exact) = match &reference.exact {
                 Some(exact) => (
                     Some(exact.label.clone()),
                     Some(softshadow_metrics::compare(
@@ -358,8 +361,9 @@ impl Bench {
                         &mask,
                     )?),
                     Some(exact.reference_vs_exact.clone()),
+                    Some(exact.all_lit_vs_exact.clone()),
                 ),
-                None => (None, None, None),
+                None => (None, None, None, None),
             };
             run.error = Some(results::ErrorFields {
                 reference: reference.label.clone(),
@@ -367,6 +371,7 @@ impl Bench {
                 exact,
                 vs_exact,
                 reference_vs_exact,
+                all_lit_vs_exact,
             });
             run.images.extend(reference.images.clone());
             if write_images {
@@ -449,10 +454,13 @@ impl Bench {
                     };
                     let reference_vs_exact =
                         softshadow_metrics::compare(&visibility, &exact, &mask)?;
+                    let all_lit = vec![1.0; exact.len()];
+                    let all_lit_vs_exact = softshadow_metrics::compare(&all_lit, &exact, &mask)?;
                     Some(ExactResult {
                         visibility: exact,
                         label,
                         reference_vs_exact,
+                        all_lit_vs_exact,
                     })
                 }
                 None => None,

@@ -112,6 +112,10 @@ pub struct ErrorFields {
     /// of `report` is from the truth on this scene.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_vs_exact: Option<ErrorReport>,
+    /// No shadow at all (V = 1 everywhere) against the exact ground truth: what a technique that
+    /// draws nothing would score, so a reader (and the tests) can tell a bound from "no shadow".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub all_lit_vs_exact: Option<ErrorReport>,
 }
 
 /// Percentile by linear interpolation between closest ranks (`q` in [0, 1]).

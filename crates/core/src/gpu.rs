@@ -33,6 +33,8 @@ pub struct Gpu {
     errors: Arc<Mutex<Vec<String>>>,
     /// Bind group layouts shared by every technique (see [`crate::frame`]).
     pub layouts: Arc<crate::frame::CoreLayouts>,
+    /// The pass behind [`crate::VisibilityBuffer::write_unshadowed`], made on first use.
+    pub(crate) unshadowed: Arc<std::sync::OnceLock<crate::visibility::UnshadowedPass>>,
 }
 
 impl Gpu {
@@ -129,6 +131,7 @@ impl Gpu {
             queue,
             errors,
             layouts,
+            unshadowed: Arc::default(),
         })
     }
 

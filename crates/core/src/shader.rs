@@ -89,6 +89,11 @@ pub const CORE_SHADERS: &[ShaderSpec] = &[
         source: shader_file!("core/hierarchy.wgsl").1,
         permutations: &[&[]],
     },
+    ShaderSpec {
+        path: "core/unshadowed.wgsl",
+        source: shader_file!("core/unshadowed.wgsl").1,
+        permutations: &[&[]],
+    },
 ];
 
 fn composer() -> Result<Composer, GpuError> {

@@ -4,7 +4,37 @@
 //! (x, y): 1 = fully lit, 0 = umbra. Pixels that see no receiver hold 1. Receiver points at or
 //! behind the light plane (which a one-sided light cannot reach) hold 0.
 
-use crate::{gbuffer::create_texture, Gpu};
+use crate::{fullscreen::FullscreenPipeline, gbuffer::create_texture, Gpu, GpuError};
+
+/// The fullscreen pass of [`VisibilityBuffer::write_unshadowed`] (`core/unshadowed.wgsl`, which
+/// reads only group 0), made once per device.
+pub(crate) struct UnshadowedPass {
+    pipeline: FullscreenPipeline,
+    empty_group: wgpu::BindGroup,
+}
+
+impl UnshadowedPass {
+    fn new(gpu: &Gpu) -> Result<Self, GpuError> {
+        let empty = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("core/unshadowed (empty group 1)"),
+                entries: &[],
+            });
+        let spec = crate::shader::CORE_SHADERS
+            .iter()
+            .find(|s| s.path == "core/unshadowed.wgsl")
+            .expect("declared in CORE_SHADERS");
+        Ok(Self {
+            pipeline: FullscreenPipeline::new(gpu, "core/unshadowed", spec, &[], &empty, None)?,
+            empty_group: gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("core/unshadowed (empty group 1)"),
+                layout: &empty,
+                entries: &[],
+            }),
+        })
+    }
+}
 
 pub const VISIBILITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
@@ -55,21 +85,33 @@ impl VisibilityBuffer {
         })
     }
 
-    /// Fills the buffer with 1 (fully lit): what a technique writes when the scene has no caster in
-    /// front of the light, so no shadow pass is needed.
-    pub fn clear_lit(&self, frame: &mut crate::Frame<'_>, label: &str) {
-        frame.render_pass(
+    /// What a technique writes when no caster lies in front of the light, so no shadow pass is
+    /// needed: 1 on receivers in front of the light plane and off receivers, 0 on receivers at or
+    /// behind it (the contract above; a plain clear to 1 would light those).
+    pub fn write_unshadowed(
+        &self,
+        frame: &mut crate::Frame<'_>,
+        frame_bind_group: &wgpu::BindGroup,
+        label: &str,
+    ) -> Result<(), GpuError> {
+        let gpu = frame.gpu;
+        let pass = match gpu.unshadowed.get() {
+            Some(pass) => pass,
+            None => {
+                let pass = UnshadowedPass::new(gpu)?;
+                gpu.unshadowed.get_or_init(|| pass)
+            }
+        };
+        pass.pipeline.record(
+            frame,
             label,
-            wgpu::RenderPassDescriptor {
-                label: None,
-                color_attachments: &[self.attachment(1.0)],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            },
-            |_| {},
+            frame_bind_group,
+            &pass.empty_group,
+            &[],
+            &self.view,
+            Some(1.0),
         );
+        Ok(())
     }
 
     /// Copies `source` (same size) into this buffer.

@@ -98,8 +98,8 @@ impl ShadowTechnique for HardShadows {
             .render(frame, inputs, size, "hard/shadow_map")
             .is_none()
         {
-            // No caster in front of the light: everything is lit, no lookup needed.
-            out.clear_lit(frame, "hard/no_casters");
+            // No caster in front of the light: receivers in front of it are lit, no lookup needed.
+            out.write_unshadowed(frame, inputs.frame_bind_group, "hard/no_casters")?;
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         }

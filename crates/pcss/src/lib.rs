@@ -124,7 +124,7 @@ impl ShadowTechnique for Pcss {
             .render(frame, inputs, s.shadow_map_size, "pcss/shadow_map")
             .is_none()
         {
-            out.clear_lit(frame, "pcss/no_casters");
+            out.write_unshadowed(frame, inputs.frame_bind_group, "pcss/no_casters")?;
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         }

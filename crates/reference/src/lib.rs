@@ -371,8 +371,8 @@ impl ShadowTechnique for AccumulatedReference {
             .collect();
         let result = VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height);
         if views.is_empty() {
-            // No caster in front of the light: all lit, no depth map needed.
-            result.clear_lit(frame, "reference/no_casters");
+            // No caster in front of the light: receivers in front of it are lit, no depth map.
+            result.write_unshadowed(frame, inputs.frame_bind_group, "reference/no_casters")?;
         } else {
             let counts =
                 VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height);
@@ -430,7 +430,11 @@ impl AccumulatedReference {
         }
         let mut progress = self.progress.take().expect("set above");
         if progress.views.is_empty() {
-            progress.result.clear_lit(frame, "reference/no_casters");
+            progress.result.write_unshadowed(
+                frame,
+                inputs.frame_bind_group,
+                "reference/no_casters",
+            )?;
         } else {
             let start = progress.done;
             let end = (start + (batches * BATCH) as usize).min(progress.views.len());

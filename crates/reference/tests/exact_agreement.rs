@@ -25,6 +25,8 @@ const RECTANGLE_SCENES: &[&str] = &[
     "stiff-tiny-patches",
     "stiff-degenerate",
     "stiff-fusion",
+    "stiff-behind-light",
+    "stiff-light-up",
     "pdsm-quads",
 ];
 

@@ -584,6 +584,15 @@ impl Builder {
         });
     }
 
+    /// A receiver that casts no shadow (a platform, a ceiling).
+    pub(crate) fn receiver(&mut self, mesh: usize, transform: Mat4) {
+        self.instances.push(Instance {
+            casts_shadow: false,
+            receives_shadow: true,
+            ..Instance::new(mesh, transform)
+        });
+    }
+
     /// A caster; `receives` also makes it a receiver (self-shadowing).
     pub(crate) fn caster(&mut self, mesh: usize, transform: Mat4, receives: bool) {
         self.instances.push(Instance {

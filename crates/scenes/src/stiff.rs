@@ -97,6 +97,16 @@ pub fn infos() -> Vec<BuiltinInfo> {
             params: Vec::new(),
         },
         BuiltinInfo {
+            id: "stiff-behind-light",
+            description: "stiff: receivers on both sides of the light plane (a raised platform above a downward light at height 1): V = 0 behind the one-sided light",
+            params: vec![light_width(1.0)],
+        },
+        BuiltinInfo {
+            id: "stiff-light-up",
+            description: "stiff: a light facing straight up between the ground (behind it: V = 0) and a ceiling that receives a square's shadow",
+            params: vec![light_width(1.0)],
+        },
+        BuiltinInfo {
             id: "stiff-fusion",
             description: "stiff: three overlapping squares at different heights (occluder fusion: the exact answer is the area of the union)",
             params: vec![light_width(1.0)],
@@ -159,6 +169,8 @@ pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, Scen
             &[Square::at(0.0, 2.0 - v("occluder_gap"), 0.0, 1.6)],
         ),
         "stiff-degenerate" => degenerate(),
+        "stiff-behind-light" => behind_light(v("light_width")),
+        "stiff-light-up" => light_up(v("light_width")),
         "stiff-fusion" => squares(
             id,
             down_light(Vec3::Y * 2.5, v("light_width")),
@@ -293,6 +305,56 @@ fn partly_outside(light_width: f32) -> Scene {
     b.finish(
         down_light(Vec3::Y * 2.0, light_width),
         camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.4, 0.0, 0.2)),
+    )
+}
+
+/// A receiver-only platform, two-sided so it is seen from above and below.
+fn receiver_quad(b: &mut Builder, name: &str, size: f32, transform: Mat4) {
+    let mesh = b.mesh(primitives::two_sided_quad(size, size), name);
+    b.receiver(mesh, transform);
+}
+
+/// A downward 1-high light over the ground with a 0.5 square occluder halfway, and a 1.5 square
+/// receiver platform at height 1.5 beside it: behind the light plane, so its pixels hold 0 while
+/// the ground in front is shadowed normally (the contract for one-sided lights).
+fn behind_light(light_width: f32) -> Scene {
+    let mut b = Builder::new("stiff-behind-light");
+    b.ground();
+    let square = b.mesh(primitives::two_sided_quad(0.5, 0.5), "square occluder");
+    b.caster(square, Mat4::from_translation(Vec3::Y * 0.5), false);
+    receiver_quad(
+        &mut b,
+        "platform behind the light",
+        1.5,
+        Mat4::from_translation(Vec3::new(2.0, 1.5, 0.0)),
+    );
+    b.finish(
+        down_light(Vec3::Y, light_width),
+        camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.8, 0.5, 0.2)),
+    )
+}
+
+/// A light at height 1 facing straight up: the ground lies behind it (V = 0 everywhere on it);
+/// a 0.8 square at height 2 shadows a 6 x 6 ceiling at height 3.5.
+fn light_up(light_width: f32) -> Scene {
+    let mut b = Builder::new("stiff-light-up");
+    b.ground();
+    let square = b.mesh(primitives::two_sided_quad(0.8, 0.8), "square occluder");
+    b.caster(square, Mat4::from_translation(Vec3::Y * 2.0), false);
+    receiver_quad(
+        &mut b,
+        "ceiling",
+        6.0,
+        Mat4::from_translation(Vec3::Y * 3.5),
+    );
+    let light = AreaLight {
+        direction: Vec3::Y,
+        up: Vec3::Z,
+        ..down_light(Vec3::Y, light_width)
+    };
+    b.finish(
+        light,
+        camera(Vec3::new(0.0, 1.8, 6.0), Vec3::new(0.0, 1.6, 0.0)),
     )
 }
 

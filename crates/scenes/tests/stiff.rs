@@ -4,7 +4,7 @@
 use glam::Vec3;
 use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
 
-const EXPECTED: [&str; 13] = [
+const EXPECTED: [&str; 15] = [
     "stiff-contact",
     "stiff-near-light",
     "stiff-point-light",
@@ -17,6 +17,8 @@ const EXPECTED: [&str; 13] = [
     "stiff-aspect-100",
     "stiff-tiny-patches",
     "stiff-degenerate",
+    "stiff-behind-light",
+    "stiff-light-up",
     "stiff-fusion",
 ];
 

@@ -687,8 +687,8 @@ impl ShadowTechnique for SoftShadowMaps {
             )
         });
         let Some(occluder) = occluder else {
-            // No caster in front of the light: everything is lit.
-            out.clear_lit(frame, "ssm/no_casters");
+            // No caster in front of the light: receivers in front of it are lit.
+            out.write_unshadowed(frame, inputs.frame_bind_group, "ssm/no_casters")?;
             self.last = LastFrame {
                 stats: TechniqueStats::from([
                     ("micro_patches_drawn".into(), 0.0),
