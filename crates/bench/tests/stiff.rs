@@ -1,10 +1,13 @@
 //! Issue 6: every registered technique on every stiff case (finite output in [0, 1], status ok,
-//! error against the exact ground truth within the bound written down in docs/STABILITY.md), and
-//! convergence: the reference towards the exact answer as its sample count grows, every technique
-//! towards `hard` as the light shrinks.
+//! error against the exact ground truth within the expectation written down in
+//! docs/STABILITY.md, and every bound rejecting the deliberately wrong answers "no shadow" and
+//! `hard`), and convergence: the reference towards the exact answer as its sample count grows,
+//! every technique towards `hard` as the light shrinks.
 //!
-//! Small images (64^2) and an 8 x 8 reference keep this under a minute on lavapipe; the benchmark
-//! (`workbench bench --suite stiff`) does the 128^2, 32 x 32 runs recorded in STABILITY.md.
+//! Small images (64^2), an 8 x 8 yardstick reference and a 16 x 16 ray cast keep this near a
+//! minute on lavapipe; techniques, the `reference` technique included (32 x 32), run with their
+//! defaults. The benchmark (`workbench bench --suite stiff`) does the 128^2 runs recorded in
+//! STABILITY.md.
 
 mod common;
 
@@ -36,44 +39,164 @@ fn bench(reference_samples: i64) -> Result<Bench> {
     )?)
 }
 
-/// Bound on `error.vs_exact.mae_all` (mean |V - V_exact| over receiver pixels) per technique and
-/// stiff case at 64^2, as in docs/STABILITY.md. Keep the two in step.
-fn bound(technique: &str, case: &str) -> Option<f64> {
-    let b = match (technique, case) {
-        (_, "stiff-no-occluder") => 1e-6,
-        // Hard shadows: a point light at the light's centre, wrong over every penumbra by design.
-        ("hard", "stiff-point-light") => 0.01,
-        ("hard", "stiff-near-light" | "stiff-depth-range") => 0.8,
-        ("hard", "stiff-tiny-patches") => 0.4,
-        ("hard", _) => 0.2,
-        ("pcss", "stiff-depth-range") => 0.3,
-        ("pcss", "stiff-partly-outside") => 0.2,
-        ("pcss", "stiff-near-light" | "stiff-tiny-patches") => 0.2,
-        ("pcss", _) => 0.05,
-        // Occluder crossing the light plane: only the part seen through the occluder map's near
-        // plane scatters.
-        ("ssm", "stiff-partly-outside") => 0.08,
-        ("ssm", _) => 0.02,
-        // One centre map over every caster: +-250 slopes for an occluder 1e-3 from the light.
-        ("backprojection", "stiff-depth-range") => 0.3,
-        ("backprojection", "stiff-partly-outside") => 0.12,
-        ("backprojection", "stiff-zero-thickness" | "stiff-fusion") => 0.05,
-        ("backprojection", _) => 0.02,
-        ("reference", _) => 0.02,
-        _ => return None,
-    };
-    Some(b)
+/// The error measures a bound is stated in (against the exact answer, over receiver pixels).
+/// Not `mae_all`: a mostly lit ground dilutes it until "no shadow at all" passes a bound on a
+/// small shadow, so `mae_shadowed` (pixels where V_exact < 1) and `max_abs` instead.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Metric {
+    MaeShadowed,
+    MaxAbs,
 }
 
-fn mae_vs_exact(run: &Run) -> Result<f64> {
-    Ok(run
-        .error
+impl Metric {
+    fn of(self, report: &softshadow_metrics::ErrorReport) -> f64 {
+        match self {
+            Metric::MaeShadowed => report.mae_shadowed,
+            Metric::MaxAbs => report.max_abs,
+        }
+    }
+}
+
+/// What the suite asserts for one technique on one stiff case at 64^2 (docs/STABILITY.md).
+#[derive(Clone, Copy, Debug)]
+enum Expect {
+    /// `metric` at most `bound`; `measured` is the value at 64^2 when the bound was set (bounds
+    /// are about 2-3x that, so a regression shows).
+    AtMost {
+        metric: Metric,
+        bound: f64,
+        measured: f64,
+    },
+    /// A failure by design (docs/STABILITY.md says why): `metric` is `value` +- `tolerance`,
+    /// asserted as such rather than hidden under a loose bound.
+    KnownFailure {
+        metric: Metric,
+        value: f64,
+        tolerance: f64,
+    },
+}
+
+use Metric::{MaeShadowed, MaxAbs};
+
+const fn at_most(metric: Metric, bound: f64, measured: f64) -> Expect {
+    Expect::AtMost {
+        metric,
+        bound,
+        measured,
+    }
+}
+
+const fn known_failure(metric: Metric, value: f64, tolerance: f64) -> Expect {
+    Expect::KnownFailure {
+        metric,
+        value,
+        tolerance,
+    }
+}
+
+/// The stated expectation per technique and stiff case, with the value measured at 64^2 beside
+/// each bound. Keep in step with docs/STABILITY.md.
+fn expect(technique: &str, case: &str) -> Option<Expect> {
+    // Rule: `mae_shadowed` (the diluted `mae_all` let "no shadow" pass on small shadows);
+    // bound = 2.5x the 64^2 measurement (at least measurement + 0.001), lowered to halfway to the
+    // nearest wrong answer (all-lit, or `hard` for a soft technique) where that answer is more
+    // than 1.5x worse; a technique as bad as drawing no shadow is a known failure. On
+    // `stiff-no-occluder` every pixel must be 1: `max_abs` <= 1e-6.
+    let expectation = match (technique, case) {
+        ("hard", "stiff-contact") => at_most(MaeShadowed, 0.45, 0.1777),
+        ("hard", "stiff-near-light") => known_failure(MaeShadowed, 0.7495, 0.037),
+        ("hard", "stiff-point-light") => at_most(MaeShadowed, 0.001, 0.0),
+        ("hard", "stiff-wide-light") => known_failure(MaeShadowed, 0.052, 0.01),
+        ("hard", "stiff-grazing") => at_most(MaeShadowed, 0.39, 0.2252),
+        ("hard", "stiff-depth-range") => known_failure(MaeShadowed, 0.7478, 0.037),
+        ("hard", "stiff-zero-thickness") => at_most(MaeShadowed, 0.55, 0.217),
+        ("hard", "stiff-partly-outside") => at_most(MaeShadowed, 0.32, 0.1988),
+        ("hard", "stiff-no-occluder") => at_most(MaxAbs, 1e-6, 0.0),
+        ("hard", "stiff-aspect-100") => known_failure(MaeShadowed, 0.4277, 0.021),
+        ("hard", "stiff-tiny-patches") => at_most(MaeShadowed, 0.5, 0.2915),
+        ("hard", "stiff-degenerate") => at_most(MaeShadowed, 0.33, 0.2063),
+        ("hard", "stiff-behind-light") => at_most(MaeShadowed, 0.38, 0.1505),
+        ("hard", "stiff-light-up") => at_most(MaeShadowed, 0.19, 0.0733),
+        ("hard", "stiff-fusion") => at_most(MaeShadowed, 0.36, 0.2539),
+        ("pcss", "stiff-contact") => at_most(MaeShadowed, 0.099, 0.0393),
+        ("pcss", "stiff-near-light") => at_most(MaeShadowed, 0.18, 0.0681),
+        ("pcss", "stiff-point-light") => at_most(MaeShadowed, 0.0012, 2.0e-04),
+        ("pcss", "stiff-wide-light") => at_most(MaeShadowed, 0.049, 0.0195),
+        ("pcss", "stiff-grazing") => at_most(MaeShadowed, 0.095, 0.0379),
+        ("pcss", "stiff-depth-range") => known_failure(MaeShadowed, 0.2522, 0.013),
+        ("pcss", "stiff-zero-thickness") => at_most(MaeShadowed, 0.087, 0.0347),
+        ("pcss", "stiff-partly-outside") => known_failure(MaeShadowed, 0.4217, 0.021),
+        ("pcss", "stiff-no-occluder") => at_most(MaxAbs, 1e-6, 0.0),
+        ("pcss", "stiff-aspect-100") => at_most(MaeShadowed, 0.14, 0.0548),
+        ("pcss", "stiff-tiny-patches") => at_most(MaeShadowed, 0.22, 0.1314),
+        ("pcss", "stiff-degenerate") => at_most(MaeShadowed, 0.082, 0.0327),
+        ("pcss", "stiff-behind-light") => at_most(MaeShadowed, 0.061, 0.0241),
+        ("pcss", "stiff-light-up") => at_most(MaeShadowed, 0.027, 0.0108),
+        ("pcss", "stiff-fusion") => at_most(MaeShadowed, 0.13, 0.0508),
+        ("ssm", "stiff-contact") => at_most(MaeShadowed, 0.096, 0.0382),
+        ("ssm", "stiff-near-light") => at_most(MaeShadowed, 0.005, 0.002),
+        ("ssm", "stiff-point-light") => at_most(MaeShadowed, 0.0016, 6.0e-04),
+        ("ssm", "stiff-wide-light") => at_most(MaeShadowed, 0.0012, 2.0e-04),
+        ("ssm", "stiff-grazing") => at_most(MaeShadowed, 0.014, 0.0054),
+        ("ssm", "stiff-depth-range") => at_most(MaeShadowed, 0.011, 0.0044),
+        ("ssm", "stiff-zero-thickness") => at_most(MaeShadowed, 0.039, 0.0153),
+        ("ssm", "stiff-partly-outside") => at_most(MaeShadowed, 0.36, 0.1417),
+        ("ssm", "stiff-no-occluder") => at_most(MaxAbs, 1e-6, 0.0),
+        ("ssm", "stiff-aspect-100") => at_most(MaeShadowed, 0.02, 0.008),
+        ("ssm", "stiff-tiny-patches") => at_most(MaeShadowed, 0.015, 0.0057),
+        ("ssm", "stiff-degenerate") => at_most(MaeShadowed, 0.0088, 0.0035),
+        ("ssm", "stiff-behind-light") => at_most(MaeShadowed, 0.0035, 0.0014),
+        ("ssm", "stiff-light-up") => at_most(MaeShadowed, 0.002, 8.0e-04),
+        ("ssm", "stiff-fusion") => at_most(MaeShadowed, 0.056, 0.0221),
+        ("backprojection", "stiff-contact") => at_most(MaeShadowed, 0.16, 0.0624),
+        ("backprojection", "stiff-near-light") => at_most(MaeShadowed, 0.0033, 0.0013),
+        ("backprojection", "stiff-point-light") => at_most(MaeShadowed, 0.001, 0.0),
+        ("backprojection", "stiff-wide-light") => at_most(MaeShadowed, 0.0028, 0.0011),
+        ("backprojection", "stiff-grazing") => at_most(MaeShadowed, 0.04, 0.0157),
+        ("backprojection", "stiff-depth-range") => known_failure(MaeShadowed, 0.2522, 0.013),
+        ("backprojection", "stiff-zero-thickness") => at_most(MaeShadowed, 0.18, 0.0716),
+        ("backprojection", "stiff-partly-outside") => at_most(MaeShadowed, 0.32, 0.2026),
+        ("backprojection", "stiff-no-occluder") => at_most(MaxAbs, 1e-6, 0.0),
+        ("backprojection", "stiff-aspect-100") => at_most(MaeShadowed, 0.039, 0.0155),
+        ("backprojection", "stiff-tiny-patches") => at_most(MaeShadowed, 0.0073, 0.0029),
+        ("backprojection", "stiff-degenerate") => at_most(MaeShadowed, 0.045, 0.0177),
+        ("backprojection", "stiff-behind-light") => at_most(MaeShadowed, 0.018, 0.007),
+        ("backprojection", "stiff-light-up") => at_most(MaeShadowed, 0.011, 0.0041),
+        ("backprojection", "stiff-fusion") => at_most(MaeShadowed, 0.18, 0.0683),
+        ("reference", "stiff-contact") => at_most(MaeShadowed, 0.011, 0.0044),
+        ("reference", "stiff-near-light") => at_most(MaeShadowed, 0.0033, 0.0013),
+        ("reference", "stiff-point-light") => at_most(MaeShadowed, 0.001, 0.0),
+        ("reference", "stiff-wide-light") => at_most(MaeShadowed, 0.003, 0.0012),
+        ("reference", "stiff-grazing") => at_most(MaeShadowed, 0.004, 0.0016),
+        ("reference", "stiff-depth-range") => at_most(MaeShadowed, 0.0038, 0.0015),
+        ("reference", "stiff-zero-thickness") => at_most(MaeShadowed, 0.0065, 0.0026),
+        ("reference", "stiff-partly-outside") => at_most(MaeShadowed, 0.012, 0.0046),
+        ("reference", "stiff-no-occluder") => at_most(MaxAbs, 1e-6, 0.0),
+        ("reference", "stiff-aspect-100") => at_most(MaeShadowed, 0.0053, 0.0021),
+        ("reference", "stiff-tiny-patches") => at_most(MaeShadowed, 0.0083, 0.0033),
+        ("reference", "stiff-degenerate") => at_most(MaeShadowed, 0.004, 0.0016),
+        ("reference", "stiff-behind-light") => at_most(MaeShadowed, 0.003, 0.0012),
+        ("reference", "stiff-light-up") => at_most(MaeShadowed, 0.0015, 5.0e-04),
+        ("reference", "stiff-fusion") => at_most(MaeShadowed, 0.004, 0.0016),
+        _ => return None,
+    };
+    Some(expectation)
+}
+
+/// A deliberately wrong answer run through the same bounds: "no shadow at all" (V = 1) and, for
+/// the soft techniques, the hard-shadow result.
+struct Baseline {
+    name: &'static str,
+    report: softshadow_metrics::ErrorReport,
+}
+
+fn vs_exact(run: &Run) -> Result<&softshadow_metrics::ErrorReport> {
+    run.error
         .as_ref()
         .context("no error block")?
         .vs_exact
         .as_ref()
-        .context("no vs_exact block")?
-        .mae_all)
+        .context("no vs_exact block")
 }
 
 #[test]
@@ -82,6 +205,7 @@ fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result
     let suite = Sweep::suite("stiff")?;
     let dir = tempfile::tempdir()?;
     let mut failures = Vec::new();
+    let mut runs: Vec<(RunSpec, Run)> = Vec::new();
     for (index, spec) in suite.runs.iter().enumerate() {
         let spec = RunSpec {
             width: SIZE,
@@ -98,18 +222,82 @@ fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result
         if stability.nan + stability.inf + stability.out_of_range > 0 {
             failures.push(format!("{label}: {stability:?}"));
         }
-        let error = mae_vs_exact(&run)?;
-        let exact = run.error.as_ref().and_then(|e| e.exact.clone());
+        runs.push((spec, run));
+    }
+    for (spec, run) in &runs {
+        let label = format!("{} / {}", spec.technique, spec.scene);
+        let report = vs_exact(run)?;
+        let error = run.error.as_ref().context("error block")?;
+        let all_lit = error
+            .all_lit_vs_exact
+            .clone()
+            .context("no all_lit_vs_exact block")?;
         eprintln!(
-            "{label:<40} vs exact ({}) mae_all {error:.4}",
-            exact.unwrap_or_default()
+            "MEASURED {:<16} {:<22} mae_all {:.4} mae_shadowed {:.4} max_abs {:.4} | all-lit {:.4} {:.4} {:.4} | {}",
+            spec.technique,
+            spec.scene,
+            report.mae_all,
+            report.mae_shadowed,
+            report.max_abs,
+            all_lit.mae_all,
+            all_lit.mae_shadowed,
+            all_lit.max_abs,
+            error.exact.clone().unwrap_or_default()
         );
-        match bound(&spec.technique, &spec.scene) {
-            Some(b) if error <= b => {}
-            Some(b) => failures.push(format!("{label}: mae_all {error:.4} > bound {b}")),
+        let mut baselines = vec![Baseline {
+            name: "all-lit (V = 1)",
+            report: all_lit,
+        }];
+        if spec.technique != "hard" {
+            if let Some((_, hard)) = runs
+                .iter()
+                .find(|(s, _)| s.technique == "hard" && s.scene == spec.scene)
+            {
+                baselines.push(Baseline {
+                    name: "hard",
+                    report: vs_exact(hard)?.clone(),
+                });
+            }
+        }
+        match expect(&spec.technique, &spec.scene) {
             None => failures.push(format!(
-                "{label}: no bound stated: add one to docs/STABILITY.md and to bound() here"
+                "{label}: no expectation stated: add one to docs/STABILITY.md and to stiff_bounds.rs"
             )),
+            Some(Expect::KnownFailure {
+                metric,
+                value,
+                tolerance,
+            }) => {
+                let e = metric.of(report);
+                if (e - value).abs() > tolerance {
+                    failures.push(format!(
+                        "{label}: known failure {metric:?} = {value} +- {tolerance}, got {e:.4} (fixed? update the expectation)"
+                    ));
+                }
+            }
+            Some(Expect::AtMost {
+                metric,
+                bound,
+                measured,
+            }) => {
+                let e = metric.of(report);
+                if e > bound {
+                    failures.push(format!(
+                        "{label}: {metric:?} {e:.4} > bound {bound} (measured {measured} when set)"
+                    ));
+                }
+                // The bound must reject every wrong answer that is clearly worse than the
+                // technique (more than 1.5x its measured error and above 1e-3).
+                for baseline in &baselines {
+                    let b = metric.of(&baseline.report);
+                    if b > 1.5 * measured && b > 1e-3 && b <= bound {
+                        failures.push(format!(
+                            "{label}: the bound {metric:?} <= {bound} accepts the {} answer ({b:.4}): tighten it",
+                            baseline.name
+                        ));
+                    }
+                }
+            }
         }
     }
     if !failures.is_empty() {
@@ -208,7 +396,8 @@ fn every_technique_approaches_hard_shadows_as_the_light_shrinks() -> Result<()> 
             "{}: mean |V - V_hard| at light widths {widths:?}: {distances:?}",
             info.id
         );
-        if !(distances[0] > distances[2] && distances[1] >= distances[2]) {
+        // Strictly closer to hard at every step.
+        if !(distances[0] > distances[1] && distances[1] > distances[2]) {
             failures.push(format!("{}: not converging: {distances:?}", info.id));
         }
         // At width 0.01 the penumbra is 0.01 wide on the ground, under a pixel (~0.06) at 64^2.

@@ -35,9 +35,39 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
             })
             .unwrap_or_default()
     };
+    // Every registered technique, in registry order, each with every declared parameter.
     let techniques = ids("techniques");
-    for t in ["hard", "pcss", "reference"] {
-        ensure!(techniques.contains(&t.to_string()), "missing technique {t}");
+    let registered: Vec<String> = softshadow_bench::registry::techniques()
+        .iter()
+        .map(|t| t.id.to_string())
+        .collect();
+    ensure!(
+        techniques == registered,
+        "list has {techniques:?}, the registry {registered:?}"
+    );
+    for (k, info) in softshadow_bench::registry::techniques().iter().enumerate() {
+        let listed: Vec<&str> = v["techniques"][k]["params"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|p| p["name"].as_str()).collect())
+            .unwrap_or_default();
+        let declared: Vec<&str> = (info.params)().iter().map(|p| p.name).collect();
+        ensure!(
+            listed == declared,
+            "{}: listed {listed:?}, declared {declared:?}",
+            info.id
+        );
+    }
+    // Every builtin scene, the stiff cases included.
+    let builtin: Vec<String> = softshadow_scenes::builtin_scenes()
+        .iter()
+        .map(|s| s.id.to_string())
+        .collect();
+    ensure!(
+        builtin.iter().filter(|id| id.starts_with("stiff-")).count() >= 15,
+        "{builtin:?}"
+    );
+    for id in &builtin {
+        ensure!(ids("scenes").contains(id), "list lacks scene {id}");
     }
     let scenes = ids("scenes");
     for s in [
