@@ -289,16 +289,27 @@ pub fn plot_svg(
     Ok(svg)
 }
 
+/// Edge, in pixels, of the images embedded in the report (larger ones are scaled down, which
+/// keeps a report of a 256x256 sweep small).
+pub const THUMBNAIL_EDGE: u32 = 128;
+
+/// A PNG of the image at `path`, scaled to fit [`THUMBNAIL_EDGE`], as a data URI.
 fn data_uri(path: &Path) -> Option<String> {
-    let bytes = std::fs::read(path).ok()?;
-    let mime = match path.extension()?.to_str()? {
-        "png" => "image/png",
-        "jpg" | "jpeg" => "image/jpeg",
-        _ => return None,
+    let image = image::open(path).ok()?;
+    let image = if image.width() > THUMBNAIL_EDGE || image.height() > THUMBNAIL_EDGE {
+        image.resize(
+            THUMBNAIL_EDGE,
+            THUMBNAIL_EDGE,
+            image::imageops::FilterType::Triangle,
+        )
+    } else {
+        image
     };
+    let mut png = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut png, image::ImageFormat::Png).ok()?;
     Some(format!(
-        "data:{mime};base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(bytes)
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(png.into_inner())
     ))
 }
 

@@ -295,6 +295,20 @@ mod tests {
     }
 
     #[test]
+    fn overview_lists_every_technique() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/overview.toml");
+        let sweep = Sweep::load(&path).unwrap();
+        for t in registry::techniques() {
+            let settings = sweep.runs.iter().filter(|r| r.technique == t.id).count();
+            assert!(
+                settings >= 2 * 7,
+                "benches/overview.toml has {settings} runs of `{}`: add a [[technique]] table with two or three settings (issue 14)",
+                t.id
+            );
+        }
+    }
+
+    #[test]
     fn shards_partition_the_runs_round_robin() {
         let sweep = Sweep::parse(
             "scenes = [\"a\", \"b\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [16, 32, 64]",
