@@ -145,7 +145,9 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
 
     // Duplicates: the same sweep index of the same sweep, or the same settings outside a sweep.
     let mut seen: HashMap<String, &Path> = HashMap::new();
-    let mut entries: Vec<(Option<(String, usize)>, usize, Run, PathBuf)> = Vec::new();
+    // (sweep hash and index, input order, run, image folder)
+    type Entry = (Option<(String, usize)>, usize, Run, PathBuf);
+    let mut entries: Vec<Entry> = Vec::new();
     for (order, input) in inputs.iter().enumerate() {
         let hash = input.results.sweep.as_ref().map(|s| s.hash.clone());
         for run in &input.results.runs {

@@ -259,7 +259,10 @@ pub fn plot_svg(
                 .draw_series(LineSeries::new(stairs, PARETO_COLOUR.stroke_width(2)))
                 .map_err(plot_error)?
                 .label("Pareto front")
-                .legend(|(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], PARETO_COLOUR));
+                // A bar, not a path: the front stays the plot's only polyline of its colour.
+                .legend(|(x, y)| {
+                    Rectangle::new([(x - 8, y - 1), (x + 8, y + 1)], PARETO_COLOUR.filled())
+                });
         }
         chart
             .configure_series_labels()
