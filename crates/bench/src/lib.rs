@@ -4,8 +4,10 @@
 //! A run that fails (bad parameter, technique error, device error) is recorded with its message
 //! and the rest of the runs go on.
 
+pub mod merge;
 pub mod output;
 pub mod registry;
+pub mod report;
 pub mod results;
 pub mod sweep;
 
@@ -16,12 +18,12 @@ use std::{
 
 use softshadow_core::{
     Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu,
-    ShadingMode, ShadowTechnique, TechniqueError,
+    ShadingMode, ShadowTechnique, TechniqueError, TimingSource,
 };
 use softshadow_metrics::ErrorReport;
 use thiserror::Error;
 
-pub use results::{Results, Run, Status};
+pub use results::{Results, Run, Shard, Status, SweepInfo};
 pub use sweep::Sweep;
 
 #[derive(Debug, Error)]
@@ -44,6 +46,14 @@ pub enum BenchError {
     UnknownSuite { name: String, known: String },
     #[error("sweep file `{path}`: {message}")]
     Sweep { path: String, message: String },
+    #[error("--shard `{0}` is not INDEX/COUNT with 0 <= INDEX < COUNT: write it like 0/3 (the first of three shards)")]
+    BadShard(String),
+    #[error("--timing `{0}` is unknown: use `timestamps` or `serial`")]
+    BadTiming(String),
+    #[error("cannot read `{path}`: {message}")]
+    Read { path: String, message: String },
+    #[error("{0}")]
+    Merge(String),
     #[error(transparent)]
     Gpu(#[from] softshadow_core::GpuError),
     #[error(transparent)]
@@ -181,6 +191,7 @@ struct ExactResult {
 pub struct Bench {
     gpu: Gpu,
     options: BenchOptions,
+    timing: TimingSource,
     scenes: HashMap<String, LoadedScene>,
     renderers: HashMap<(u32, u32), Renderer>,
     reference: Option<Box<dyn ShadowTechnique>>,
@@ -194,14 +205,29 @@ impl Bench {
         }
         // Check reference settings up front so a typo fails before any run.
         parse_check_reference(&options.reference_params)?;
+        let timing = TimingSource::default_for(&gpu);
         Ok(Self {
             gpu,
             options,
+            timing,
             scenes: HashMap::new(),
             renderers: HashMap::new(),
             reference: None,
             references: HashMap::new(),
         })
+    }
+
+    /// How this benchmark times passes: [`TimingSource::default_for`] the adapter (`serial` on a
+    /// CPU adapter, `timestamps` on a GPU) unless set with [`Bench::set_timing`].
+    pub fn timing_source(&self) -> TimingSource {
+        self.timing
+    }
+
+    /// Times passes with `source` (`None`: the adapter's default). With `timestamps` every run
+    /// also renders one calibration frame serially and warns (`timing.warnings`) of passes whose
+    /// timestamps miss their work.
+    pub fn set_timing(&mut self, source: Option<TimingSource>) {
+        self.timing = source.unwrap_or_else(|| TimingSource::default_for(&self.gpu));
     }
 
     pub fn adapter(&self) -> results::Adapter {
@@ -217,6 +243,7 @@ impl Bench {
     pub fn run(&mut self, index: usize, spec: &RunSpec, out_dir: &Path) -> Run {
         puffin::profile_function!();
         let mut run = Run {
+            index,
             scene: spec.scene.clone(),
             technique: spec.technique.clone(),
             params: spec.params.iter().cloned().collect(),
@@ -270,9 +297,11 @@ impl Bench {
             self.renderers
                 .insert(key, Renderer::new(&self.gpu, spec.width, spec.height)?);
         }
+        let timing_source = self.timing;
         let scene = &self.scenes[&spec.scene];
         run.warnings = scene.warnings.clone();
         let renderer = self.renderers.get_mut(&key).expect("inserted above");
+        renderer.timing = timing_source;
         let (camera, light) = (scene.scene.camera, scene.scene.light);
         technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
 
@@ -322,6 +351,23 @@ impl Bench {
                 Some(ShadingMode::Shaded),
             )
         })?;
+        let mut timing = timing;
+        if timing_source == TimingSource::Timestamps {
+            // Calibration (issue 14): one full-cost frame timed serially on the same adapter.
+            renderer.timing = TimingSource::Serial;
+            technique.invalidate_cache();
+            let serial = renderer.render(
+                &scene.gpu,
+                &camera,
+                &light,
+                technique.as_mut(),
+                Some(ShadingMode::Shaded),
+            );
+            renderer.timing = timing_source;
+            if let Some(serial) = serial?.gpu {
+                timing.warnings = calibration_warnings(&timing.passes, &serial.passes);
+            }
+        }
         run.timing = Some(timing);
         run.passes_run = passes;
         run.stats = technique.stats();
@@ -538,6 +584,33 @@ pub fn orbit_camera(camera: &Camera, k: u32) -> Camera {
     }
 }
 
+/// A timestamp pass time below this fraction of the pass's serial wall time is flagged.
+pub const CALIBRATION_FRACTION: f64 = 0.25;
+/// Passes whose serial wall time is below this are not flagged: there the round trip of the
+/// serial submission, not the pass's work, dominates.
+pub const CALIBRATION_FLOOR_MS: f64 = 0.5;
+
+/// Warnings for passes whose timestamp time (`timestamps`, medians) is below
+/// [`CALIBRATION_FRACTION`] of their serial wall time (`serial`, one frame).
+pub fn calibration_warnings(
+    timestamps: &[results::PassTiming],
+    serial: &[(String, f64)],
+) -> Vec<String> {
+    serial
+        .iter()
+        .filter_map(|(name, serial_ms)| {
+            let stamped = timestamps.iter().find(|p| &p.name == name)?.ms_median;
+            (*serial_ms >= CALIBRATION_FLOOR_MS && stamped < CALIBRATION_FRACTION * serial_ms)
+                .then(|| {
+                    format!(
+                        "{name}: timestamps read {stamped:.3} ms but the pass takes {serial_ms:.3} ms submitted on its own; \
+                         this adapter's timestamps do not cover its work: use --timing serial"
+                    )
+                })
+        })
+        .collect()
+}
+
 /// Renders `frames` frames (`render(k)` draws frame `k`) and summarises their timings; returns
 /// them with the passes the last frame ran.
 fn time_frames(
@@ -550,8 +623,10 @@ fn time_frames(
     let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut pass_order: Vec<String> = Vec::new();
     let mut passes_run = Vec::new();
+    let mut source = TimingSource::Timestamps;
     for k in 0..frames {
         let output = render(k)?;
+        source = output.timing_source;
         cpu.push(output.cpu_ms);
         if let Some(gpu) = &output.gpu {
             gpu_total.push(gpu.total_ms);
@@ -567,19 +642,21 @@ fn time_frames(
     }
     let timing = results::Timing {
         frames,
-        gpu_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
-        technique_gpu_ms: (!gpu_technique.is_empty()).then(|| results::percentiles(&gpu_technique)),
+        source,
+        frame_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
+        technique_ms: (!gpu_technique.is_empty()).then(|| results::percentiles(&gpu_technique)),
         passes: pass_order
             .iter()
             .map(|name| results::PassTiming {
                 name: name.clone(),
-                gpu_ms_median: results::percentile(&per_pass[name], 0.5),
+                ms_median: results::percentile(&per_pass[name], 0.5),
             })
             .collect(),
         cpu_ms: results::Median {
             median: results::percentile(&cpu, 0.5),
         },
         passes_run: None,
+        warnings: Vec::new(),
     };
     Ok((timing, passes_run))
 }
@@ -607,6 +684,21 @@ pub fn run_all(
     specs: &[RunSpec],
     options: BenchOptions,
     out_dir: &Path,
+    progress: impl FnMut(usize, &Run),
+) -> Result<Results, BenchError> {
+    let indexed: Vec<(usize, RunSpec)> = specs.iter().cloned().enumerate().collect();
+    run_indexed(gpu, &indexed, None, options, None, out_dir, progress)
+}
+
+/// Like [`run_all`] for runs that carry their index in a sweep (a shard, see
+/// [`Sweep::shard`]), recording `sweep` in results.json; `timing` as in [`Bench::set_timing`].
+pub fn run_indexed(
+    gpu: Gpu,
+    specs: &[(usize, RunSpec)],
+    sweep: Option<SweepInfo>,
+    options: BenchOptions,
+    timing: Option<TimingSource>,
+    out_dir: &Path,
     mut progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
     std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Write {
@@ -614,20 +706,27 @@ pub fn run_all(
         message: e.to_string(),
     })?;
     let mut bench = Bench::new(gpu, options)?;
+    bench.set_timing(timing);
     let mut results = Results {
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),
+        sweep,
         runs: Vec::with_capacity(specs.len()),
     };
-    for (index, spec) in specs.iter().enumerate() {
-        let run = bench.run(index, spec, out_dir);
-        progress(index, &run);
+    for (k, (index, spec)) in specs.iter().enumerate() {
+        let run = bench.run(*index, spec, out_dir);
+        progress(k, &run);
         results.runs.push(run);
     }
-    let json = serde_json::to_vec_pretty(&results).map_err(|e| BenchError::Write {
+    write_results(&results, out_dir)?;
+    Ok(results)
+}
+
+/// Writes `out_dir/results.json` atomically.
+pub fn write_results(results: &Results, out_dir: &Path) -> Result<(), BenchError> {
+    let json = serde_json::to_vec_pretty(results).map_err(|e| BenchError::Write {
         path: "results.json".into(),
         message: e.to_string(),
     })?;
-    output::write_atomic(&out_dir.join("results.json"), &json)?;
-    Ok(results)
+    output::write_atomic(&out_dir.join("results.json"), &json)
 }

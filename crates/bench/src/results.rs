@@ -3,17 +3,43 @@
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
-use softshadow_core::ParamValue;
+use softshadow_core::{ParamValue, TimingSource};
 use softshadow_metrics::{ErrorReport, Stability};
 
 /// Bump when a field changes meaning or is removed (adding a field keeps the version).
-pub const SCHEMA_VERSION: u32 = 2;
+/// 3: `timing.gpu_ms` / `technique_gpu_ms` / `passes[].gpu_ms_median` became `frame_ms` /
+/// `technique_ms` / `passes[].ms_median`, measured as `timing.source` says (version 2 files still
+/// read, as `timestamps`).
+pub const SCHEMA_VERSION: u32 = 3;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Results {
     pub schema_version: u32,
     pub adapter: Adapter,
+    /// Which sweep these runs come from and which shard of it (absent for a single run).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<SweepInfo>,
     pub runs: Vec<Run>,
+}
+
+/// The sweep a results.json belongs to.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SweepInfo {
+    /// Hash of the expanded run list and shared options (see `Sweep::hash`): shards of one sweep
+    /// share it.
+    pub hash: String,
+    /// Runs in the whole (unsharded) sweep.
+    pub runs_total: usize,
+    /// `None` for the whole sweep (or a merge of all its shards).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<Shard>,
+}
+
+/// Shard `index` of `count` (0-based): the runs whose sweep index is `index` modulo `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -32,6 +58,9 @@ pub enum Status {
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Run {
+    /// Position in the sweep's expanded run list (the same in every shard and after a merge).
+    #[serde(default)]
+    pub index: usize,
     pub scene: String,
     pub technique: String,
     pub params: BTreeMap<String, ParamValue>,
@@ -57,15 +86,25 @@ pub struct Run {
     pub warnings: Vec<String>,
 }
 
+fn timestamps() -> TimingSource {
+    TimingSource::Timestamps
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Timing {
     pub frames: u32,
-    /// GPU time of the whole frame (G-buffer + technique + shading), from timestamp queries.
-    /// `None` when the adapter has no timestamp queries.
-    pub gpu_ms: Option<Percentiles>,
-    /// GPU time of the technique's own passes only.
-    pub technique_gpu_ms: Option<Percentiles>,
-    /// Median GPU time per pass (passes of the same name in one frame are summed).
+    /// How pass times were measured: `timestamps` (GPU timestamp queries) or `serial` (each pass
+    /// submitted on its own and waited for; its wall time). Version 2 files: `timestamps`.
+    #[serde(default = "timestamps")]
+    pub source: TimingSource,
+    /// Time of the whole frame (G-buffer + technique + shading): the sum of its pass times.
+    /// `None` when timing with timestamps on an adapter without timestamp queries.
+    #[serde(alias = "gpu_ms")]
+    pub frame_ms: Option<Percentiles>,
+    /// Time of the technique's own passes only.
+    #[serde(alias = "technique_gpu_ms")]
+    pub technique_ms: Option<Percentiles>,
+    /// Median time per pass (passes of the same name in one frame are summed).
     pub passes: Vec<PassTiming>,
     /// Wall time of a frame: recording, submission and waiting for the GPU.
     pub cpu_ms: Median,
@@ -73,6 +112,10 @@ pub struct Timing {
     /// are the run's `passes_run`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub passes_run: Option<Vec<String>>,
+    /// With `timestamps`: passes whose timestamp time is far below their serial wall time on the
+    /// same adapter (one calibration frame), i.e. timestamps that do not cover the pass's work.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -90,7 +133,8 @@ pub struct Median {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PassTiming {
     pub name: String,
-    pub gpu_ms_median: f64,
+    #[serde(alias = "gpu_ms_median")]
+    pub ms_median: f64,
 }
 
 /// The error block: which reference, then the metrics of `softshadow_metrics::ErrorReport`.

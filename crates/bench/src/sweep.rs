@@ -19,9 +19,9 @@
 use std::{collections::BTreeMap, path::Path};
 
 use serde::Deserialize;
-use softshadow_core::ParamValue;
+use softshadow_core::{ParamValue, TimingSource};
 
-use crate::{parse_size, registry, BenchError, RunSpec};
+use crate::{parse_size, registry, results::Shard, BenchError, BenchOptions, RunSpec};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -162,6 +162,69 @@ impl Sweep {
     }
 }
 
+/// Parses `INDEX/COUNT` (0-based index), e.g. `2/8`.
+pub fn parse_shard(text: &str) -> Result<Shard, BenchError> {
+    let bad = || BenchError::BadShard(text.into());
+    let (index, count) = text.split_once('/').ok_or_else(bad)?;
+    let index: usize = index.trim().parse().map_err(|_| bad())?;
+    let count: usize = count.trim().parse().map_err(|_| bad())?;
+    if count == 0 || index >= count {
+        return Err(bad());
+    }
+    Ok(Shard { index, count })
+}
+
+/// FNV-1a, 64 bits: stable across platforms and Rust versions (unlike `DefaultHasher`).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+impl Sweep {
+    /// Identifies the sweep as run: its expanded run list and the options that change results
+    /// (frames, warm-up, reference settings, error and exact flags, timing source). Shards of
+    /// one sweep share it; `merge` and `report` refuse to mix different ones.
+    pub fn hash(&self, options: &BenchOptions, timing: Option<TimingSource>) -> String {
+        let mut text = String::new();
+        for run in &self.runs {
+            let params: Vec<String> = run.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+            text.push_str(&format!(
+                "{}|{}|{}x{}|{}\n",
+                run.scene,
+                run.technique,
+                run.width,
+                run.height,
+                params.join(",")
+            ));
+        }
+        text.push_str(&format!(
+            "frames={} warmup={} error={} images={} exact={:?} camera_only={} timing={:?} reference={:?}",
+            options.frames,
+            options.warmup,
+            options.error,
+            options.images,
+            options.exact_samples_per_axis,
+            options.camera_only,
+            timing,
+            options.reference_params
+        ));
+        format!("{:016x}", fnv1a(text.as_bytes()))
+    }
+
+    /// The runs of `shard` with their index in the whole sweep: round robin over the expanded
+    /// list (run `k` goes to shard `k % count`), so neighbouring runs, which tend to cost about
+    /// the same, spread over all shards. `None`: every run.
+    pub fn shard(&self, shard: Option<Shard>) -> Vec<(usize, RunSpec)> {
+        self.runs
+            .iter()
+            .cloned()
+            .enumerate()
+            .filter(|(k, _)| shard.is_none_or(|s| k % s.count == s.index))
+            .collect()
+    }
+}
+
 /// Suites built into the workbench (`workbench bench --suite NAME`), besides the sweep files in
 /// `benches/` that `--suite` also accepts by file stem.
 pub const SUITES: &[(&str, &str)] = &[(
@@ -229,6 +292,52 @@ mod tests {
             e.contains("unknown suite `nope`") && e.contains("stiff"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn overview_lists_every_technique() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/overview.toml");
+        let sweep = Sweep::load(&path).unwrap();
+        for t in registry::techniques() {
+            let settings = sweep.runs.iter().filter(|r| r.technique == t.id).count();
+            assert!(
+                settings >= 2 * 7,
+                "benches/overview.toml has {settings} runs of `{}`: add a [[technique]] table with two or three settings (issue 14)",
+                t.id
+            );
+        }
+    }
+
+    #[test]
+    fn shards_partition_the_runs_round_robin() {
+        let sweep = Sweep::parse(
+            "scenes = [\"a\", \"b\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [16, 32, 64]",
+        )
+        .unwrap();
+        let all: Vec<usize> = sweep.shard(None).iter().map(|(k, _)| *k).collect();
+        assert_eq!(all, (0..6).collect::<Vec<_>>());
+        let mut seen = Vec::new();
+        for index in 0..4 {
+            let shard = sweep.shard(Some(Shard { index, count: 4 }));
+            assert!(shard.iter().all(|(k, _)| k % 4 == index));
+            seen.extend(shard.iter().map(|(k, _)| *k));
+        }
+        seen.sort();
+        assert_eq!(seen, all);
+        assert_eq!(parse_shard("2/3").unwrap(), Shard { index: 2, count: 3 });
+        for bad in ["3/3", "1/0", "x/2", "2"] {
+            let e = parse_shard(bad).unwrap_err().to_string();
+            assert!(e.contains("INDEX/COUNT"), "{e}");
+        }
+        let options = BenchOptions::default();
+        let other = BenchOptions {
+            frames: 3,
+            ..BenchOptions::default()
+        };
+        assert_eq!(sweep.hash(&options, None), sweep.hash(&options, None));
+        assert_ne!(sweep.hash(&options, None), sweep.hash(&other, None));
+        let serial = Some(TimingSource::Serial);
+        assert_ne!(sweep.hash(&options, None), sweep.hash(&options, serial));
     }
 
     #[test]

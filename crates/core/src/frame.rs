@@ -229,14 +229,72 @@ pub struct ShadowInputs<'a> {
     pub height: u32,
 }
 
+/// How pass times are measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TimingSource {
+    /// GPU timestamp queries around each pass, all passes in one submission. Cheap and exact on
+    /// a GPU; on a CPU adapter (lavapipe) a timestamp does not wait for earlier compute
+    /// dispatches, so compute passes read almost nothing.
+    Timestamps,
+    /// Each pass recorded into its own submission and waited for: the pass time is the wall
+    /// time from the start of its recording to the end of its GPU work. True on every adapter,
+    /// at the cost of one CPU-GPU round trip per pass (plus one to drain earlier work).
+    Serial,
+}
+
+impl TimingSource {
+    pub const ALL: [Self; 2] = [Self::Timestamps, Self::Serial];
+
+    /// `serial` on a CPU adapter (whose timestamps do not cover compute work), `timestamps` on a
+    /// GPU that has timestamp queries, `serial` on one that has none.
+    pub fn default_for(gpu: &Gpu) -> Self {
+        if gpu.adapter.get_info().device_type == wgpu::DeviceType::Cpu || !gpu.has_timestamps() {
+            Self::Serial
+        } else {
+            Self::Timestamps
+        }
+    }
+
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::Timestamps => "timestamps",
+            Self::Serial => "serial",
+        }
+    }
+
+    /// Parses `timestamps` or `serial`.
+    pub fn parse(text: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.as_str() == text)
+    }
+}
+
+impl std::fmt::Display for TimingSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Pass times of a frame recorded with [`TimingSource::Serial`].
+#[derive(Debug, Default)]
+pub struct SerialTimes {
+    /// Wall time per pass name (passes of the same name summed), in first-run order.
+    pub passes: Vec<(String, f64)>,
+    /// The first failed wait (device lost): the frame reports it.
+    pub error: Option<crate::GpuError>,
+}
+
 /// Command recording for one frame. Every pass goes through [`Frame::render_pass`] or
-/// [`Frame::compute_pass`], which opens a GPU timer scope with the pass name and records the name
-/// in [`Frame::passes_run`].
+/// [`Frame::compute_pass`], which times the pass (a timestamp-query scope, or with
+/// [`TimingSource::Serial`] a submission of its own) and records its name in
+/// [`Frame::passes_run`].
 pub struct Frame<'a> {
     pub gpu: &'a Gpu,
     pub encoder: &'a mut wgpu::CommandEncoder,
     profiler: &'a wgpu_profiler::GpuProfiler,
     passes_run: &'a mut Vec<String>,
+    /// `Some` when passes are timed serially.
+    serial: Option<SerialTimes>,
 }
 
 impl<'a> Frame<'a> {
@@ -251,6 +309,47 @@ impl<'a> Frame<'a> {
             encoder,
             profiler,
             passes_run,
+            serial: None,
+        }
+    }
+
+    /// Times every pass of this frame with [`TimingSource::Serial`] instead of timestamp queries.
+    pub fn time_serially(mut self) -> Self {
+        self.serial = Some(SerialTimes::default());
+        self
+    }
+
+    /// The serial pass times (`None` when timing with timestamps).
+    pub fn take_serial_times(&mut self) -> Option<SerialTimes> {
+        self.serial.take()
+    }
+
+    /// Serial timing: drains the work recorded before the pass, so it is not counted in it, and
+    /// starts the pass's clock.
+    fn begin_serial(&mut self) -> Option<std::time::Instant> {
+        self.serial.as_ref()?;
+        let drained = self.submit_and_wait();
+        self.note_serial_error(drained);
+        Some(std::time::Instant::now())
+    }
+
+    /// Serial timing: submits the pass alone, waits for it, and adds its wall time.
+    fn end_serial(&mut self, label: &str, start: Option<std::time::Instant>) {
+        let Some(start) = start else { return };
+        let waited = self.submit_and_wait();
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        self.note_serial_error(waited);
+        if let Some(serial) = &mut self.serial {
+            match serial.passes.iter_mut().find(|(n, _)| n == label) {
+                Some((_, t)) => *t += ms,
+                None => serial.passes.push((label.to_string(), ms)),
+            }
+        }
+    }
+
+    fn note_serial_error(&mut self, result: Result<(), crate::GpuError>) {
+        if let (Err(e), Some(serial)) = (result, &mut self.serial) {
+            serial.error.get_or_insert(e);
         }
     }
 
@@ -262,32 +361,57 @@ impl<'a> Frame<'a> {
         record: impl FnOnce(&mut wgpu::RenderPass<'_>),
     ) {
         puffin::profile_scope!("record_pass", label);
-        let query = self.profiler.begin_pass_query(label, self.encoder);
-        {
-            let mut pass = self.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(label),
-                timestamp_writes: query.render_pass_timestamp_writes(),
-                ..desc
-            });
-            record(&mut pass);
+        if let Some(start) = self.begin_serial() {
+            {
+                let mut pass = self.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some(label),
+                    timestamp_writes: None,
+                    ..desc
+                });
+                record(&mut pass);
+            }
+            self.end_serial(label, Some(start));
+        } else {
+            let query = self.profiler.begin_pass_query(label, self.encoder);
+            {
+                let mut pass = self.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some(label),
+                    timestamp_writes: query.render_pass_timestamp_writes(),
+                    ..desc
+                });
+                record(&mut pass);
+            }
+            self.profiler.end_query(self.encoder, query);
         }
-        self.profiler.end_query(self.encoder, query);
         self.note_pass(label);
     }
 
     /// Records a timed compute pass named `label`.
     pub fn compute_pass(&mut self, label: &str, record: impl FnOnce(&mut wgpu::ComputePass<'_>)) {
-        let query = self.profiler.begin_pass_query(label, self.encoder);
-        {
-            let mut pass = self
-                .encoder
-                .begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(label),
-                    timestamp_writes: query.compute_pass_timestamp_writes(),
-                });
-            record(&mut pass);
+        if let Some(start) = self.begin_serial() {
+            {
+                let mut pass = self
+                    .encoder
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(label),
+                        timestamp_writes: None,
+                    });
+                record(&mut pass);
+            }
+            self.end_serial(label, Some(start));
+        } else {
+            let query = self.profiler.begin_pass_query(label, self.encoder);
+            {
+                let mut pass = self
+                    .encoder
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(label),
+                        timestamp_writes: query.compute_pass_timestamp_writes(),
+                    });
+                record(&mut pass);
+            }
+            self.profiler.end_query(self.encoder, query);
         }
-        self.profiler.end_query(self.encoder, query);
         self.note_pass(label);
     }
 

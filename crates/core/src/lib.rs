@@ -26,7 +26,9 @@ pub mod visibility;
 
 pub use camera::Camera;
 pub use error::{GpuError, ParamError, RenderError, TechniqueError};
-pub use frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs};
+pub use frame::{
+    Frame, FrameChanges, FrameState, FrameUniforms, SerialTimes, ShadowInputs, TimingSource,
+};
 pub use gpu::Gpu;
 pub use hierarchy::{DepthHierarchy, HierarchyKind};
 pub use light::{AreaLight, SlopeFrustum};

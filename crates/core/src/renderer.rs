@@ -1,6 +1,7 @@
 //! One frame, top to bottom (GUIDE.md section 1):
 //! G-buffer pass -> technique passes -> visibility buffer -> shading pass (only when asked),
-//! with every pass timed on the GPU and listed in `passes_run`.
+//! with every pass timed (GPU timestamps, or each pass submitted and waited for on its own: see
+//! [`TimingSource`]) and listed in `passes_run`.
 
 use std::{collections::HashMap, time::Instant};
 
@@ -9,7 +10,7 @@ use wgpu_profiler::{GpuProfiler, GpuProfilerSettings, GpuTimerQueryResult};
 
 use crate::{
     error::{GpuError, RenderError},
-    frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs},
+    frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs, TimingSource},
     gbuffer::{GBuffer, GBufferPass},
     readback,
     scene_gpu::SceneGpu,
@@ -22,8 +23,9 @@ use crate::{
 /// Largest accepted frame edge (a 16384² R32Float buffer is 1 GiB; nobody benchmarks that here).
 pub const MAX_RESOLUTION: u32 = 8192;
 
-/// GPU time of one frame, from timestamp queries. Passes with the same name (e.g. one depth pass
-/// per light sample) are summed.
+/// Pass times of one frame, from the source in [`FrameOutput::timing_source`] (timestamp queries,
+/// or the wall time of each pass submitted on its own). Passes with the same name (e.g. one depth
+/// pass per light sample) are summed; `total_ms` is the sum over all passes.
 #[derive(Clone, Debug, Default)]
 pub struct GpuFrameTiming {
     pub total_ms: f64,
@@ -51,8 +53,11 @@ pub struct FrameOutput {
     pub passes_run: Vec<String>,
     /// Wall time from the start of recording to the end of GPU work.
     pub cpu_ms: f64,
-    /// `None` when the adapter has no timestamp queries.
+    /// Pass times measured with `timing_source`; `None` with timestamps when the adapter has no
+    /// timestamp queries.
     pub gpu: Option<GpuFrameTiming>,
+    /// How `gpu` was measured (the viewer's timing panel says which).
+    pub timing_source: TimingSource,
 }
 
 pub struct Renderer {
@@ -69,6 +74,8 @@ pub struct Renderer {
     pub shaded: wgpu::Texture,
     shaded_view: wgpu::TextureView,
     profiler: GpuProfiler,
+    /// How passes are timed; [`TimingSource::default_for`] the adapter unless set.
+    pub timing: TimingSource,
     last_uniforms: FrameUniforms,
     /// The inputs of the last frame drawn with each technique id, for [`FrameChanges`].
     last_states: HashMap<&'static str, FrameState>,
@@ -143,6 +150,7 @@ impl Renderer {
             shaded,
             gbuffer,
             profiler,
+            timing: TimingSource::default_for(gpu),
             last_uniforms: FrameUniforms::new(
                 &Camera::default(),
                 &AreaLight::default(),
@@ -216,8 +224,13 @@ impl Renderer {
                 label: Some(technique.id()),
             });
         let mut passes_run = Vec::new();
+        let timing_source = self.timing;
+        let serial;
         let result = {
             let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
+            if timing_source == TimingSource::Serial {
+                frame = frame.time_serially();
+            }
             self.gbuffer_pass
                 .record(&mut frame, &self.gbuffer, &self.uniform_bind_group, scene);
             let mut inputs = self.inputs(scene, camera, light);
@@ -235,6 +248,7 @@ impl Renderer {
                     );
                 }
             }
+            serial = frame.take_serial_times();
             result
         };
         self.profiler.resolve_queries(&mut encoder);
@@ -243,13 +257,27 @@ impl Renderer {
         self.gpu.wait_idle()?;
         self.gpu.take_errors()?;
         result?;
-        self.last_states.insert(technique.id(), state);
         let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-        let gpu = self.collect_timings();
+        // Drains the profiler's (empty, in serial mode) frame either way.
+        let timestamps = self.collect_timings();
+        let gpu = match serial {
+            Some(serial) => {
+                if let Some(e) = serial.error {
+                    return Err(e.into());
+                }
+                Some(GpuFrameTiming {
+                    total_ms: serial.passes.iter().map(|(_, ms)| ms).sum(),
+                    passes: serial.passes,
+                })
+            }
+            None => timestamps,
+        };
+        self.last_states.insert(technique.id(), state);
         Ok(FrameOutput {
             passes_run,
             cpu_ms,
             gpu,
+            timing_source,
         })
     }
 

@@ -6,14 +6,17 @@
 //! - `workbench bench --scene ID|FILE --technique ID [--param name=value]... --out DIR`
 //! - `workbench bench --sweep FILE --out DIR`
 //! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `benches/NAME.toml`)
+//! - `workbench bench --sweep FILE --shard I/N --out DIR`: shard I (0-based) of N
+//! - `workbench merge DIR... --out DIR`: the shards of one sweep as one results.json
+//! - `workbench report DIR_OR_RESULTS_JSON... --out report.html [--csv runs.csv]`
 
 use std::{path::PathBuf, process::ExitCode};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use softshadow_bench::{registry, BenchOptions, RunSpec, Status, Sweep};
-use softshadow_core::{Gpu, ParamKind};
+use softshadow_bench::{registry, BenchOptions, RunSpec, Status, Sweep, SweepInfo};
+use softshadow_core::{Gpu, ParamKind, TimingSource};
 
 #[derive(Parser)]
 #[command(
@@ -38,6 +41,27 @@ enum Command {
     Bench(BenchArgs),
     /// The interactive viewer (the default without a subcommand).
     View(ViewArgs),
+    /// Merge the shards of one sweep (output folders of `bench --shard`) into one folder.
+    Merge {
+        /// Output folders (or their results.json) of the shards.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Folder for the merged results.json and images (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Write one self-contained HTML report (error against frame time) of any results.
+    Report {
+        /// Benchmark output folders or results.json files (shards are merged).
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// The HTML file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Also write every run as one row of this CSV file.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
 }
 
 #[derive(Args, Default)]
@@ -111,6 +135,15 @@ struct BenchArgs {
     /// kept).
     #[arg(long)]
     no_camera_only: bool,
+    /// How passes are timed: `timestamps` (GPU timestamp queries) or `serial` (each pass
+    /// submitted on its own and waited for). Default: serial on a CPU adapter, timestamps on a
+    /// GPU.
+    #[arg(long, value_name = "timestamps|serial")]
+    timing: Option<String>,
+    /// Run only shard INDEX of COUNT (0-based) of the sweep: runs INDEX, INDEX+COUNT, ...
+    /// (docs/CLUSTER.md).
+    #[arg(long, value_name = "INDEX/COUNT")]
+    shard: Option<String>,
     /// Output folder (created if missing).
     #[arg(long)]
     out: PathBuf,
@@ -123,6 +156,8 @@ fn main() -> ExitCode {
         Some(Command::List { json }) => list(json),
         Some(Command::Bench(args)) => bench(args),
         Some(Command::View(args)) => view(args),
+        Some(Command::Merge { inputs, out }) => merge(&inputs, &out),
+        Some(Command::Report { inputs, out, csv }) => report(&inputs, &out, csv.as_deref()),
         None => view(ViewArgs {
             scene: "atty-square".into(),
             technique: "pcss".into(),
@@ -229,12 +264,27 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         (None, Some(name)) => Some(load_suite(name)?),
         (None, None) => None,
     };
-    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(sweep) = sweep {
+    let shard = args
+        .shard
+        .as_deref()
+        .map(softshadow_bench::sweep::parse_shard)
+        .transpose()?;
+    if shard.is_some() && sweep.is_none() {
+        bail!("--shard splits a sweep: give --sweep FILE or --suite NAME with it");
+    }
+    let timing = args
+        .timing
+        .as_deref()
+        .map(|t| {
+            TimingSource::parse(t).ok_or_else(|| softshadow_bench::BenchError::BadTiming(t.into()))
+        })
+        .transpose()?;
+    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(sweep) = &sweep {
         (
-            sweep.runs,
+            sweep.runs.clone(),
             sweep.frames,
             sweep.warmup,
-            sweep.reference_params,
+            sweep.reference_params.clone(),
         )
     } else {
         let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
@@ -269,22 +319,39 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
         camera_only: !args.no_camera_only,
     };
+    let sweep_info = sweep.as_ref().map(|sweep| SweepInfo {
+        hash: sweep.hash(&options, timing),
+        runs_total: sweep.runs.len(),
+        shard,
+    });
+    let indexed: Vec<(usize, RunSpec)> = match &sweep {
+        Some(sweep) => sweep.shard(shard),
+        None => specs.into_iter().enumerate().collect(),
+    };
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
-    let progress = ProgressBar::new(specs.len() as u64);
+    let progress = ProgressBar::new(indexed.len() as u64);
     progress.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let results = softshadow_bench::run_all(gpu, &specs, options, &args.out, |_, run| {
-        progress.set_message(format!("{} / {}", run.scene, run.technique));
-        progress.inc(1);
-        if run.status == Status::Error {
-            progress.println(format!(
-                "run failed: {} / {}: {}",
-                run.scene, run.technique, run.message
-            ));
-        }
-    })?;
+    let results = softshadow_bench::run_indexed(
+        gpu,
+        &indexed,
+        sweep_info,
+        options,
+        timing,
+        &args.out,
+        |_, run| {
+            progress.set_message(format!("{} / {}", run.scene, run.technique));
+            progress.inc(1);
+            if run.status == Status::Error {
+                progress.println(format!(
+                    "run failed: {} / {}: {}",
+                    run.scene, run.technique, run.message
+                ));
+            }
+        },
+    )?;
     progress.finish_and_clear();
     let failed = results
         .runs
@@ -292,11 +359,17 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         .filter(|r| r.status == Status::Error)
         .count();
     for run in &results.runs {
-        let gpu = run
+        let frame = run
             .timing
             .as_ref()
-            .and_then(|t| t.gpu_ms.as_ref())
-            .map_or("-".to_string(), |g| format!("{:.2} ms", g.median));
+            .and_then(|t| {
+                Some(format!(
+                    "{:.2} ms {}",
+                    t.frame_ms.as_ref()?.median,
+                    t.source
+                ))
+            })
+            .unwrap_or_else(|| "-".to_string());
         let err = run
             .error
             .as_ref()
@@ -311,7 +384,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             .as_ref()
             .map_or(0, |s| s.nan + s.inf + s.out_of_range);
         println!(
-            "{:<24} {:<16} {:<6} gpu {:>10}  mae_shadowed {:<7} exact mae_all {:<7} invalid {}",
+            "{:<24} {:<16} {:<6} frame {:>20}  mae_shadowed {:<7} exact mae_all {:<7} invalid {}",
             run.scene,
             run.technique,
             if run.status == Status::Ok {
@@ -319,7 +392,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             } else {
                 "error"
             },
-            gpu,
+            frame,
             err,
             exact,
             invalid
@@ -342,6 +415,51 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::from(3));
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn merge(inputs: &[PathBuf], out: &std::path::Path) -> Result<ExitCode> {
+    let loaded = inputs
+        .iter()
+        .map(|p| softshadow_bench::merge::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = softshadow_bench::merge::merge(&loaded)?;
+    for w in &merged.warnings {
+        eprintln!("warning: {w}");
+    }
+    let results = softshadow_bench::merge::write_merged(&merged, out)?;
+    println!(
+        "merged {} runs from {} files into {}",
+        results.runs.len(),
+        loaded.len(),
+        out.join("results.json").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn report(
+    inputs: &[PathBuf],
+    out: &std::path::Path,
+    csv: Option<&std::path::Path>,
+) -> Result<ExitCode> {
+    let loaded = inputs
+        .iter()
+        .map(|p| softshadow_bench::merge::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = softshadow_bench::merge::merge(&loaded)?;
+    for w in &merged.warnings {
+        eprintln!("warning: {w}");
+    }
+    let summary = softshadow_bench::report::write_report(&merged, out, csv)?;
+    println!(
+        "wrote {}: {} scenes, {} plotted runs, {} not plotted (failed or without error metrics){}",
+        out.display(),
+        summary.scenes,
+        summary.points,
+        summary.unplotted,
+        csv.map(|c| format!("; {}", c.display()))
+            .unwrap_or_default()
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -115,21 +115,27 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
     ]);
     ensure!(o.status.success(), "{}", stderr(&o));
     let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
-    ensure!(v["schema_version"] == 2);
+    ensure!(v["schema_version"] == 3);
+    ensure!(
+        run_source(&v) == "serial",
+        "lavapipe is a CPU adapter: serial timing by default"
+    );
     for k in ["name", "backend", "driver"] {
         ensure!(v["adapter"][k].is_string(), "adapter.{k}");
     }
     let run = &v["runs"][0];
     ensure!(run["status"] == "ok", "{run}");
     ensure!(run["timing"]["frames"] == 3);
-    let gpu = run["timing"]["gpu_ms"]["median"]
+    let gpu = run["timing"]["frame_ms"]["median"]
         .as_f64()
-        .context("gpu_ms.median")?;
-    ensure!(gpu.is_finite() && gpu > 0.0, "gpu_ms {gpu}");
+        .context("frame_ms.median")?;
+    ensure!(gpu.is_finite() && gpu > 0.0, "frame_ms {gpu}");
     for k in ["p10", "p90"] {
         ensure!(
-            run["timing"]["gpu_ms"][k].as_f64().is_some_and(|x| x > 0.0),
-            "gpu_ms.{k}"
+            run["timing"]["frame_ms"][k]
+                .as_f64()
+                .is_some_and(|x| x > 0.0),
+            "frame_ms.{k}"
         );
     }
     ensure!(run["timing"]["cpu_ms"]["median"]
@@ -384,4 +390,11 @@ fn no_adapter_says_what_to_install() -> Result<()> {
     ensure!(err.contains("mesa-vulkan-drivers"), "{err}");
     ensure!(!out.exists());
     Ok(())
+}
+
+/// `timing.source` of the first run.
+fn run_source(results: &Value) -> &str {
+    results["runs"][0]["timing"]["source"]
+        .as_str()
+        .unwrap_or("")
 }

@@ -1,0 +1,247 @@
+//! Combining results.json files: the shards of one sweep (`workbench merge`), or any runs for a
+//! report (`workbench report`).
+//!
+//! Shards of one sweep share `sweep.hash`; shards of different sweeps, or a run present twice,
+//! are refused with a message that names the files. Missing shards are a warning, by index.
+
+use std::{
+    collections::{BTreeMap, BTreeSet, HashMap},
+    path::{Path, PathBuf},
+};
+
+use crate::{
+    results::{Results, Run, SweepInfo},
+    BenchError,
+};
+
+/// One results.json and the folder its images are in.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub file: PathBuf,
+    pub dir: PathBuf,
+    pub results: Results,
+}
+
+/// Reads `path`: a results.json file, or a folder that holds one.
+pub fn load(path: &Path) -> Result<Loaded, BenchError> {
+    let file = if path.is_dir() {
+        path.join("results.json")
+    } else {
+        path.to_path_buf()
+    };
+    let read_err = |message: String| BenchError::Read {
+        path: file.display().to_string(),
+        message,
+    };
+    let text = std::fs::read_to_string(&file).map_err(|e| {
+        read_err(format!(
+            "{e}: give a benchmark output folder or its results.json"
+        ))
+    })?;
+    let results: Results = serde_json::from_str(&text).map_err(|e| {
+        read_err(format!(
+            "not a results.json this workbench can read ({e}); schema versions 2 and {} are read",
+            crate::results::SCHEMA_VERSION
+        ))
+    })?;
+    let dir = file
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    Ok(Loaded { file, dir, results })
+}
+
+/// Runs of several results.json files, checked and in order.
+#[derive(Clone, Debug)]
+pub struct Merged {
+    /// The merged runs (a sweep's runs by sweep index, other files' runs after, in input order).
+    pub results: Results,
+    /// Folder of each run's images, parallel to `results.runs`.
+    pub run_dirs: Vec<PathBuf>,
+    /// Missing shards, differing adapters.
+    pub warnings: Vec<String>,
+}
+
+fn run_key(run: &Run) -> String {
+    let params: Vec<String> = run.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+    format!(
+        "{} / {} {}x{} [{}]",
+        run.scene,
+        run.technique,
+        run.width,
+        run.height,
+        params.join(",")
+    )
+}
+
+/// Merges `inputs`. Refuses shards of different sweeps (different `sweep.hash`), two splits of
+/// one sweep into different shard counts, and runs present twice; warns of missing shards.
+pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
+    if inputs.is_empty() {
+        return Err(BenchError::Merge(
+            "nothing to merge: give at least one results.json or output folder".into(),
+        ));
+    }
+    let mut warnings = Vec::new();
+    // Shards must come from one sweep.
+    let shard_hashes: BTreeMap<&str, Vec<&Loaded>> =
+        inputs.iter().fold(BTreeMap::new(), |mut m, l| {
+            if let Some(sweep) = l.results.sweep.as_ref().filter(|s| s.shard.is_some()) {
+                m.entry(sweep.hash.as_str())
+                    .or_insert_with(Vec::new)
+                    .push(l);
+            }
+            m
+        });
+    if shard_hashes.len() > 1 {
+        let list: Vec<String> = shard_hashes
+            .iter()
+            .map(|(hash, files)| {
+                let names: Vec<String> =
+                    files.iter().map(|l| l.file.display().to_string()).collect();
+                format!("sweep {hash}: {}", names.join(", "))
+            })
+            .collect();
+        return Err(BenchError::Merge(format!(
+            "these are shards of different sweeps (or of one sweep run with different options), which cannot be merged: {}. Merge each sweep's shards on its own",
+            list.join("; ")
+        )));
+    }
+    let mut complete_sweep: Option<SweepInfo> = None;
+    if let Some((hash, files)) = shard_hashes.iter().next() {
+        let counts: BTreeSet<usize> = files
+            .iter()
+            .filter_map(|l| l.results.sweep.as_ref()?.shard.map(|s| s.count))
+            .collect();
+        if counts.len() > 1 {
+            return Err(BenchError::Merge(format!(
+                "sweep {hash} was split into different shard counts ({counts:?}): merge the shards of one split"
+            )));
+        }
+        let count = *counts.iter().next().expect("at least one shard");
+        let present: BTreeSet<usize> = files
+            .iter()
+            .filter_map(|l| l.results.sweep.as_ref()?.shard.map(|s| s.index))
+            .collect();
+        let missing: Vec<String> = (0..count)
+            .filter(|i| !present.contains(i))
+            .map(|i| i.to_string())
+            .collect();
+        let runs_total = files[0].results.sweep.as_ref().map_or(0, |s| s.runs_total);
+        if missing.is_empty() {
+            complete_sweep = Some(SweepInfo {
+                hash: hash.to_string(),
+                runs_total,
+                shard: None,
+            });
+        } else {
+            warnings.push(format!(
+                "sweep {hash}: shard{} {} of {count} missing (shards are 0-based; the runs they hold are absent)",
+                if missing.len() == 1 { "" } else { "s" },
+                missing.join(", ")
+            ));
+        }
+    }
+
+    // Duplicates: the same sweep index of the same sweep, or the same settings outside a sweep.
+    let mut seen: HashMap<String, &Path> = HashMap::new();
+    // (sweep hash and index, input order, run, image folder)
+    type Entry = (Option<(String, usize)>, usize, Run, PathBuf);
+    let mut entries: Vec<Entry> = Vec::new();
+    for (order, input) in inputs.iter().enumerate() {
+        let hash = input.results.sweep.as_ref().map(|s| s.hash.clone());
+        for run in &input.results.runs {
+            let key = match &hash {
+                Some(h) => format!("sweep {h} run {} ({})", run.index, run_key(run)),
+                None => run_key(run),
+            };
+            if let Some(first) = seen.insert(key.clone(), &input.file) {
+                return Err(BenchError::Merge(format!(
+                    "run {key} is in both {} and {}: give each shard once",
+                    first.display(),
+                    input.file.display()
+                )));
+            }
+            entries.push((
+                hash.clone().map(|h| (h, run.index)),
+                order,
+                run.clone(),
+                input.dir.clone(),
+            ));
+        }
+    }
+    entries.sort_by(|a, b| match (&a.0, &b.0) {
+        (Some(x), Some(y)) => x.cmp(y),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => a.1.cmp(&b.1),
+    });
+
+    let adapter = inputs[0].results.adapter.clone();
+    for input in &inputs[1..] {
+        if input.results.adapter.name != adapter.name {
+            warnings.push(format!(
+                "{} ran on `{}`, {} on `{}`: times from different adapters are not comparable",
+                inputs[0].file.display(),
+                adapter.name,
+                input.file.display(),
+                input.results.adapter.name
+            ));
+        }
+    }
+    let all_one_sweep = inputs.iter().all(|l| {
+        l.results.sweep.as_ref().map(|s| &s.hash)
+            == inputs[0].results.sweep.as_ref().map(|s| &s.hash)
+    });
+    let sweep = if all_one_sweep {
+        complete_sweep.or_else(|| {
+            (inputs.len() == 1)
+                .then(|| inputs[0].results.sweep.clone())
+                .flatten()
+        })
+    } else {
+        None
+    };
+    let run_dirs = entries.iter().map(|e| e.3.clone()).collect();
+    Ok(Merged {
+        results: Results {
+            schema_version: crate::results::SCHEMA_VERSION,
+            adapter,
+            sweep,
+            runs: entries.into_iter().map(|e| e.2).collect(),
+        },
+        run_dirs,
+        warnings,
+    })
+}
+
+/// Writes `merged` to `out_dir`: results.json and a copy of every image its runs name. Images
+/// of the same name and content (a scene's reference, computed by every shard) are copied once;
+/// a different file under a name already taken is renamed.
+pub fn write_merged(merged: &Merged, out_dir: &Path) -> Result<Results, BenchError> {
+    std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Write {
+        path: out_dir.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let mut results = merged.results.clone();
+    let mut copied: HashMap<String, PathBuf> = HashMap::new();
+    for (k, (run, dir)) in results.runs.iter_mut().zip(&merged.run_dirs).enumerate() {
+        for name in run.images.values_mut() {
+            let source = dir.join(&*name);
+            let bytes = std::fs::read(&source).map_err(|e| BenchError::Read {
+                path: source.display().to_string(),
+                message: format!("{e}: the run's image is missing; was the folder moved?"),
+            })?;
+            let target_name = match copied.get(name.as_str()) {
+                None => name.clone(),
+                Some(first) if std::fs::read(first).is_ok_and(|b| b == bytes) => continue,
+                Some(_) => format!("m{k:04}_{name}"),
+            };
+            crate::output::write_atomic(&out_dir.join(&target_name), &bytes)?;
+            copied.insert(target_name.clone(), source);
+            *name = target_name;
+        }
+    }
+    crate::write_results(&results, out_dir)?;
+    Ok(results)
+}

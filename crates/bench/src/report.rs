@@ -1,0 +1,730 @@
+//! `workbench report`: one self-contained HTML page of error against run time.
+//!
+//! Per scene: error (mae_shadowed against the exact answer where the run has it, else against
+//! the reference) and FLIP against frame time on a log axis, drawn with plotters' SVG backend,
+//! one colour and marker per technique, the Pareto front as a staircase; a table of the runs and
+//! image strips of the runs on the front. Above them a headline table: per scene and technique,
+//! the lowest error within 1x, 2x, 4x and 8x the `hard` frame time, and the cost of reaching
+//! mae_shadowed <= 0.01. Images are embedded as data URIs: the page loads nothing.
+
+use std::{collections::BTreeMap, fmt::Write as _, path::Path};
+
+use base64::Engine as _;
+use plotters::prelude::*;
+
+use crate::{
+    merge::Merged,
+    results::{Run, Status},
+    BenchError,
+};
+
+/// Stroke colour of the Pareto staircase (the parse-level test finds the polyline by it).
+pub const PARETO_COLOUR: RGBColor = RGBColor(20, 20, 20);
+/// The Pareto polyline's `stroke` attribute as plotters writes it.
+pub const PARETO_STROKE: &str = "#141414";
+/// Error at which the headline table reports a technique's cost.
+pub const TARGET_MAE: f64 = 0.01;
+/// Time budgets of the headline table, in multiples of the `hard` frame time.
+pub const BUDGETS: [f64; 4] = [1.0, 2.0, 4.0, 8.0];
+
+const PLOT_SIZE: (u32, u32) = (620, 400);
+
+/// One run as a point of a plot.
+#[derive(Clone, Debug)]
+pub struct PlotPoint {
+    /// Index into the merged runs.
+    pub run: usize,
+    pub technique: String,
+    pub time_ms: f64,
+    pub value: f64,
+    pub tooltip: String,
+}
+
+/// Frame time of a run: the median of `timing.frame_ms`, else of its wall time.
+pub fn frame_time_ms(run: &Run) -> Option<f64> {
+    let timing = run.timing.as_ref()?;
+    let ms = timing
+        .frame_ms
+        .as_ref()
+        .map_or(timing.cpu_ms.median, |p| p.median);
+    (ms.is_finite() && ms > 0.0).then_some(ms)
+}
+
+/// mae_shadowed against the exact answer when the run has one, else against the reference.
+pub fn mae_shadowed(run: &Run) -> Option<f64> {
+    let error = run.error.as_ref()?;
+    let mae = error
+        .vs_exact
+        .as_ref()
+        .map_or(error.report.mae_shadowed, |e| e.mae_shadowed);
+    mae.is_finite().then_some(mae)
+}
+
+/// Which answer [`mae_shadowed`] was measured against.
+pub fn mae_against(run: &Run) -> &'static str {
+    match run.error.as_ref().and_then(|e| e.vs_exact.as_ref()) {
+        Some(_) => "exact",
+        None => "reference",
+    }
+}
+
+pub fn flip(run: &Run) -> Option<f64> {
+    run.error
+        .as_ref()?
+        .report
+        .flip_mean
+        .filter(|f| f.is_finite())
+}
+
+pub fn params_text(run: &Run) -> String {
+    let params: Vec<String> = run.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+    params.join(" ")
+}
+
+/// Indices (into `points`) of the Pareto front, fastest first: the points no other point beats
+/// in both time and value (ties in time keep the lower value).
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| {
+        points[a]
+            .0
+            .total_cmp(&points[b].0)
+            .then(points[a].1.total_cmp(&points[b].1))
+    });
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for i in order {
+        if points[i].1 < best {
+            best = points[i].1;
+            front.push(i);
+        }
+    }
+    front
+}
+
+fn plot_error(e: impl std::fmt::Display) -> BenchError {
+    BenchError::Merge(format!("cannot draw the report's plot: {e}"))
+}
+
+/// Colour and marker of each technique: registry order first, so a technique looks the same in
+/// every report.
+fn technique_styles(runs: &[Run]) -> BTreeMap<String, usize> {
+    let mut ids: Vec<String> = crate::registry::techniques()
+        .iter()
+        .map(|t| t.id.to_string())
+        .collect();
+    for run in runs {
+        if !ids.contains(&run.technique) {
+            ids.push(run.technique.clone());
+        }
+    }
+    ids.into_iter().enumerate().map(|(k, id)| (id, k)).collect()
+}
+
+fn colour(style: usize) -> RGBColor {
+    const COLOURS: [RGBColor; 10] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+        RGBColor(188, 189, 34),
+        RGBColor(23, 190, 207),
+    ];
+    COLOURS[style % COLOURS.len()]
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// One plot: `points` (time, value) on a log time axis, one colour and marker per technique,
+/// the Pareto staircase in [`PARETO_COLOUR`], and over every point an invisible circle with
+/// class `run`, `data-run`, `data-time` and `data-value` attributes and a `<title>` tooltip
+/// (the parameters), which plotters has no element for.
+pub fn plot_svg(
+    points: &[PlotPoint],
+    styles: &BTreeMap<String, usize>,
+    caption: &str,
+    value_label: &str,
+) -> Result<String, BenchError> {
+    let mut svg = String::new();
+    let mut hits = Vec::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let (t_min, t_max) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
+            (lo.min(p.time_ms), hi.max(p.time_ms))
+        });
+        let (t_min, t_max) = if points.is_empty() {
+            (0.1, 10.0)
+        } else {
+            (t_min / 1.6, t_max * 1.6)
+        };
+        let v_max = points.iter().map(|p| p.value).fold(0.0f64, f64::max);
+        let v_max = if v_max > 0.0 { v_max * 1.12 } else { 0.01 };
+        let mut chart = ChartBuilder::on(&root)
+            .caption(caption, ("sans-serif", 16))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d((t_min..t_max).log_scale(), 0.0..v_max)
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("frame time, ms (log)")
+            .y_desc(value_label)
+            .x_label_formatter(&|t| format!("{t:.3}"))
+            .y_label_formatter(&|v| format!("{v:.3}"))
+            .draw()
+            .map_err(plot_error)?;
+        let mut techniques: Vec<&str> = points.iter().map(|p| p.technique.as_str()).collect();
+        techniques.sort_by_key(|t| styles.get(*t).copied().unwrap_or(usize::MAX));
+        techniques.dedup();
+        for technique in techniques {
+            let style = styles.get(technique).copied().unwrap_or(0);
+            let of_technique: Vec<&PlotPoint> =
+                points.iter().filter(|p| p.technique == technique).collect();
+            chart
+                .draw_series(of_technique.iter().map(|p| {
+                    let c = colour(style);
+                    let at = (p.time_ms, p.value);
+                    match (style / 10 + style) % 6 {
+                        0 => EmptyElement::at(at) + Circle::new((0, 0), 4, c.filled()).into_dyn(),
+                        1 => {
+                            EmptyElement::at(at)
+                                + TriangleMarker::new((0, 0), 6, c.filled()).into_dyn()
+                        }
+                        2 => {
+                            EmptyElement::at(at)
+                                + Cross::new((0, 0), 4, c.stroke_width(2)).into_dyn()
+                        }
+                        3 => {
+                            EmptyElement::at(at)
+                                + Rectangle::new([(-4, -4), (4, 4)], c.filled()).into_dyn()
+                        }
+                        4 => {
+                            EmptyElement::at(at)
+                                + Circle::new((0, 0), 4, c.stroke_width(2)).into_dyn()
+                        }
+                        _ => {
+                            EmptyElement::at(at)
+                                + Rectangle::new([(-4, -4), (4, 4)], c.stroke_width(2)).into_dyn()
+                        }
+                    }
+                }))
+                .map_err(plot_error)?
+                .label(technique)
+                .legend(move |at| {
+                    let c = colour(style);
+                    match (style / 10 + style) % 6 {
+                        0 => Circle::new(at, 4, c.filled()).into_dyn(),
+                        1 => TriangleMarker::new(at, 6, c.filled()).into_dyn(),
+                        2 => Cross::new(at, 4, c.stroke_width(2)).into_dyn(),
+                        3 => {
+                            Rectangle::new([(at.0 - 4, at.1 - 4), (at.0 + 4, at.1 + 4)], c.filled())
+                                .into_dyn()
+                        }
+                        4 => Circle::new(at, 4, c.stroke_width(2)).into_dyn(),
+                        _ => Rectangle::new(
+                            [(at.0 - 4, at.1 - 4), (at.0 + 4, at.1 + 4)],
+                            c.stroke_width(2),
+                        )
+                        .into_dyn(),
+                    }
+                });
+        }
+        let front = pareto_front(
+            &points
+                .iter()
+                .map(|p| (p.time_ms, p.value))
+                .collect::<Vec<_>>(),
+        );
+        // A staircase: from each front point right to the next one's time, then down.
+        let mut stairs = Vec::new();
+        for (k, &i) in front.iter().enumerate() {
+            if k > 0 {
+                stairs.push((points[i].time_ms, points[front[k - 1]].value));
+            }
+            stairs.push((points[i].time_ms, points[i].value));
+        }
+        if !stairs.is_empty() {
+            chart
+                .draw_series(LineSeries::new(stairs, PARETO_COLOUR.stroke_width(2)))
+                .map_err(plot_error)?
+                .label("Pareto front")
+                // A bar, not a path: the front stays the plot's only polyline of its colour.
+                .legend(|(x, y)| {
+                    Rectangle::new([(x - 8, y - 1), (x + 8, y + 1)], PARETO_COLOUR.filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(plot_error)?;
+        for p in points {
+            hits.push((p, chart.backend_coord(&(p.time_ms, p.value))));
+        }
+        root.present().map_err(plot_error)?;
+    }
+    let mut overlay = String::new();
+    for (p, (x, y)) in hits {
+        let _ = write!(
+            overlay,
+            r##"<circle class="run" data-run="{}" data-time="{}" data-value="{}" cx="{x}" cy="{y}" r="7" fill="#000" fill-opacity="0"><title>{}</title></circle>"##,
+            p.run,
+            p.time_ms,
+            p.value,
+            escape(&p.tooltip)
+        );
+    }
+    let end = svg.rfind("</svg>").ok_or_else(|| plot_error("no </svg>"))?;
+    svg.insert_str(end, &overlay);
+    Ok(svg)
+}
+
+/// Edge, in pixels, of the images embedded in the report (larger ones are scaled down, which
+/// keeps a report of a 256x256 sweep small).
+pub const THUMBNAIL_EDGE: u32 = 128;
+
+/// A PNG of the image at `path`, scaled to fit [`THUMBNAIL_EDGE`], as a data URI.
+fn data_uri(path: &Path) -> Option<String> {
+    let image = image::open(path).ok()?;
+    let image = if image.width() > THUMBNAIL_EDGE || image.height() > THUMBNAIL_EDGE {
+        image.resize(
+            THUMBNAIL_EDGE,
+            THUMBNAIL_EDGE,
+            image::imageops::FilterType::Triangle,
+        )
+    } else {
+        image
+    };
+    let mut png = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut png, image::ImageFormat::Png).ok()?;
+    Some(format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(png.into_inner())
+    ))
+}
+
+/// What the report contains, for the CLI's summary line and the tests.
+#[derive(Clone, Debug, Default)]
+pub struct ReportSummary {
+    pub scenes: usize,
+    pub points: usize,
+    /// Failed runs and runs without a time or an error (listed in the tables, not plotted).
+    pub unplotted: usize,
+    pub warnings: Vec<String>,
+}
+
+const STYLE: &str = "body{font-family:sans-serif;margin:24px;max-width:1300px;color:#222}\
+table{border-collapse:collapse;font-size:13px;margin:8px 0 16px}\
+td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}\
+td.l,th.l{text-align:left}\
+.plots{display:flex;flex-wrap:wrap;gap:8px}\
+.strip{display:flex;flex-wrap:wrap;gap:12px}\
+.strip figure{margin:0;font-size:12px}\
+.strip img{width:128px;height:128px;image-rendering:pixelated;display:block}\
+.warn{color:#a40}\
+tr.front td{background:#eef6ee}";
+
+/// Writes the report of `merged` to `out` (and the runs as CSV to `csv`).
+pub fn write_report(
+    merged: &Merged,
+    out: &Path,
+    csv: Option<&Path>,
+) -> Result<ReportSummary, BenchError> {
+    let (html, summary) = render_html(merged)?;
+    crate::output::write_atomic(out, html.as_bytes())?;
+    if let Some(csv) = csv {
+        crate::output::write_atomic(csv, runs_csv(merged).as_bytes())?;
+    }
+    Ok(summary)
+}
+
+fn ms(v: f64) -> String {
+    if v >= 100.0 {
+        format!("{v:.0}")
+    } else if v >= 1.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// The report as one HTML string.
+pub fn render_html(merged: &Merged) -> Result<(String, ReportSummary), BenchError> {
+    let runs = &merged.results.runs;
+    let styles = technique_styles(runs);
+    let mut summary = ReportSummary {
+        warnings: merged.warnings.clone(),
+        ..Default::default()
+    };
+    // Scenes (with size) in first-seen order.
+    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
+    for run in runs {
+        let key = (run.scene.clone(), run.width, run.height);
+        if !scenes.contains(&key) {
+            scenes.push(key);
+        }
+    }
+    summary.scenes = scenes.len();
+    let adapter = &merged.results.adapter;
+    let sources: Vec<String> = {
+        let mut s: Vec<String> = runs
+            .iter()
+            .filter_map(|r| Some(r.timing.as_ref()?.source.to_string()))
+            .collect();
+        s.sort();
+        s.dedup();
+        s
+    };
+    let mut body = String::new();
+    let _ = write!(
+        body,
+        "<h1>Soft shadows: error against run time</h1><p>{} runs on <b>{}</b> ({}, {}); timing: <b>{}</b>{}. Error: mae_shadowed (mean absolute visibility error over shadowed receiver pixels) against the exact answer where the run has it, else against the reference; FLIP: mean FLIP of the shaded image against the reference's.</p>",
+        runs.len(),
+        escape(&adapter.name),
+        escape(&adapter.backend),
+        escape(&adapter.driver),
+        if sources.is_empty() { "-".to_string() } else { sources.join(", ") },
+        merged
+            .results
+            .sweep
+            .as_ref()
+            .map(|s| format!("; sweep {} ({} runs)", s.hash, s.runs_total))
+            .unwrap_or_default()
+    );
+    for w in &merged.warnings {
+        let _ = write!(body, "<p class=\"warn\">warning: {}</p>", escape(w));
+    }
+    body.push_str(&headline_table(runs, &scenes));
+
+    for (scene, width, height) in &scenes {
+        let in_scene: Vec<usize> = (0..runs.len())
+            .filter(|&i| {
+                let r = &runs[i];
+                &r.scene == scene && r.width == *width && r.height == *height
+            })
+            .collect();
+        let point = |i: usize, value: Option<f64>| -> Option<PlotPoint> {
+            let run = &runs[i];
+            if run.status != Status::Ok {
+                return None;
+            }
+            Some(PlotPoint {
+                run: i,
+                technique: run.technique.clone(),
+                time_ms: frame_time_ms(run)?,
+                value: value?,
+                tooltip: format!(
+                    "{} {}\n{} ms, mae_shadowed {}, FLIP {}",
+                    run.technique,
+                    params_text(run),
+                    frame_time_ms(run).map_or("-".into(), ms),
+                    mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
+                    flip(run).map_or("-".into(), |v| format!("{v:.4}")),
+                ),
+            })
+        };
+        let mae_points: Vec<PlotPoint> = in_scene
+            .iter()
+            .filter_map(|&i| point(i, mae_shadowed(&runs[i])))
+            .collect();
+        let flip_points: Vec<PlotPoint> = in_scene
+            .iter()
+            .filter_map(|&i| point(i, flip(&runs[i])))
+            .collect();
+        summary.points += mae_points.len();
+        summary.unplotted += in_scene.len() - mae_points.len();
+        let title = format!("{scene} ({width}x{height})");
+        let _ = write!(
+            body,
+            "<h2 id=\"{}\">{}</h2><div class=\"plots\" data-scene=\"{}\">",
+            escape(&crate::sanitize(scene)),
+            escape(&title),
+            escape(scene)
+        );
+        body.push_str(&format!(
+            "<div class=\"plot mae\">{}</div>",
+            plot_svg(&mae_points, &styles, &title, "mae_shadowed")?
+        ));
+        body.push_str(&format!(
+            "<div class=\"plot flip\">{}</div></div>",
+            plot_svg(&flip_points, &styles, &title, "FLIP (mean)")?
+        ));
+        let front: Vec<usize> = pareto_front(
+            &mae_points
+                .iter()
+                .map(|p| (p.time_ms, p.value))
+                .collect::<Vec<_>>(),
+        )
+        .into_iter()
+        .map(|k| mae_points[k].run)
+        .collect();
+        body.push_str(&runs_table(runs, &in_scene, &front));
+        body.push_str(&image_strip(merged, &front));
+    }
+    let html = format!(
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>softshadow report</title><style>{STYLE}</style></head><body>{body}</body></html>\n"
+    );
+    Ok((html, summary))
+}
+
+fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
+    let mut t = String::from(
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
+    );
+    let mut order = in_scene.to_vec();
+    order.sort_by(|&a, &b| {
+        frame_time_ms(&runs[a])
+            .unwrap_or(f64::INFINITY)
+            .total_cmp(&frame_time_ms(&runs[b]).unwrap_or(f64::INFINITY))
+    });
+    for i in order {
+        let run = &runs[i];
+        let timing = run.timing.as_ref();
+        let warnings: Vec<String> = timing
+            .map(|t| t.warnings.clone())
+            .unwrap_or_default()
+            .into_iter()
+            .chain(run.warnings.iter().cloned())
+            .collect();
+        let status = match run.status {
+            Status::Ok if warnings.is_empty() => "ok".to_string(),
+            Status::Ok => format!(
+                "<span class=\"warn\">ok; {}</span>",
+                escape(&warnings.join("; "))
+            ),
+            Status::Error => format!(
+                "<span class=\"warn\">error: {}</span>",
+                escape(&run.message)
+            ),
+        };
+        let _ = write!(
+            t,
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            if front.contains(&i) { " class=\"front\"" } else { "" },
+            escape(&run.technique),
+            escape(&params_text(run)),
+            frame_time_ms(run).map_or("-".into(), ms),
+            timing
+                .and_then(|t| t.technique_ms.as_ref())
+                .map_or("-".into(), |p| ms(p.median)),
+            timing.map_or("-".into(), |t| t.source.to_string()),
+            mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
+            if run.error.is_some() { mae_against(run) } else { "-" },
+            flip(run).map_or("-".into(), |v| format!("{v:.4}")),
+            status
+        );
+    }
+    t.push_str("</table>");
+    t
+}
+
+fn image_strip(merged: &Merged, front: &[usize]) -> String {
+    let runs = &merged.results.runs;
+    let mut strip = String::from("<div class=\"strip\">");
+    let mut any = false;
+    if let Some(&first) = front.first() {
+        if let Some(uri) = runs[first]
+            .images
+            .get("reference_shaded")
+            .and_then(|n| data_uri(&merged.run_dirs[first].join(n)))
+        {
+            let _ = write!(
+                strip,
+                "<figure><img src=\"{uri}\" alt=\"reference\"><figcaption>reference</figcaption></figure>"
+            );
+            any = true;
+        }
+    }
+    for &i in front {
+        let run = &runs[i];
+        for kind in ["shaded", "difference"] {
+            if let Some(uri) = run
+                .images
+                .get(kind)
+                .and_then(|n| data_uri(&merged.run_dirs[i].join(n)))
+            {
+                let _ = write!(
+                    strip,
+                    "<figure><img src=\"{uri}\" alt=\"{kind}\" title=\"{}\"><figcaption>{} {kind}<br>{}</figcaption></figure>",
+                    escape(&params_text(run)),
+                    escape(&run.technique),
+                    frame_time_ms(run).map_or("-".into(), |t| format!("{} ms", ms(t)))
+                );
+                any = true;
+            }
+        }
+    }
+    strip.push_str("</div>");
+    if any {
+        format!("<h3>Runs on the Pareto front</h3>{strip}")
+    } else {
+        String::new()
+    }
+}
+
+/// Per scene and technique: the lowest mae_shadowed within each budget of [`BUDGETS`] x the
+/// fastest `hard` run's frame time on that scene, and the lowest frame time at which the
+/// technique reaches [`TARGET_MAE`].
+fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
+    let mut t = String::from("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>hard</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Last column: the fastest setting with mae_shadowed &le; 0.01.</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
+    for b in BUDGETS {
+        let _ = write!(t, "<th>&le; {b}x hard</th>");
+    }
+    t.push_str("<th>cost to mae &le; 0.01</th></tr>");
+    for (scene, width, height) in scenes {
+        let in_scene: Vec<&Run> = runs
+            .iter()
+            .filter(|r| {
+                &r.scene == scene
+                    && r.width == *width
+                    && r.height == *height
+                    && r.status == Status::Ok
+            })
+            .collect();
+        let hard = in_scene
+            .iter()
+            .filter(|r| r.technique == "hard")
+            .filter_map(|r| frame_time_ms(r))
+            .fold(f64::INFINITY, f64::min);
+        let mut techniques: Vec<&str> = in_scene.iter().map(|r| r.technique.as_str()).collect();
+        techniques.dedup();
+        techniques.sort();
+        techniques.dedup();
+        for technique in techniques {
+            let points: Vec<(f64, f64)> = in_scene
+                .iter()
+                .filter(|r| r.technique == technique)
+                .filter_map(|r| Some((frame_time_ms(r)?, mae_shadowed(r)?)))
+                .collect();
+            let _ = write!(
+                t,
+                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td>",
+                escape(scene),
+                escape(technique)
+            );
+            for b in BUDGETS {
+                let best = points
+                    .iter()
+                    .filter(|(time, _)| hard.is_finite() && *time <= b * hard)
+                    .map(|(_, e)| *e)
+                    .fold(f64::INFINITY, f64::min);
+                let _ = write!(
+                    t,
+                    "<td>{}</td>",
+                    if best.is_finite() {
+                        format!("{best:.4}")
+                    } else {
+                        "-".into()
+                    }
+                );
+            }
+            let cost = points
+                .iter()
+                .filter(|(_, e)| *e <= TARGET_MAE)
+                .map(|(time, _)| *time)
+                .fold(f64::INFINITY, f64::min);
+            let _ = write!(
+                t,
+                "<td>{}</td></tr>",
+                if !cost.is_finite() {
+                    "not reached".to_string()
+                } else if hard.is_finite() {
+                    format!("{} ms ({:.1}x hard)", ms(cost), cost / hard)
+                } else {
+                    format!("{} ms", ms(cost))
+                }
+            );
+        }
+    }
+    t.push_str("</table>");
+    t
+}
+
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// The runs as one flat CSV (one row per run), for pandas or R.
+pub fn runs_csv(merged: &Merged) -> String {
+    let mut out = String::from(
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,mae_shadowed,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
+    );
+    let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+    for run in &merged.results.runs {
+        let timing = run.timing.as_ref();
+        let frame = timing.and_then(|t| t.frame_ms.as_ref());
+        let error = run.error.as_ref();
+        let row = [
+            run.index.to_string(),
+            csv_field(&run.scene),
+            csv_field(&run.technique),
+            csv_field(&params_text(run)),
+            run.width.to_string(),
+            run.height.to_string(),
+            format!("{:?}", run.status).to_lowercase(),
+            timing.map_or(String::new(), |t| t.source.to_string()),
+            num(frame.map(|p| p.median)),
+            num(frame.map(|p| p.p10)),
+            num(frame.map(|p| p.p90)),
+            num(timing
+                .and_then(|t| t.technique_ms.as_ref())
+                .map(|p| p.median)),
+            num(timing.map(|t| t.cpu_ms.median)),
+            num(run
+                .timing_camera_only
+                .as_ref()
+                .and_then(|t| t.frame_ms.as_ref())
+                .map(|p| p.median)),
+            num(mae_shadowed(run)),
+            if error.is_some() {
+                mae_against(run).to_string()
+            } else {
+                String::new()
+            },
+            num(error.map(|e| e.report.mae_shadowed)),
+            num(error.map(|e| e.report.mae_all)),
+            num(error.map(|e| e.report.rmse)),
+            num(flip(run)),
+            csv_field(&run.message),
+        ];
+        out.push_str(&row.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_front_keeps_the_undominated_points() {
+        let points = [
+            (1.0, 0.5),
+            (2.0, 0.6),
+            (2.0, 0.3),
+            (4.0, 0.3),
+            (8.0, 0.1),
+            (0.5, 0.9),
+        ];
+        assert_eq!(pareto_front(&points), vec![5, 0, 2, 4]);
+        assert!(pareto_front(&[]).is_empty());
+    }
+}

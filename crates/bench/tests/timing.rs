@@ -1,0 +1,130 @@
+//! Timings that are true on a CPU adapter (issue 14): with `serial` timing the passes account for
+//! the frame's wall time, and a compute-heavy pass reads as the largest; with `timestamps` the
+//! calibration frame flags the compute pass whose timestamps miss its work.
+
+mod common;
+
+use anyhow::{ensure, Context, Result};
+use common::{gpu, run_checked};
+use softshadow_bench::{parse_params, registry, results, Bench, BenchOptions, RunSpec};
+use softshadow_core::{Renderer, SceneGpu, ShadingMode, TimingSource};
+
+fn options() -> BenchOptions {
+    BenchOptions {
+        frames: 3,
+        warmup: 1,
+        error: false,
+        images: false,
+        exact_samples_per_axis: None,
+        camera_only: false,
+        ..BenchOptions::default()
+    }
+}
+
+#[test]
+fn serial_pass_times_add_up_to_the_frame_wall_time_for_every_technique() -> Result<()> {
+    let gpu = gpu()?;
+    ensure!(
+        TimingSource::default_for(&gpu) == TimingSource::Serial,
+        "lavapipe is a CPU adapter: serial timing must be its default"
+    );
+    let loaded = softshadow_scenes::load("balls-3x3x3")?;
+    let scene = SceneGpu::upload(&gpu, &loaded.scene);
+    let (camera, light) = (loaded.scene.camera, loaded.scene.light);
+    let mut renderer = Renderer::new(&gpu, 64, 64)?;
+    ensure!(renderer.timing == TimingSource::Serial);
+    let mut report = Vec::new();
+    for info in registry::techniques() {
+        let mut technique = info.create_with(&gpu, &[])?;
+        technique.prepare(&gpu, &renderer.inputs(&scene, &camera, &light))?;
+        let mut ratios = Vec::new();
+        for _ in 0..3 {
+            technique.invalidate_cache();
+            let output = renderer.render(
+                &scene,
+                &camera,
+                &light,
+                technique.as_mut(),
+                Some(ShadingMode::Shaded),
+            )?;
+            ensure!(output.timing_source == TimingSource::Serial);
+            let timing = output.gpu.context("serial timing always has pass times")?;
+            ensure!(
+                timing.passes.len() == output.passes_run.len(),
+                "{}: {} timed passes for {:?}",
+                info.id,
+                timing.passes.len(),
+                output.passes_run
+            );
+            ratios.push(timing.total_ms / output.cpu_ms);
+        }
+        // The median frame: one slow outlier on a shared machine does not decide it.
+        let ratio = results::percentile(&ratios, 0.5);
+        report.push(format!("{} {ratio:.3}", info.id));
+        ensure!(
+            (0.8..=1.0 + 1e-9).contains(&ratio),
+            "{}: the passes add up to {:.0}% of the frame's wall time (must be 80-100%)",
+            info.id,
+            ratio * 100.0
+        );
+    }
+    // Measured on lavapipe (2 shared cores): hard 0.972, pcss 0.965, ssm 0.991,
+    // backprojection 0.995, reference 0.973 (bound: 0.8).
+    eprintln!("sum of pass times / frame wall time: {}", report.join(", "));
+    Ok(())
+}
+
+fn backprojection_full_search(bench: &mut Bench) -> Result<softshadow_bench::Run> {
+    let spec = RunSpec {
+        scene: "balls-3x3x3".into(),
+        technique: "backprojection".into(),
+        params: parse_params("backprojection", &["hierarchy=none".to_string()])?,
+        width: 64,
+        height: 64,
+    };
+    run_checked(bench, &spec)
+}
+
+#[test]
+fn serial_timing_shows_the_backprojection_gather_as_the_largest_pass() -> Result<()> {
+    let mut bench = Bench::new(gpu()?, options())?;
+    let run = backprojection_full_search(&mut bench)?;
+    let timing = run.timing.context("timing")?;
+    ensure!(timing.source == TimingSource::Serial);
+    let largest = timing
+        .passes
+        .iter()
+        .max_by(|a, b| a.ms_median.total_cmp(&b.ms_median))
+        .context("no passes")?;
+    let all: Vec<String> = timing
+        .passes
+        .iter()
+        .map(|p| format!("{} {:.3}", p.name, p.ms_median))
+        .collect();
+    eprintln!("backprojection hierarchy=none, balls-3x3x3 64x64, serial ms: {all:?}");
+    ensure!(
+        largest.name == "backprojection/gather",
+        "the largest pass is {} ({all:?})",
+        largest.name
+    );
+    Ok(())
+}
+
+#[test]
+fn timestamps_on_lavapipe_are_flagged_by_the_calibration_frame() -> Result<()> {
+    let mut bench = Bench::new(gpu()?, options())?;
+    bench.set_timing(Some(TimingSource::Timestamps));
+    let run = backprojection_full_search(&mut bench)?;
+    let timing = run.timing.context("timing")?;
+    ensure!(timing.source == TimingSource::Timestamps);
+    eprintln!("calibration warnings: {:?}", timing.warnings);
+    ensure!(
+        timing
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("backprojection/gather:") && w.contains("--timing serial")),
+        "lavapipe's timestamps do not wait for compute work, so the gather must be flagged: {:?}",
+        timing.warnings
+    );
+    Ok(())
+}
