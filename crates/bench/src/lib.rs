@@ -15,8 +15,8 @@ use std::{
 };
 
 use softshadow_core::{
-    Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu,
-    ShadingMode, ShadowTechnique, TechniqueError,
+    AreaLight, Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene,
+    SceneGpu, ShadingMode, ShadowTechnique, TechniqueError,
 };
 use softshadow_metrics::ErrorReport;
 use thiserror::Error;
@@ -182,6 +182,9 @@ pub struct Bench {
     renderers: HashMap<(u32, u32), Renderer>,
     reference: Option<Box<dyn ShadowTechnique>>,
     references: HashMap<(String, u32, u32), ReferenceResult>,
+    /// Camera and light replacing every scene's own (a sweep exported by the viewer).
+    camera: Option<Camera>,
+    light: Option<AreaLight>,
 }
 
 impl Bench {
@@ -198,6 +201,8 @@ impl Bench {
             renderers: HashMap::new(),
             reference: None,
             references: HashMap::new(),
+            camera: None,
+            light: None,
         })
     }
 
@@ -208,6 +213,15 @@ impl Bench {
             backend: s.backend,
             driver: s.driver,
         }
+    }
+
+    /// Sees every scene from `camera` and lights it with `light` instead of the scene's own
+    /// (`None` keeps the scene's): how a sweep exported by the viewer measures the view it plotted.
+    pub fn set_view(&mut self, camera: Option<Camera>, light: Option<AreaLight>) {
+        self.camera = camera;
+        self.light = light;
+        // References were computed for the previous view.
+        self.references.clear();
     }
 
     /// Runs one spec; never fails: errors are recorded in the returned [`Run`].
@@ -270,7 +284,8 @@ impl Bench {
         let scene = &self.scenes[&spec.scene];
         run.warnings = scene.warnings.clone();
         let renderer = self.renderers.get_mut(&key).expect("inserted above");
-        let (camera, light) = (scene.scene.camera, scene.scene.light);
+        let camera = self.camera.unwrap_or(scene.scene.camera);
+        let light = self.light.unwrap_or(scene.scene.light);
         technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
 
         for _ in 0..self.options.warmup {
@@ -409,7 +424,8 @@ impl Bench {
                 .renderers
                 .get_mut(&(spec.width, spec.height))
                 .expect("created by the run");
-            let (camera, light) = (scene.scene.camera, scene.scene.light);
+            let camera = self.camera.unwrap_or(scene.scene.camera);
+            let light = self.light.unwrap_or(scene.scene.light);
             renderer.render(
                 &scene.gpu,
                 &camera,
@@ -599,6 +615,19 @@ pub fn run_all(
     specs: &[RunSpec],
     options: BenchOptions,
     out_dir: &Path,
+    progress: impl FnMut(usize, &Run),
+) -> Result<Results, BenchError> {
+    run_all_with_view(gpu, specs, options, (None, None), out_dir, progress)
+}
+
+/// [`run_all`] with every scene seen from `view`'s camera and light where given (see
+/// [`Bench::set_view`]; a sweep's `[camera]` and `[light]`).
+pub fn run_all_with_view(
+    gpu: Gpu,
+    specs: &[RunSpec],
+    options: BenchOptions,
+    (camera, light): (Option<Camera>, Option<AreaLight>),
+    out_dir: &Path,
     mut progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
     std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Write {
@@ -606,6 +635,7 @@ pub fn run_all(
         message: e.to_string(),
     })?;
     let mut bench = Bench::new(gpu, options)?;
+    bench.set_view(camera, light);
     let mut results = Results {
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),

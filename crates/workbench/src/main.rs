@@ -55,7 +55,7 @@ struct ViewArgs {
     #[arg(long)]
     state: Option<PathBuf>,
     /// Window size in pixels.
-    #[arg(long, default_value = "960x540", value_name = "WxH")]
+    #[arg(long, default_value = "1280x800", value_name = "WxH")]
     size: String,
     /// Render this many frames, then exit (prints the mean frame time).
     #[arg(long)]
@@ -126,7 +126,7 @@ fn main() -> ExitCode {
         None => view(ViewArgs {
             scene: "atty-square".into(),
             technique: "pcss".into(),
-            size: "960x540".into(),
+            size: "1280x800".into(),
             ..ViewArgs::default()
         }),
     };
@@ -229,12 +229,14 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         (None, Some(name)) => Some(load_suite(name)?),
         (None, None) => None,
     };
-    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(sweep) = sweep {
+    let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) = sweep
+    {
         (
             sweep.runs,
             sweep.frames,
             sweep.warmup,
             sweep.reference_params,
+            (sweep.camera, sweep.light),
         )
     } else {
         let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
@@ -250,7 +252,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             height,
         };
         softshadow_bench::validate(&spec)?;
-        (vec![spec], None, None, Vec::new())
+        (vec![spec], None, None, Vec::new(), (None, None))
     };
     let reference = registry::find("reference")?;
     for text in &args.reference_params {
@@ -275,16 +277,17 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let results = softshadow_bench::run_all(gpu, &specs, options, &args.out, |_, run| {
-        progress.set_message(format!("{} / {}", run.scene, run.technique));
-        progress.inc(1);
-        if run.status == Status::Error {
-            progress.println(format!(
-                "run failed: {} / {}: {}",
-                run.scene, run.technique, run.message
-            ));
-        }
-    })?;
+    let results =
+        softshadow_bench::run_all_with_view(gpu, &specs, options, view, &args.out, |_, run| {
+            progress.set_message(format!("{} / {}", run.scene, run.technique));
+            progress.inc(1);
+            if run.status == Status::Error {
+                progress.println(format!(
+                    "run failed: {} / {}: {}",
+                    run.scene, run.technique, run.message
+                ));
+            }
+        })?;
     progress.finish_and_clear();
     let failed = results
         .runs
