@@ -435,7 +435,6 @@ impl ViewerApp {
         self.technique_error = None;
         self.prepared = None;
         self.timings.clear();
-        self.measured = None;
         let result = registry::find(id)
             .map_err(ViewerError::from)
             .and_then(|info| {
@@ -468,8 +467,7 @@ impl ViewerApp {
                     .or_default()
                     .insert(name.to_string(), value);
                 self.timings.clear();
-                self.measured = None;
-            }
+                    }
             Err(e) => self.report_error(e.to_string()),
         }
     }
@@ -501,8 +499,7 @@ impl ViewerApp {
                 self.scene = scene;
                 self.prepared = None;
                 self.timings.clear();
-                self.measured = None;
-            }
+                    }
             Err(e) => self.report_error(format!("cannot open scene `{spec}`: {e}")),
         }
     }
@@ -737,7 +734,6 @@ impl ViewerApp {
         self.reference_key = None;
         self.prepared = None;
         self.timings.clear();
-        self.measured = None;
         Ok(())
     }
 
@@ -1057,6 +1053,10 @@ impl ViewerApp {
     fn controls_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Soft-shadow viewer");
         self.errors_ui(ui);
+        if let Some(status) = &self.status {
+            // Where the last screenshot, state or sweep went, whichever section is open.
+            ui.colored_label(egui::Color32::LIGHT_GREEN, status);
+        }
 
         ui.collapsing("Scene", |ui| self.scene_ui(ui))
             .header_response

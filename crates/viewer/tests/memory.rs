@@ -47,7 +47,7 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
         .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
 
     // One switch each way: heavy scene, pcss, light scene, hard.
-    let mut switch = |harness: &mut Harness<ViewerApp>, k: usize| -> Result<()> {
+    let switch = |harness: &mut Harness<ViewerApp>, k: usize| -> Result<()> {
         match k % 4 {
             0 => harness.state_mut().open_scene(&heavy),
             1 => harness.state_mut().select_technique("pcss"),

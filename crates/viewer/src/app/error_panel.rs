@@ -25,22 +25,75 @@ const SERIES_COLOURS: [egui::Color32; 10] = [
 ];
 
 /// Markers, so two techniques differ in shape as well as colour.
-const SERIES_MARKERS: [(egui_plot::MarkerShape, &str); 7] = [
-    (egui_plot::MarkerShape::Circle, "●"),
-    (egui_plot::MarkerShape::Square, "■"),
-    (egui_plot::MarkerShape::Diamond, "◆"),
-    (egui_plot::MarkerShape::Up, "▲"),
-    (egui_plot::MarkerShape::Down, "▼"),
-    (egui_plot::MarkerShape::Cross, "✖"),
-    (egui_plot::MarkerShape::Plus, "✚"),
+const SERIES_MARKERS: [egui_plot::MarkerShape; 7] = [
+    egui_plot::MarkerShape::Circle,
+    egui_plot::MarkerShape::Square,
+    egui_plot::MarkerShape::Diamond,
+    egui_plot::MarkerShape::Up,
+    egui_plot::MarkerShape::Down,
+    egui_plot::MarkerShape::Cross,
+    egui_plot::MarkerShape::Plus,
 ];
 
 /// Colour and marker of the technique at `index` in the registry: every pair differs in colour
 /// for up to 10 techniques and in (colour, marker) for up to 70.
-pub fn series_style(index: usize) -> (egui::Color32, egui_plot::MarkerShape, &'static str) {
-    let colour = SERIES_COLOURS[index % SERIES_COLOURS.len()];
-    let (shape, glyph) = SERIES_MARKERS[index % SERIES_MARKERS.len()];
-    (colour, shape, glyph)
+pub fn series_style(index: usize) -> (egui::Color32, egui_plot::MarkerShape) {
+    (
+        SERIES_COLOURS[index % SERIES_COLOURS.len()],
+        SERIES_MARKERS[index % SERIES_MARKERS.len()],
+    )
+}
+
+/// The legend's copy of a plot marker (the default font has no geometric-shape glyphs).
+fn legend_marker(ui: &mut egui::Ui, colour: egui::Color32, shape: egui_plot::MarkerShape) {
+    use egui_plot::MarkerShape as M;
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
+    let painter = ui.painter();
+    let (c, r) = (rect.center(), 5.0);
+    let stroke = egui::Stroke::new(2.0, colour);
+    let polygon = |points: Vec<egui::Pos2>| {
+        painter.add(egui::Shape::convex_polygon(
+            points,
+            colour,
+            egui::Stroke::NONE,
+        ));
+    };
+    match shape {
+        M::Circle => {
+            painter.circle_filled(c, r, colour);
+        }
+        M::Square => {
+            painter.rect_filled(
+                egui::Rect::from_center_size(c, egui::vec2(2.0 * r, 2.0 * r)),
+                0.0,
+                colour,
+            );
+        }
+        M::Diamond => polygon(vec![
+            c + egui::vec2(0.0, -r),
+            c + egui::vec2(r, 0.0),
+            c + egui::vec2(0.0, r),
+            c + egui::vec2(-r, 0.0),
+        ]),
+        M::Up => polygon(vec![
+            c + egui::vec2(0.0, -r),
+            c + egui::vec2(r, r),
+            c + egui::vec2(-r, r),
+        ]),
+        M::Down => polygon(vec![
+            c + egui::vec2(-r, -r),
+            c + egui::vec2(r, -r),
+            c + egui::vec2(0.0, r),
+        ]),
+        M::Cross => {
+            painter.line_segment([c + egui::vec2(-r, -r), c + egui::vec2(r, r)], stroke);
+            painter.line_segment([c + egui::vec2(-r, r), c + egui::vec2(r, -r)], stroke);
+        }
+        _ => {
+            painter.line_segment([c + egui::vec2(-r, 0.0), c + egui::vec2(r, 0.0)], stroke);
+            painter.line_segment([c + egui::vec2(0.0, -r), c + egui::vec2(0.0, r)], stroke);
+        }
+    }
 }
 
 /// Plot bounds that hold every point with a margin, from zero (linear) or one decade around the
@@ -181,7 +234,7 @@ impl ViewerApp {
                 );
             }
             for (index, id) in &series {
-                let (colour, shape, _) = series_style(*index);
+                let (colour, shape) = series_style(*index);
                 let data: Vec<[f64; 2]> = self
                     .points
                     .iter()
@@ -200,11 +253,19 @@ impl ViewerApp {
         // The legend, outside the data.
         ui.horizontal_wrapped(|ui| {
             for (index, id) in &series {
-                let (colour, _, glyph) = series_style(*index);
-                ui.colored_label(colour, format!("{glyph} {id}"));
+                let (colour, shape) = series_style(*index);
+                legend_marker(ui, colour, shape);
+                ui.colored_label(colour, *id);
             }
             if !front.is_empty() {
-                ui.colored_label(egui::Color32::from_gray(200), "— Pareto front");
+                let (rect, _) =
+                    ui.allocate_exact_size(egui::vec2(14.0, 12.0), egui::Sense::hover());
+                ui.painter().hline(
+                    rect.x_range(),
+                    rect.center().y,
+                    egui::Stroke::new(1.5, egui::Color32::from_gray(200)),
+                );
+                ui.colored_label(egui::Color32::from_gray(200), "Pareto front");
             }
         });
         for &i in &front {

@@ -33,9 +33,5 @@ impl ViewerApp {
         if let Some(message) = &self.puffin_message {
             ui.small(message);
         }
-        if let Some(status) = &self.status {
-            // Confirms where the last screenshot, state or sweep went.
-            ui.colored_label(egui::Color32::LIGHT_GREEN, status);
-        }
     }
 }

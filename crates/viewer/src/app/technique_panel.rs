@@ -55,7 +55,7 @@ impl ViewerApp {
             .as_ref()
             .map_or((0, 0), |r| (r.width, r.height));
         let label = |size: Option<(u32, u32)>| match size {
-            None => format!("fit the image ({}x{})", current.0, current.1),
+            None => format!("fit ({}x{})", current.0, current.1),
             Some((w, h)) => format!("{w}x{h}"),
         };
         egui::ComboBox::from_label("render size")
@@ -241,7 +241,7 @@ fn debug_legend(ui: &mut egui::Ui, name: &str, mapping: Option<&DebugMapping>) {
             swatch(
                 ui,
                 egui::Color32::from_rgb(0, 38, 255),
-                "... up to max_patches² primitives (blue)",
+                "... up to max_patches^2 primitives (blue)",
             );
             swatch(ui, egui::Color32::BLACK, "off-receiver");
         }
