@@ -17,8 +17,8 @@ use std::{
 };
 
 use softshadow_core::{
-    Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene, SceneGpu,
-    ShadingMode, ShadowTechnique, TechniqueError, TimingSource,
+    AreaLight, Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene,
+    SceneGpu, ShadingMode, ShadowTechnique, TechniqueError, TimingSource,
 };
 use softshadow_metrics::ErrorReport;
 use thiserror::Error;
@@ -196,6 +196,9 @@ pub struct Bench {
     renderers: HashMap<(u32, u32), Renderer>,
     reference: Option<Box<dyn ShadowTechnique>>,
     references: HashMap<(String, u32, u32), ReferenceResult>,
+    /// Camera and light replacing every scene's own (a sweep exported by the viewer).
+    camera: Option<Camera>,
+    light: Option<AreaLight>,
 }
 
 impl Bench {
@@ -214,6 +217,8 @@ impl Bench {
             renderers: HashMap::new(),
             reference: None,
             references: HashMap::new(),
+            camera: None,
+            light: None,
         })
     }
 
@@ -237,6 +242,15 @@ impl Bench {
             backend: s.backend,
             driver: s.driver,
         }
+    }
+
+    /// Sees every scene from `camera` and lights it with `light` instead of the scene's own
+    /// (`None` keeps the scene's): how a sweep exported by the viewer measures the view it plotted.
+    pub fn set_view(&mut self, camera: Option<Camera>, light: Option<AreaLight>) {
+        self.camera = camera;
+        self.light = light;
+        // References were computed for the previous view.
+        self.references.clear();
     }
 
     /// Runs one spec; never fails: errors are recorded in the returned [`Run`].
@@ -302,7 +316,8 @@ impl Bench {
         run.warnings = scene.warnings.clone();
         let renderer = self.renderers.get_mut(&key).expect("inserted above");
         renderer.timing = timing_source;
-        let (camera, light) = (scene.scene.camera, scene.scene.light);
+        let camera = self.camera.unwrap_or(scene.scene.camera);
+        let light = self.light.unwrap_or(scene.scene.light);
         technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
 
         for _ in 0..self.options.warmup {
@@ -460,7 +475,8 @@ impl Bench {
                 .renderers
                 .get_mut(&(spec.width, spec.height))
                 .expect("created by the run");
-            let (camera, light) = (scene.scene.camera, scene.scene.light);
+            let camera = self.camera.unwrap_or(scene.scene.camera);
+            let light = self.light.unwrap_or(scene.scene.light);
             renderer.render(
                 &scene.gpu,
                 &camera,
@@ -687,17 +703,27 @@ pub fn run_all(
     progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
     let indexed: Vec<(usize, RunSpec)> = specs.iter().cloned().enumerate().collect();
-    run_indexed(gpu, &indexed, None, options, None, out_dir, progress)
+    run_indexed(gpu, &indexed, RunSetup::default(), options, out_dir, progress)
+}
+
+/// How a set of runs is made beyond [`BenchOptions`]: which sweep (and shard) they belong to,
+/// the timing source ([`Bench::set_timing`]) and a camera and light that replace every scene's
+/// own ([`Bench::set_view`]; a sweep's `[camera]` and `[light]`).
+#[derive(Clone, Debug, Default)]
+pub struct RunSetup {
+    pub sweep: Option<SweepInfo>,
+    pub timing: Option<TimingSource>,
+    pub camera: Option<Camera>,
+    pub light: Option<AreaLight>,
 }
 
 /// Like [`run_all`] for runs that carry their index in a sweep (a shard, see
-/// [`Sweep::shard`]), recording `sweep` in results.json; `timing` as in [`Bench::set_timing`].
+/// [`Sweep::shard`]), made as `setup` says (recorded in results.json).
 pub fn run_indexed(
     gpu: Gpu,
     specs: &[(usize, RunSpec)],
-    sweep: Option<SweepInfo>,
+    setup: RunSetup,
     options: BenchOptions,
-    timing: Option<TimingSource>,
     out_dir: &Path,
     mut progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
@@ -706,11 +732,12 @@ pub fn run_indexed(
         message: e.to_string(),
     })?;
     let mut bench = Bench::new(gpu, options)?;
-    bench.set_timing(timing);
+    bench.set_timing(setup.timing);
+    bench.set_view(setup.camera, setup.light);
     let mut results = Results {
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),
-        sweep,
+        sweep: setup.sweep,
         runs: Vec::with_capacity(specs.len()),
     };
     for (k, (index, spec)) in specs.iter().enumerate() {

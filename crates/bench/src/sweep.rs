@@ -9,6 +9,16 @@
 //! [reference]             # optional: settings of the reference
 //! samples_per_axis = 16
 //!
+//! [camera]                # optional: every scene is seen from this camera instead of its own
+//! eye = [0.0, 5.0, 6.0]   # (all fields; the viewer's "Export sweep" writes them)
+//! target = [0.0, 0.0, 0.0]
+//! up = [0.0, 1.0, 0.0]
+//! fov_y_degrees = 45.0
+//! near = 0.05
+//! far = 100.0
+//!
+//! [light]                 # optional, likewise: center, direction, up, width, height, intensity
+//!
 //! [[technique]]
 //! id = "pcss"
 //! [technique.params]      # a value or a list of values; lists multiply (a grid)
@@ -19,7 +29,7 @@
 use std::{collections::BTreeMap, path::Path};
 
 use serde::Deserialize;
-use softshadow_core::{ParamValue, TimingSource};
+use softshadow_core::{AreaLight, Camera, ParamValue, TimingSource};
 
 use crate::{parse_size, registry, results::Shard, BenchError, BenchOptions, RunSpec};
 
@@ -35,6 +45,10 @@ struct SweepFile {
     scenes: Vec<String>,
     #[serde(default)]
     reference: BTreeMap<String, toml::Value>,
+    #[serde(default)]
+    camera: Option<Camera>,
+    #[serde(default)]
+    light: Option<AreaLight>,
     technique: Vec<TechniqueGrid>,
 }
 
@@ -53,6 +67,9 @@ pub struct Sweep {
     pub frames: Option<u32>,
     pub warmup: Option<u32>,
     pub reference_params: Vec<(String, ParamValue)>,
+    /// Camera and light that replace every scene's own (see [`crate::Bench::set_view`]).
+    pub camera: Option<Camera>,
+    pub light: Option<AreaLight>,
 }
 
 fn value_text(v: &toml::Value) -> Option<String> {
@@ -96,6 +113,14 @@ impl Sweep {
             return Err(err(
                 "no [[technique]] table: add one with `id = \"pcss\"`".into()
             ));
+        }
+        if let Some(camera) = &file.camera {
+            camera
+                .validate()
+                .map_err(|e| err(format!("[camera]: {e}")))?;
+        }
+        if let Some(light) = &file.light {
+            light.validate().map_err(|e| err(format!("[light]: {e}")))?;
         }
         let reference_info = softshadow_reference::info();
         let mut reference_params = Vec::new();
@@ -158,6 +183,8 @@ impl Sweep {
             frames: file.frames,
             warmup: file.warmup,
             reference_params,
+            camera: file.camera,
+            light: file.light,
         })
     }
 }
@@ -209,6 +236,8 @@ impl Sweep {
             timing,
             options.reference_params
         ));
+        // A sweep seen from another camera or light measures something else.
+        text.push_str(&format!(" camera={:?} light={:?}", self.camera, self.light));
         format!("{:016x}", fnv1a(text.as_bytes()))
     }
 
@@ -260,6 +289,8 @@ impl Sweep {
                     frames: Some(3),
                     warmup: Some(1),
                     reference_params: Vec::new(),
+                    camera: None,
+                    light: None,
                 })
             }
             _ => Err(BenchError::UnknownSuite {

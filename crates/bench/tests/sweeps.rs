@@ -11,7 +11,7 @@ use anyhow::{ensure, Context, Result};
 use common::gpu;
 use softshadow_bench::{
     merge::{self, Loaded},
-    report, run_indexed, BenchOptions, Shard, Status, Sweep, SweepInfo,
+    report, run_indexed, BenchOptions, RunSetup, Shard, Status, Sweep, SweepInfo,
 };
 
 const SWEEP: &str = r#"
@@ -49,15 +49,11 @@ fn run_shard(sweep: &Sweep, shard: Option<Shard>, dir: &Path) -> Result<()> {
         runs_total: sweep.runs.len(),
         shard,
     };
-    let results = run_indexed(
-        gpu()?,
-        &sweep.shard(shard),
-        Some(info),
-        options,
-        None,
-        dir,
-        |_, _| {},
-    )?;
+    let setup = RunSetup {
+        sweep: Some(info),
+        ..Default::default()
+    };
+    let results = run_indexed(gpu()?, &sweep.shard(shard), setup, options, dir, |_, _| {})?;
     for run in &results.runs {
         ensure!(
             run.status == Status::Ok,

@@ -81,8 +81,50 @@ struct DisplayParams {
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct DebugParams {
-    contrast: f32,
-    _pad: [f32; 3],
+    /// 0: grey over the value range, 1: the texture's own colours.
+    mode: u32,
+    _pad: [u32; 3],
+}
+
+/// Mirrors `Range` in `shaders/viewer/debug_range.wgsl` (order-preserving u32 keys).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct RangeKeys {
+    lo: u32,
+    hi: u32,
+    count: u32,
+    _pad: u32,
+}
+
+impl RangeKeys {
+    /// Before the reduction: an empty range.
+    const EMPTY: Self = Self {
+        lo: u32::MAX,
+        hi: 0,
+        count: 0,
+        _pad: 0,
+    };
+}
+
+/// Inverse of `ordered` in `debug_range.wgsl`.
+fn unordered(key: u32) -> f32 {
+    f32::from_bits(if key & 0x8000_0000 != 0 {
+        key & 0x7fff_ffff
+    } else {
+        !key
+    })
+}
+
+/// How a debug image was mapped to the screen, for the legend.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DebugMapping {
+    /// A depth map: caster texels black (`lo`, nearest) to white (`hi`); `count` of them hold a
+    /// caster, the rest (dark blue) are empty.
+    Depth { lo: f32, hi: f32, count: u32 },
+    /// A float image: the red channel black (`lo`) to white (`hi`) over `count` finite texels.
+    Float { lo: f32, hi: f32, count: u32 },
+    /// A colour image shown as it is.
+    Colour,
 }
 
 /// A texture the viewer draws into and egui samples.
@@ -125,6 +167,12 @@ pub struct DisplayPass {
     debug_depth_layout: wgpu::BindGroupLayout,
     debug_float_layout: wgpu::BindGroupLayout,
     debug_params: wgpu::Buffer,
+    range_depth: wgpu::ComputePipeline,
+    range_float: wgpu::ComputePipeline,
+    range_depth_layout: wgpu::BindGroupLayout,
+    range_float_layout: wgpu::BindGroupLayout,
+    range: wgpu::Buffer,
+    range_readback: wgpu::Buffer,
 }
 
 impl DisplayPass {
@@ -153,11 +201,27 @@ impl DisplayPass {
                     entries: &[
                         texture_entry(0, stage, sample_type),
                         uniform_entry(1, stage, false),
+                        storage_entry(2, stage, true),
                     ],
                 })
         };
         let debug_depth_layout = debug_layout("viewer/debug_depth", wgpu::TextureSampleType::Depth);
         let debug_float_layout = debug_layout("viewer/debug_float", float);
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let range_layout = |label, sample_type| {
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries: &[
+                        texture_entry(0, compute, sample_type),
+                        storage_entry(1, compute, false),
+                    ],
+                })
+        };
+        let range_depth_layout =
+            range_layout("viewer/debug_range_depth", wgpu::TextureSampleType::Depth);
+        let range_float_layout = range_layout("viewer/debug_range_float", float);
+        let range_size = std::mem::size_of::<RangeKeys>() as u64;
         Ok(Self {
             debug_depth: pipeline(
                 gpu,
@@ -179,6 +243,34 @@ impl DisplayPass {
             debug_params: uniform_buffer(gpu, "viewer/debug", &DebugParams::zeroed()),
             debug_depth_layout,
             debug_float_layout,
+            range_depth: compute_pipeline(
+                gpu,
+                "viewer/debug_range_depth",
+                &[("DEPTH", DefValue::Bool(true))],
+                &range_depth_layout,
+            )?,
+            range_float: compute_pipeline(
+                gpu,
+                "viewer/debug_range_float",
+                &[],
+                &range_float_layout,
+            )?,
+            range_depth_layout,
+            range_float_layout,
+            range: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("viewer/debug_range"),
+                size: range_size,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            range_readback: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("viewer/debug_range_readback"),
+                size: range_size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
         })
     }
 
@@ -237,36 +329,51 @@ impl DisplayPass {
         draw(encoder, &self.pipeline, &bind_group, &target.view);
     }
 
-    /// Draws a technique's debug texture (2D depth or float, layer 0) into `target`, stretched.
-    /// Returns an error message for a texture this pass cannot show.
+    /// Draws a technique's debug texture (2D depth or float, layer 0) into `target`, stretched:
+    /// a depth map or a one-channel float image is mapped black to white over the range of its
+    /// meaningful texels (found by `debug_range.wgsl` in the same encoder; read it with
+    /// [`DisplayPass::read_debug_mapping`] once the encoder is submitted), a colour image is
+    /// shown as it is.
     pub fn record_debug(
         &self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         source: &wgpu::Texture,
-        contrast: f32,
         target: &DisplayTarget,
-    ) -> Result<(), String> {
+    ) -> Result<DebugKind, String> {
         let format = source.format();
-        let (pipeline, layout, aspect) = if format.is_depth_stencil_format() {
-            (
-                &self.debug_depth,
-                &self.debug_depth_layout,
-                wgpu::TextureAspect::DepthOnly,
-            )
-        } else if format.sample_type(None, None)
-            == Some(wgpu::TextureSampleType::Float { filterable: true })
-            || format.sample_type(None, None)
-                == Some(wgpu::TextureSampleType::Float { filterable: false })
-        {
-            (
-                &self.debug_float,
-                &self.debug_float_layout,
-                wgpu::TextureAspect::All,
-            )
-        } else {
-            return Err(format!("cannot show a {format:?} debug texture"));
-        };
+        let float_sample = format.sample_type(None, None);
+        let (kind, pipeline, layout, range, range_layout, aspect) =
+            if format.is_depth_stencil_format() {
+                (
+                    DebugKind::Depth,
+                    &self.debug_depth,
+                    &self.debug_depth_layout,
+                    &self.range_depth,
+                    &self.range_depth_layout,
+                    wgpu::TextureAspect::DepthOnly,
+                )
+            } else if float_sample == Some(wgpu::TextureSampleType::Float { filterable: true })
+                || float_sample == Some(wgpu::TextureSampleType::Float { filterable: false })
+            {
+                // Several channels in a unorm format are colours (a classification image); one
+                // channel, or float channels, are values to map.
+                let colour = format.components() > 1 && !is_float_format(format);
+                (
+                    if colour {
+                        DebugKind::Colour
+                    } else {
+                        DebugKind::Float
+                    },
+                    &self.debug_float,
+                    &self.debug_float_layout,
+                    &self.range_float,
+                    &self.range_float_layout,
+                    wgpu::TextureAspect::All,
+                )
+            } else {
+                return Err(format!("cannot show a {format:?} debug texture"));
+            };
         if source.dimension() != wgpu::TextureDimension::D2
             || !source
                 .usage()
@@ -278,10 +385,12 @@ impl DisplayPass {
             &self.debug_params,
             0,
             bytemuck::bytes_of(&DebugParams {
-                contrast,
-                _pad: [0.0; 3],
+                mode: u32::from(kind == DebugKind::Colour),
+                _pad: [0; 3],
             }),
         );
+        gpu.queue
+            .write_buffer(&self.range, 0, bytemuck::bytes_of(&RangeKeys::EMPTY));
         let view = source.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2),
             aspect,
@@ -289,6 +398,29 @@ impl DisplayPass {
             array_layer_count: Some(1),
             ..Default::default()
         });
+        let range_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("viewer/debug_range"),
+            layout: range_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.range.as_entire_binding(),
+                },
+            ],
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("viewer/debug_range"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(range);
+            pass.set_bind_group(0, &range_bind_group, &[]);
+            pass.dispatch_workgroups(source.width().div_ceil(8), source.height().div_ceil(8), 1);
+        }
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewer/debug"),
             layout,
@@ -301,10 +433,137 @@ impl DisplayPass {
                     binding: 1,
                     resource: self.debug_params.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: self.range.as_entire_binding(),
+                },
             ],
         });
         draw(encoder, pipeline, &bind_group, &target.view);
-        Ok(())
+        encoder.copy_buffer_to_buffer(&self.range, 0, &self.range_readback, 0, None);
+        Ok(kind)
+    }
+
+    /// The range the last [`DisplayPass::record_debug`] mapped (call after submitting its
+    /// encoder; waits for the GPU).
+    pub fn read_debug_mapping(&self, gpu: &Gpu, kind: DebugKind) -> Result<DebugMapping, GpuError> {
+        if kind == DebugKind::Colour {
+            return Ok(DebugMapping::Colour);
+        }
+        let slice = self.range_readback.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sender.send(r);
+        });
+        gpu.wait_idle()?;
+        receiver
+            .recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let keys: RangeKeys = {
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            bytemuck::pod_read_unaligned(&data[..std::mem::size_of::<RangeKeys>()])
+        };
+        self.range_readback.unmap();
+        let (lo, hi, count) = if keys.count == 0 {
+            (f32::NAN, f32::NAN, 0)
+        } else {
+            (unordered(keys.lo), unordered(keys.hi), keys.count)
+        };
+        Ok(match kind {
+            DebugKind::Depth => DebugMapping::Depth { lo, hi, count },
+            _ => DebugMapping::Float { lo, hi, count },
+        })
+    }
+}
+
+/// What kind of debug image [`DisplayPass::record_debug`] drew.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DebugKind {
+    Depth,
+    Float,
+    Colour,
+}
+
+fn is_float_format(format: wgpu::TextureFormat) -> bool {
+    matches!(
+        format,
+        wgpu::TextureFormat::R16Float
+            | wgpu::TextureFormat::Rg16Float
+            | wgpu::TextureFormat::Rgba16Float
+            | wgpu::TextureFormat::R32Float
+            | wgpu::TextureFormat::Rg32Float
+            | wgpu::TextureFormat::Rgba32Float
+    )
+}
+
+fn storage_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    read_only: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn compute_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    defs: &[(&str, DefValue)],
+    layout: &wgpu::BindGroupLayout,
+) -> Result<wgpu::ComputePipeline, GpuError> {
+    let module = shader::create_module(gpu, &SHADERS[2], defs)?;
+    let pipeline_layout = gpu
+        .device
+        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(layout)],
+            immediate_size: 0,
+        });
+    Ok(gpu
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("cs_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn order_preserving_keys_round_trip_and_sort_like_floats() {
+        // The CPU mirror of `ordered` in debug_range.wgsl.
+        let ordered = |x: f32| {
+            let bits = x.to_bits();
+            if bits & 0x8000_0000 != 0 {
+                !bits
+            } else {
+                bits | 0x8000_0000
+            }
+        };
+        let values = [-3.5f32, -1.0, -0.0, 0.0, 1e-6, 0.25, 0.999, 1.0, 4.0];
+        for pair in values.windows(2) {
+            assert!(ordered(pair[0]) <= ordered(pair[1]), "{pair:?}");
+        }
+        for x in values {
+            assert_eq!(unordered(ordered(x)).to_bits(), x.to_bits());
+        }
     }
 }
 

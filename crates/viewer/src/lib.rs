@@ -47,6 +47,12 @@ pub const SHADERS: &[ShaderSpec] = &[
         // `#ifdef DEPTH`: defined for depth textures, absent for float ones.
         permutations: &[&[("DEPTH", DefValue::Bool(true))], &[]],
     },
+    ShaderSpec {
+        path: "viewer/debug_range.wgsl",
+        source: shader_file!("viewer/debug_range.wgsl").1,
+        // `#ifdef DEPTH`, as debug_view.wgsl.
+        permutations: &[&[("DEPTH", DefValue::Bool(true))], &[]],
+    },
 ];
 
 /// An egui-wgpu render state on an existing [`softshadow_core::Gpu`], drawing to

@@ -2,7 +2,7 @@
 //! Pareto front (no other point is both faster and more accurate), and export of the points as a
 //! benchmark sweep file (`workbench bench --sweep`).
 
-use softshadow_core::ParamValue;
+use softshadow_core::{AreaLight, Camera, ParamValue};
 
 /// One technique with one setting, measured on the current scene, light and camera.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -52,15 +52,31 @@ pub fn pareto_front(points: &[TradeoffPoint]) -> Vec<usize> {
     front
 }
 
-/// The points as a sweep file: the scene, the image size, and one `[[technique]]` table per point
-/// with every parameter as a single value (so each table is exactly one run).
+/// The viewer's view of the scene: what a benchmark of an exported sweep must look at.
+#[derive(Clone, Copy, Debug)]
+pub struct View<'a> {
+    pub scene: &'a str,
+    pub width: u32,
+    pub height: u32,
+    pub camera: &'a Camera,
+    pub light: &'a AreaLight,
+}
+
+/// The points as a sweep file: the scene, the image size, the camera and light, and one
+/// `[[technique]]` table per point with every parameter as a single value (so each table is
+/// exactly one run).
 pub fn sweep_toml(
     points: &[TradeoffPoint],
-    scene: &str,
-    width: u32,
-    height: u32,
+    view: View<'_>,
     reference_params: &[(String, ParamValue)],
 ) -> String {
+    let View {
+        scene,
+        width,
+        height,
+        camera,
+        light,
+    } = view;
     let mut out = String::from("# Exported by the viewer: one run per technique setting tried.\n");
     out.push_str(&format!("size = \"{width}x{height}\"\n"));
     out.push_str(&format!("scenes = [{}]\n", toml_string(scene)));
@@ -69,6 +85,15 @@ pub fn sweep_toml(
         for (name, value) in reference_params {
             out.push_str(&format!("{name} = {}\n", toml_value(value)));
         }
+    }
+    // The view the points were measured from (the scene's own camera and light may differ).
+    for (table, body) in [
+        ("camera", toml::to_string(camera)),
+        ("light", toml::to_string(light)),
+    ] {
+        // Plain numbers and arrays of numbers: serialising cannot fail.
+        let body = body.unwrap_or_default();
+        out.push_str(&format!("\n[{table}]\n{body}"));
     }
     for point in points {
         out.push_str(&format!(
@@ -133,14 +158,28 @@ mod tests {
     #[test]
     fn exported_sweep_parses_back_into_one_run_per_point() {
         let points = vec![point("pcss", 16.0, 0.05), point("pcss", 32.0, 0.03)];
+        let camera = Camera {
+            fov_y_degrees: 38.5,
+            ..Camera::default()
+        };
+        let light = AreaLight {
+            width: 1.25,
+            ..AreaLight::default()
+        };
         let text = sweep_toml(
             &points,
-            "atty-square",
-            320,
-            180,
+            View {
+                scene: "atty-square",
+                width: 320,
+                height: 180,
+                camera: &camera,
+                light: &light,
+            },
             &[("samples_per_axis".into(), ParamValue::Int(8))],
         );
         let sweep = softshadow_bench::Sweep::parse(&text).expect(&text);
+        assert_eq!(sweep.camera, Some(camera), "{text}");
+        assert_eq!(sweep.light, Some(light), "{text}");
         assert_eq!(sweep.runs.len(), 2);
         assert_eq!(sweep.runs[1].params.len(), 3);
         assert_eq!((sweep.runs[0].width, sweep.runs[0].height), (320, 180));

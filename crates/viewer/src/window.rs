@@ -32,8 +32,9 @@ impl Default for ViewOptions {
     fn default() -> Self {
         Self {
             app: ViewerOptions::default(),
-            width: 960,
-            height: 540,
+            // A size a laptop shows, at which every panel's content is reachable.
+            width: 1280,
+            height: 800,
             frames: None,
             screenshot: None,
         }
@@ -347,6 +348,10 @@ impl Handler {
                 running.app.report_error(e.to_string());
             } else {
                 log::info!("screenshot saved to {}", path.display());
+                running.app.confirm(format!(
+                    "saved the screenshot to {}",
+                    crate::app::shown_path(&path)
+                ));
             }
         }
 

@@ -162,7 +162,8 @@ fn a_scene_that_fails_to_load_shows_its_error_and_keeps_the_scene() -> Result<()
 #[test]
 fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
     let mut harness = harness("pcss")?;
-    // 16 light samples, one batch: converged after the first frame; the point needs 5 timed frames.
+    // 16 light samples, one batch: converged after the first frame; the point needs 5 frames
+    // timed with the caches dropped.
     harness.run_steps(7);
     let app = harness.state();
     ensure!(
@@ -191,6 +192,16 @@ fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
         "{:?}",
         harness.state().points()
     );
+    // A progressive 16 x 16 reference (256 samples, 2 batches of 16 a frame): 8 frames to
+    // converge, while one harness step renders one or two frames (egui may run a second pass).
+    harness
+        .state_mut()
+        .set_reference_param("samples_per_axis", ParamValue::Int(16));
+    run_until_converged(&mut harness)?;
+    ensure!(harness.state().metrics().is_some());
+    let points = harness.state().points().len();
+    ensure!(points == 2, "{:?}", harness.state().points());
+
     let mut light = *harness.state().light();
     light.center.x += 0.2;
     let mut state = harness.state().state();
@@ -202,11 +213,149 @@ fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
     harness.run_steps(1);
     let app = harness.state();
     ensure!(*app.light() == light, "the state's light was loaded");
+    // The reference restarted: at most two frames of a new accumulation, 64 of 256 samples.
+    let progress = app.reference_progress();
     ensure!(
-        app.points().is_empty() && app.metrics().is_none()
-            || app.reference_progress().is_complete(),
-        "a moved light starts a new reference"
+        progress.total == 256 && progress.done > 0 && progress.done <= 64,
+        "a moved light restarts the reference: {progress:?}"
     );
+    // Old metrics are not current; they stay on screen greyed and labelled stale.
+    ensure!(app.metrics().is_none() && app.stale_metrics().is_some());
+    ensure!(app.points().is_empty(), "{:?}", app.points());
+    harness
+        .query_by_label_contains("stale")
+        .context("the stale metrics are labelled")?;
+    run_until_converged(&mut harness)?;
+    ensure!(harness.state().metrics().is_some());
+    Ok(())
+}
+
+/// Steps until the reference has converged (at most 40 steps). The progress read before the
+/// first step may still be the previous reference's, so there is always one step first.
+fn run_until_converged(harness: &mut Harness<ViewerApp>) -> Result<()> {
+    for _ in 0..40 {
+        harness.step();
+        if harness.state().reference_progress().is_complete() {
+            return Ok(());
+        }
+    }
+    anyhow::bail!(
+        "the reference did not converge: {:?}",
+        harness.state().reference_progress()
+    )
+}
+
+#[test]
+fn a_larger_reference_keeps_the_plot_and_the_point_is_remeasured() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.run_steps(2);
+    ensure!(
+        harness.state().points().len() == 1,
+        "{:?}",
+        harness.state().points()
+    );
+    let before = harness.state().points()[0].error;
+    // Same scene, light and camera: the restarted reference keeps the plot.
+    harness
+        .state_mut()
+        .set_reference_param("samples_per_axis", ParamValue::Int(16));
+    harness.step();
+    ensure!(
+        !harness.state().reference_progress().is_complete(),
+        "{:?}",
+        harness.state().reference_progress()
+    );
+    ensure!(
+        harness.state().points().len() == 1,
+        "the point survives the restart"
+    );
+    run_until_converged(&mut harness)?;
+    let after = harness.state().points()[0].error;
+    println!(
+        "hard's mae_shadowed against the 4 x 4 reference {before:.5}, against 16 x 16 {after:.5}"
+    );
+    // Re-measured against the 16 x 16 reference: the two references differ a little.
+    ensure!(
+        before != after,
+        "{before} == {after}: the point was not re-measured"
+    );
+    ensure!((before - after).abs() < 0.05, "{before} vs {after}");
+    Ok(())
+}
+
+#[test]
+fn the_timing_panel_shows_the_passes_run_and_the_cost_of_computing() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    // Building the harness ran 7 frames: the first 5 of the setting dropped pcss's kept shadow
+    // map (the cost of computing); then nothing in light space changed, so the kept shadow map
+    // is used and its pass is absent.
+    harness.step();
+    let app = harness.state();
+    ensure!(
+        !app.passes_run().iter().any(|p| p == "pcss/shadow_map")
+            && app.passes_run().iter().any(|p| p == "pcss/filter"),
+        "{:?}",
+        app.passes_run()
+    );
+    ensure!(
+        app.cost_rows().iter().any(|r| r.name == "pcss/shadow_map"),
+        "{:?}",
+        app.cost_rows()
+    );
+    let cost = app.cost_ms().context("cost measured")?;
+    ensure!(cost > 0.0, "cost {cost} ms");
+    harness
+        .query_by_label_contains("kept, not run this frame: pcss/shadow_map")
+        .context("the panel says the shadow map was kept")?;
+    harness
+        .query_by_label_contains("cost of the technique")
+        .context("the cost is shown")?;
+    ensure!(harness.query_by_label_contains("-0.00").is_none());
+
+    // A new setting: its first frames pay the whole cost again, shadow map included.
+    harness
+        .state_mut()
+        .set_param("filter_samples", ParamValue::Int(16));
+    harness.step();
+    ensure!(
+        harness
+            .state()
+            .passes_run()
+            .iter()
+            .any(|p| p == "pcss/shadow_map"),
+        "{:?}",
+        harness.state().passes_run()
+    );
+    harness.run_steps(6);
+
+    // A camera-only change (a real drag on the image): the shadow map is still kept.
+    let camera = *harness.state().camera();
+    let centre = egui::pos2(SIZE.x * 0.5, SIZE.y * 0.5);
+    harness.hover_at(centre);
+    harness.event(egui::Event::PointerButton {
+        pos: centre,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    for step in 1..=4 {
+        harness.hover_at(centre + egui::vec2(10.0 * step as f32, 0.0));
+        harness.step();
+    }
+    let app = harness.state();
+    ensure!(*app.camera() != camera, "the drag orbits the camera");
+    ensure!(
+        !app.passes_run().iter().any(|p| p == "pcss/shadow_map"),
+        "camera-only frame: {:?}",
+        app.passes_run()
+    );
+    harness.event(egui::Event::PointerButton {
+        pos: centre + egui::vec2(40.0, 0.0),
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: egui::Modifiers::NONE,
+    });
+    harness.step();
     Ok(())
 }
 
@@ -276,5 +425,82 @@ fn every_view_mode_renders_and_a_failing_technique_keeps_the_viewer_running() ->
     harness.state_mut().select_technique("hard");
     harness.run_steps(2);
     ensure!(harness.state().technique_error().is_none());
+    Ok(())
+}
+
+#[test]
+fn an_exported_sweep_benchmarks_the_view_the_viewer_plotted() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    // A view that is not the scene's own: the benchmark must use the exported camera and light.
+    let mut light = *harness.state().light();
+    light.center.x += 0.3;
+    light.width *= 1.5;
+    let mut state = harness.state().state();
+    state.light = light;
+    state.camera.eye.x += 0.5;
+    let dir = tempfile::tempdir()?;
+    let state_path = dir.path().join("state.json");
+    state.save(&state_path)?;
+    harness.state_mut().load_state(&state_path);
+    harness.run_steps(7);
+    let point = harness
+        .state()
+        .points()
+        .first()
+        .cloned()
+        .context("a point after 7 frames")?;
+    let (width, height) = harness.state().render_size().context("rendered")?;
+
+    let sweep_path = dir.path().join("sweep.toml");
+    harness.state_mut().export_sweep(&sweep_path);
+    harness.run_steps(1);
+    let status = harness
+        .state()
+        .status()
+        .context("the export is confirmed")?;
+    ensure!(status.contains("sweep.toml"), "{status}");
+    harness
+        .query_by_label_contains("sweep.toml")
+        .context("the confirmation is on screen")?;
+
+    let sweep = softshadow_bench::Sweep::load(&sweep_path)?;
+    ensure!(sweep.light == Some(light), "{:?}", sweep.light);
+    ensure!(sweep.camera == Some(*harness.state().camera()));
+    let gpu = Gpu::new_headless()?;
+    let mut bench = softshadow_bench::Bench::new(
+        gpu,
+        softshadow_bench::BenchOptions {
+            frames: 1,
+            warmup: 0,
+            reference_params: sweep.reference_params.clone(),
+            images: false,
+            exact_samples_per_axis: None,
+            camera_only: false,
+            ..Default::default()
+        },
+    )?;
+    bench.set_view(sweep.camera, sweep.light);
+    ensure!(
+        sweep.runs.len() == 1 && (sweep.runs[0].width, sweep.runs[0].height) == (width, height)
+    );
+    let run = bench.run(0, &sweep.runs[0], dir.path());
+    let error = run.error.context(run.message.clone())?.report.mae_shadowed;
+    // Same reference settings (4 x 4 light samples, 256^2 maps; the progressive sum is
+    // bit-identical to the one-frame one) and the same deterministic technique: the two agree
+    // far inside the reference's own noise (its 4 x 4 vs 8 x 8 difference is ~1e-2).
+    ensure!(
+        (error - point.error).abs() < 1e-4,
+        "benchmark {error} vs viewer {}",
+        point.error
+    );
+    // And the scene's own view gives a different error: the override mattered.
+    bench.set_view(None, None);
+    let own = bench.run(1, &sweep.runs[0], dir.path());
+    let own_error = own.error.context(own.message.clone())?.report.mae_shadowed;
+    ensure!(
+        (own_error - point.error).abs() > 1e-3,
+        "own view {own_error} vs exported {}",
+        point.error
+    );
     Ok(())
 }

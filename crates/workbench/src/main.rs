@@ -15,7 +15,7 @@ use std::{path::PathBuf, process::ExitCode};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use softshadow_bench::{registry, BenchOptions, RunSpec, Status, Sweep, SweepInfo};
+use softshadow_bench::{registry, BenchOptions, RunSetup, RunSpec, Status, Sweep, SweepInfo};
 use softshadow_core::{Gpu, ParamKind, TimingSource};
 
 #[derive(Parser)]
@@ -79,7 +79,7 @@ struct ViewArgs {
     #[arg(long)]
     state: Option<PathBuf>,
     /// Window size in pixels.
-    #[arg(long, default_value = "960x540", value_name = "WxH")]
+    #[arg(long, default_value = "1280x800", value_name = "WxH")]
     size: String,
     /// Render this many frames, then exit (prints the mean frame time).
     #[arg(long)]
@@ -161,7 +161,7 @@ fn main() -> ExitCode {
         None => view(ViewArgs {
             scene: "atty-square".into(),
             technique: "pcss".into(),
-            size: "960x540".into(),
+            size: "1280x800".into(),
             ..ViewArgs::default()
         }),
     };
@@ -279,12 +279,14 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             TimingSource::parse(t).ok_or_else(|| softshadow_bench::BenchError::BadTiming(t.into()))
         })
         .transpose()?;
-    let (specs, sweep_frames, sweep_warmup, mut reference_params) = if let Some(sweep) = &sweep {
+    let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) = &sweep
+    {
         (
             sweep.runs.clone(),
             sweep.frames,
             sweep.warmup,
             sweep.reference_params.clone(),
+            (sweep.camera, sweep.light),
         )
     } else {
         let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
@@ -300,7 +302,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             height,
         };
         softshadow_bench::validate(&spec)?;
-        (vec![spec], None, None, Vec::new())
+        (vec![spec], None, None, Vec::new(), (None, None))
     };
     let reference = registry::find("reference")?;
     for text in &args.reference_params {
@@ -334,12 +336,17 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let setup = RunSetup {
+        sweep: sweep_info,
+        timing,
+        camera: view.0,
+        light: view.1,
+    };
     let results = softshadow_bench::run_indexed(
         gpu,
         &indexed,
-        sweep_info,
+        setup,
         options,
-        timing,
         &args.out,
         |_, run| {
             progress.set_message(format!("{} / {}", run.scene, run.technique));

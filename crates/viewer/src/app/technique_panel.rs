@@ -1,0 +1,253 @@
+//! The left panel's technique section (one widget per parameter, from its spec) and view modes.
+
+use softshadow_core::{ParamKind, ParamSpec, ParamValue};
+
+use super::ViewerApp;
+
+/// Fixed render sizes offered besides the image area's own.
+const RENDER_SIZES: [(u32, u32); 4] = [(320, 200), (640, 400), (800, 500), (1280, 800)];
+use crate::display::{DebugMapping, ViewMode};
+
+impl ViewerApp {
+    pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
+        let mut chosen = None;
+        egui::ComboBox::from_label("Technique")
+            .selected_text(self.technique_id.clone())
+            .show_ui(ui, |ui| {
+                for info in &self.techniques {
+                    if ui
+                        .selectable_label(self.technique_id == info.id, info.id)
+                        .on_hover_text(format!("{} [{}]", info.description, info.source))
+                        .clicked()
+                    {
+                        chosen = Some(info.id);
+                    }
+                }
+            });
+        if let Some(id) = chosen {
+            if id != self.technique_id {
+                self.select_technique(id);
+            }
+        }
+        let Some(technique) = &self.technique else {
+            return;
+        };
+        let mut changes = Vec::new();
+        for (spec, value) in technique.params().entries {
+            if let Some(new) = param_widget(ui, &spec, &value) {
+                changes.push((spec.name, new));
+            }
+        }
+        if ui.button("Defaults").clicked() {
+            let info = self.techniques.iter().find(|t| t.id == self.technique_id);
+            for spec in info.map(|i| (i.params)()).unwrap_or_default() {
+                changes.push((spec.name, spec.default_value()));
+            }
+        }
+        for (name, value) in changes {
+            self.set_param(name, value);
+        }
+    }
+
+    pub(super) fn view_ui(&mut self, ui: &mut egui::Ui) {
+        let current = self
+            .renderers
+            .as_ref()
+            .map_or((0, 0), |r| (r.width, r.height));
+        let label = |size: Option<(u32, u32)>| match size {
+            None => format!("fit ({}x{})", current.0, current.1),
+            Some((w, h)) => format!("{w}x{h}"),
+        };
+        egui::ComboBox::from_label("render size")
+            .selected_text(label(self.render_size))
+            .show_ui(ui, |ui| {
+                let mut options = vec![None, Some(current)];
+                for size in RENDER_SIZES {
+                    if size != current {
+                        options.push(Some(size));
+                    }
+                }
+                for option in options {
+                    ui.selectable_value(&mut self.render_size, option, label(option));
+                }
+            })
+            .response
+            .on_hover_text(
+                "A fixed size keeps the reference and the timings when panels open or the \
+                 window is resized; the image is scaled to fit",
+            );
+        ui.horizontal_wrapped(|ui| {
+            for mode in ViewMode::ALL {
+                ui.selectable_value(&mut self.view_mode, mode, mode.label());
+            }
+        });
+        match self.view_mode {
+            ViewMode::Split => {
+                ui.add(egui::Slider::new(&mut self.split, 0.0..=1.0).text("divider"));
+                ui.small("Left: technique, right: reference. Drag the divider on the image.");
+            }
+            ViewMode::Difference => {
+                ui.small(
+                    "Red: too dark, blue: too bright, full colour at |V - V_ref| = 0.25; \
+                     white exact, grey off-receiver, magenta NaN/inf.",
+                );
+            }
+            ViewMode::Debug => {
+                let names: Vec<String> = self
+                    .technique
+                    .as_ref()
+                    .map(|t| t.debug_views().into_iter().map(|v| v.name).collect())
+                    .unwrap_or_default();
+                egui::ComboBox::from_label("Debug image")
+                    .selected_text(names.get(self.debug_view).cloned().unwrap_or_default())
+                    .show_ui(ui, |ui| {
+                        for (i, name) in names.iter().enumerate() {
+                            ui.selectable_value(&mut self.debug_view, i, name);
+                        }
+                    });
+                let name = names.get(self.debug_view).or(names.first());
+                debug_legend(
+                    ui,
+                    name.map_or("", |n| n.as_str()),
+                    self.debug_mapping.as_ref(),
+                );
+            }
+            _ => {}
+        }
+    }
+}
+
+/// One widget per parameter, from its spec; returns the new value when the user changed it.
+pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> Option<ParamValue> {
+    let new = match &spec.kind {
+        ParamKind::Float {
+            min,
+            max,
+            logarithmic,
+            ..
+        } => {
+            let mut x = value.as_f64().unwrap_or(*min);
+            ui.add(
+                egui::Slider::new(&mut x, *min..=*max)
+                    .logarithmic(*logarithmic)
+                    .text(spec.name),
+            )
+            .on_hover_text(spec.description)
+            .changed()
+            .then_some(ParamValue::Float(x))
+        }
+        ParamKind::Int { min, max, .. } => {
+            let mut i = match value {
+                ParamValue::Int(i) => *i,
+                other => other.as_f64().unwrap_or(*min as f64) as i64,
+            };
+            // Wide integer ranges (seeds, sizes) are easier to hit on a log scale.
+            let logarithmic = *max > 1000 && *min > 0;
+            ui.add(
+                egui::Slider::new(&mut i, *min..=*max)
+                    .logarithmic(logarithmic)
+                    .text(spec.name),
+            )
+            .on_hover_text(spec.description)
+            .changed()
+            .then_some(ParamValue::Int(i))
+        }
+        ParamKind::Bool { .. } => {
+            let mut b = matches!(value, ParamValue::Bool(true));
+            ui.checkbox(&mut b, spec.name)
+                .on_hover_text(spec.description)
+                .changed()
+                .then_some(ParamValue::Bool(b))
+        }
+        ParamKind::Choice { options, .. } => {
+            let current = value.to_string();
+            let mut chosen = None;
+            egui::ComboBox::from_label(spec.name)
+                .selected_text(current.clone())
+                .show_ui(ui, |ui| {
+                    for option in options.iter() {
+                        if ui.selectable_label(current == *option, *option).clicked()
+                            && current != *option
+                        {
+                            chosen = Some(ParamValue::Choice(option.to_string()));
+                        }
+                    }
+                })
+                .response
+                .on_hover_text(spec.description);
+            chosen
+        }
+    };
+    new
+}
+
+/// What the debug image's colours mean: the mapped value range, and each technique's coded
+/// images (the classification and level views of backprojection, ssm's soft shadow map).
+fn debug_legend(ui: &mut egui::Ui, name: &str, mapping: Option<&DebugMapping>) {
+    let swatch = |ui: &mut egui::Ui, colour: egui::Color32, meaning: &str| {
+        ui.horizontal(|ui| {
+            let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
+            ui.painter().rect_filled(rect, 2.0, colour);
+            ui.small(meaning);
+        });
+    };
+    match mapping {
+        Some(DebugMapping::Depth { lo, hi, count }) => {
+            if *count == 0 {
+                ui.small("no texel holds a caster: the whole map is empty");
+            } else {
+                ui.small(format!(
+                    "depth of the {count} caster texels: black {lo:.5} (nearest) to white {hi:.5}"
+                ));
+            }
+            swatch(
+                ui,
+                egui::Color32::from_rgb(20, 31, 89),
+                "empty (no caster, depth 1)",
+            );
+        }
+        Some(DebugMapping::Float { lo, hi, count }) => {
+            let meaning = match name {
+                "level" => "gather level",
+                "soft_shadow_map" => "visibility stored in the soft shadow map",
+                "receiver_map" => "receiver depth",
+                _ => "value (red channel)",
+            };
+            if *count == 0 {
+                ui.small("no finite texel");
+            } else {
+                ui.small(format!(
+                    "{meaning}: black {lo:.4} to white {hi:.4} over {count} texels"
+                ));
+            }
+            if name == "level" {
+                ui.small("-1 (black when present): nothing was backprojected there");
+            }
+            swatch(ui, egui::Color32::from_rgb(255, 0, 255), "NaN or infinite");
+        }
+        Some(DebugMapping::Colour) if name == "classification" => {
+            // The colours backprojection's gather writes (`class_colour` in shaders/backprojection/).
+            swatch(
+                ui,
+                egui::Color32::from_rgb(230, 230, 217),
+                "lit: no blocker found",
+            );
+            swatch(ui, egui::Color32::from_rgb(26, 26, 89), "umbra");
+            swatch(
+                ui,
+                egui::Color32::from_rgb(255, 38, 0),
+                "backprojected, few primitives (red) ...",
+            );
+            swatch(
+                ui,
+                egui::Color32::from_rgb(0, 38, 255),
+                "... up to max_patches^2 primitives (blue)",
+            );
+            swatch(ui, egui::Color32::BLACK, "off-receiver");
+        }
+        Some(DebugMapping::Colour) => {
+            ui.small("the image's own colours");
+        }
+        None => {}
+    }
+}

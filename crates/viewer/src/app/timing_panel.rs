@@ -1,0 +1,132 @@
+//! The right panel's GPU time section: frame time, the passes this frame ran (light-space passes
+//! are absent while only the camera moves), per-pass rolling medians, and the cost of computing
+//! the technique (frames with its caches dropped, as the benchmark's `timing`).
+
+use super::{format_ms, ViewerApp, COST_FRAMES};
+use crate::timing::PassRow;
+
+impl ViewerApp {
+    pub(super) fn timing_ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("GPU time");
+        let stats = self.stats();
+        ui.label(format!(
+            "frame time {} (median of {} frames of this setting)",
+            stats
+                .frame_ms
+                .map_or("-".into(), |ms| format!("{ms:.1} ms, {:.1} fps", 1e3 / ms)),
+            self.frame_times.len()
+        ));
+        if let Some(output) = &self.last_output {
+            ui.label(format!(
+                "technique frame CPU wall time {:.1} ms",
+                output.cpu_ms
+            ));
+        }
+        if !self.gpu.has_timestamps() {
+            ui.label("this adapter has no timestamp queries: GPU times unavailable");
+            return;
+        }
+
+        // The cost of computing: what the plot and the benchmark's `timing` use.
+        match self.cost_timings.technique_ms() {
+            Some(ms) if self.cost_timings.len() >= COST_FRAMES => {
+                ui.strong(format!("cost of the technique {} ms", format_ms(ms)))
+                    .on_hover_text(
+                        "median GPU time of the technique's passes over frames rendered with its \
+                         kept results dropped (invalidate_cache), as the benchmark's `timing`",
+                    );
+            }
+            _ => {
+                ui.label(format!(
+                    "measuring the cost: frame {} of {COST_FRAMES} with caches dropped",
+                    self.cost_timings.len()
+                ));
+            }
+        }
+
+        let rows = self.timings.rows();
+        if rows.is_empty() {
+            ui.label("no GPU timings yet");
+            return;
+        }
+        ui.small(format!(
+            "this frame's passes, median of the last {} frames from timestamp queries",
+            self.timings.len()
+        ));
+        egui::Grid::new("timings").striped(true).show(ui, |ui| {
+            ui.strong("pass");
+            ui.strong("ms");
+            ui.end_row();
+            for row in &rows {
+                ui.label(&row.name);
+                ui.label(format_ms(row.median_ms));
+                ui.end_row();
+            }
+            ui.strong("technique");
+            ui.strong(format_ms(self.timings.technique_ms().unwrap_or(0.0)));
+            ui.end_row();
+            ui.strong("frame");
+            ui.strong(format_ms(self.timings.total_ms().unwrap_or(0.0)));
+            ui.end_row();
+        });
+        // Passes the full computation runs that this frame left out (kept results).
+        let passes_run = self.passes_run();
+        let skipped: Vec<String> = self
+            .cost_timings
+            .rows()
+            .into_iter()
+            .map(|r| r.name)
+            .filter(|name| !passes_run.contains(name))
+            .collect();
+        if !skipped.is_empty() {
+            ui.label(format!("kept, not run this frame: {}", skipped.join(", ")))
+                .on_hover_text(
+                    "light-space results are kept while only the camera moves \
+                     (FrameChanges::light_space)",
+                );
+        }
+        timing_chart(ui, &rows);
+    }
+}
+
+fn timing_chart(ui: &mut egui::Ui, rows: &[PassRow]) {
+    let bars: Vec<egui_plot::Bar> = rows
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            egui_plot::Bar::new(i as f64, row.median_ms)
+                .name(&row.name)
+                .width(0.7)
+        })
+        .collect();
+    let names: Vec<String> = rows.iter().map(|r| r.name.clone()).collect();
+    egui_plot::Plot::new("pass bars")
+        .height(30.0 + 22.0 * rows.len() as f32)
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+        .show_grid(false)
+        .y_axis_formatter(move |mark, _| {
+            let i = mark.value.round();
+            if (mark.value - i).abs() < 1e-6 && i >= 0.0 {
+                names.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        })
+        .x_axis_label("ms")
+        .show(ui, |plot| {
+            // Fitted to the bars, so the axis has readable ticks rather than a lone "0".
+            let longest = rows.iter().map(|r| r.median_ms).fold(0.0, f64::max);
+            let x_max = if longest > 0.0 { longest * 1.15 } else { 1.0 };
+            plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(
+                [0.0, -0.6],
+                [x_max, rows.len() as f64 - 0.4],
+            ));
+            plot.bar_chart(
+                egui_plot::BarChart::new("GPU ms", bars)
+                    .horizontal()
+                    .color(egui::Color32::from_rgb(90, 170, 250)),
+            );
+        });
+}
