@@ -413,12 +413,19 @@ fn compute_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         },
         count: None,
     };
-    let mut entries = vec![uniform_entry(0, stage, false), uniform_entry(1, stage, false)];
+    let mut entries = vec![
+        uniform_entry(0, stage, false),
+        uniform_entry(1, stage, false),
+    ];
     for k in 0..MAX_LAYERS {
         entries.push(float_texture(2 + k, wgpu::TextureViewDimension::D2));
         entries.push(float_texture(6 + k, wgpu::TextureViewDimension::D2Array));
     }
-    entries.extend([storage_texture(10), storage_texture(11), storage_texture(12)]);
+    entries.extend([
+        storage_texture(10),
+        storage_texture(11),
+        storage_texture(12),
+    ]);
     entries.push(wgpu::BindGroupLayoutEntry {
         binding: 13,
         visibility: stage,
