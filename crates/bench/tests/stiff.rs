@@ -59,6 +59,13 @@ fn bound(technique: &str, case: &str) -> Option<f64> {
         ("backprojection", "stiff-partly-outside") => 0.12,
         ("backprojection", "stiff-zero-thickness" | "stiff-fusion") => 0.05,
         ("backprojection", _) => 0.02,
+        // Same centre map as backprojection (depth-range: 0.2522 at 64²); the bitmask's point
+        // sampling of the light adds to tiny-patches (0.0154) and near-light (0.0087).
+        ("bitmask", "stiff-depth-range") => 0.3,
+        ("bitmask", "stiff-partly-outside") => 0.08,
+        ("bitmask", "stiff-zero-thickness" | "stiff-fusion") => 0.05,
+        ("bitmask", "stiff-tiny-patches") => 0.04,
+        ("bitmask", _) => 0.02,
         ("reference", _) => 0.02,
         _ => return None,
     };
