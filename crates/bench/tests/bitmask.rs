@@ -277,7 +277,7 @@ fn light_space_layers_are_kept_while_only_the_camera_moves() -> Result<()> {
         &mut technique,
         None,
     )?;
-    let mut camera = scene.camera.clone();
+    let mut camera = scene.camera;
     camera.eye += Vec3::new(0.05, 0.0, 0.0);
     let second = renderer.render(&scene_gpu, &camera, &scene.light, &mut technique, None)?;
     let kept = renderer.read_visibility()?;
