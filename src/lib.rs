@@ -1,7 +1,7 @@
 //! `softshadow`: the soft-shadow workbench as a library.
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
-//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `reference`; all on by default).
+//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -21,6 +21,8 @@ pub use softshadow_scenes as scenes;
 
 #[cfg(feature = "backprojection")]
 pub use softshadow_backprojection as backprojection;
+#[cfg(feature = "bitmask")]
+pub use softshadow_bitmask as bitmask;
 #[cfg(feature = "hard")]
 pub use softshadow_hard as hard;
 #[cfg(feature = "pcss")]

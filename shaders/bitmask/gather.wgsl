@@ -1,0 +1,527 @@
+// Bitmask soft shadows (Schwarz & Stamminger 2007). One invocation per screen pixel:
+//   1. per depth layer (layer 0: the centre shadow map; layers 1..: depth peeled from the light
+//      centre, sec. 3.2), the search area of the receiver point p with two refinements and the
+//      lit / umbra early outs (softshadow::search_area, sec. 5); an umbra layer ends the pixel;
+//   2. the level whose blocks number at most max_patches per axis (coarser-level fallback, sec. 5);
+//   3. every micro-patch (a block parallel to the light at its minimum depth, with gap filling) or
+//      micro-quad (block centres as vertices, approximated by the axis-aligned rectangle through
+//      its edge centres, sec. 4) is backprojected from p onto the light plane, X = z (s p.z - p.x)
+//      / (p.z - z), and the light samples the rectangle covers are OR-ed into one occlusion
+//      bitmask shared by every layer (sec. 3), so overlapping occluders count once;
+//   4. V = 1 - countOneBits(mask) / N. With post filtering on, the accumulated area estimate
+//      A = 1 - sum(area) / 4ab (unclamped, sec. 3.1) is written alongside for filter.wgsl.
+// The light samples lie in `rows` rows of `columns` samples: row r at y = -b + (r + 0.5) 2b / rows,
+// sample c at x = -a + (c + offset(r)) 2a / columns. Row r takes `columns` bits starting at bit
+// r * columns of the mask (one word holds 32 / columns rows). Patterns: 8x8, 16x16 and 32x32 are
+// regular (offset 0.5); 16x16-jittered is the 8x8 tiling of the 2x2 rotated-grid pattern (sec. 3):
+// 32 rows of 8 samples, offsets 3/8, 7/8, 1/8, 5/8 of a tile repeating every four rows.
+// Counters (receivers, lit, umbra, backprojected pixels, primitives, most primitives in a pixel,
+// set bits) are summed per workgroup and added to a storage buffer that the CPU reads.
+#import softshadow::frame::{frame, load_surface, light_cosine}
+#import softshadow::shadow_view::{ShadowView, texel_slope, view_uv}
+#import softshadow::search_area::{
+    HIERARCHY_NONE, HIERARCHY_EMPTY, SEARCH_LIT, SEARCH_UMBRA,
+    refine_search, gather_level, hierarchy_block,
+}
+
+// Words of the occlusion bitmask: 2 (8x8), 8 (16x16, 16x16-jittered) or 32 (32x32). One pipeline
+// per size keeps the small masks in few registers (paper sec. 6).
+const MASK_WORDS: u32 = #{MASK_WORDS}u;
+
+// `hierarchy = none` gathers level-0 texels over the unrefined area, up to this many per axis.
+const FULL_SEARCH_PATCHES: i32 = 256;
+// Bound of the gather loops: quads span one block more than patches.
+const MAX_GATHER_AXIS: i32 = 257;
+const MAX_LAYERS: u32 = 4u;
+const PRIMITIVE_MICROQUAD: u32 = 1u;
+
+struct GatherParams {
+    hierarchy: u32,
+    primitive: u32,
+    gap_filling: u32,
+    max_patches: u32,
+    bias_texels: f32,
+    // Highest hierarchy level built (the same for every layer).
+    max_level: i32,
+    layers: u32,
+    // Accumulate and write the area estimate A (post filtering is on).
+    with_area: u32,
+    rows: u32,
+    columns: u32,
+    // 1: rows take the rotated-grid offsets; 0: every sample sits at the centre of its cell.
+    jittered: u32,
+    _pad0: u32,
+}
+
+struct Counters {
+    receivers: atomic<u32>,
+    lit: atomic<u32>,
+    umbra: atomic<u32>,
+    backprojected: atomic<u32>,
+    // Micro-primitives processed, as a 64-bit count (low word, high word).
+    primitives_lo: atomic<u32>,
+    primitives_hi: atomic<u32>,
+    primitives_max: atomic<u32>,
+    // Set bits over the backprojected pixels, as a 64-bit count.
+    set_bits_lo: atomic<u32>,
+    set_bits_hi: atomic<u32>,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(1) @binding(0) var<uniform> view: ShadowView;
+@group(1) @binding(1) var<uniform> params: GatherParams;
+@group(1) @binding(2) var hsm0: texture_2d<f32>;
+@group(1) @binding(3) var hsm1: texture_2d<f32>;
+@group(1) @binding(4) var hsm2: texture_2d<f32>;
+@group(1) @binding(5) var hsm3: texture_2d<f32>;
+@group(1) @binding(6) var mssm0: texture_2d_array<f32>;
+@group(1) @binding(7) var mssm1: texture_2d_array<f32>;
+@group(1) @binding(8) var mssm2: texture_2d_array<f32>;
+@group(1) @binding(9) var mssm3: texture_2d_array<f32>;
+@group(1) @binding(10) var visibility: texture_storage_2d<r32float, write>;
+@group(1) @binding(11) var area_map: texture_storage_2d<r32float, write>;
+@group(1) @binding(12) var level_map: texture_storage_2d<r32float, write>;
+@group(1) @binding(13) var<storage, read_write> counters: Counters;
+
+var<workgroup> group_receivers: atomic<u32>;
+var<workgroup> group_lit: atomic<u32>;
+var<workgroup> group_umbra: atomic<u32>;
+var<workgroup> group_backprojected: atomic<u32>;
+var<workgroup> group_primitives: atomic<u32>;
+var<workgroup> group_primitives_max: atomic<u32>;
+var<workgroup> group_set_bits: atomic<u32>;
+
+const CLASS_NONE: u32 = 0u;
+const CLASS_LIT: u32 = 1u;
+const CLASS_UMBRA: u32 = 2u;
+const CLASS_BACKPROJECTED: u32 = 3u;
+
+struct PixelResult {
+    v: f32,
+    // Area estimate A (visibility from the summed areas, unclamped).
+    area_v: f32,
+    kind: u32,
+    level: i32,
+    primitives: u32,
+    set_bits: u32,
+}
+
+// The receiver point and what the gather of one layer needs about the light and the map.
+struct Gather {
+    p: vec3<f32>,
+    half_light: vec2<f32>,
+    // Depth bias at level 0, and scaled by the block edge (see `occluder_depth`).
+    bias: f32,
+    coarse_bias: f32,
+    // Block of this level that holds the receiver's own texel.
+    own_block: vec2<i32>,
+    level: i32,
+    // Edge of a block in level-0 texels, and the map edge in texels.
+    block: i32,
+    map: i32,
+    // Blocks of this level that hold real texels, per axis.
+    blocks: i32,
+}
+
+// What one pixel accumulates over its layers.
+struct Accumulator {
+    mask: array<u32, MASK_WORDS>,
+    // Summed light area of the backprojected rectangles (only with params.with_area).
+    area: f32,
+}
+
+// Backprojection factor z / (p.z - z) of an occluding depth z < p.z - bias (clamped: finite).
+fn backprojection_scale(g: Gather, z: f32) -> f32 {
+    return min(z / max(g.p.z - z, 1.0e-12), 1.0e7);
+}
+
+// Minimum depth of `block` if it occludes the receiver, else HIERARCHY_EMPTY. A coarse block
+// within one block of the receiver's own texel whose depth range reaches the receiver may hold
+// the receiver's own surface: it gets the bias scaled by the block edge (as in backprojection).
+fn occluder_depth(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>) -> f32 {
+    let range = hierarchy_block(hsm, mssm, params.hierarchy, g.level, block);
+    var bias = g.bias;
+    if all(abs(block - g.own_block) <= vec2<i32>(1)) && range.y >= g.p.z - g.coarse_bias {
+        bias = g.coarse_bias;
+    }
+    if range.x < g.p.z - bias {
+        return range.x;
+    }
+    return HIERARCHY_EMPTY;
+}
+
+// Slope of level-0 texel edge `e` (column edge -> s, row edge -> t).
+fn edge_s(e: i32) -> f32 {
+    return view.window.x + f32(e) * texel_slope(view);
+}
+
+fn edge_t(e: i32) -> f32 {
+    return view.window.w - f32(e) * texel_slope(view);
+}
+
+// Bits c_lo..c_hi set (empty when c_hi < c_lo); c_lo, c_hi in 0..31.
+fn bit_range(c_lo: i32, c_hi: i32) -> u32 {
+    if c_hi < c_lo {
+        return 0u;
+    }
+    let width = u32(c_hi - c_lo + 1);
+    // width = 32 shifts by 0 (WGSL takes the shift modulo 32): all ones.
+    return (0xffffffffu >> (32u - width)) << u32(c_lo);
+}
+
+// Samples of one row (offset `offset` in sample cells) with u0 <= c + offset < u1, as bits.
+fn row_bits(u0: f32, u1: f32, offset: f32) -> u32 {
+    let last = i32(params.columns) - 1;
+    let c_lo = max(i32(ceil(u0 - offset)), 0);
+    let c_hi = min(i32(ceil(u1 - offset)) - 1, last);
+    return bit_range(c_lo, c_hi);
+}
+
+// Offset of the samples of row r within their cells: the 2x2 rotated grid (x = 3/8, 7/8, 1/8,
+// 5/8 of a tile for its four rows) or the cell centre.
+fn row_offset(r: u32) -> f32 {
+    if params.jittered == 0u {
+        return 0.5;
+    }
+    let rgss = array<f32, 4>(0.375, 0.875, 0.125, 0.625);
+    return rgss[r & 3u];
+}
+
+// ORs the light samples inside the light-space rectangle [lo, hi] into the mask (sec. 3: scale,
+// bias and integer conversion map the extent to bit ranges); adds its clipped area when asked.
+fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec2<f32>) {
+    let a = g.half_light;
+    // Clamped first: a backprojected coordinate can be huge (p next to the occluder).
+    let c0 = clamp(lo, -2.0 * a, 2.0 * a);
+    let c1 = clamp(hi, -2.0 * a, 2.0 * a);
+    if params.with_area != 0u {
+        let w = max(min(c1.x, a.x) - max(c0.x, -a.x), 0.0);
+        let h = max(min(c1.y, a.y) - max(c0.y, -a.y), 0.0);
+        (*acc).area += w * h;
+    }
+    let cells = vec2<f32>(f32(params.columns), f32(params.rows));
+    let u0 = (c0 + a) / (2.0 * a) * cells;
+    let u1 = (c1 + a) / (2.0 * a) * cells;
+    // Rows r with u0.y <= r + 0.5 < u1.y.
+    let r_lo = max(i32(ceil(u0.y - 0.5)), 0);
+    let r_hi = min(i32(ceil(u1.y - 0.5)) - 1, i32(params.rows) - 1);
+    if r_hi < r_lo {
+        return;
+    }
+    // The row masks: one for regular patterns, four (the rotated grid's offsets) when jittered.
+    var masks: array<u32, 4>;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        masks[k] = row_bits(u0.x, u1.x, row_offset(k));
+    }
+    if masks[0] == 0u && masks[1] == 0u && masks[2] == 0u && masks[3] == 0u {
+        return;
+    }
+    for (var r = u32(r_lo); r <= u32(r_hi); r = r + 1u) {
+        let bit = r * params.columns;
+        let word = bit >> 5u;
+        if word < MASK_WORDS {
+            (*acc).mask[word] |= masks[r & 3u] << (bit & 31u);
+        }
+    }
+}
+
+// Micro-patches of the blocks lo .. lo + count (level g.level): each block is a rectangle parallel
+// to the light at its minimum depth; with gap filling its left and bottom edges are extended to the
+// neighbouring patch's edge when that patch occludes too (Guennebaud et al. 2006).
+fn gather_micropatches(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, lo: vec2<i32>, count: vec2<i32>) {
+    for (var row = 0; row < MAX_GATHER_AXIS; row = row + 1) {
+        if row >= count.y {
+            break;
+        }
+        let by = lo.y + row;
+        let t_top = edge_t(by * g.block);
+        let t_bottom = edge_t(min((by + 1) * g.block, g.map));
+        var left_z = HIERARCHY_EMPTY;
+        if lo.x > 0 {
+            left_z = occluder_depth(hsm, mssm, g, vec2<i32>(lo.x - 1, by));
+        }
+        for (var col = 0; col < MAX_GATHER_AXIS; col = col + 1) {
+            if col >= count.x {
+                break;
+            }
+            let bx = lo.x + col;
+            let z = occluder_depth(hsm, mssm, g, vec2<i32>(bx, by));
+            if z < HIERARCHY_EMPTY {
+                let k = backprojection_scale(g, z);
+                let s0 = edge_s(bx * g.block);
+                let s1 = edge_s(min((bx + 1) * g.block, g.map));
+                var x0 = k * (s0 * g.p.z - g.p.x);
+                let x1 = k * (s1 * g.p.z - g.p.x);
+                var y0 = k * (t_bottom * g.p.z - g.p.y);
+                let y1 = k * (t_top * g.p.z - g.p.y);
+                if params.gap_filling != 0u {
+                    if left_z < HIERARCHY_EMPTY {
+                        x0 = min(x0, backprojection_scale(g, left_z) * (s0 * g.p.z - g.p.x));
+                    }
+                    if by + 1 < g.blocks {
+                        let below = occluder_depth(hsm, mssm, g, vec2<i32>(bx, by + 1));
+                        if below < HIERARCHY_EMPTY {
+                            y0 = min(y0, backprojection_scale(g, below) * (t_bottom * g.p.z - g.p.y));
+                        }
+                    }
+                }
+                cover_rect(acc, g, vec2<f32>(x0, y0), vec2<f32>(x1, y1));
+            }
+            left_z = z;
+        }
+    }
+}
+
+struct QuadVertex {
+    xy: vec2<f32>,
+    occludes: bool,
+}
+
+// Centre of block `block`, unprojected at the block's depth and backprojected through p (sec. 4).
+// Not clamped to the light: the rectangle through the edge centres must keep its true extent.
+fn quad_vertex(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>) -> QuadVertex {
+    var v: QuadVertex;
+    let z = occluder_depth(hsm, mssm, g, block);
+    v.occludes = z < HIERARCHY_EMPTY;
+    let start = block * g.block;
+    let centre = vec2<f32>(start) + 0.5 * vec2<f32>(min(vec2<i32>(g.block), vec2<i32>(g.map) - start));
+    let slope = vec2<f32>(
+        view.window.x + centre.x * texel_slope(view),
+        view.window.w - centre.y * texel_slope(view),
+    );
+    v.xy = backprojection_scale(g, z) * (slope * g.p.z - g.p.xy);
+    return v;
+}
+
+// Micro-quads between the block centres of lo .. lo + count (one more vertex per axis); a quad
+// counts only when all four vertices occlude, and is approximated by the axis-aligned rectangle
+// through the centres of its edges (sec. 4, Fig. 6 right).
+fn gather_microquads(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, lo: vec2<i32>, count: vec2<i32>) {
+    for (var row = 0; row < MAX_GATHER_AXIS; row = row + 1) {
+        if row >= count.y {
+            break;
+        }
+        let by = lo.y + row;
+        var top_left = quad_vertex(hsm, mssm, g, vec2<i32>(lo.x, by));
+        var bottom_left = quad_vertex(hsm, mssm, g, vec2<i32>(lo.x, by + 1));
+        for (var col = 0; col < MAX_GATHER_AXIS; col = col + 1) {
+            if col >= count.x {
+                break;
+            }
+            let bx = lo.x + col + 1;
+            let top_right = quad_vertex(hsm, mssm, g, vec2<i32>(bx, by));
+            let bottom_right = quad_vertex(hsm, mssm, g, vec2<i32>(bx, by + 1));
+            if top_left.occludes && bottom_left.occludes && top_right.occludes && bottom_right.occludes {
+                let left = 0.5 * (top_left.xy.x + bottom_left.xy.x);
+                let right = 0.5 * (top_right.xy.x + bottom_right.xy.x);
+                let top = 0.5 * (top_left.xy.y + top_right.xy.y);
+                let bottom = 0.5 * (bottom_left.xy.y + bottom_right.xy.y);
+                cover_rect(
+                    acc,
+                    g,
+                    vec2<f32>(min(left, right), min(top, bottom)),
+                    vec2<f32>(max(left, right), max(top, bottom)),
+                );
+            }
+            top_left = top_right;
+            bottom_left = bottom_right;
+        }
+    }
+}
+
+// What one layer did.
+struct LayerResult {
+    kind: u32,
+    level: i32,
+    primitives: u32,
+}
+
+// Search, classify and gather one depth layer into `acc`.
+fn gather_layer(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, p: vec3<f32>, half_light: vec2<f32>, bias: f32) -> LayerResult {
+    var out: LayerResult;
+    out.kind = CLASS_LIT;
+    out.level = -1;
+    out.primitives = 0u;
+    let search = refine_search(view, hsm, mssm, params.hierarchy, params.max_level, p, half_light, p.z - bias);
+    if search.kind == SEARCH_LIT {
+        return out;
+    }
+    if search.kind == SEARCH_UMBRA {
+        out.kind = CLASS_UMBRA;
+        return out;
+    }
+    var per_axis = i32(params.max_patches);
+    if params.hierarchy == HIERARCHY_NONE {
+        per_axis = FULL_SEARCH_PATCHES;
+    }
+    var g: Gather;
+    g.p = p;
+    g.half_light = half_light;
+    g.level = gather_level(search.rect, per_axis, params.max_level);
+    g.block = 1 << u32(g.level);
+    g.map = i32(view.size.x);
+    g.blocks = (g.map + g.block - 1) / g.block;
+    g.bias = bias;
+    g.coarse_bias = bias * f32(g.block);
+    let own_texel = vec2<i32>(floor(clamp(view_uv(view, p), vec2<f32>(-1.0), vec2<f32>(2.0)) * f32(g.map)));
+    g.own_block = own_texel >> vec2<u32>(u32(g.level));
+    let lo = search.rect.lo >> vec2<u32>(u32(g.level));
+    let hi = search.rect.hi >> vec2<u32>(u32(g.level));
+    var count: vec2<i32>;
+    if params.primitive == PRIMITIVE_MICROQUAD {
+        // Quads between block centres lo - 1 .. hi + 1 that lie inside the map.
+        let quad_lo = max(lo - 1, vec2<i32>(0));
+        let quad_hi = min(hi, vec2<i32>(g.blocks - 2));
+        count = clamp(quad_hi - quad_lo + 1, vec2<i32>(0), vec2<i32>(per_axis + 1));
+        gather_microquads(acc, hsm, mssm, g, quad_lo, count);
+    } else {
+        count = clamp(hi - lo + 1, vec2<i32>(0), vec2<i32>(per_axis));
+        gather_micropatches(acc, hsm, mssm, g, lo, count);
+    }
+    out.kind = CLASS_BACKPROJECTED;
+    out.level = g.level;
+    out.primitives = u32(count.x * count.y);
+    return out;
+}
+
+fn set_bits(acc: Accumulator) -> u32 {
+    var n = 0u;
+    for (var w = 0u; w < MASK_WORDS; w = w + 1u) {
+        n += countOneBits(acc.mask[w]);
+    }
+    return n;
+}
+
+fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
+    var r: PixelResult;
+    r.v = 1.0;
+    r.area_v = 1.0;
+    r.kind = CLASS_NONE;
+    r.level = -1;
+    r.primitives = 0u;
+    r.set_bits = 0u;
+    let s = load_surface(pixel);
+    if !s.is_receiver {
+        return r;
+    }
+    let p = s.light;
+    if !(p.z > 0.0) {
+        // At or behind the light plane: a one-sided light cannot reach it.
+        r.v = 0.0;
+        r.area_v = 0.0;
+        r.kind = CLASS_UMBRA;
+        return r;
+    }
+    r.kind = CLASS_LIT;
+    if p.z <= view.eye_near_far.z {
+        // Closer to the light than every caster.
+        return r;
+    }
+    // A zero-size light is treated as a tiny one (finite scales, same shadow boundary).
+    let half_light = max(frame.light_half.xy, vec2<f32>(1.0e-4));
+    let bias = params.bias_texels * texel_slope(view) * p.z / light_cosine(s);
+    var acc: Accumulator;
+    acc.area = 0.0;
+    // Every layer ORs into the one mask (sec. 3.2); an umbra layer decides the pixel alone.
+    var layer = LayerResult(CLASS_LIT, -1, 0u);
+    for (var k = 0u; k < MAX_LAYERS; k = k + 1u) {
+        if k >= params.layers {
+            break;
+        }
+        switch k {
+            case 0u: { layer = gather_layer(&acc, hsm0, mssm0, p, half_light, bias); }
+            case 1u: { layer = gather_layer(&acc, hsm1, mssm1, p, half_light, bias); }
+            case 2u: { layer = gather_layer(&acc, hsm2, mssm2, p, half_light, bias); }
+            default: { layer = gather_layer(&acc, hsm3, mssm3, p, half_light, bias); }
+        }
+        r.primitives += layer.primitives;
+        r.level = max(r.level, layer.level);
+        if layer.kind == CLASS_UMBRA {
+            r.v = 0.0;
+            r.area_v = 0.0;
+            r.kind = CLASS_UMBRA;
+            return r;
+        }
+        if layer.kind == CLASS_BACKPROJECTED {
+            r.kind = CLASS_BACKPROJECTED;
+        }
+    }
+    if r.kind != CLASS_BACKPROJECTED {
+        return r;
+    }
+    let samples = params.rows * params.columns;
+    r.set_bits = set_bits(acc);
+    r.v = 1.0 - f32(r.set_bits) / f32(samples);
+    let light_area = 4.0 * half_light.x * half_light.y;
+    r.area_v = 1.0 - acc.area / light_area;
+    if !(r.v >= 0.0 && r.v <= 1.0) {
+        // NaN guard: never write a non-finite visibility.
+        r.v = 1.0;
+    }
+    if !(abs(r.area_v) < 1.0e30) {
+        r.area_v = 0.0;
+    }
+    return r;
+}
+
+@compute @workgroup_size(8, 8)
+fn gather(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    if local == 0u {
+        atomicStore(&group_receivers, 0u);
+        atomicStore(&group_lit, 0u);
+        atomicStore(&group_umbra, 0u);
+        atomicStore(&group_backprojected, 0u);
+        atomicStore(&group_primitives, 0u);
+        atomicStore(&group_primitives_max, 0u);
+        atomicStore(&group_set_bits, 0u);
+    }
+    workgroupBarrier();
+    let size = vec2<u32>(frame.screen.xy);
+    if all(id.xy < size) {
+        let pixel = vec2<i32>(id.xy);
+        let r = shade_pixel(pixel);
+        textureStore(visibility, pixel, vec4<f32>(r.v, 0.0, 0.0, 0.0));
+        if params.with_area != 0u {
+            textureStore(area_map, pixel, vec4<f32>(r.area_v, 0.0, 0.0, 0.0));
+        }
+        textureStore(level_map, pixel, vec4<f32>(f32(r.level), 0.0, 0.0, 0.0));
+        if r.kind != CLASS_NONE {
+            atomicAdd(&group_receivers, 1u);
+        }
+        if r.kind == CLASS_LIT {
+            atomicAdd(&group_lit, 1u);
+        }
+        if r.kind == CLASS_UMBRA {
+            atomicAdd(&group_umbra, 1u);
+        }
+        if r.kind == CLASS_BACKPROJECTED {
+            atomicAdd(&group_backprojected, 1u);
+            atomicAdd(&group_set_bits, r.set_bits);
+        }
+        atomicAdd(&group_primitives, r.primitives);
+        atomicMax(&group_primitives_max, r.primitives);
+    }
+    workgroupBarrier();
+    if local == 0u {
+        atomicAdd(&counters.receivers, atomicLoad(&group_receivers));
+        atomicAdd(&counters.lit, atomicLoad(&group_lit));
+        atomicAdd(&counters.umbra, atomicLoad(&group_umbra));
+        atomicAdd(&counters.backprojected, atomicLoad(&group_backprojected));
+        atomicMax(&counters.primitives_max, atomicLoad(&group_primitives_max));
+        let added = atomicLoad(&group_primitives);
+        let before = atomicAdd(&counters.primitives_lo, added);
+        if before > 0xffffffffu - added {
+            atomicAdd(&counters.primitives_hi, 1u);
+        }
+        let bits = atomicLoad(&group_set_bits);
+        let bits_before = atomicAdd(&counters.set_bits_lo, bits);
+        if bits_before > 0xffffffffu - bits {
+            atomicAdd(&counters.set_bits_hi, 1u);
+        }
+    }
+}
