@@ -27,7 +27,7 @@ pub const TARGET_MAE: f64 = 0.01;
 /// Time budgets of the headline table, in multiples of the `hard` frame time.
 pub const BUDGETS: [f64; 4] = [1.0, 2.0, 4.0, 8.0];
 
-const PLOT_SIZE: (u32, u32) = (620, 400);
+const PLOT_SIZE: (u32, u32) = (600, 380);
 
 /// One run as a point of a plot.
 #[derive(Clone, Debug)]
@@ -137,6 +137,17 @@ fn colour(style: usize) -> RGBColor {
     COLOURS[style % COLOURS.len()]
 }
 
+/// A time axis label: as many decimals as a log axis from 0.01 ms to minutes needs.
+fn tick_ms(t: f64) -> String {
+    if t >= 10.0 {
+        format!("{t:.0}")
+    } else if t >= 1.0 {
+        format!("{t:.1}")
+    } else {
+        format!("{t:.3}")
+    }
+}
+
 fn escape(text: &str) -> String {
     text.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -180,7 +191,7 @@ pub fn plot_svg(
             .configure_mesh()
             .x_desc("frame time, ms (log)")
             .y_desc(value_label)
-            .x_label_formatter(&|t| format!("{t:.3}"))
+            .x_label_formatter(&|t| tick_ms(*t))
             .y_label_formatter(&|v| format!("{v:.3}"))
             .draw()
             .map_err(plot_error)?;
@@ -266,7 +277,7 @@ pub fn plot_svg(
         }
         chart
             .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
+            .background_style(WHITE.mix(0.6))
             .border_style(BLACK)
             .position(SeriesLabelPosition::UpperRight)
             .draw()
@@ -326,7 +337,7 @@ pub struct ReportSummary {
     pub warnings: Vec<String>,
 }
 
-const STYLE: &str = "body{font-family:sans-serif;margin:24px;max-width:1300px;color:#222}\
+const STYLE: &str = "body{font-family:sans-serif;margin:20px;max-width:1240px;color:#222}\
 table{border-collapse:collapse;font-size:13px;margin:8px 0 16px}\
 td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}\
 td.l,th.l{text-align:left}\
@@ -456,11 +467,21 @@ pub fn render_html(merged: &Merged) -> Result<(String, ReportSummary), BenchErro
         );
         body.push_str(&format!(
             "<div class=\"plot mae\">{}</div>",
-            plot_svg(&mae_points, &styles, &title, "mae_shadowed")?
+            plot_svg(
+                &mae_points,
+                &styles,
+                "mae_shadowed against frame time",
+                "mae_shadowed"
+            )?
         ));
         body.push_str(&format!(
             "<div class=\"plot flip\">{}</div></div>",
-            plot_svg(&flip_points, &styles, &title, "FLIP (mean)")?
+            plot_svg(
+                &flip_points,
+                &styles,
+                "FLIP against frame time",
+                "FLIP (mean)"
+            )?
         ));
         let front: Vec<usize> = pareto_front(
             &mae_points
