@@ -542,31 +542,6 @@ fn compute_pipeline(
         }))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn order_preserving_keys_round_trip_and_sort_like_floats() {
-        // The CPU mirror of `ordered` in debug_range.wgsl.
-        let ordered = |x: f32| {
-            let bits = x.to_bits();
-            if bits & 0x8000_0000 != 0 {
-                !bits
-            } else {
-                bits | 0x8000_0000
-            }
-        };
-        let values = [-3.5f32, -1.0, -0.0, 0.0, 1e-6, 0.25, 0.999, 1.0, 4.0];
-        for pair in values.windows(2) {
-            assert!(ordered(pair[0]) <= ordered(pair[1]), "{pair:?}");
-        }
-        for x in values {
-            assert_eq!(unordered(ordered(x)).to_bits(), x.to_bits());
-        }
-    }
-}
-
 fn pipeline(
     gpu: &Gpu,
     label: &str,
@@ -636,4 +611,29 @@ fn draw(
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[]);
     pass.draw(0..3, 0..1);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn order_preserving_keys_round_trip_and_sort_like_floats() {
+        // The CPU mirror of `ordered` in debug_range.wgsl.
+        let ordered = |x: f32| {
+            let bits = x.to_bits();
+            if bits & 0x8000_0000 != 0 {
+                !bits
+            } else {
+                bits | 0x8000_0000
+            }
+        };
+        let values = [-3.5f32, -1.0, -0.0, 0.0, 1e-6, 0.25, 0.999, 1.0, 4.0];
+        for pair in values.windows(2) {
+            assert!(ordered(pair[0]) <= ordered(pair[1]), "{pair:?}");
+        }
+        for x in values {
+            assert_eq!(unordered(ordered(x)).to_bits(), x.to_bits());
+        }
+    }
 }

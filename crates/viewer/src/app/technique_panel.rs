@@ -195,6 +195,11 @@ fn debug_legend(ui: &mut egui::Ui, name: &str, mapping: Option<&DebugMapping>) {
         Some(DebugMapping::Depth { lo, hi, count }) => {
             if *count == 0 {
                 ui.small("no texel holds a caster: the whole map is empty");
+            } else if lo == hi {
+                ui.small(format!(
+                    "all {count} caster texels at depth {lo:.5} (a caster parallel to the \
+                     light): shown mid grey"
+                ));
             } else {
                 ui.small(format!(
                     "depth of the {count} caster texels: black {lo:.5} (nearest) to white {hi:.5}"
