@@ -22,7 +22,15 @@ impl ViewerApp {
                 output.cpu_ms
             ));
         }
-        if !self.gpu.has_timestamps() {
+        let source = self.last_output.as_ref().map(|o| o.timing_source);
+        if let Some(source) = source {
+            ui.label(format!("pass times: {source}")).on_hover_text(
+                "serial: each pass submitted on its own and waited for, its wall time is the \
+                 pass time (the default on a CPU adapter, where timestamps do not wait for \
+                 compute work); timestamps: GPU timestamp queries (the default on a GPU)",
+            );
+        }
+        if self.last_output.as_ref().is_some_and(|o| o.gpu.is_none()) {
             ui.label("this adapter has no timestamp queries: GPU times unavailable");
             return;
         }
@@ -50,8 +58,9 @@ impl ViewerApp {
             return;
         }
         ui.small(format!(
-            "this frame's passes, median of the last {} frames from timestamp queries",
-            self.timings.len()
+            "this frame's passes, median of the last {} frames ({})",
+            self.timings.len(),
+            source.map_or("-", |s| s.as_str())
         ));
         egui::Grid::new("timings").striped(true).show(ui, |ui| {
             ui.strong("pass");
