@@ -94,8 +94,12 @@ softshadow_core::technique_settings! {
         gamma: f32 = 0.01, in 0.0..=1000.0;
         /// Samples start at the cell corners (the paper) or at the centres of its quadrants
         start: Start = Start::Corners;
+        /// Subdivision every frame starts from, without comparisons (0: the paper's 4 corners;
+        /// 1 adds the centre and edge midpoints, so an occluder that hides the middle of the
+        /// light but no corner is still found)
+        min_depth: u32 = 1, in 0..=7;
         /// Deepest subdivision of the light (corners: (2^d+1)^2 maps; centre: 2^(d+1) squared)
-        max_depth: u32 = 4, in 0..=7;
+        max_depth: u32 = 3, in 0..=7;
         /// Most shadow maps rendered in one frame (the refinement stops splitting at this cap)
         max_shadow_maps: u32 = 128, in 2..=512;
         /// Weights of eq. 5 / eq. 6 normalised to sum 1 (off: every map weighs 1/n)
@@ -233,19 +237,19 @@ impl AdaptiveSampling {
                     depth_texture_entry(3, true),
                 ],
             });
-        let resolve_layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("adaptive/resolve"),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    texture_entry(
-                        1,
-                        stage,
-                        wgpu::TextureSampleType::Float { filterable: false },
-                    ),
-                ],
-            });
+        let resolve_layout =
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("adaptive/resolve"),
+                    entries: &[
+                        uniform_entry(0, stage, false),
+                        texture_entry(
+                            1,
+                            stage,
+                            wgpu::TextureSampleType::Float { filterable: false },
+                        ),
+                    ],
+                });
         let add = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -533,8 +537,7 @@ impl Maps<'_> {
             self.store.layers.retain(|_, l| *l != layer);
             self.store.layers.insert(*key, layer);
             let eye = layout.position(*key, half);
-            self.store.layer_uniforms[layer as usize] =
-                sample_view(inputs, eye, self.store.size)?;
+            self.store.layer_uniforms[layer as usize] = sample_view(inputs, eye, self.store.size)?;
             new.push(layer);
         }
         if new.is_empty() {
@@ -701,15 +704,30 @@ impl AdaptiveSampling {
             used: BTreeSet::new(),
             rendered: 0,
         };
+        // Step 1: the uniform subdivision to `min_depth` (the paper: depth 0, the 4 corners).
         let mut leaves = BTreeSet::from([Cell::ROOT]);
-        maps.acquire(
-            frame,
-            inputs,
-            &mut self.depth,
-            layout,
-            &layout.samples(Cell::ROOT),
-        )?;
-        let mut active = vec![Cell::ROOT];
+        for _ in 0..s.min_depth.min(s.max_depth) {
+            leaves = leaves.iter().flat_map(|c| layout.children(*c)).collect();
+        }
+        let initial: Vec<SampleKey> = leaves
+            .iter()
+            .flat_map(|c| layout.samples(*c))
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        if initial.len() > budget {
+            return Err(TechniqueError::Other {
+                technique: ID.into(),
+                message: format!(
+                    "min_depth = {} starts with {} shadow maps, more than max_shadow_maps = {}: lower min_depth or raise max_shadow_maps",
+                    s.min_depth,
+                    initial.len(),
+                    budget
+                ),
+            });
+        }
+        maps.acquire(frame, inputs, &mut self.depth, layout, &initial)?;
+        let mut active: Vec<Cell> = leaves.iter().copied().collect();
         self.write_params(gpu, 0);
         let differing = self.differing.as_ref().expect("made in render");
         while !active.is_empty() {

@@ -144,7 +144,14 @@ impl Layout {
         let depth = cell.depth + 1;
         let (i, j) = (cell.i * 2, cell.j * 2);
         if self.shape.is_segment() {
-            vec![Cell { depth, i, j: 0 }, Cell { depth, i: i + 1, j: 0 }]
+            vec![
+                Cell { depth, i, j: 0 },
+                Cell {
+                    depth,
+                    i: i + 1,
+                    j: 0,
+                },
+            ]
         } else {
             vec![
                 Cell { depth, i, j },

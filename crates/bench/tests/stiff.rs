@@ -60,6 +60,13 @@ fn bound(technique: &str, case: &str) -> Option<f64> {
         ("backprojection", "stiff-zero-thickness" | "stiff-fusion") => 0.05,
         ("backprojection", _) => 0.02,
         ("reference", _) => 0.02,
+        // Corner samples (the paper's) over-weight the light's edges; where a caster hides the
+        // middle of the light, not its corners, that bias is the error (measured 0.18; 0.044 and
+        // 0.049 next to the light). Other cases measured 0.0 to 0.014.
+        ("adaptive", "stiff-tiny-patches") => 0.4,
+        ("adaptive", "stiff-near-light" | "stiff-depth-range") => 0.1,
+        ("adaptive", "stiff-point-light") => 0.01,
+        ("adaptive", _) => 0.03,
         _ => return None,
     };
     Some(b)
