@@ -727,7 +727,14 @@ impl AdaptiveSampling {
             });
         }
         maps.acquire(frame, inputs, &mut self.depth, layout, &initial)?;
-        let mut active: Vec<Cell> = leaves.iter().copied().collect();
+        // Cells at max_depth cannot split: comparing them would cost a round trip for nothing.
+        let splittable = |cells: Vec<Cell>| -> Vec<Cell> {
+            cells
+                .into_iter()
+                .filter(|c| c.depth < s.max_depth)
+                .collect()
+        };
+        let mut active = splittable(leaves.iter().copied().collect());
         self.write_params(gpu, 0);
         let differing = self.differing.as_ref().expect("made in render");
         while !active.is_empty() {
@@ -799,9 +806,7 @@ impl AdaptiveSampling {
                         .unwrap_or(0);
                     (p, *cell)
                 })
-                .filter(|(p, cell)| {
-                    *p as f64 / map_texels >= s.epsilon as f64 && cell.depth < s.max_depth
-                })
+                .filter(|(p, _)| *p as f64 / map_texels >= s.epsilon as f64)
                 .collect();
             candidates.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
             let mut next = Vec::new();
@@ -828,7 +833,7 @@ impl AdaptiveSampling {
                 differing_pixels: counts.iter().sum(),
                 splits: (next.len() / layout.children(Cell::ROOT).len()) as u32,
             });
-            active = next;
+            active = splittable(next);
         }
         self.report.maps_generated = maps.used.len() as u32;
         self.report.maps_rendered = maps.rendered;
