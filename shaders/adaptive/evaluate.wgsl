@@ -14,9 +14,11 @@ struct Params {
 }
 
 @group(1) @binding(0) var<uniform> params: Params;
-@group(1) @binding(1) var<storage, read> views: array<ShadowView>;
+// Uniform arrays: on lavapipe they read about 6x faster than storage buffers in these loops
+// (measured: evaluate 1603 -> 255 ms, compare 1213 -> 192 ms, 81 maps at 256²).
+@group(1) @binding(1) var<uniform> views: array<ShadowView, 512>;
 // Evaluated maps: (layer, weight as f32 bits, -, -).
-@group(1) @binding(2) var<storage, read> items: array<vec4<u32>>;
+@group(1) @binding(2) var<uniform> items: array<vec4<u32>, 1024>;
 @group(1) @binding(3) var depth_maps: texture_depth_2d_array;
 
 struct Vertex {

@@ -138,6 +138,10 @@ struct Params {
     counts: [u32; 4],
 }
 
+/// Most maps a frame may use: the length of the `views` uniform array in the shaders (512 x 112
+/// bytes fits the 64 KiB uniform binding limit), and the top of the `max_shadow_maps` range.
+const MAX_MAPS: u32 = 512;
+
 /// Bytes of one compared pair or evaluated map in the item buffers (`vec4<u32>`).
 const ITEM_BYTES: u64 = 16;
 
@@ -216,24 +220,14 @@ impl AdaptiveSampling {
     pub fn new(gpu: &Gpu, settings: AdaptiveSettings) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
         let stage = wgpu::ShaderStages::FRAGMENT;
-        let storage = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("adaptive/maps"),
                 entries: &[
                     uniform_entry(0, stage, false),
-                    storage(1),
-                    storage(2),
+                    uniform_entry(1, stage, false),
+                    uniform_entry(2, stage, false),
                     depth_texture_entry(3, true),
                 ],
             });
@@ -361,16 +355,17 @@ impl AdaptiveSampling {
                 mapped_at_creation: false,
             })
         };
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        // Fixed-size uniform arrays (`MAX_MAPS` views, `2 * MAX_MAPS` items in the shaders).
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         // A level compares at most 2 pairs per leaf cell; leaves <= maps.
         let max_pairs = 2 * capacity as u64;
         let views = buffer(
             "adaptive/views",
-            capacity as u64 * std::mem::size_of::<ShadowViewUniform>() as u64,
-            storage,
+            MAX_MAPS as u64 * std::mem::size_of::<ShadowViewUniform>() as u64,
+            uniform,
         );
-        let pairs = buffer("adaptive/pairs", max_pairs * ITEM_BYTES, storage);
-        let terms = buffer("adaptive/terms", capacity as u64 * ITEM_BYTES, storage);
+        let pairs = buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
+        let terms = buffer("adaptive/terms", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
         let array_view = maps.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
