@@ -1,7 +1,8 @@
 //! `softshadow`: the soft-shadow workbench as a library.
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
-//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `reference`; all on by default).
+//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
+//! `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -19,6 +20,8 @@ pub use softshadow_core as core;
 pub use softshadow_metrics as metrics;
 pub use softshadow_scenes as scenes;
 
+#[cfg(feature = "adaptive")]
+pub use softshadow_adaptive as adaptive;
 #[cfg(feature = "backprojection")]
 pub use softshadow_backprojection as backprojection;
 #[cfg(feature = "bitmask")]

@@ -10,6 +10,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         softshadow_ssm::info(),
         softshadow_backprojection::info(),
         softshadow_bitmask::info(),
+        softshadow_adaptive::info(),
         softshadow_reference::info(),
     ]
 }
@@ -22,6 +23,7 @@ pub fn all_shaders() -> Vec<softshadow_core::shader::ShaderSpec> {
     specs.extend_from_slice(softshadow_ssm::SHADERS);
     specs.extend_from_slice(softshadow_backprojection::SHADERS);
     specs.extend_from_slice(softshadow_bitmask::SHADERS);
+    specs.extend_from_slice(softshadow_adaptive::SHADERS);
     specs.extend_from_slice(softshadow_reference::SHADERS);
     specs
 }

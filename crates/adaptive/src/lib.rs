@@ -1,0 +1,939 @@
+//! `adaptive`: adaptive light-source sampling with occlusion queries (Schwärzler 2009).
+//!
+//! Hard shadow maps are placed on the light only where neighbouring maps disagree in camera
+//! space. A frame, top to bottom:
+//!
+//! 1. `adaptive/shadow_map`: depth maps of the casters from the initial samples (the ends of a
+//!    linear light, the corners of a rectangular one, or the centres of their halves / quadrants
+//!    with `start=centre`), one layer each of a 2D texture array.
+//! 2. `adaptive/compare`: for every leaf cell, its pairs of maps (the ends, or the two diagonals)
+//!    reprojected at every G-buffer pixel and compared (eq. 3 or eq. 7); differing pixels pass and
+//!    are counted by one occlusion query per pair. The level's queries are resolved, the frame so
+//!    far is submitted and the counts read back: one CPU-GPU round trip per level.
+//! 3. A cell splits when p / (SM_x x SM_y) >= epsilon (eq. 4) for one of its pairs, within
+//!    `max_depth` and `max_shadow_maps`; the new samples' maps are rendered and step 2 repeats
+//!    over the new cells until no cell splits.
+//! 4. `adaptive/evaluate` (one pass over the texture array, section 3.4.2, weights of eq. 5 / 6)
+//!    or `adaptive/accumulate` (one pass per map into an accumulation buffer, equal weights,
+//!    section 3.4.1) + `adaptive/resolve`.
+//!
+//! Reads: the casters and the G-buffer. Writes: the visibility buffer. Maps are kept across frames
+//! while the light, the casters and the parameters stand still (a camera-only frame redoes the
+//! camera-dependent comparisons and renders only maps of samples it has not kept).
+
+pub mod refine;
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use bytemuck::{Pod, Zeroable};
+use refine::{Cell, Layout, SampleKey, Shape};
+use softshadow_core::{
+    frame::{texture_entry, uniform_entry},
+    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    glam::Vec2,
+    shader::{DefValue, ShaderSpec},
+    shader_file,
+    shadow_map::{
+        create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
+        ShadowViewUniform,
+    },
+    wgpu, DebugView, Frame, Gpu, GpuError, Requirements, ShadowInputs, ShadowTechnique,
+    TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+};
+
+pub use refine::Start;
+
+pub const ID: &str = "adaptive";
+
+pub const SHADERS: &[ShaderSpec] = &[
+    ShaderSpec {
+        path: "adaptive/compare.wgsl",
+        source: shader_file!("adaptive/compare.wgsl").1,
+        permutations: &[&[]],
+    },
+    ShaderSpec {
+        path: "adaptive/evaluate.wgsl",
+        source: shader_file!("adaptive/evaluate.wgsl").1,
+        permutations: &[&[], &[("ACCUMULATE", DefValue::Bool(true))]],
+    },
+    ShaderSpec {
+        path: "adaptive/resolve.wgsl",
+        source: shader_file!("adaptive/resolve.wgsl").1,
+        permutations: &[&[]],
+    },
+];
+
+softshadow_core::param_choice! {
+    /// Which depth comparison decides that two reprojected maps differ at a pixel.
+    pub enum ThresholdMode {
+        /// |z_a - z_b| >= gamma, light-space depth in world units (eq. 3).
+        Absolute = "absolute",
+        /// |1 - z_a / z_b| >= gamma on linear depth (eq. 7, the paper's 2D implementation).
+        Relative = "relative",
+    }
+}
+
+softshadow_core::param_choice! {
+    /// How the maps become visibility.
+    pub enum Evaluation {
+        /// One pass over a 2D texture array of all maps, weighted (section 3.4.2).
+        Array = "array",
+        /// One pass per map into an accumulation buffer, equal weights (section 3.4.1).
+        Accumulate = "accumulate",
+    }
+}
+
+softshadow_core::technique_settings! {
+    /// Settings of adaptive light-source sampling.
+    pub struct AdaptiveSettings {
+        /// Refine while differing pixels / shadow-map texels >= epsilon (eq. 4); 0 refines to max_depth
+        epsilon: f32 = 0.0005, in 0.0..=1.0;
+        /// Depth comparison of the reprojected maps: absolute (eq. 3) or relative (eq. 7)
+        threshold_mode: ThresholdMode = ThresholdMode::Relative;
+        /// Threshold gamma: world units (absolute) or a fraction of the depth (relative)
+        gamma: f32 = 0.01, in 0.0..=1000.0;
+        /// Samples start at the cell corners (the paper) or at the centres of its quadrants
+        start: Start = Start::Corners;
+        /// Subdivision every frame starts from, without comparisons (0: the paper's 4 corners;
+        /// 1 adds the centre and edge midpoints, so an occluder that hides the middle of the
+        /// light but no corner is still found)
+        min_depth: u32 = 1, in 0..=7;
+        /// Deepest subdivision of the light (corners: (2^d+1)^2 maps; centre: 2^(d+1) squared)
+        max_depth: u32 = 3, in 0..=7;
+        /// Most shadow maps rendered in one frame (the refinement stops splitting at this cap)
+        max_shadow_maps: u32 = 128, in 2..=512;
+        /// Weights of eq. 5 / eq. 6 normalised to sum 1 (off: every map weighs 1/n)
+        weights: bool = true;
+        /// Evaluation: one pass over a texture array, or one pass per map into an accumulation buffer
+        evaluation: Evaluation = Evaluation::Array;
+        /// 2x2 percentage-closer filtering of each map (section 3.4.3)
+        pcf: bool = false;
+        /// Edge of each shadow map in texels (the paper: 512)
+        shadow_map_size: u32 = 512, in 64..=2048;
+        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
+    }
+}
+
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        id: ID,
+        description: "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (occlusion queries)",
+        source: "Schwärzler 2009, Real-Time Soft Shadows with Adaptive Light Source Sampling",
+        params: AdaptiveSettings::param_specs,
+        create: |gpu| {
+            Ok(Box::new(AdaptiveSampling::new(
+                gpu,
+                AdaptiveSettings::default(),
+            )?))
+        },
+    }
+}
+
+/// Mirrors `Params` in `shaders/adaptive/*.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    values: [f32; 4],
+    counts: [u32; 4],
+}
+
+/// Most maps a frame may use: the length of the `views` uniform array in the shaders (512 x 112
+/// bytes fits the 64 KiB uniform binding limit), and the top of the `max_shadow_maps` range.
+const MAX_MAPS: u32 = 512;
+
+/// Bytes of one compared pair or evaluated map in the item buffers (`vec4<u32>`).
+const ITEM_BYTES: u64 = 16;
+
+/// What one refinement level measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelReport {
+    /// Leaf cells compared at this level.
+    pub cells: u32,
+    /// Pairs compared (= occlusion queries).
+    pub queries: u32,
+    /// Differing pixels summed over the pairs (the occlusion query results).
+    pub differing_pixels: u64,
+    /// Cells split after this level.
+    pub splits: u32,
+}
+
+/// What the last frame did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameReport {
+    /// Maps in the final image.
+    pub maps_used: u32,
+    /// Maps this frame needed (used or compared), kept or rendered.
+    pub maps_generated: u32,
+    /// Depth passes recorded this frame (maps not kept from an earlier frame).
+    pub maps_rendered: u32,
+    /// Deepest leaf cell.
+    pub depth_reached: u32,
+    pub levels: Vec<LevelReport>,
+    /// `Frame::submit_and_wait` calls (one per level with comparisons).
+    pub round_trips: u32,
+    /// Light-space positions (u, v) and weights of the maps in the final image.
+    pub samples: Vec<(Vec2, f64)>,
+}
+
+/// GPU resources sized by the settings (map edge, layer capacity); rebuilt when they change.
+struct Store {
+    size: u32,
+    capacity: u32,
+    /// The depth maps, one layer per sample (kept alive beside its views).
+    _maps: wgpu::Texture,
+    layer_views: Vec<wgpu::TextureView>,
+    views: wgpu::Buffer,
+    /// Compared pairs (one level) or evaluated maps.
+    pairs: wgpu::Buffer,
+    terms: wgpu::Buffer,
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    compare_group: wgpu::BindGroup,
+    evaluate_group: wgpu::BindGroup,
+    /// Layer of every kept map, by sample key (valid while `kept_layout` matches).
+    layers: BTreeMap<SampleKey, u32>,
+    /// View uniform of every layer (index = layer).
+    layer_uniforms: Vec<ShadowViewUniform>,
+    kept_layout: Option<Layout>,
+}
+
+pub struct AdaptiveSampling {
+    pub settings: AdaptiveSettings,
+    depth: DepthMapRenderer,
+    layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    compare: FullscreenPipeline,
+    evaluate: FullscreenPipeline,
+    accumulate: FullscreenPipeline,
+    resolve: FullscreenPipeline,
+    params: wgpu::Buffer,
+    store: Option<Store>,
+    /// Per pixel, how many pairs differed at the last level compared (debug view and tests).
+    differing: Option<VisibilityBuffer>,
+    accumulation: Option<VisibilityBuffer>,
+    report: FrameReport,
+}
+
+impl AdaptiveSampling {
+    pub fn new(gpu: &Gpu, settings: AdaptiveSettings) -> Result<Self, TechniqueError> {
+        softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
+        let stage = wgpu::ShaderStages::FRAGMENT;
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("adaptive/maps"),
+                entries: &[
+                    uniform_entry(0, stage, false),
+                    uniform_entry(1, stage, false),
+                    uniform_entry(2, stage, false),
+                    depth_texture_entry(3, true),
+                ],
+            });
+        let resolve_layout =
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("adaptive/resolve"),
+                    entries: &[
+                        uniform_entry(0, stage, false),
+                        texture_entry(
+                            1,
+                            stage,
+                            wgpu::TextureSampleType::Float { filterable: false },
+                        ),
+                    ],
+                });
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let additive = Some(wgpu::BlendState {
+            color: add,
+            alpha: add,
+        });
+        Ok(Self {
+            depth: DepthMapRenderer::new(gpu)?,
+            compare: FullscreenPipeline::new(
+                gpu,
+                "adaptive/compare",
+                &SHADERS[0],
+                &[],
+                &layout,
+                additive,
+            )?,
+            evaluate: FullscreenPipeline::new(
+                gpu,
+                "adaptive/evaluate",
+                &SHADERS[1],
+                &[],
+                &layout,
+                None,
+            )?,
+            accumulate: FullscreenPipeline::new(
+                gpu,
+                "adaptive/accumulate",
+                &SHADERS[1],
+                &[("ACCUMULATE", DefValue::Bool(true))],
+                &layout,
+                additive,
+            )?,
+            resolve: FullscreenPipeline::new(
+                gpu,
+                "adaptive/resolve",
+                &SHADERS[2],
+                &[],
+                &resolve_layout,
+                None,
+            )?,
+            params: uniform_buffer(gpu, "adaptive/params", &Params::zeroed()),
+            layout,
+            resolve_layout,
+            settings,
+            store: None,
+            differing: None,
+            accumulation: None,
+            report: FrameReport::default(),
+        })
+    }
+
+    fn requirements_static() -> Requirements {
+        Requirements {
+            // Occlusion queries are core WebGPU; counting differing pairs per pixel (debug view)
+            // and the accumulation buffer blend into R32Float.
+            features: wgpu::Features::FLOAT32_BLENDABLE,
+            ..Requirements::default()
+        }
+    }
+
+    /// What the last frame did: maps, levels, queries, differing pixels, round trips, samples.
+    pub fn report(&self) -> &FrameReport {
+        &self.report
+    }
+
+    /// Per pixel, the number of compared pairs that differed there at the last level compared
+    /// (the comparison pass's own output, for checking the occlusion queries).
+    pub fn differing_texture(&self) -> Option<&wgpu::Texture> {
+        self.differing.as_ref().map(|d| &d.texture)
+    }
+
+    fn layout_for(&self, half: Vec2) -> Layout {
+        Layout {
+            shape: Shape::of(half),
+            start: self.settings.start,
+            max_depth: self.settings.max_depth,
+        }
+    }
+
+    fn ensure_store(&mut self, gpu: &Gpu) -> Result<(), TechniqueError> {
+        let (size, capacity) = (self.settings.shadow_map_size, self.settings.max_shadow_maps);
+        if self
+            .store
+            .as_ref()
+            .is_some_and(|s| s.size == size && s.capacity == capacity)
+        {
+            return Ok(());
+        }
+        let limit = gpu.device.limits().max_texture_array_layers;
+        if capacity > limit {
+            return Err(TechniqueError::Other {
+                technique: ID.into(),
+                message: format!(
+                    "max_shadow_maps = {capacity} exceeds the adapter's {limit} texture array layers: lower it"
+                ),
+            });
+        }
+        self.store = None;
+        let maps = create_depth_maps(gpu, "adaptive/shadow_maps", size, capacity);
+        let layer_views = (0..capacity).map(|l| layer_view(&maps, l)).collect();
+        let buffer = |label, size: u64, usage| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        // Fixed-size uniform arrays (`MAX_MAPS` views, `2 * MAX_MAPS` items in the shaders).
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        // A level compares at most 2 pairs per leaf cell; leaves <= maps.
+        let max_pairs = 2 * capacity as u64;
+        let views = buffer(
+            "adaptive/views",
+            MAX_MAPS as u64 * std::mem::size_of::<ShadowViewUniform>() as u64,
+            uniform,
+        );
+        let pairs = buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
+        let terms = buffer("adaptive/terms", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
+        let array_view = maps.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let group = |label, items: &wgpu::Buffer| {
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: views.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: items.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&array_view),
+                    },
+                ],
+            })
+        };
+        let compare_group = group("adaptive/compare", &pairs);
+        let evaluate_group = group("adaptive/evaluate", &terms);
+        self.store = Some(Store {
+            size,
+            capacity,
+            layer_views,
+            queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("adaptive/differing pixels"),
+                ty: wgpu::QueryType::Occlusion,
+                count: max_pairs as u32,
+            }),
+            resolve: buffer(
+                "adaptive/query resolve",
+                8 * max_pairs,
+                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            ),
+            readback: buffer(
+                "adaptive/query readback",
+                8 * max_pairs,
+                wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            ),
+            _maps: maps,
+            views,
+            pairs,
+            terms,
+            compare_group,
+            evaluate_group,
+            layers: BTreeMap::new(),
+            layer_uniforms: vec![ShadowViewUniform::zeroed(); capacity as usize],
+            kept_layout: None,
+        });
+        Ok(())
+    }
+
+    fn screen_buffer(
+        slot: &mut Option<VisibilityBuffer>,
+        gpu: &Gpu,
+        label: &str,
+        inputs: &ShadowInputs<'_>,
+    ) {
+        if slot
+            .as_ref()
+            .is_none_or(|b| b.width != inputs.width || b.height != inputs.height)
+        {
+            *slot = Some(VisibilityBuffer::new(
+                gpu,
+                label,
+                inputs.width,
+                inputs.height,
+            ));
+        }
+    }
+
+    fn write_params(&self, gpu: &Gpu, count: u32) {
+        let s = &self.settings;
+        let relative = matches!(s.threshold_mode, ThresholdMode::Relative);
+        let params = Params {
+            values: [
+                s.gamma,
+                if relative { 1.0 } else { 0.0 },
+                s.bias_texels,
+                if s.pcf { 1.0 } else { 0.0 },
+            ],
+            counts: [count, 0, 0, 0],
+        };
+        gpu.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+    }
+}
+
+/// The hard-map window from light-space `eye` (as the reference fits each of its samples):
+/// clipped to the receivers' slopes, or the caster window when no caster can shadow a receiver
+/// through `eye` (every receiver is then outside it, so lit).
+fn sample_view(
+    inputs: &ShadowInputs<'_>,
+    eye: Vec2,
+    size: u32,
+) -> Result<ShadowViewUniform, TechniqueError> {
+    let frustum = fit_hard_view(inputs.scene, inputs.light, eye)
+        .or_else(|| fit_caster_view(inputs.scene, inputs.light, eye))
+        .ok_or_else(|| TechniqueError::Other {
+            technique: ID.into(),
+            message: format!(
+                "no caster window from light sample ({}, {}) although casters exist: report the scene",
+                eye.x, eye.y
+            ),
+        })?;
+    Ok(ShadowViewUniform::new(inputs.light, &frustum, size))
+}
+
+/// Builds the frame's sample set: keeps layers already rendered for the same layout, assigns
+/// free layers to new samples and records their depth passes.
+struct Maps<'s> {
+    store: &'s mut Store,
+    /// Keys used by this frame, in order of first use.
+    used: BTreeSet<SampleKey>,
+    rendered: u32,
+}
+
+impl Maps<'_> {
+    /// Layers for `keys`, rendering the maps that are not kept. Fails if there is no free layer
+    /// (callers check the budget first).
+    fn acquire(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        depth: &mut DepthMapRenderer,
+        layout: &Layout,
+        keys: &[SampleKey],
+    ) -> Result<(), TechniqueError> {
+        let half = inputs.light.half_extent();
+        let mut new = Vec::new();
+        for key in keys {
+            if !self.used.insert(*key) {
+                continue;
+            }
+            if self.store.layers.contains_key(key) {
+                continue;
+            }
+            // A free layer: never assigned, or holding a kept map this frame does not use.
+            let taken: BTreeSet<u32> = self
+                .store
+                .layers
+                .iter()
+                .filter(|(k, _)| self.used.contains(k))
+                .map(|(_, l)| *l)
+                .collect();
+            let all: BTreeSet<u32> = self.store.layers.values().copied().collect();
+            let layer = (0..self.store.capacity)
+                .find(|l| !all.contains(l))
+                .or_else(|| (0..self.store.capacity).find(|l| !taken.contains(l)))
+                .ok_or_else(|| TechniqueError::Other {
+                    technique: ID.into(),
+                    message: "out of shadow-map layers (a bug: the budget is checked first)".into(),
+                })?;
+            self.store.layers.retain(|_, l| *l != layer);
+            self.store.layers.insert(*key, layer);
+            let eye = layout.position(*key, half);
+            self.store.layer_uniforms[layer as usize] = sample_view(inputs, eye, self.store.size)?;
+            new.push(layer);
+        }
+        if new.is_empty() {
+            return Ok(());
+        }
+        let gpu = frame.gpu;
+        depth.set_views(gpu, &self.store.layer_uniforms);
+        gpu.queue.write_buffer(
+            &self.store.views,
+            0,
+            bytemuck::cast_slice(&self.store.layer_uniforms),
+        );
+        for layer in new {
+            depth.record(
+                frame,
+                "adaptive/shadow_map",
+                inputs.scene,
+                layer,
+                &self.store.layer_views[layer as usize],
+            );
+            self.rendered += 1;
+        }
+        Ok(())
+    }
+
+    fn layer(&self, key: SampleKey) -> u32 {
+        self.store.layers[&key]
+    }
+}
+
+/// Reads `count` occlusion-query results from `readback` (the frame was just submitted and
+/// waited for).
+fn read_counts(gpu: &Gpu, readback: &wgpu::Buffer, count: u32) -> Result<Vec<u64>, GpuError> {
+    let slice = readback.slice(..8 * count as u64);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = sender.send(r);
+    });
+    gpu.wait_idle()?;
+    receiver
+        .recv()
+        .map_err(|e| GpuError::Readback(e.to_string()))?
+        .map_err(|e| GpuError::Readback(e.to_string()))?;
+    let counts = {
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        data.chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+            .collect()
+    };
+    readback.unmap();
+    Ok(counts)
+}
+
+impl ShadowTechnique for AdaptiveSampling {
+    fn id(&self) -> &'static str {
+        ID
+    }
+
+    fn requirements(&self) -> Requirements {
+        Self::requirements_static()
+    }
+
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
+    }
+
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
+    }
+
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        self.report = FrameReport::default();
+        if fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO).is_none() {
+            // No caster in front of the light: everything is lit, no map needed.
+            out.clear_lit(frame, "adaptive/no_casters");
+            return Ok(());
+        }
+        self.ensure_store(gpu)?;
+        Self::screen_buffer(&mut self.differing, gpu, "adaptive/differing", inputs);
+        let layout = self.layout_for(inputs.light.half_extent());
+        let s = self.settings.clone();
+        let map_texels = (s.shadow_map_size as f64) * (s.shadow_map_size as f64);
+        let mut store = self.store.take().expect("ensured above");
+        // Maps depend on the light, the casters and the parameters only: keep them otherwise.
+        if inputs.changes.light_space() || store.kept_layout != Some(layout) {
+            store.layers.clear();
+        }
+        store.kept_layout = Some(layout);
+        let result = self.refine(frame, inputs, &layout, &mut store, map_texels);
+        let result = result
+            .and_then(|leaves| self.evaluate_maps(frame, inputs, &layout, &store, &leaves, out));
+        if result.is_err() {
+            // A failed frame keeps nothing: the next one starts from scratch.
+            store.layers.clear();
+        }
+        self.store = Some(store);
+        result
+    }
+
+    fn invalidate_cache(&mut self) {
+        if let Some(store) = self.store.as_mut() {
+            store.layers.clear();
+        }
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        let r = &self.report;
+        let mut stats = TechniqueStats::from([
+            ("maps_used".into(), r.maps_used as f64),
+            ("maps_generated".into(), r.maps_generated as f64),
+            ("maps_rendered".into(), r.maps_rendered as f64),
+            ("depth_reached".into(), r.depth_reached as f64),
+            ("levels".into(), r.levels.len() as f64),
+            (
+                "queries".into(),
+                r.levels.iter().map(|l| l.queries as f64).sum(),
+            ),
+            ("round_trips".into(), r.round_trips as f64),
+        ]);
+        for (k, level) in r.levels.iter().enumerate() {
+            stats.insert(
+                format!("differing_pixels_level{k}"),
+                level.differing_pixels as f64,
+            );
+        }
+        stats
+    }
+
+    fn debug_views(&self) -> Vec<DebugView> {
+        self.differing
+            .as_ref()
+            .map(|d| DebugView {
+                name: "differing_pairs".into(),
+                texture: d.texture.clone(),
+            })
+            .into_iter()
+            .collect()
+    }
+}
+
+impl AdaptiveSampling {
+    /// Steps 1-3: initial maps, then compare / read back / split per level. Returns the leaves.
+    fn refine(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        layout: &Layout,
+        store: &mut Store,
+        map_texels: f64,
+    ) -> Result<BTreeSet<Cell>, TechniqueError> {
+        let gpu = frame.gpu;
+        let s = self.settings.clone();
+        let budget = s.max_shadow_maps as usize;
+        let mut maps = Maps {
+            store,
+            used: BTreeSet::new(),
+            rendered: 0,
+        };
+        // Step 1: the uniform subdivision to `min_depth` (the paper: depth 0, the 4 corners).
+        let mut leaves = BTreeSet::from([Cell::ROOT]);
+        for _ in 0..s.min_depth.min(s.max_depth) {
+            leaves = leaves.iter().flat_map(|c| layout.children(*c)).collect();
+        }
+        let initial: Vec<SampleKey> = leaves
+            .iter()
+            .flat_map(|c| layout.samples(*c))
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        if initial.len() > budget {
+            return Err(TechniqueError::Other {
+                technique: ID.into(),
+                message: format!(
+                    "min_depth = {} starts with {} shadow maps, more than max_shadow_maps = {}: lower min_depth or raise max_shadow_maps",
+                    s.min_depth,
+                    initial.len(),
+                    budget
+                ),
+            });
+        }
+        maps.acquire(frame, inputs, &mut self.depth, layout, &initial)?;
+        // Cells at max_depth cannot split: comparing them would cost a round trip for nothing.
+        let splittable = |cells: Vec<Cell>| -> Vec<Cell> {
+            cells
+                .into_iter()
+                .filter(|c| c.depth < s.max_depth)
+                .collect()
+        };
+        let mut active = splittable(leaves.iter().copied().collect());
+        self.write_params(gpu, 0);
+        let differing = self.differing.as_ref().expect("made in render");
+        while !active.is_empty() {
+            // Step 2: all comparisons of this level in one pass, one occlusion query per pair.
+            let mut pairs: Vec<[u32; 4]> = Vec::new();
+            for cell in &active {
+                for (a, b) in layout.pairs(*cell) {
+                    pairs.push([maps.layer(a), maps.layer(b), 0, 0]);
+                }
+            }
+            let count = pairs.len() as u32;
+            gpu.queue
+                .write_buffer(&maps.store.pairs, 0, bytemuck::cast_slice(&pairs));
+            let store = &*maps.store;
+            frame.render_pass(
+                "adaptive/compare",
+                wgpu::RenderPassDescriptor {
+                    label: None,
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &differing.view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: Some(&store.queries),
+                    multiview_mask: None,
+                },
+                |pass| {
+                    pass.set_pipeline(&self.compare.pipeline);
+                    pass.set_bind_group(0, inputs.frame_bind_group, &[]);
+                    pass.set_bind_group(1, &store.compare_group, &[]);
+                    for q in 0..count {
+                        pass.begin_occlusion_query(q);
+                        pass.draw(0..3, q..q + 1);
+                        pass.end_occlusion_query();
+                    }
+                },
+            );
+            frame
+                .encoder
+                .resolve_query_set(&store.queries, 0..count, &store.resolve, 0);
+            frame.encoder.copy_buffer_to_buffer(
+                &store.resolve,
+                0,
+                &store.readback,
+                0,
+                8 * count as u64,
+            );
+            frame.submit_and_wait()?;
+            self.report.round_trips += 1;
+            let counts = read_counts(gpu, &store.readback, count)?;
+
+            // Step 3: split where a pair differs on at least epsilon of the map's texels (eq. 4),
+            // most differing first while the map budget lasts.
+            let per_cell = pairs.len() / active.len();
+            let mut candidates: Vec<(u64, Cell)> = active
+                .iter()
+                .enumerate()
+                .map(|(c, cell)| {
+                    let p = counts[c * per_cell..(c + 1) * per_cell]
+                        .iter()
+                        .copied()
+                        .max()
+                        .unwrap_or(0);
+                    (p, *cell)
+                })
+                .filter(|(p, _)| *p as f64 / map_texels >= s.epsilon as f64)
+                .collect();
+            candidates.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+            let mut next = Vec::new();
+            for (_, cell) in candidates {
+                let children = layout.children(cell);
+                let keys: Vec<SampleKey> = children
+                    .iter()
+                    .flat_map(|c| layout.samples(*c))
+                    .collect::<BTreeSet<_>>()
+                    .into_iter()
+                    .filter(|k| !maps.used.contains(k))
+                    .collect();
+                if maps.used.len() + keys.len() > budget {
+                    continue;
+                }
+                maps.acquire(frame, inputs, &mut self.depth, layout, &keys)?;
+                leaves.remove(&cell);
+                leaves.extend(children.iter().copied());
+                next.extend(children);
+            }
+            self.report.levels.push(LevelReport {
+                cells: active.len() as u32,
+                queries: count,
+                differing_pixels: counts.iter().sum(),
+                splits: (next.len() / layout.children(Cell::ROOT).len()) as u32,
+            });
+            active = splittable(next);
+        }
+        self.report.maps_generated = maps.used.len() as u32;
+        self.report.maps_rendered = maps.rendered;
+        self.report.depth_reached = leaves.iter().map(|c| c.depth).max().unwrap_or(0);
+        Ok(leaves)
+    }
+
+    /// Step 4: visibility from the leaves' maps.
+    fn evaluate_maps(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        layout: &Layout,
+        store: &Store,
+        leaves: &BTreeSet<Cell>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        let weights = layout.weights(leaves, self.settings.weights);
+        let half = inputs.light.half_extent();
+        let terms: Vec<[u32; 4]> = weights
+            .iter()
+            .map(|(key, w)| [store.layers[key], (*w as f32).to_bits(), 0, 0])
+            .collect();
+        self.report.maps_used = terms.len() as u32;
+        self.report.samples = weights
+            .iter()
+            .map(|(key, w)| (layout.position(*key, half), *w))
+            .collect();
+        let count = terms.len() as u32;
+        gpu.queue
+            .write_buffer(&store.terms, 0, bytemuck::cast_slice(&terms));
+        self.write_params(gpu, count);
+        match self.settings.evaluation {
+            Evaluation::Array => {
+                self.evaluate.record(
+                    frame,
+                    "adaptive/evaluate",
+                    inputs.frame_bind_group,
+                    &store.evaluate_group,
+                    &[],
+                    &out.view,
+                    Some(1.0),
+                );
+            }
+            Evaluation::Accumulate => {
+                Self::screen_buffer(&mut self.accumulation, gpu, "adaptive/accumulation", inputs);
+                let accumulation = self.accumulation.as_ref().expect("made above");
+                // One render pass per map, as the paper's deferred variant (section 3.4.1).
+                for k in 0..count {
+                    frame.render_pass(
+                        "adaptive/accumulate",
+                        wgpu::RenderPassDescriptor {
+                            label: None,
+                            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                                view: &accumulation.view,
+                                depth_slice: None,
+                                resolve_target: None,
+                                ops: wgpu::Operations {
+                                    load: if k == 0 {
+                                        wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)
+                                    } else {
+                                        wgpu::LoadOp::Load
+                                    },
+                                    store: wgpu::StoreOp::Store,
+                                },
+                            })],
+                            depth_stencil_attachment: None,
+                            timestamp_writes: None,
+                            occlusion_query_set: None,
+                            multiview_mask: None,
+                        },
+                        |pass| {
+                            pass.set_pipeline(&self.accumulate.pipeline);
+                            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
+                            pass.set_bind_group(1, &store.evaluate_group, &[]);
+                            pass.draw(0..3, k..k + 1);
+                        },
+                    );
+                }
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("adaptive/resolve"),
+                    layout: &self.resolve_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: self.params.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(&accumulation.view),
+                        },
+                    ],
+                });
+                self.resolve.record(
+                    frame,
+                    "adaptive/resolve",
+                    inputs.frame_bind_group,
+                    &group,
+                    &[],
+                    &out.view,
+                    Some(1.0),
+                );
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,317 @@
+//! The CPU side of adaptive light-source sampling (Schwärzler, section 3.3): where samples sit
+//! on the light, which maps are compared, how a cell splits and what each sample weighs. No GPU
+//! here, so all of it is unit-tested.
+//!
+//! Sample positions are integer keys on a grid of `resolution` steps per light axis
+//! (`resolution = 2^(max_depth + 2)`), so a sample reached by two cells is one map.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use softshadow_core::glam::Vec2;
+
+softshadow_core::param_choice! {
+    /// Where a cell's samples sit.
+    pub enum Start {
+        /// At the cell's corners (ends of the segment for a linear light), shared with its
+        /// neighbours: the paper's scheme (sections 3.3.1 and 3.3.5). A full split to depth d gives
+        /// a (2^d + 1)^2 grid that includes the light's edges.
+        Corners = "corners",
+        /// At the centres of the cell's quadrants (halves for a linear light): a cell-centred
+        /// variant whose full split to depth d is the 2^(d+1) x 2^(d+1) grid of strata centres,
+        /// i.e. the fixed-grid accumulation (`reference` without jitter). A split does not reuse
+        /// the parent's maps.
+        Centre = "centre",
+    }
+}
+
+/// How many axes the light has: a segment (section 3.3, eq. 5) or a rectangle (3.3.5, eq. 6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shape {
+    /// Width 0 and height 0: every sample is the centre; treated as a segment along u.
+    /// Height 0: a segment along u.
+    SegmentU,
+    /// Width 0, height > 0: a segment along v.
+    SegmentV,
+    Rectangle,
+}
+
+impl Shape {
+    pub fn of(half: Vec2) -> Self {
+        if half.y == 0.0 {
+            Shape::SegmentU
+        } else if half.x == 0.0 {
+            Shape::SegmentV
+        } else {
+            Shape::Rectangle
+        }
+    }
+
+    pub fn is_segment(self) -> bool {
+        self != Shape::Rectangle
+    }
+}
+
+/// A sample position in grid steps (`y` is 0 on a segment).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SampleKey {
+    pub x: u32,
+    pub y: u32,
+}
+
+/// A quadtree cell (an interval of a binary tree on a segment): `2^depth` cells per axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Cell {
+    pub depth: u32,
+    pub i: u32,
+    pub j: u32,
+}
+
+impl Cell {
+    pub const ROOT: Cell = Cell {
+        depth: 0,
+        i: 0,
+        j: 0,
+    };
+}
+
+/// The sampling layout of one frame: light shape, start scheme and grid resolution.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Layout {
+    pub shape: Shape,
+    pub start: Start,
+    pub max_depth: u32,
+}
+
+impl Layout {
+    /// Grid steps per light axis: enough for quadrant centres of the deepest cells.
+    pub fn resolution(&self) -> u32 {
+        1 << (self.max_depth + 2)
+    }
+
+    fn cell_size(&self, cell: Cell) -> u32 {
+        self.resolution() >> cell.depth
+    }
+
+    /// The samples of `cell`: 2 on a segment, 4 on a rectangle (order: (0,0), (1,0), (0,1),
+    /// (1,1) in cell-local corners or quadrants).
+    pub fn samples(&self, cell: Cell) -> Vec<SampleKey> {
+        let s = self.cell_size(cell);
+        let (x0, y0) = (cell.i * s, cell.j * s);
+        let (lo, hi) = match self.start {
+            Start::Corners => (0, s),
+            Start::Centre => (s / 4, 3 * s / 4),
+        };
+        if self.shape.is_segment() {
+            vec![
+                SampleKey { x: x0 + lo, y: 0 },
+                SampleKey { x: x0 + hi, y: 0 },
+            ]
+        } else {
+            vec![
+                SampleKey {
+                    x: x0 + lo,
+                    y: y0 + lo,
+                },
+                SampleKey {
+                    x: x0 + hi,
+                    y: y0 + lo,
+                },
+                SampleKey {
+                    x: x0 + lo,
+                    y: y0 + hi,
+                },
+                SampleKey {
+                    x: x0 + hi,
+                    y: y0 + hi,
+                },
+            ]
+        }
+    }
+
+    /// The compared pairs of `cell`: its two ends on a segment (section 3.3.3), the two
+    /// diagonals on a rectangle (section 3.3.5).
+    pub fn pairs(&self, cell: Cell) -> Vec<(SampleKey, SampleKey)> {
+        let s = self.samples(cell);
+        if self.shape.is_segment() {
+            vec![(s[0], s[1])]
+        } else {
+            vec![(s[0], s[3]), (s[1], s[2])]
+        }
+    }
+
+    /// The cells a split of `cell` makes: 2 halves on a segment, 4 quadrants on a rectangle.
+    pub fn children(&self, cell: Cell) -> Vec<Cell> {
+        let depth = cell.depth + 1;
+        let (i, j) = (cell.i * 2, cell.j * 2);
+        if self.shape.is_segment() {
+            vec![
+                Cell { depth, i, j: 0 },
+                Cell {
+                    depth,
+                    i: i + 1,
+                    j: 0,
+                },
+            ]
+        } else {
+            vec![
+                Cell { depth, i, j },
+                Cell { depth, i: i + 1, j },
+                Cell { depth, i, j: j + 1 },
+                Cell {
+                    depth,
+                    i: i + 1,
+                    j: j + 1,
+                },
+            ]
+        }
+    }
+
+    /// Light-space position `(u, v)` of a sample on the light `[-half.x, half.x] x [-half.y, half.y]`.
+    pub fn position(&self, key: SampleKey, half: Vec2) -> Vec2 {
+        let r = self.resolution() as f32;
+        let along = |k: u32, h: f32| -h + 2.0 * h * (k as f32 / r);
+        match self.shape {
+            Shape::SegmentU => Vec2::new(along(key.x, half.x), 0.0),
+            Shape::SegmentV => Vec2::new(0.0, along(key.x, half.y)),
+            Shape::Rectangle => Vec2::new(along(key.x, half.x), along(key.y, half.y)),
+        }
+    }
+
+    /// The samples the final image uses and their weights, summing to 1. `weighted`: eq. 5
+    /// (segment) or eq. 6 (rectangle) with d = the deepest leaf that has the sample as a corner,
+    /// normalised (section 3.3.6); for `centre` the analogue is the sample's share of its leaf's
+    /// area (1 / 2^(d+1) or 1 / 4^(d+1), already summing to 1). Not weighted: 1 / n each.
+    pub fn weights(&self, leaves: &BTreeSet<Cell>, weighted: bool) -> Vec<(SampleKey, f64)> {
+        let mut depth: BTreeMap<SampleKey, u32> = BTreeMap::new();
+        for leaf in leaves {
+            for key in self.samples(*leaf) {
+                let d = depth.entry(key).or_insert(leaf.depth);
+                *d = (*d).max(leaf.depth);
+            }
+        }
+        let n = depth.len() as f64;
+        let raw: Vec<(SampleKey, f64)> = depth
+            .into_iter()
+            .map(|(key, d)| {
+                let w = if !weighted {
+                    1.0
+                } else {
+                    let per_axis = match self.start {
+                        Start::Corners => 2f64.powi(d as i32) + 1.0,
+                        Start::Centre => 2f64.powi(d as i32 + 1),
+                    };
+                    if self.shape.is_segment() {
+                        1.0 / per_axis
+                    } else {
+                        1.0 / (per_axis * per_axis)
+                    }
+                };
+                (key, w)
+            })
+            .collect();
+        let total: f64 = raw.iter().map(|(_, w)| w).sum();
+        if total <= 0.0 || n == 0.0 {
+            return raw;
+        }
+        raw.into_iter().map(|(k, w)| (k, w / total)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn full_split(layout: &Layout, depth: u32) -> BTreeSet<Cell> {
+        let mut leaves = BTreeSet::from([Cell::ROOT]);
+        for _ in 0..depth {
+            leaves = leaves.iter().flat_map(|c| layout.children(*c)).collect();
+        }
+        leaves
+    }
+
+    #[test]
+    fn a_full_split_gives_the_regular_grids_with_equal_weights() {
+        for (start, shape, depth, expected) in [
+            (Start::Corners, Shape::Rectangle, 2, 25),
+            (Start::Corners, Shape::SegmentU, 3, 9),
+            (Start::Centre, Shape::Rectangle, 2, 64),
+            (Start::Centre, Shape::SegmentV, 3, 16),
+        ] {
+            let layout = Layout {
+                shape,
+                start,
+                max_depth: 4,
+            };
+            let weights = layout.weights(&full_split(&layout, depth), true);
+            assert_eq!(weights.len(), expected, "{start:?} {shape:?}");
+            for (_, w) in &weights {
+                assert!((w - 1.0 / expected as f64).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn centre_samples_are_the_strata_centres() {
+        let layout = Layout {
+            shape: Shape::Rectangle,
+            start: Start::Centre,
+            max_depth: 3,
+        };
+        let half = Vec2::new(1.0, 0.5);
+        let mut positions: Vec<(i32, i32)> = full_split(&layout, 1)
+            .iter()
+            .flat_map(|c| layout.samples(*c))
+            .map(|k| layout.position(k, half))
+            .map(|p| ((p.x * 8.0).round() as i32, (p.y * 16.0).round() as i32))
+            .collect();
+        positions.sort();
+        // 4 x 4 strata centres at +-1/8, +-3/8, ... of the width (times 8) and height (times 16).
+        let expected: Vec<(i32, i32)> = {
+            let mut v = Vec::new();
+            for x in [-6, -2, 2, 6] {
+                for y in [-6, -2, 2, 6] {
+                    v.push((x, y));
+                }
+            }
+            v.sort();
+            v
+        };
+        assert_eq!(positions, expected);
+    }
+
+    #[test]
+    fn deeper_corners_weigh_less_and_the_weights_sum_to_one() {
+        let layout = Layout {
+            shape: Shape::Rectangle,
+            start: Start::Corners,
+            max_depth: 4,
+        };
+        // Split the root, then only its first quadrant.
+        let mut leaves: BTreeSet<Cell> = layout.children(Cell::ROOT).into_iter().collect();
+        let first = Cell {
+            depth: 1,
+            i: 0,
+            j: 0,
+        };
+        leaves.remove(&first);
+        leaves.extend(layout.children(first));
+        let weights = layout.weights(&leaves, true);
+        // 9 corners of depth 1 plus 5 new ones (4 edge midpoints of the quadrant and its centre,
+        // two of which already existed): 9 + 5 = 14.
+        assert_eq!(weights.len(), 14);
+        let sum: f64 = weights.iter().map(|(_, w)| w).sum();
+        assert!((sum - 1.0).abs() < 1e-12);
+        let far_corner = weights
+            .iter()
+            .find(|(k, _)| k.x == 64 && k.y == 64)
+            .unwrap()
+            .1;
+        let deep = weights
+            .iter()
+            .find(|(k, _)| k.x == 16 && k.y == 16)
+            .unwrap()
+            .1;
+        // eq. 6: 1/(2^1+1)^2 against 1/(2^2+1)^2 before normalising.
+        assert!((far_corner / deep - 25.0 / 9.0).abs() < 1e-9);
+    }
+}
