@@ -1,7 +1,7 @@
 //! `softshadow`: the soft-shadow workbench as a library.
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
-//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `reference`; all on by default).
+//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `pdsm`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -25,6 +25,8 @@ pub use softshadow_backprojection as backprojection;
 pub use softshadow_hard as hard;
 #[cfg(feature = "pcss")]
 pub use softshadow_pcss as pcss;
+#[cfg(feature = "pdsm")]
+pub use softshadow_pdsm as pdsm;
 #[cfg(feature = "reference")]
 pub use softshadow_reference as reference;
 #[cfg(feature = "ssm")]

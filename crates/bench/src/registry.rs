@@ -9,6 +9,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         softshadow_pcss::info(),
         softshadow_ssm::info(),
         softshadow_backprojection::info(),
+        softshadow_pdsm::info(),
         softshadow_reference::info(),
     ]
 }
@@ -20,6 +21,7 @@ pub fn all_shaders() -> Vec<softshadow_core::shader::ShaderSpec> {
     specs.extend_from_slice(softshadow_pcss::SHADERS);
     specs.extend_from_slice(softshadow_ssm::SHADERS);
     specs.extend_from_slice(softshadow_backprojection::SHADERS);
+    specs.extend_from_slice(softshadow_pdsm::SHADERS);
     specs.extend_from_slice(softshadow_reference::SHADERS);
     specs
 }
