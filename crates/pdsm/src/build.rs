@@ -238,7 +238,7 @@ pub fn shadowed_intervals(
     if major.1 == 0.0 {
         // The light sample is the PDSM's own centre of projection: one texel for the whole ray.
         let z_map = texel(u.0, v.0);
-        if z_map < z_end {
+        if z_map < 1.0 / w_lo {
             push(z_map.max(1.0 / w_hi), z_end);
         }
         return;
@@ -273,9 +273,10 @@ pub fn shadowed_intervals(
         let q = minor.0 + minor.1 * w_at(p_mid);
         let z_map = if u_major { texel(c, q) } else { texel(q, c) };
         let z_in = 1.0 / w_at(p_in);
-        let z_out = if is_last { z_end } else { 1.0 / w_at(p_out) };
+        let z_out = 1.0 / w_at(p_out);
         if z_map < z_out {
-            push(z_map.max(z_in), z_out);
+            // Still shadowed where the scan ends at `far`: shadowed beyond it too.
+            push(z_map.max(z_in), if is_last { z_end } else { z_out });
         }
     }
 }
