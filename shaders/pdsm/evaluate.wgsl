@@ -97,6 +97,14 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
         (slope.x - w.x) / (w.y - w.x) * n - 0.5,
         (w.w - slope.y) / (w.w - w.z) * n - 0.5,
     );
+    if any(p < vec2<f32>(-0.5)) || any(p > vec2<f32>(n - 0.5)) {
+        // Outside the window no static caster can shadow (the window is fitted to cover every
+        // point they shadow): only dynamic casters remain.
+        if params.has_dynamic.x > 0.5 {
+            return vec4<f32>(dynamic_visibility(s.light, cosine));
+        }
+        return vec4<f32>(1.0);
+    }
     let base = floor(p);
     let f = p - base;
     let t = vec2<i32>(base);

@@ -89,14 +89,14 @@ fn builtin(id: &str) -> Result<Scene> {
 fn static_scenes_match_the_exact_answer() -> Result<()> {
     let gpu = gpu()?;
     let cache = tempfile::tempdir()?;
-    // Measured (64 samples, 128² PDSM, 256² maps, 64² image): see each bound's comment.
+    // Bounds at 2-3x the values measured with 64 samples, a 128² PDSM, 256² maps, 64² images.
     for (id, bound) in [
-        // measured 0.0119
+        // measured 0.0111
         ("atty-square", 0.03),
-        // measured 0.0153
-        ("pdsm-quads", 0.04),
-        // measured 0.0251
-        ("pdsm-cylinder", 0.06),
+        // measured 0.0111
+        ("pdsm-quads", 0.03),
+        // measured 0.0406 (curved caster: its outline is snapped to 256² maps, 128² PDSM)
+        ("pdsm-cylinder", 0.1),
     ] {
         let scene = builtin(id)?;
         let mut pdsm = technique(&gpu, settings(64, 128), cache.path())?;
@@ -128,6 +128,7 @@ fn error_falls_as_samples_grow() -> Result<()> {
         "error must fall as samples grow: {errors:?}"
     );
     // The penumbra is sampled k times: the error falls roughly like 1 / sqrt(k) or faster.
+    // Measured 0.0815, 0.0281, 0.0111.
     ensure!(errors[2] < 0.5 * errors[0], "{errors:?}");
     Ok(())
 }
@@ -267,10 +268,10 @@ fn dynamic_objects_cast_by_pcf_and_receive_the_precomputed_shadow() -> Result<()
         pdsm.stats()
     );
     ensure!(cast.0 > 20 && received.0 > 20, "{cast:?} {received:?}");
-    // measured 0.08: a 5 x 5 PCF kernel is not the penumbra of the real light (section 5)
-    ensure!(cast_mae < 0.2, "dynamic caster mae {cast_mae}");
-    // measured 0.05
-    ensure!(received_mae < 0.12, "dynamic receiver mae {received_mae}");
+    // measured 0.184: a 5 x 5 PCF kernel is not the penumbra of the real light (section 5)
+    ensure!(cast_mae < 0.4, "dynamic caster mae {cast_mae}");
+    // measured 0.0010
+    ensure!(received_mae < 0.03, "dynamic receiver mae {received_mae}");
 
     // Moving the dynamic boxes keeps the precompute: no sample maps, the same PDSM.
     let moved = cylinder_with_dynamic_boxes(0.2)?;
@@ -341,8 +342,10 @@ fn the_cache_reloads_bit_identical_and_rebuilds_a_corrupt_file_with_a_warning() 
             .iter()
             .map(|v| v.to_bits())
             .eq(first.iter().map(|v| v.to_bits())));
-        // The rebuilt file is whole again.
-        ensure!(std::fs::read(&path)?.len() > damaged.len());
+        // The rebuilt file is whole again: the next run loads it.
+        let mut again = technique(&gpu, settings(16, 64), cache.path())?;
+        render(&gpu, &scene, &mut again)?;
+        ensure!(again.stats()["from_cache"] == 1.0 && again.warnings().is_empty());
     }
     Ok(())
 }

@@ -193,6 +193,37 @@ fn light_corners(light: &AreaLight, bounds: &Aabb) -> Vec<Vec3> {
         .collect()
 }
 
+/// The PDSM's window from the light centre: every point the static casters can shadow. A point X
+/// shadowed from light point p lies behind a caster C on the line through p, so its slope from the
+/// centre is C's slope from p plus `p / z_X`; with |p| <= the half extent and z_X >= the casters'
+/// nearest depth, the centre's caster window widened by twice `half / z_near` on each side covers
+/// every shadowed point (outside it the shader returns lit). Depths run from the casters' nearest
+/// (nothing in front of every caster is shadowed) to the scene's farthest. When casters cross the
+/// light plane their slopes are unbounded and the window covers the static scene instead.
+fn pdsm_window(
+    light: &AreaLight,
+    casters: &[Vec3],
+    crosses: bool,
+    everything: &[Vec3],
+) -> Option<SlopeFrustum> {
+    let fit = SlopeFrustum::fit_casters(Vec2::ZERO, casters, crosses, everything)?;
+    let far = everything.iter().map(|p| p.z).fold(fit.far, f32::max) * 1.02;
+    if crosses {
+        return Some(SlopeFrustum { far, ..fit });
+    }
+    let grow = 2.0 * light.half_extent() / fit.near.max(1e-4);
+    let half = ((fit.s_max - fit.s_min) * 0.5 + grow.x).max((fit.t_max - fit.t_min) * 0.5 + grow.y);
+    let centre = Vec2::new(fit.s_min + fit.s_max, fit.t_min + fit.t_max) * 0.5;
+    Some(SlopeFrustum {
+        s_min: centre.x - half,
+        s_max: centre.x + half,
+        t_min: centre.y - half,
+        t_max: centre.y + half,
+        far,
+        ..fit
+    })
+}
+
 /// Bytes the precompute is estimated to need: read-back maps (light-space depth, f32) and the
 /// PDSM (index plus [`ESTIMATED_VERTICES_PER_TEXEL`] vertices per texel).
 pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
@@ -430,9 +461,8 @@ impl PdsmShadows {
             near: 1.0,
             far: 2.0,
         };
-        // The PDSM covers the whole static scene from the light centre; without static casters in
-        // front of the light it is empty (lit everywhere).
-        let Some(frustum) = SlopeFrustum::fit_casters(Vec2::ZERO, &everything, crosses, &[]) else {
+        // Without static casters in front of the light the PDSM is empty (lit everywhere).
+        let Some(frustum) = pdsm_window(light, &casters, crosses, &everything) else {
             return Ok((empty(unit), 0.0));
         };
         if scene.static_casters.is_none() {
