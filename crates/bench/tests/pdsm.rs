@@ -393,3 +393,46 @@ fn a_cancelled_build_fails_and_progress_counts_every_row() -> Result<()> {
     ensure!(control.rows_done.load(Ordering::Relaxed) == 64);
     Ok(())
 }
+
+/// The issue's construction target (64 samples, 512² PDSM, 512² maps) on `pdsm-cylinder`, with
+/// the paper's compression statistics (section 5). Prints figures for docs/BENCHMARKS.md; asserts
+/// only what the build must satisfy, never a time. Slow in the dev profile: run it on purpose,
+/// `cargo test --release -p softshadow-bench --test pdsm -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn construction_at_the_paper_settings() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-cylinder")?;
+    for (samples, pdsm_size, shadow_map_size) in [(64, 512, 512), (16, 512, 512), (64, 256, 512)]
+    {
+        let mut pdsm = technique(
+            &gpu,
+            PdsmSettings {
+                samples,
+                pdsm_size,
+                shadow_map_size,
+                disk_cache: false,
+                ..PdsmSettings::default()
+            },
+            cache.path(),
+        )?;
+        let frame = render(&gpu, &scene, &mut pdsm)?;
+        let stats = pdsm.stats();
+        eprintln!(
+            "k={samples} pdsm={pdsm_size}² maps={shadow_map_size}²: construction {:.0} ms, \
+             events/texel mean {:.2} max {}, vertices/texel mean {:.2} max {}, GPU {:.2} MiB, \
+             compression error {:.4}",
+            stats["construction_ms"],
+            stats["events_per_texel_mean"],
+            stats["events_per_texel_max"],
+            stats["vertices_per_texel_mean"],
+            stats["vertices_per_texel_max"],
+            stats["pdsm_gpu_bytes"] / (1 << 20) as f64,
+            stats["compression_max_error"],
+        );
+        ensure!(stats["compression_max_error"] <= 0.02 + 1e-6);
+        ensure!(frame.passes.iter().any(|p| p == "pdsm/sample_maps"));
+    }
+    Ok(())
+}

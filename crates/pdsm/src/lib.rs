@@ -197,7 +197,8 @@ fn light_corners(light: &AreaLight, bounds: &Aabb) -> Vec<Vec3> {
 /// shadowed from light point p lies behind a caster C on the line through p, so its slope from the
 /// centre is C's slope from p plus `p / z_X`; with |p| <= the half extent and z_X >= the casters'
 /// nearest depth, the centre's caster window widened by twice `half / z_near` on each side covers
-/// every shadowed point (outside it the shader returns lit). Depths run from the casters' nearest
+/// every shadowed point (outside it the shader returns lit); it is clipped to the slopes of the
+/// static scene, where anything the PDSM is evaluated for usually is. Depths run from the casters' nearest
 /// (nothing in front of every caster is shadowed) to the scene's farthest. When casters cross the
 /// light plane their slopes are unbounded and the window covers the static scene instead.
 fn pdsm_window(
@@ -212,8 +213,26 @@ fn pdsm_window(
         return Some(SlopeFrustum { far, ..fit });
     }
     let grow = 2.0 * light.half_extent() / fit.near.max(1e-4);
-    let half = ((fit.s_max - fit.s_min) * 0.5 + grow.x).max((fit.t_max - fit.t_min) * 0.5 + grow.y);
-    let centre = Vec2::new(fit.s_min + fit.s_max, fit.t_min + fit.t_max) * 0.5;
+    let mut window = [
+        fit.s_min - grow.x,
+        fit.s_max + grow.x,
+        fit.t_min - grow.y,
+        fit.t_max + grow.y,
+    ];
+    // No need to cover slopes where the static scene has nothing (a caster next to the light
+    // widens the first window far beyond the receivers, stiff-near-light).
+    if let Some(scene) = SlopeFrustum::fit(Vec2::ZERO, everything) {
+        window = [
+            window[0].max(scene.s_min),
+            window[1].min(scene.s_max),
+            window[2].max(scene.t_min),
+            window[3].min(scene.t_max),
+        ];
+    }
+    let half = ((window[1] - window[0]) * 0.5)
+        .max((window[3] - window[2]) * 0.5)
+        .max(1e-3);
+    let centre = Vec2::new(window[0] + window[1], window[2] + window[3]) * 0.5;
     Some(SlopeFrustum {
         s_min: centre.x - half,
         s_max: centre.x + half,
