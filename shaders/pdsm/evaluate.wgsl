@@ -11,7 +11,7 @@
 struct PdsmParams {
     // s_min, s_max, t_min, t_max of the PDSM window (slopes from the light centre).
     window: vec4<f32>,
-    // PDSM edge in texels, bias in texel footprints, texel slope of the precompute's maps,
+    // PDSM edge in texels, bias in texel footprints, slope extent of one PDSM texel,
     // PCF kernel radius in texels of the dynamic map.
     size_bias: vec4<f32>,
     // 1 when the dynamic-caster map was drawn this frame.
@@ -87,7 +87,7 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
         return vec4<f32>(0.0);
     }
     let cosine = light_cosine(s);
-    // Bias: texel footprints of the precompute's maps at the receiver's depth, larger on slopes.
+    // Bias: PDSM texel footprints at the receiver's depth, larger on slopes.
     let depth = s.light.z * (1.0 - params.size_bias.y * params.size_bias.z / cosine);
     let slope = s.light.xy / s.light.z;
     let w = params.window;

@@ -59,6 +59,11 @@ fn bound(technique: &str, case: &str) -> Option<f64> {
         ("backprojection", "stiff-partly-outside") => 0.12,
         ("backprojection", "stiff-zero-thickness" | "stiff-fusion") => 0.05,
         ("backprojection", _) => 0.02,
+        // Measured at 64² (2026-11-30): depth-range 0.252 (as pcss and backprojection),
+        // tiny-patches 0.0136, every other case <= 0.0066.
+        ("pdsm", "stiff-depth-range") => 0.3,
+        ("pdsm", "stiff-tiny-patches") => 0.04,
+        ("pdsm", _) => 0.02,
         ("reference", _) => 0.02,
         _ => return None,
     };
@@ -78,6 +83,9 @@ fn mae_vs_exact(run: &Run) -> Result<f64> {
 
 #[test]
 fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result<()> {
+    // The PDSM caches its precompute on disk: keep this test's files out of the user's cache.
+    let cache = tempfile::tempdir()?;
+    std::env::set_var("SOFTSHADOW_CACHE_DIR", cache.path());
     let mut bench = bench(8)?;
     let suite = Sweep::suite("stiff")?;
     let dir = tempfile::tempdir()?;

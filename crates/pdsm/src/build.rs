@@ -86,8 +86,10 @@ pub fn build(
     control: &BuildControl,
 ) -> Result<PdsmData, Cancelled> {
     // Events closer than half a shadow-map texel footprint at their depth are merged (section
-    // 3.1: "close to the resolution of the shadow map").
-    let merge_fraction = 0.5 * maps.max_texel_slope();
+    // 3.1: "close to the resolution of the shadow map"), at most 0.1 % of the depth: a caster next
+    // to the light widens the maps' windows so much that a texel footprint spans whole depth
+    // ranges (stiff-near-light).
+    let merge_fraction = (0.5 * maps.max_texel_slope()).min(1e-3);
     let samples = maps.maps.len() as u32;
     let rows: Vec<(Vec<u32>, Vec<[f32; 2]>, BuildStats, u64)> = (0..size)
         .into_par_iter()

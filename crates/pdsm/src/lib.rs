@@ -59,8 +59,8 @@ softshadow_core::technique_settings! {
         shadow_map_size: u32 = 512, in 64..=4096 log;
         /// Largest visibility error the piecewise-linear compression may add
         compression_error: f32 = 0.02, in 0.0..=0.5;
-        /// Depth bias in texel footprints of the precompute's maps (scaled by 1/cos on slopes)
-        bias_texels: f32 = 1.5, in 0.0..=16.0;
+        /// Depth bias in PDSM texel footprints (scaled by 1/cos on slopes)
+        bias_texels: f32 = 0.0, in 0.0..=16.0;
         /// Edge in texels of the per-frame shadow map of the dynamic casters
         dynamic_map_size: u32 = 1024, in 64..=4096 log;
         /// PCF kernel radius in texels for the dynamic casters (kernel (2r+1)²)
@@ -96,8 +96,6 @@ struct Kept {
     data: PdsmData,
     offsets: wgpu::Buffer,
     vertices: wgpu::Buffer,
-    /// Texel slope of the precompute's maps (for the bias); 0 for an empty PDSM.
-    map_texel_slope: f32,
     construction_ms: f64,
     from_cache: bool,
 }
@@ -123,6 +121,9 @@ pub struct PdsmShadows {
     /// Bound when there is no dynamic map (never read: `has_dynamic` is 0).
     placeholder_map: wgpu::TextureView,
     kept: Option<Kept>,
+    /// The static casters seen from the light centre (the `shadow_map` debug view), drawn once
+    /// per built or loaded PDSM.
+    centre_map: Option<wgpu::Texture>,
     dynamic: Option<DynamicMap>,
     control: BuildControl,
     warnings: Vec<String>,
@@ -314,6 +315,7 @@ impl PdsmShadows {
             ),
             placeholder_map: placeholder.create_view(&Default::default()),
             kept: None,
+            centre_map: None,
             dynamic: None,
             control: BuildControl::default(),
             warnings: Vec::new(),
@@ -416,7 +418,7 @@ impl PdsmShadows {
         if let Some(dir) = &cache_dir {
             match cache::load(dir, key) {
                 Ok(Some(data)) if data.size == self.settings.pdsm_size => {
-                    self.keep(frame.gpu, key, data, 0.0, started.elapsed(), true)?;
+                    self.keep(frame.gpu, key, data, started.elapsed(), true)?;
                     return Ok(());
                 }
                 Ok(_) => {}
@@ -424,8 +426,6 @@ impl PdsmShadows {
             }
         }
         let data = self.build(frame, inputs)?;
-        let map_texel_slope = data.1;
-        let data = data.0;
         if let Some(dir) = &cache_dir {
             if let Err(e) = cache::store(dir, key, &data) {
                 self.warn(format!(
@@ -434,23 +434,15 @@ impl PdsmShadows {
                 ));
             }
         }
-        self.keep(
-            frame.gpu,
-            key,
-            data,
-            map_texel_slope,
-            started.elapsed(),
-            false,
-        )
+        self.keep(frame.gpu, key, data, started.elapsed(), false)
     }
 
-    /// Renders the k sample maps, reads them back and runs the CPU construction. Returns the
-    /// PDSM and the texel slope of its maps.
+    /// Renders the k sample maps, reads them back and runs the CPU construction.
     fn build(
         &mut self,
         frame: &mut Frame<'_>,
         inputs: &ShadowInputs<'_>,
-    ) -> Result<(PdsmData, f32), TechniqueError> {
+    ) -> Result<PdsmData, TechniqueError> {
         if self.control.cancel.load(Ordering::Relaxed) {
             return Err(technique_error(
                 "PDSM build cancelled: clear the cancel flag of build_control() to build again"
@@ -482,10 +474,10 @@ impl PdsmShadows {
         };
         // Without static casters in front of the light the PDSM is empty (lit everywhere).
         let Some(frustum) = pdsm_window(light, &casters, crosses, &everything) else {
-            return Ok((empty(unit), 0.0));
+            return Ok(empty(unit));
         };
         if scene.static_casters.is_none() {
-            return Ok((empty(frustum), 0.0));
+            return Ok(empty(frustum));
         }
         let eyes = stratified_samples(self.settings.samples, light.half_extent());
         let windows: Vec<SlopeFrustum> = eyes
@@ -493,11 +485,10 @@ impl PdsmShadows {
             .filter_map(|&eye| SlopeFrustum::fit_casters(eye, &casters, crosses, &everything))
             .collect();
         if windows.len() != eyes.len() {
-            return Ok((empty(frustum), 0.0));
+            return Ok(empty(frustum));
         }
         let maps = self.render_sample_maps(frame, inputs, &windows)?;
-        let texel_slope = maps.max_texel_slope();
-        let data = build::build(
+        build::build(
             &maps,
             &frustum,
             size,
@@ -509,8 +500,7 @@ impl PdsmShadows {
                 "PDSM build cancelled: clear the cancel flag of build_control() to build again"
                     .into(),
             )
-        })?;
-        Ok((data, texel_slope))
+        })
     }
 
     /// Algorithm 1 step 2 on the GPU: one depth map of the static casters per window, copied to
@@ -631,7 +621,6 @@ impl PdsmShadows {
         gpu: &Gpu,
         key: u64,
         data: PdsmData,
-        map_texel_slope: f32,
         elapsed: Duration,
         from_cache: bool,
     ) -> Result<(), TechniqueError> {
@@ -653,44 +642,43 @@ impl PdsmShadows {
         };
         let offsets = buffer("pdsm/index", bytemuck::cast_slice(&data.offsets));
         let vertices = buffer("pdsm/data", bytemuck::cast_slice(&data.vertices));
-        // A loaded PDSM does not carry its maps' texel slope: it is the same fit, so recompute
-        // it cheaply from the window size the maps would have (see `map_texel_slope_of`).
-        let map_texel_slope = if from_cache {
-            f32::NAN
-        } else {
-            map_texel_slope
-        };
         self.kept = Some(Kept {
             key,
             data,
             offsets,
             vertices,
-            map_texel_slope,
             construction_ms: elapsed.as_secs_f64() * 1e3,
             from_cache,
         });
         Ok(())
     }
 
-    /// The texel slope of the precompute's maps for the bias (recomputed from the light and the
-    /// static casters when the PDSM came from the cache).
-    fn map_texel_slope(&mut self, inputs: &ShadowInputs<'_>) -> f32 {
-        let Some(kept) = self.kept.as_mut() else {
-            return 0.0;
+    /// One map of the static casters from the light centre, for the `shadow_map` debug view.
+    fn render_centre_map(&mut self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>) {
+        let light = inputs.light;
+        let crosses = inputs.scene.light_bounds(light).casters_cross_light_plane;
+        let casters = light_corners(light, &inputs.scene.static_caster_bounds);
+        let everything = light_corners(light, &inputs.scene.static_bounds);
+        let Some(window) = SlopeFrustum::fit_casters(Vec2::ZERO, &casters, crosses, &everything)
+        else {
+            self.centre_map = None;
+            return;
         };
-        if kept.map_texel_slope.is_nan() {
-            let light = inputs.light;
-            let crosses = inputs.scene.light_bounds(light).casters_cross_light_plane;
-            let casters = light_corners(light, &inputs.scene.static_caster_bounds);
-            let everything = light_corners(light, &inputs.scene.static_bounds);
-            let m = self.settings.shadow_map_size as f32;
-            kept.map_texel_slope = stratified_samples(self.settings.samples, light.half_extent())
-                .iter()
-                .filter_map(|&eye| SlopeFrustum::fit_casters(eye, &casters, crosses, &everything))
-                .map(|w| (w.s_max - w.s_min) / m)
-                .fold(0.0, f32::max);
-        }
-        kept.map_texel_slope
+        let size = self.settings.shadow_map_size;
+        let texture =
+            softshadow_core::shadow_map::create_depth_maps(frame.gpu, "pdsm/centre map", size, 1);
+        let view = texture.create_view(&Default::default());
+        self.depth
+            .set_views(frame.gpu, &[ShadowViewUniform::new(light, &window, size)]);
+        self.depth.record_list(
+            frame,
+            "pdsm/centre_map",
+            inputs.scene,
+            inputs.scene.static_casters.as_ref(),
+            0,
+            &view,
+        );
+        self.centre_map = Some(texture);
     }
 
     /// The per-frame PCF map of the dynamic casters (kept while nothing in light space moves).
@@ -815,8 +803,10 @@ impl ShadowTechnique for PdsmShadows {
         let had = self.kept.as_ref().map(|k| k.key);
         self.prepare_pdsm(frame, inputs)?;
         let rebuilt = self.kept.as_ref().map(|k| k.key) != had;
+        if rebuilt || self.centre_map.is_none() {
+            self.render_centre_map(frame, inputs);
+        }
         let has_dynamic = self.render_dynamic_map(frame, inputs);
-        let map_texel_slope = self.map_texel_slope(inputs);
         let gpu = frame.gpu;
         let kept = self.kept.as_ref().expect("prepared above");
         let f = &kept.data.frustum;
@@ -828,7 +818,9 @@ impl ShadowTechnique for PdsmShadows {
                 size_bias: [
                     kept.data.size as f32,
                     self.settings.bias_texels,
-                    map_texel_slope,
+                    // Bias in PDSM texels: the bilinear filter mixes rays one texel apart, whose
+                    // events at a caster's own surface differ by about that footprint.
+                    (f.s_max - f.s_min) / kept.data.size as f32,
                     self.settings.pcf_radius as f32,
                 ],
                 has_dynamic: [f32::from(u8::from(has_dynamic)), 0.0, 0.0, 0.0],
@@ -911,6 +903,7 @@ impl ShadowTechnique for PdsmShadows {
 
     fn invalidate_cache(&mut self) {
         self.kept = None;
+        self.centre_map = None;
         if let Some(d) = &mut self.dynamic {
             d.drawn = false;
         }
@@ -929,6 +922,12 @@ impl ShadowTechnique for PdsmShadows {
                 texture: d.texture.clone(),
             })
             .collect();
+        if let Some(texture) = &self.centre_map {
+            views.push(DebugView {
+                name: "shadow_map".into(),
+                texture: texture.clone(),
+            });
+        }
         if let Some(d) = &self.dynamic {
             views.push(DebugView {
                 name: "dynamic_map".into(),
