@@ -76,6 +76,9 @@ pub fn texel_slope(frustum: &SlopeFrustum, size: u32, column: u32, row: u32) -> 
     )
 }
 
+/// One PDSM row: vertex count per texel, the vertices, the row's stats and its event count.
+type RowResult = (Vec<u32>, Vec<[f32; 2]>, BuildStats, u64);
+
 /// Builds the PDSM for the `frustum` window at `size`², with events merged within
 /// `merge_fraction * depth` and functions compressed within `max_error`.
 pub fn build(
@@ -91,7 +94,7 @@ pub fn build(
     // ranges (stiff-near-light).
     let merge_fraction = (0.5 * maps.max_texel_slope()).min(1e-3);
     let samples = maps.maps.len() as u32;
-    let rows: Vec<(Vec<u32>, Vec<[f32; 2]>, BuildStats, u64)> = (0..size)
+    let rows: Vec<RowResult> = (0..size)
         .into_par_iter()
         .map(|row| {
             if control.cancel.load(Ordering::Relaxed) {

@@ -624,7 +624,7 @@ impl PdsmShadows {
         elapsed: Duration,
         from_cache: bool,
     ) -> Result<(), TechniqueError> {
-        let limit = gpu.device.limits().max_storage_buffer_binding_size as u64;
+        let limit = gpu.device.limits().max_storage_buffer_binding_size;
         let vertex_bytes = data.vertices.len() as u64 * 8;
         if vertex_bytes > limit {
             return Err(technique_error(format!(
