@@ -2,7 +2,7 @@
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
 //! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
-//! `reference`; all on by default).
+//! `pdsm`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -30,6 +30,8 @@ pub use softshadow_bitmask as bitmask;
 pub use softshadow_hard as hard;
 #[cfg(feature = "pcss")]
 pub use softshadow_pcss as pcss;
+#[cfg(feature = "pdsm")]
+pub use softshadow_pdsm as pdsm;
 #[cfg(feature = "reference")]
 pub use softshadow_reference as reference;
 #[cfg(feature = "ssm")]

@@ -614,8 +614,8 @@ impl ShadowTechnique for AdaptiveSampling {
         let gpu = frame.gpu;
         self.report = FrameReport::default();
         if fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO).is_none() {
-            // No caster in front of the light: everything is lit, no map needed.
-            out.clear_lit(frame, "adaptive/no_casters");
+            // No caster in front of the light: receivers in front of it are lit, no map needed.
+            out.write_unshadowed(frame, inputs.frame_bind_group, "adaptive/no_casters")?;
             return Ok(());
         }
         self.ensure_store(gpu)?;

@@ -11,6 +11,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         softshadow_backprojection::info(),
         softshadow_bitmask::info(),
         softshadow_adaptive::info(),
+        softshadow_pdsm::info(),
         softshadow_reference::info(),
     ]
 }
@@ -24,6 +25,7 @@ pub fn all_shaders() -> Vec<softshadow_core::shader::ShaderSpec> {
     specs.extend_from_slice(softshadow_backprojection::SHADERS);
     specs.extend_from_slice(softshadow_bitmask::SHADERS);
     specs.extend_from_slice(softshadow_adaptive::SHADERS);
+    specs.extend_from_slice(softshadow_pdsm::SHADERS);
     specs.extend_from_slice(softshadow_reference::SHADERS);
     specs
 }

@@ -67,6 +67,10 @@ pub struct SceneGpu {
     pub receivers: Option<IndexList>,
     pub bounds: Aabb,
     pub caster_bounds: Aabb,
+    /// World bounds of the static instances, and of their casters (precomputes over the static
+    /// scene fit their views to these, so a moved dynamic instance does not change them).
+    pub static_bounds: Aabb,
+    pub static_caster_bounds: Aabb,
     pub receiver_bounds: Aabb,
     pub triangle_count: usize,
     pub caster_triangle_count: usize,
@@ -100,6 +104,7 @@ impl SceneGpu {
         let (mut static_casters, mut dynamic_casters) = (Vec::new(), Vec::new());
         let (mut bounds, mut caster_bounds, mut receiver_bounds) =
             (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
+        let (mut static_bounds, mut static_caster_bounds) = (Aabb::EMPTY, Aabb::EMPTY);
         let mut caster_positions = Vec::new();
         let mut receiver_positions = Vec::new();
         for instance in &scene.instances {
@@ -128,6 +133,12 @@ impl SceneGpu {
                     color_flags,
                 });
                 bounds.extend(world);
+                if !instance.dynamic {
+                    static_bounds.extend(world);
+                    if instance.casts_shadow {
+                        static_caster_bounds.extend(world);
+                    }
+                }
                 if instance.casts_shadow {
                     caster_bounds.extend(world);
                     caster_positions.push(world);
@@ -186,6 +197,8 @@ impl SceneGpu {
             receivers: make("scene indices (receivers)", &receivers),
             bounds,
             caster_bounds,
+            static_bounds,
+            static_caster_bounds,
             receiver_bounds,
             caster_positions,
             receiver_positions,

@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 use crate::{
     frame::{uniform_entry, Frame},
     light::{AreaLight, SlopeFrustum},
-    scene_gpu::{SceneGpu, Vertex},
+    scene_gpu::{IndexList, SceneGpu, Vertex},
     shader, Gpu, GpuError,
 };
 
@@ -182,6 +182,20 @@ impl DepthMapRenderer {
         slot: u32,
         target: &wgpu::TextureView,
     ) {
+        self.record_list(frame, label, scene, scene.casters.as_ref(), slot, target);
+    }
+
+    /// Like [`Self::record`] for one index list of `scene` (e.g. `static_casters` for a
+    /// precompute, `dynamic_casters` beside it); `None` clears `target` to the far plane.
+    pub fn record_list(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        list: Option<&IndexList>,
+        slot: u32,
+        target: &wgpu::TextureView,
+    ) {
         frame.render_pass(
             label,
             wgpu::RenderPassDescriptor {
@@ -202,7 +216,11 @@ impl DepthMapRenderer {
             |pass| {
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
-                scene.draw_casters(pass);
+                if let Some(list) = list {
+                    pass.set_vertex_buffer(0, scene.vertices.slice(..));
+                    pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..list.count, 0, 0..1);
+                }
             },
         );
     }

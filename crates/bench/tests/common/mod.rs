@@ -6,7 +6,13 @@ use softshadow_bench::{results::Run, Bench, RunSpec, Status};
 use softshadow_core::{glam::Vec3, Gpu, Scene};
 
 /// The GPU, or an error that says what to install (tests fail, never skip, without one).
+/// Also points the PDSM disk cache at a folder of this test process, so tests neither read a
+/// user's cache nor leave files in it.
 pub fn gpu() -> Result<Gpu> {
+    if std::env::var_os("SOFTSHADOW_CACHE_DIR").is_none() {
+        let dir = std::env::temp_dir().join(format!("softshadow-test-cache-{}", std::process::id()));
+        std::env::set_var("SOFTSHADOW_CACHE_DIR", dir);
+    }
     Gpu::new_headless().context(
         "these tests need a GPU adapter: install Mesa's lavapipe (apt-get install -y mesa-vulkan-drivers)",
     )

@@ -1,0 +1,437 @@
+//! Penumbra deep shadow maps (St-Amour et al. 2005) against the exact answer on the paper's
+//! static scenes, convergence in the number of light samples, compression within its bound on
+//! real data, dynamic instances (shadowed by the PCF map, receiving the precomputed shadow), the
+//! disk cache (bit-identical reload, corrupt files rebuilt with a warning), the memory budget and
+//! cancellation. Every test uses its own temporary cache folder. Small sizes keep it fast on
+//! lavapipe: 64² images, 64² to 128² PDSMs, 256² maps.
+
+mod common;
+
+use std::sync::atomic::Ordering;
+
+use anyhow::{ensure, Context, Result};
+use common::{closed_form, gpu};
+use softshadow_core::{
+    glam::{Mat4, Vec3},
+    Gpu, Instance, Renderer, Scene, SceneGpu, ShadowTechnique,
+};
+use softshadow_pdsm::{PdsmSettings, PdsmShadows};
+use softshadow_scenes::primitives;
+
+const SIZE: u32 = 64;
+
+fn settings(samples: u32, pdsm_size: u32) -> PdsmSettings {
+    PdsmSettings {
+        samples,
+        pdsm_size,
+        shadow_map_size: 256,
+        ..PdsmSettings::default()
+    }
+}
+
+fn technique(gpu: &Gpu, settings: PdsmSettings, cache: &std::path::Path) -> Result<PdsmShadows> {
+    let mut pdsm = PdsmShadows::new(gpu, settings)?;
+    pdsm.cache_dir = Some(cache.to_path_buf());
+    Ok(pdsm)
+}
+
+/// What one frame gives: visibility, receiver mask, world positions, passes.
+struct Frame {
+    v: Vec<f32>,
+    mask: Vec<bool>,
+    positions: Vec<Option<Vec3>>,
+    passes: Vec<String>,
+}
+
+fn render(gpu: &Gpu, scene: &Scene, pdsm: &mut PdsmShadows) -> Result<Frame> {
+    let scene_gpu = SceneGpu::upload(gpu, scene);
+    let mut renderer = Renderer::new(gpu, SIZE, SIZE)?;
+    let out = renderer.render(&scene_gpu, &scene.camera, &scene.light, pdsm, None)?;
+    let v = renderer.read_visibility()?;
+    let stability = softshadow_metrics::stability(&v);
+    ensure!(
+        stability.nan == 0 && stability.inf == 0 && stability.out_of_range == 0,
+        "{stability:?}"
+    );
+    Ok(Frame {
+        v,
+        mask: renderer.read_receiver_mask()?,
+        positions: renderer.read_world_positions()?,
+        passes: out.passes_run,
+    })
+}
+
+/// Exact visibility: the closed form where the casters are rectangles parallel to the light,
+/// else the CPU ray cast with 32 x 32 light samples.
+fn exact(scene: &Scene, frame: &Frame) -> Result<Vec<f32>> {
+    closed_form(scene, &frame.positions, &frame.mask).or_else(|_| {
+        Ok(softshadow_reference::raycast::visibility_image(
+            scene,
+            &frame.positions,
+            &frame.mask,
+            32,
+        ))
+    })
+}
+
+fn mae_shadowed(scene: &Scene, frame: &Frame) -> Result<f64> {
+    let truth = exact(scene, frame)?;
+    let report = softshadow_metrics::compare(&frame.v, &truth, &frame.mask)?;
+    ensure!(report.shadowed_pixels > 100, "{report:?}");
+    Ok(report.mae_shadowed)
+}
+
+fn builtin(id: &str) -> Result<Scene> {
+    softshadow_scenes::builtin(id, &[]).with_context(|| format!("scene {id}"))
+}
+
+#[test]
+fn static_scenes_match_the_exact_answer() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    // Bounds at 2-3x the values measured with 64 samples, a 128² PDSM, 256² maps, 64² images.
+    for (id, bound) in [
+        // measured 0.0108
+        ("atty-square", 0.03),
+        // measured 0.0120
+        ("pdsm-quads", 0.03),
+        // measured 0.0301 (curved caster: its outline is snapped to 256² maps, 128² PDSM)
+        ("pdsm-cylinder", 0.08),
+    ] {
+        let scene = builtin(id)?;
+        let mut pdsm = technique(&gpu, settings(64, 128), cache.path())?;
+        let frame = render(&gpu, &scene, &mut pdsm)?;
+        let error = mae_shadowed(&scene, &frame)?;
+        let stats = pdsm.stats();
+        eprintln!("{id}: mae_shadowed {error:.4}, stats {stats:?}");
+        ensure!(error < bound, "{id}: mae_shadowed {error} >= {bound}");
+        ensure!(stats["from_cache"] == 0.0 && stats["events_per_texel_max"] > 0.0);
+        ensure!(frame.passes.iter().any(|p| p == "pdsm/sample_maps"));
+    }
+    Ok(())
+}
+
+#[test]
+fn error_falls_as_samples_grow() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-quads")?;
+    let mut errors = Vec::new();
+    for samples in [4, 16, 64] {
+        let mut pdsm = technique(&gpu, settings(samples, 128), cache.path())?;
+        let frame = render(&gpu, &scene, &mut pdsm)?;
+        errors.push(mae_shadowed(&scene, &frame)?);
+    }
+    eprintln!("pdsm-quads mae_shadowed for 4, 16, 64 samples: {errors:?}");
+    ensure!(
+        errors[0] > errors[1] && errors[1] > errors[2],
+        "error must fall as samples grow: {errors:?}"
+    );
+    // The penumbra is sampled k times: the error falls roughly like 1 / sqrt(k) or faster.
+    // Measured 0.0809, 0.0263, 0.0120.
+    ensure!(errors[2] < 0.5 * errors[0], "{errors:?}");
+    Ok(())
+}
+
+/// Evaluates texel `i` of a PDSM.
+fn texel(data: &softshadow_pdsm::PdsmData, i: usize) -> &[[f32; 2]] {
+    &data.vertices[data.offsets[i] as usize..data.offsets[i + 1] as usize]
+}
+
+#[test]
+fn compression_stays_within_compression_error_at_every_event_depth() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-cylinder")?;
+    // compression_error = 0 keeps every step of the summed events (only collinear vertices go).
+    let mut exact_pdsm = technique(
+        &gpu,
+        PdsmSettings {
+            compression_error: 0.0,
+            ..settings(64, 64)
+        },
+        cache.path(),
+    )?;
+    render(&gpu, &scene, &mut exact_pdsm)?;
+    let max_error = 0.05;
+    let mut compressed_pdsm = technique(
+        &gpu,
+        PdsmSettings {
+            compression_error: max_error,
+            ..settings(64, 64)
+        },
+        cache.path(),
+    )?;
+    render(&gpu, &scene, &mut compressed_pdsm)?;
+    let (raw, compressed) = (
+        exact_pdsm.data().context("built")?,
+        compressed_pdsm.data().context("built")?,
+    );
+    ensure!(raw.stats.max_compression_error == 0.0, "{:?}", raw.stats);
+    let mut worst = 0.0f32;
+    let mut depths_checked = 0;
+    for i in 0..(raw.size * raw.size) as usize {
+        let (r, c) = (texel(raw, i), texel(compressed, i));
+        worst = worst.max(softshadow_pdsm::function::max_deviation(r, c));
+        depths_checked += r.len();
+    }
+    let (before, after) = (raw.vertices.len(), compressed.vertices.len());
+    eprintln!(
+        "worst deviation {worst} over {depths_checked} event depths; vertices {before} -> {after}; \
+         stats raw {:?} compressed {:?}",
+        raw.stats, compressed.stats
+    );
+    ensure!(depths_checked > 10_000, "{depths_checked}");
+    ensure!(worst <= max_error + 1e-6, "deviation {worst} > {max_error}");
+    ensure!(
+        compressed.stats.max_compression_error <= max_error + 1e-6,
+        "{:?}",
+        compressed.stats
+    );
+    // Compression must pay: the paper's park scene goes from 63 to 5 events per texel.
+    ensure!(after * 2 < before, "vertices {before} -> {after}");
+    Ok(())
+}
+
+/// `pdsm-cylinder` plus a dynamic box floating between the light and the ground in front of the
+/// cylinder (it shadows the ground only through the PCF map) and a dynamic box standing in the
+/// cylinder's shadow (it receives the precomputed shadow, Fig. 8f). Boxes are offset by `shift`.
+fn cylinder_with_dynamic_boxes(shift: f32) -> Result<Scene> {
+    let mut scene = builtin("pdsm-cylinder")?;
+    let mesh = scene.meshes.len();
+    scene
+        .meshes
+        .push(primitives::cuboid(Vec3::new(0.3, 0.05, 0.3)));
+    let receiver = scene.meshes.len();
+    scene
+        .meshes
+        .push(primitives::cuboid(Vec3::new(0.25, 0.3, 0.25)));
+    scene.instances.push(Instance {
+        dynamic: true,
+        ..Instance::new(
+            mesh,
+            Mat4::from_translation(Vec3::new(0.3 + shift, 0.9, 0.9)),
+        )
+    });
+    scene.instances.push(Instance {
+        dynamic: true,
+        ..Instance::new(
+            receiver,
+            Mat4::from_translation(Vec3::new(-0.8 + shift, 0.15, 0.0)),
+        )
+    });
+    Ok(scene)
+}
+
+#[test]
+fn dynamic_objects_cast_by_pcf_and_receive_the_precomputed_shadow() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = cylinder_with_dynamic_boxes(0.0)?;
+    let mut pdsm = technique(&gpu, settings(64, 128), cache.path())?;
+    let frame = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(frame.passes.iter().any(|p| p == "pdsm/dynamic_map"));
+    let truth = exact(&scene, &frame)?;
+    // The same points without the dynamic caster: where it matters, only the PCF map can know.
+    let mut static_scene = scene.clone();
+    static_scene
+        .instances
+        .remove(static_scene.instances.len() - 2);
+    let without = softshadow_reference::raycast::visibility_image(
+        &static_scene,
+        &frame.positions,
+        &frame.mask,
+        32,
+    );
+    let mut cast = (0usize, 0.0f64);
+    let mut received = (0usize, 0.0f64);
+    for i in 0..frame.v.len() {
+        if !frame.mask[i] {
+            continue;
+        }
+        let error = (frame.v[i] - truth[i]).abs() as f64;
+        if without[i] - truth[i] > 0.5 {
+            cast = (cast.0 + 1, cast.1 + error);
+        }
+        let on_box = frame.positions[i]
+            .is_some_and(|p| (p.x + 0.8).abs() < 0.13 && p.z.abs() < 0.13 && p.y > 0.01);
+        if on_box && truth[i] < 0.9 {
+            received = (received.0 + 1, received.1 + error);
+        }
+    }
+    let cast_mae = cast.1 / cast.0.max(1) as f64;
+    let received_mae = received.1 / received.0.max(1) as f64;
+    eprintln!(
+        "dynamic caster: {} pixels, mae {cast_mae:.4}; dynamic receiver in shadow: {} pixels, mae {received_mae:.4}; stats {:?}",
+        cast.0,
+        received.0,
+        pdsm.stats()
+    );
+    ensure!(cast.0 > 20 && received.0 > 20, "{cast:?} {received:?}");
+    // measured 0.175: a 5 x 5 PCF kernel is not the penumbra of the real light (section 5)
+    ensure!(cast_mae < 0.4, "dynamic caster mae {cast_mae}");
+    // measured 0.0006
+    ensure!(received_mae < 0.03, "dynamic receiver mae {received_mae}");
+
+    // Moving the dynamic boxes keeps the precompute: no sample maps, the same PDSM.
+    let moved = cylinder_with_dynamic_boxes(0.2)?;
+    let before = pdsm.data().context("built")?.clone();
+    let scene_gpu = SceneGpu::upload(&gpu, &scene);
+    let moved_gpu = SceneGpu::upload(&gpu, &moved);
+    let mut renderer = Renderer::new(&gpu, SIZE, SIZE)?;
+    renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut pdsm, None)?;
+    let out = renderer.render(&moved_gpu, &moved.camera, &moved.light, &mut pdsm, None)?;
+    ensure!(
+        !out.passes_run.iter().any(|p| p == "pdsm/sample_maps")
+            && out.passes_run.iter().any(|p| p == "pdsm/dynamic_map"),
+        "{:?}",
+        out.passes_run
+    );
+    ensure!(pdsm.data() == Some(&before));
+    ensure!(pdsm.stats()["rebuilt_this_frame"] == 0.0);
+    Ok(())
+}
+
+#[test]
+fn the_cache_reloads_bit_identical_and_rebuilds_a_corrupt_file_with_a_warning() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-quads")?;
+    let first = {
+        let mut pdsm = technique(&gpu, settings(16, 64), cache.path())?;
+        let frame = render(&gpu, &scene, &mut pdsm)?;
+        ensure!(pdsm.stats()["from_cache"] == 0.0);
+        frame.v
+    };
+    let files: Vec<_> = std::fs::read_dir(cache.path())?.collect::<Result<_, _>>()?;
+    ensure!(
+        files.len() == 1,
+        "one cache file, no temporaries: {files:?}"
+    );
+    let path = files[0].path();
+
+    let mut pdsm = technique(&gpu, settings(16, 64), cache.path())?;
+    let frame = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(pdsm.stats()["from_cache"] == 1.0, "{:?}", pdsm.stats());
+    ensure!(!frame.passes.iter().any(|p| p == "pdsm/sample_maps"));
+    ensure!(
+        frame
+            .v
+            .iter()
+            .map(|v| v.to_bits())
+            .eq(first.iter().map(|v| v.to_bits())),
+        "the loaded PDSM must give bit-identical visibility"
+    );
+
+    // Corrupt one byte in the middle, then truncate: each time rebuilt with a warning.
+    let mut bytes = std::fs::read(&path)?;
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0xff;
+    for damaged in [bytes.clone(), bytes[..middle].to_vec()] {
+        std::fs::write(&path, &damaged)?;
+        let mut pdsm = technique(&gpu, settings(16, 64), cache.path())?;
+        let frame = render(&gpu, &scene, &mut pdsm)?;
+        ensure!(pdsm.stats()["from_cache"] == 0.0, "{:?}", pdsm.stats());
+        let warnings = pdsm.warnings().join("\n");
+        ensure!(
+            warnings.contains("cache file refused, rebuilding"),
+            "{warnings}"
+        );
+        ensure!(frame
+            .v
+            .iter()
+            .map(|v| v.to_bits())
+            .eq(first.iter().map(|v| v.to_bits())));
+        // The rebuilt file is whole again: the next run loads it.
+        let mut again = technique(&gpu, settings(16, 64), cache.path())?;
+        render(&gpu, &scene, &mut again)?;
+        ensure!(again.stats()["from_cache"] == 1.0 && again.warnings().is_empty());
+    }
+    Ok(())
+}
+
+#[test]
+fn an_oversized_precompute_fails_before_building_and_names_the_parameter() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-quads")?;
+    let mut pdsm = technique(
+        &gpu,
+        PdsmSettings {
+            samples: 1024,
+            shadow_map_size: 2048,
+            ..PdsmSettings::default()
+        },
+        cache.path(),
+    )?;
+    let error = render(&gpu, &scene, &mut pdsm)
+        .err()
+        .context("16 GiB of maps must not build")?;
+    let message = format!("{error:#}");
+    ensure!(
+        message.contains("16384 MiB")
+            && message.contains("lower `samples` or `shadow_map_size`")
+            && message.contains("memory_budget_mib"),
+        "{message}"
+    );
+    Ok(())
+}
+
+#[test]
+fn a_cancelled_build_fails_and_progress_counts_every_row() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-quads")?;
+    let mut pdsm = technique(&gpu, settings(4, 64), cache.path())?;
+    let control = pdsm.build_control();
+    control.cancel.store(true, Ordering::Relaxed);
+    let error = render(&gpu, &scene, &mut pdsm).err().context("cancelled")?;
+    ensure!(format!("{error:#}").contains("cancelled"), "{error:#}");
+    ensure!(pdsm.data().is_none());
+    control.cancel.store(false, Ordering::Relaxed);
+    render(&gpu, &scene, &mut pdsm)?;
+    ensure!(control.rows_done.load(Ordering::Relaxed) == 64);
+    Ok(())
+}
+
+/// The issue's construction target (64 samples, 512² PDSM, 512² maps) on `pdsm-cylinder`, with
+/// the paper's compression statistics (section 5). Prints figures for docs/BENCHMARKS.md; asserts
+/// only what the build must satisfy, never a time. Slow in the dev profile: run it on purpose,
+/// `cargo test --release -p softshadow-bench --test pdsm -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn construction_at_the_paper_settings() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-cylinder")?;
+    for (samples, pdsm_size, shadow_map_size) in [(64, 512, 512), (16, 512, 512), (64, 256, 512)] {
+        let mut pdsm = technique(
+            &gpu,
+            PdsmSettings {
+                samples,
+                pdsm_size,
+                shadow_map_size,
+                disk_cache: false,
+                ..PdsmSettings::default()
+            },
+            cache.path(),
+        )?;
+        let frame = render(&gpu, &scene, &mut pdsm)?;
+        let stats = pdsm.stats();
+        eprintln!(
+            "k={samples} pdsm={pdsm_size}² maps={shadow_map_size}²: construction {:.0} ms, \
+             events/texel mean {:.2} max {}, vertices/texel mean {:.2} max {}, GPU {:.2} MiB, \
+             compression error {:.4}",
+            stats["construction_ms"],
+            stats["events_per_texel_mean"],
+            stats["events_per_texel_max"],
+            stats["vertices_per_texel_mean"],
+            stats["vertices_per_texel_max"],
+            stats["pdsm_gpu_bytes"] / (1 << 20) as f64,
+            stats["compression_max_error"],
+        );
+        ensure!(stats["compression_max_error"] <= 0.02 + 1e-6);
+        ensure!(frame.passes.iter().any(|p| p == "pdsm/sample_maps"));
+    }
+    Ok(())
+}

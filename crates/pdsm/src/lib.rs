@@ -1,0 +1,939 @@
+//! `pdsm`: penumbra deep shadow maps (St-Amour, Paquette & Poulin 2005).
+//!
+//! Precompute (section 3, Algorithm 1), for the static casters only: k stratified samples on the
+//! light, one shadow map per sample parallel to the light plane, rendered on the GPU and read
+//! back once; then, on the CPU with rayon over PDSM rows, every PDSM texel's ray (from the light
+//! centre) scan-converted in every map into +-1/k events, summed into one attenuation function,
+//! merged and compressed piecewise-linearly (section 3.2). The result goes to two storage
+//! buffers (Fig. 6) and to a versioned file in the cache folder ([`cache`]), keyed by the static
+//! geometry, the light and the build parameters, so a second run loads it.
+//!
+//! Per frame (section 4): one fullscreen pass evaluates the four nearest texels' functions at the
+//! pixel's depth and filters bilinearly; instances marked `dynamic` are not in the precompute and
+//! shadow through a per-frame PCF map of the dynamic casters, multiplied in (section 5).
+//!
+//! Watching and cancelling a build: [`PdsmShadows::build_control`] hands out the cancel flag and
+//! the row counter (`rows_done` of `pdsm_size`) a viewer or CLI can poll from another thread.
+
+pub mod build;
+pub mod cache;
+pub mod function;
+
+use std::{
+    path::PathBuf,
+    sync::atomic::Ordering,
+    time::{Duration, Instant},
+};
+
+use bytemuck::{Pod, Zeroable};
+use softshadow_core::{
+    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    glam::{Vec2, Vec3},
+    scene::{Aabb, Fnv1a},
+    shader::ShaderSpec,
+    shader_file,
+    shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
+    wgpu::{self, util::DeviceExt},
+    AreaLight, DebugView, Frame, Gpu, GpuError, ShadowInputs, ShadowTechnique, SlopeFrustum,
+    TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+};
+
+pub use build::{BuildControl, BuildStats, PdsmData};
+
+pub const ID: &str = "pdsm";
+
+pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
+    path: "pdsm/evaluate.wgsl",
+    source: shader_file!("pdsm/evaluate.wgsl").1,
+    permutations: &[&[]],
+}];
+
+softshadow_core::technique_settings! {
+    /// Settings of penumbra deep shadow maps.
+    pub struct PdsmSettings {
+        /// Light samples k of the precompute (one shadow map each, stratified over the light)
+        samples: u32 = 64, in 1..=1024 log;
+        /// PDSM edge in texels (one attenuation function per texel)
+        pdsm_size: u32 = 256, in 16..=2048 log;
+        /// Edge in texels of each light sample's shadow map
+        shadow_map_size: u32 = 512, in 64..=4096 log;
+        /// Largest visibility error the piecewise-linear compression may add
+        compression_error: f32 = 0.02, in 0.0..=0.5;
+        /// Depth bias in PDSM texel footprints (scaled by 1/cos on slopes)
+        bias_texels: f32 = 0.0, in 0.0..=16.0;
+        /// Edge in texels of the per-frame shadow map of the dynamic casters
+        dynamic_map_size: u32 = 1024, in 64..=4096 log;
+        /// PCF kernel radius in texels for the dynamic casters (kernel (2r+1)²)
+        pcf_radius: u32 = 2, in 0..=8;
+        /// Memory the precompute may use, MiB (read-back maps plus the PDSM); a larger estimate fails before building
+        memory_budget_mib: u32 = 2048, in 16..=65536 log;
+        /// Load and store built PDSMs in the cache folder (SOFTSHADOW_CACHE_DIR, else $XDG_CACHE_HOME/softshadow or ~/.cache/softshadow)
+        disk_cache: bool = true;
+        /// Depth of the `attenuation_at_depth` debug view, as a fraction of the PDSM's depth range
+        debug_depth: f32 = 0.5, in 0.0..=1.0;
+    }
+}
+
+/// Seed of the jitter inside the light strata (fixed: the same inputs build the same PDSM).
+const JITTER_SEED: u64 = 0x5d5_2005;
+/// Most bytes of read-back maps per GPU round trip.
+const READBACK_BATCH_BYTES: u64 = 64 << 20;
+/// Compressed vertices per texel assumed by the memory estimate before building (the paper's
+/// park scene averages 5 events after compression, 40 at most, section 5).
+const ESTIMATED_VERTICES_PER_TEXEL: u64 = 16;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct PdsmParams {
+    window: [f32; 4],
+    size_bias: [f32; 4],
+    has_dynamic: [f32; 4],
+}
+
+/// A built (or loaded) PDSM on the GPU.
+struct Kept {
+    key: u64,
+    data: PdsmData,
+    offsets: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    construction_ms: f64,
+    from_cache: bool,
+}
+
+/// The per-frame map of the dynamic casters.
+struct DynamicMap {
+    size: u32,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    drawn: bool,
+}
+
+pub struct PdsmShadows {
+    pub settings: PdsmSettings,
+    /// Where built PDSMs are cached; `None` = [`cache::default_dir`].
+    pub cache_dir: Option<PathBuf>,
+    depth: DepthMapRenderer,
+    dynamic_depth: DepthMapRenderer,
+    evaluate: FullscreenPipeline,
+    layout: wgpu::BindGroupLayout,
+    params_buffer: wgpu::Buffer,
+    dynamic_view_buffer: wgpu::Buffer,
+    /// Bound when there is no dynamic map (never read: `has_dynamic` is 0).
+    placeholder_map: wgpu::TextureView,
+    kept: Option<Kept>,
+    /// The static casters seen from the light centre (the `shadow_map` debug view), drawn once
+    /// per built or loaded PDSM.
+    centre_map: Option<wgpu::Texture>,
+    dynamic: Option<DynamicMap>,
+    control: BuildControl,
+    warnings: Vec<String>,
+    stats: TechniqueStats,
+    debug: Vec<DebugView>,
+}
+
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        id: ID,
+        description: "Penumbra deep shadow maps: precomputed, compressed attenuation per texel (static casters), PCF for dynamic ones",
+        source: "St-Amour, Paquette & Poulin 2005",
+        params: PdsmSettings::param_specs,
+        create: |gpu| Ok(Box::new(PdsmShadows::new(gpu, PdsmSettings::default())?)),
+    }
+}
+
+fn technique_error(message: String) -> TechniqueError {
+    TechniqueError::Other {
+        technique: ID.into(),
+        message,
+    }
+}
+
+/// `samples` points on the light rectangle (light-space x, y), one per cell of equal area: rows
+/// of equal counts where possible (row heights proportional to their counts), jittered inside
+/// each cell (section 3.1: stratified sampling).
+pub fn stratified_samples(samples: u32, half: Vec2) -> Vec<Vec2> {
+    let k = samples.max(1);
+    let rows = ((k as f32).sqrt().floor() as u32).max(1);
+    let mut rng = JITTER_SEED;
+    let mut next = move || {
+        // splitmix64
+        rng = rng.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = rng;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut out = Vec::with_capacity(k as usize);
+    let mut y0 = 0.0f32;
+    for row in 0..rows {
+        let count = k / rows + u32::from(row < k % rows);
+        let height = count as f32 / k as f32;
+        for column in 0..count {
+            let u = (column as f32 + next()) / count as f32;
+            let v = y0 + next() * height;
+            out.push(Vec2::new(
+                (2.0 * u - 1.0) * half.x,
+                (2.0 * v - 1.0) * half.y,
+            ));
+        }
+        y0 += height;
+    }
+    out
+}
+
+/// Light-space corners of a world-space box.
+fn light_corners(light: &AreaLight, bounds: &Aabb) -> Vec<Vec3> {
+    if bounds.is_empty() {
+        return Vec::new();
+    }
+    let view = light.view();
+    bounds
+        .corners()
+        .iter()
+        .map(|c| view.transform_point3(*c))
+        .collect()
+}
+
+/// The PDSM's window from the light centre: every point the static casters can shadow. A point X
+/// shadowed from light point p lies behind a caster C on the line through p, so its slope from the
+/// centre is C's slope from p plus `p / z_X`; with |p| <= the half extent and z_X >= the casters'
+/// nearest depth, the centre's caster window widened by twice `half / z_near` on each side covers
+/// every shadowed point (outside it the shader returns lit); it is clipped to the slopes of the
+/// static scene, where anything the PDSM is evaluated for usually is. Depths run from the casters' nearest
+/// (nothing in front of every caster is shadowed) to the scene's farthest. When casters cross the
+/// light plane their slopes are unbounded and the window covers the static scene instead.
+fn pdsm_window(
+    light: &AreaLight,
+    casters: &[Vec3],
+    crosses: bool,
+    everything: &[Vec3],
+) -> Option<SlopeFrustum> {
+    let fit = SlopeFrustum::fit_casters(Vec2::ZERO, casters, crosses, everything)?;
+    let far = everything.iter().map(|p| p.z).fold(fit.far, f32::max) * 1.02;
+    if crosses {
+        return Some(SlopeFrustum { far, ..fit });
+    }
+    let grow = 2.0 * light.half_extent() / fit.near.max(1e-4);
+    let mut window = [
+        fit.s_min - grow.x,
+        fit.s_max + grow.x,
+        fit.t_min - grow.y,
+        fit.t_max + grow.y,
+    ];
+    // No need to cover slopes where the static scene has nothing (a caster next to the light
+    // widens the first window far beyond the receivers, stiff-near-light).
+    if let Some(scene) = SlopeFrustum::fit(Vec2::ZERO, everything) {
+        window = [
+            window[0].max(scene.s_min),
+            window[1].min(scene.s_max),
+            window[2].max(scene.t_min),
+            window[3].min(scene.t_max),
+        ];
+    }
+    let half = ((window[1] - window[0]) * 0.5)
+        .max((window[3] - window[2]) * 0.5)
+        .max(1e-3);
+    let centre = Vec2::new(window[0] + window[1], window[2] + window[3]) * 0.5;
+    Some(SlopeFrustum {
+        s_min: centre.x - half,
+        s_max: centre.x + half,
+        t_min: centre.y - half,
+        t_max: centre.y + half,
+        far,
+        ..fit
+    })
+}
+
+/// Bytes the precompute is estimated to need: read-back maps (light-space depth, f32) and the
+/// PDSM (index plus [`ESTIMATED_VERTICES_PER_TEXEL`] vertices per texel).
+pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
+    let m = settings.shadow_map_size as u64;
+    let n = settings.pdsm_size as u64;
+    let maps = settings.samples as u64 * m * m * 4;
+    let pdsm = n * n * (4 + 8 * ESTIMATED_VERTICES_PER_TEXEL.min(2 * settings.samples as u64 + 2));
+    (maps, pdsm)
+}
+
+impl PdsmShadows {
+    pub fn new(gpu: &Gpu, settings: PdsmSettings) -> Result<Self, TechniqueError> {
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let storage = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: fragment,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("pdsm/evaluate"),
+                entries: &[
+                    softshadow_core::frame::uniform_entry(0, fragment, false),
+                    storage(1),
+                    storage(2),
+                    softshadow_core::frame::uniform_entry(3, fragment, false),
+                    depth_texture_entry(4, false),
+                ],
+            });
+        let placeholder = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("pdsm/no dynamic map"),
+            size: wgpu::Extent3d {
+                width: 1,
+                height: 1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: SHADOW_DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        Ok(Self {
+            settings,
+            cache_dir: None,
+            depth: DepthMapRenderer::new(gpu)?,
+            dynamic_depth: DepthMapRenderer::new(gpu)?,
+            evaluate: FullscreenPipeline::new(
+                gpu,
+                "pdsm/evaluate",
+                &SHADERS[0],
+                &[],
+                &layout,
+                None,
+            )?,
+            layout,
+            params_buffer: uniform_buffer(gpu, "pdsm/params", &PdsmParams::zeroed()),
+            dynamic_view_buffer: uniform_buffer(
+                gpu,
+                "pdsm/dynamic view",
+                &ShadowViewUniform::zeroed(),
+            ),
+            placeholder_map: placeholder.create_view(&Default::default()),
+            kept: None,
+            centre_map: None,
+            dynamic: None,
+            control: BuildControl::default(),
+            warnings: Vec::new(),
+            stats: TechniqueStats::new(),
+            debug: Vec::new(),
+        })
+    }
+
+    /// The cancel flag and progress counter of the precompute, to poll from another thread: a
+    /// build counts finished PDSM rows in `rows_done` (out of `pdsm_size`, reset when a build
+    /// starts) and stops at the next row once `cancel` is set; `render` then fails with a
+    /// "cancelled" error, and keeps failing at once until the caller clears `cancel`.
+    pub fn build_control(&self) -> BuildControl {
+        self.control.clone()
+    }
+
+    /// Cache warnings since the technique was created (a file refused and rebuilt, a failed
+    /// write); also logged with `log::warn!`.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// The PDSM in use (after a frame), for inspection and tests.
+    pub fn data(&self) -> Option<&PdsmData> {
+        self.kept.as_ref().map(|k| &k.data)
+    }
+
+    fn warn(&mut self, message: String) {
+        log::warn!("{message}");
+        self.warnings.push(message);
+    }
+
+    /// The cache key: format version, static geometry, light (without intensity), build
+    /// parameters, and whether casters cross the light plane (it changes the map windows).
+    fn key(&self, inputs: &ShadowInputs<'_>) -> u64 {
+        let mut h = Fnv1a::default();
+        h.write_str("pdsm");
+        h.write_u64(cache::FORMAT_VERSION as u64);
+        h.write_u64(inputs.scene.static_hash);
+        let light = inputs.light;
+        h.write_f32s(&light.center.to_array());
+        h.write_f32s(&light.direction.to_array());
+        h.write_f32s(&light.up.to_array());
+        h.write_f32s(&[light.width, light.height]);
+        let s = &self.settings;
+        h.write_u64(s.samples as u64);
+        h.write_u64(s.pdsm_size as u64);
+        h.write_u64(s.shadow_map_size as u64);
+        h.write_f32s(&[s.compression_error]);
+        h.write_u64(
+            inputs
+                .scene
+                .light_bounds(light)
+                .casters_cross_light_plane
+                .into(),
+        );
+        h.finish()
+    }
+
+    /// Builds (or loads) the PDSM for this frame's static scene and light.
+    fn prepare_pdsm(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+    ) -> Result<(), TechniqueError> {
+        let key = self.key(inputs);
+        if let Some(kept) = &self.kept {
+            if kept.key == key || !inputs.changes.static_light_space() {
+                return Ok(());
+            }
+        }
+        self.kept = None;
+        let (maps_bytes, pdsm_bytes) = estimate_bytes(&self.settings);
+        let budget = self.settings.memory_budget_mib as u64 * (1 << 20);
+        if maps_bytes + pdsm_bytes > budget {
+            let mib = |b: u64| b as f64 / (1 << 20) as f64;
+            let lower = if maps_bytes >= pdsm_bytes {
+                "lower `samples` or `shadow_map_size`"
+            } else {
+                "lower `pdsm_size`"
+            };
+            return Err(technique_error(format!(
+                "the precompute needs an estimated {:.0} MiB ({} maps of {}² read back: {:.0} MiB; \
+                 a {}² PDSM: {:.0} MiB), over memory_budget_mib = {}: {lower}, or raise memory_budget_mib",
+                mib(maps_bytes + pdsm_bytes),
+                self.settings.samples,
+                self.settings.shadow_map_size,
+                mib(maps_bytes),
+                self.settings.pdsm_size,
+                mib(pdsm_bytes),
+                self.settings.memory_budget_mib
+            )));
+        }
+        let started = Instant::now();
+        let cache_dir = if self.settings.disk_cache {
+            self.cache_dir.clone().or_else(cache::default_dir)
+        } else {
+            None
+        };
+        if let Some(dir) = &cache_dir {
+            match cache::load(dir, key) {
+                Ok(Some(data)) if data.size == self.settings.pdsm_size => {
+                    self.keep(frame.gpu, key, data, started.elapsed(), true)?;
+                    return Ok(());
+                }
+                Ok(_) => {}
+                Err(reason) => self.warn(format!("pdsm: cache file refused, rebuilding: {reason}")),
+            }
+        }
+        let data = self.build(frame, inputs)?;
+        if let Some(dir) = &cache_dir {
+            if let Err(e) = cache::store(dir, key, &data) {
+                self.warn(format!(
+                    "pdsm: could not write the cache file in {}: {e}; set SOFTSHADOW_CACHE_DIR to a writable folder",
+                    dir.display()
+                ));
+            }
+        }
+        self.keep(frame.gpu, key, data, started.elapsed(), false)
+    }
+
+    /// Renders the k sample maps, reads them back and runs the CPU construction.
+    fn build(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+    ) -> Result<PdsmData, TechniqueError> {
+        if self.control.cancel.load(Ordering::Relaxed) {
+            return Err(technique_error(
+                "PDSM build cancelled: clear the cancel flag of build_control() to build again"
+                    .into(),
+            ));
+        }
+        self.control.rows_done.store(0, Ordering::Relaxed);
+        let light = inputs.light;
+        let scene = inputs.scene;
+        let crosses = scene.light_bounds(light).casters_cross_light_plane;
+        let casters = light_corners(light, &scene.static_caster_bounds);
+        let everything = light_corners(light, &scene.static_bounds);
+        let size = self.settings.pdsm_size;
+        let empty = |frustum| PdsmData {
+            size,
+            frustum,
+            offsets: vec![0; (size * size + 1) as usize],
+            vertices: Vec::new(),
+            stats: BuildStats::default(),
+        };
+        let unit = SlopeFrustum {
+            eye: Vec2::ZERO,
+            s_min: -1.0,
+            s_max: 1.0,
+            t_min: -1.0,
+            t_max: 1.0,
+            near: 1.0,
+            far: 2.0,
+        };
+        // Without static casters in front of the light the PDSM is empty (lit everywhere).
+        let Some(frustum) = pdsm_window(light, &casters, crosses, &everything) else {
+            return Ok(empty(unit));
+        };
+        if scene.static_casters.is_none() {
+            return Ok(empty(frustum));
+        }
+        let eyes = stratified_samples(self.settings.samples, light.half_extent());
+        let windows: Vec<SlopeFrustum> = eyes
+            .iter()
+            .filter_map(|&eye| SlopeFrustum::fit_casters(eye, &casters, crosses, &everything))
+            .collect();
+        if windows.len() != eyes.len() {
+            return Ok(empty(frustum));
+        }
+        let maps = self.render_sample_maps(frame, inputs, &windows)?;
+        build::build(
+            &maps,
+            &frustum,
+            size,
+            self.settings.compression_error,
+            &self.control,
+        )
+        .map_err(|build::Cancelled| {
+            technique_error(
+                "PDSM build cancelled: clear the cancel flag of build_control() to build again"
+                    .into(),
+            )
+        })
+    }
+
+    /// Algorithm 1 step 2 on the GPU: one depth map of the static casters per window, copied to
+    /// buffers in batches and read back as light-space depth.
+    fn render_sample_maps(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        windows: &[SlopeFrustum],
+    ) -> Result<build::SampleMaps, TechniqueError> {
+        let gpu = frame.gpu;
+        let m = self.settings.shadow_map_size;
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("pdsm/sample map"),
+            size: wgpu::Extent3d {
+                width: m,
+                height: m,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: SHADOW_DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let views: Vec<ShadowViewUniform> = windows
+            .iter()
+            .map(|w| ShadowViewUniform::new(inputs.light, w, m))
+            .collect();
+        self.depth.set_views(gpu, &views);
+        let row_bytes = (m * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let map_bytes = row_bytes as u64 * m as u64;
+        let per_batch = (READBACK_BATCH_BYTES / map_bytes).max(1) as usize;
+        let mut maps = Vec::with_capacity(windows.len());
+        for (batch_index, batch) in windows.chunks(per_batch).enumerate() {
+            let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pdsm/sample map readback"),
+                size: map_bytes * batch.len() as u64,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            for j in 0..batch.len() {
+                let slot = (batch_index * per_batch + j) as u32;
+                self.depth.record_list(
+                    frame,
+                    "pdsm/sample_maps",
+                    inputs.scene,
+                    inputs.scene.static_casters.as_ref(),
+                    slot,
+                    &view,
+                );
+                frame.encoder.copy_texture_to_buffer(
+                    texture.as_image_copy(),
+                    wgpu::TexelCopyBufferInfo {
+                        buffer: &buffer,
+                        layout: wgpu::TexelCopyBufferLayout {
+                            offset: map_bytes * j as u64,
+                            bytes_per_row: Some(row_bytes),
+                            rows_per_image: Some(m),
+                        },
+                    },
+                    wgpu::Extent3d {
+                        width: m,
+                        height: m,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            }
+            frame.note_pass("pdsm/readback");
+            frame.submit_and_wait()?;
+            let slice = buffer.slice(..);
+            let (sender, receiver) = std::sync::mpsc::channel();
+            slice.map_async(wgpu::MapMode::Read, move |r| {
+                let _ = sender.send(r);
+            });
+            gpu.wait_idle()?;
+            receiver
+                .recv()
+                .map_err(|e| GpuError::Readback(e.to_string()))?
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            {
+                let bytes = slice
+                    .get_mapped_range()
+                    .map_err(|e| GpuError::Readback(e.to_string()))?;
+                for (j, window) in batch.iter().enumerate() {
+                    let (near, far) = (window.near, window.far);
+                    let mut depth = Vec::with_capacity((m * m) as usize);
+                    for row in 0..m as usize {
+                        let start = j * map_bytes as usize + row * row_bytes as usize;
+                        let texels: &[f32] =
+                            bytemuck::cast_slice(&bytes[start..start + 4 * m as usize]);
+                        // Hardware depth to light-space z; the cleared far plane is "no caster".
+                        depth.extend(texels.iter().map(|&d| {
+                            if d >= 1.0 {
+                                f32::INFINITY
+                            } else {
+                                far * near / (far - d * (far - near))
+                            }
+                        }));
+                    }
+                    maps.push(build::SampleMap {
+                        frustum: *window,
+                        depth,
+                    });
+                }
+            }
+            buffer.unmap();
+        }
+        Ok(build::SampleMaps { size: m, maps })
+    }
+
+    /// Uploads `data` (Fig. 6: index and data buffers) and keeps it.
+    fn keep(
+        &mut self,
+        gpu: &Gpu,
+        key: u64,
+        data: PdsmData,
+        elapsed: Duration,
+        from_cache: bool,
+    ) -> Result<(), TechniqueError> {
+        let limit = gpu.device.limits().max_storage_buffer_binding_size;
+        let vertex_bytes = data.vertices.len() as u64 * 8;
+        if vertex_bytes > limit {
+            return Err(technique_error(format!(
+                "the compressed PDSM holds {vertex_bytes} bytes of vertices, over this GPU's \
+                 storage-buffer limit of {limit}: raise `compression_error` or lower `pdsm_size`"
+            )));
+        }
+        let buffer = |label: &str, bytes: &[u8]| {
+            gpu.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: if bytes.is_empty() { &[0u8; 8] } else { bytes },
+                    usage: wgpu::BufferUsages::STORAGE,
+                })
+        };
+        let offsets = buffer("pdsm/index", bytemuck::cast_slice(&data.offsets));
+        let vertices = buffer("pdsm/data", bytemuck::cast_slice(&data.vertices));
+        self.kept = Some(Kept {
+            key,
+            data,
+            offsets,
+            vertices,
+            construction_ms: elapsed.as_secs_f64() * 1e3,
+            from_cache,
+        });
+        Ok(())
+    }
+
+    /// One map of the static casters from the light centre, for the `shadow_map` debug view.
+    fn render_centre_map(&mut self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>) {
+        let light = inputs.light;
+        let crosses = inputs.scene.light_bounds(light).casters_cross_light_plane;
+        let casters = light_corners(light, &inputs.scene.static_caster_bounds);
+        let everything = light_corners(light, &inputs.scene.static_bounds);
+        let Some(window) = SlopeFrustum::fit_casters(Vec2::ZERO, &casters, crosses, &everything)
+        else {
+            self.centre_map = None;
+            return;
+        };
+        let size = self.settings.shadow_map_size;
+        let texture =
+            softshadow_core::shadow_map::create_depth_maps(frame.gpu, "pdsm/centre map", size, 1);
+        let view = texture.create_view(&Default::default());
+        self.depth
+            .set_views(frame.gpu, &[ShadowViewUniform::new(light, &window, size)]);
+        self.depth.record_list(
+            frame,
+            "pdsm/centre_map",
+            inputs.scene,
+            inputs.scene.static_casters.as_ref(),
+            0,
+            &view,
+        );
+        self.centre_map = Some(texture);
+    }
+
+    /// The per-frame PCF map of the dynamic casters (kept while nothing in light space moves).
+    fn render_dynamic_map(&mut self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>) -> bool {
+        let Some(list) = inputs.scene.dynamic_casters.as_ref() else {
+            self.dynamic = None;
+            return false;
+        };
+        let size = self.settings.dynamic_map_size;
+        if let Some(d) = &self.dynamic {
+            if d.size == size && d.drawn && !inputs.changes.light_space() {
+                return true;
+            }
+        }
+        let Some(window) = fit_caster_view(inputs.scene, inputs.light, Vec2::ZERO) else {
+            self.dynamic = None;
+            return false;
+        };
+        let gpu = frame.gpu;
+        if self.dynamic.as_ref().map(|d| d.size) != Some(size) {
+            let texture =
+                softshadow_core::shadow_map::create_depth_maps(gpu, "pdsm/dynamic map", size, 1);
+            let view = texture.create_view(&Default::default());
+            self.dynamic = Some(DynamicMap {
+                size,
+                texture,
+                view,
+                drawn: false,
+            });
+        }
+        let view = ShadowViewUniform::new(inputs.light, &window, size);
+        self.dynamic_depth.set_views(gpu, &[view]);
+        gpu.queue
+            .write_buffer(&self.dynamic_view_buffer, 0, bytemuck::bytes_of(&view));
+        let dynamic = self.dynamic.as_mut().expect("created above");
+        self.dynamic_depth.record_list(
+            frame,
+            "pdsm/dynamic_map",
+            inputs.scene,
+            Some(list),
+            0,
+            &dynamic.view,
+        );
+        dynamic.drawn = true;
+        true
+    }
+
+    /// Debug views: compressed vertices per texel and the attenuation at `debug_depth`.
+    fn update_debug_views(&mut self, gpu: &Gpu) {
+        let Some(kept) = &self.kept else {
+            self.debug.clear();
+            return;
+        };
+        let data = &kept.data;
+        let n = data.size;
+        let depth =
+            data.frustum.near + self.settings.debug_depth * (data.frustum.far - data.frustum.near);
+        let texel =
+            |i: usize| &data.vertices[data.offsets[i] as usize..data.offsets[i + 1] as usize];
+        let counts: Vec<f32> = (0..(n * n) as usize)
+            .map(|i| texel(i).len() as f32)
+            .collect();
+        let attenuation: Vec<f32> = (0..(n * n) as usize)
+            .map(|i| function::evaluate(texel(i), depth))
+            .collect();
+        let image = |name: &str, values: &[f32]| {
+            let texture = gpu.device.create_texture_with_data(
+                &gpu.queue,
+                &wgpu::TextureDescriptor {
+                    label: Some(name),
+                    size: wgpu::Extent3d {
+                        width: n,
+                        height: n,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                },
+                wgpu::util::TextureDataOrder::LayerMajor,
+                bytemuck::cast_slice(values),
+            );
+            DebugView {
+                name: name.into(),
+                texture,
+            }
+        };
+        self.debug = vec![
+            image("vertices_per_texel", &counts),
+            image("attenuation_at_depth", &attenuation),
+        ];
+    }
+}
+
+impl ShadowTechnique for PdsmShadows {
+    fn id(&self) -> &'static str {
+        ID
+    }
+
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
+    }
+
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
+    }
+
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        if inputs.scene.light_bounds(inputs.light).casters.is_none() {
+            out.write_unshadowed(frame, inputs.frame_bind_group, "pdsm/no_casters")?;
+            self.stats = TechniqueStats::from([("sample_maps".into(), 0.0)]);
+            return Ok(());
+        }
+        let had = self.kept.as_ref().map(|k| k.key);
+        self.prepare_pdsm(frame, inputs)?;
+        let rebuilt = self.kept.as_ref().map(|k| k.key) != had;
+        if rebuilt || self.centre_map.is_none() {
+            self.render_centre_map(frame, inputs);
+        }
+        let has_dynamic = self.render_dynamic_map(frame, inputs);
+        let gpu = frame.gpu;
+        let kept = self.kept.as_ref().expect("prepared above");
+        let f = &kept.data.frustum;
+        gpu.queue.write_buffer(
+            &self.params_buffer,
+            0,
+            bytemuck::bytes_of(&PdsmParams {
+                window: [f.s_min, f.s_max, f.t_min, f.t_max],
+                size_bias: [
+                    kept.data.size as f32,
+                    self.settings.bias_texels,
+                    // Bias in PDSM texels: the bilinear filter mixes rays one texel apart, whose
+                    // events at a caster's own surface differ by about that footprint.
+                    (f.s_max - f.s_min) / kept.data.size as f32,
+                    self.settings.pcf_radius as f32,
+                ],
+                has_dynamic: [f32::from(u8::from(has_dynamic)), 0.0, 0.0, 0.0],
+            }),
+        );
+        let dynamic_view = match (&self.dynamic, has_dynamic) {
+            (Some(d), true) => &d.view,
+            _ => &self.placeholder_map,
+        };
+        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pdsm/evaluate"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.params_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: kept.offsets.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: kept.vertices.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: self.dynamic_view_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(dynamic_view),
+                },
+            ],
+        });
+        self.evaluate.record(
+            frame,
+            "pdsm/evaluate",
+            inputs.frame_bind_group,
+            &bind_group,
+            &[],
+            &out.view,
+            Some(1.0),
+        );
+        let kept = self.kept.as_ref().expect("prepared above");
+        let s = &kept.data.stats;
+        let gpu_bytes = kept.offsets.size() + kept.vertices.size();
+        let dynamic_bytes = self
+            .dynamic
+            .as_ref()
+            .map(|d| d.size as u64 * d.size as u64 * 4)
+            .unwrap_or(0);
+        let (maps_estimate, pdsm_estimate) = estimate_bytes(&self.settings);
+        self.stats = TechniqueStats::from([
+            ("construction_ms".into(), kept.construction_ms),
+            ("from_cache".into(), f64::from(u8::from(kept.from_cache))),
+            ("rebuilt_this_frame".into(), f64::from(u8::from(rebuilt))),
+            ("samples".into(), self.settings.samples as f64),
+            ("events_per_texel_mean".into(), s.events_mean),
+            ("events_per_texel_max".into(), s.events_max as f64),
+            ("vertices_per_texel_mean".into(), s.vertices_mean),
+            ("vertices_per_texel_max".into(), s.vertices_max as f64),
+            (
+                "compression_max_error".into(),
+                s.max_compression_error as f64,
+            ),
+            ("gpu_bytes".into(), (gpu_bytes + dynamic_bytes) as f64),
+            ("pdsm_gpu_bytes".into(), gpu_bytes as f64),
+            (
+                "estimated_build_bytes".into(),
+                (maps_estimate + pdsm_estimate) as f64,
+            ),
+            ("pcf_map_passes".into(), f64::from(u8::from(has_dynamic))),
+        ]);
+        if rebuilt || inputs.changes.params || self.debug.is_empty() {
+            self.update_debug_views(gpu);
+        }
+        Ok(())
+    }
+
+    fn invalidate_cache(&mut self) {
+        self.kept = None;
+        self.centre_map = None;
+        if let Some(d) = &mut self.dynamic {
+            d.drawn = false;
+        }
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        self.stats.clone()
+    }
+
+    fn debug_views(&self) -> Vec<DebugView> {
+        let mut views: Vec<DebugView> = self
+            .debug
+            .iter()
+            .map(|d| DebugView {
+                name: d.name.clone(),
+                texture: d.texture.clone(),
+            })
+            .collect();
+        if let Some(texture) = &self.centre_map {
+            views.push(DebugView {
+                name: "shadow_map".into(),
+                texture: texture.clone(),
+            });
+        }
+        if let Some(d) = &self.dynamic {
+            views.push(DebugView {
+                name: "dynamic_map".into(),
+                texture: d.texture.clone(),
+            });
+        }
+        views
+    }
+}

@@ -1,0 +1,120 @@
+// Penumbra deep shadow map evaluation (St-Amour et al. 2005, section 4, Algorithm 2): project the
+// pixel's surface point into the PDSM (a view from the light centre), evaluate the attenuation
+// functions of the four nearest texels at the point's depth and filter them bilinearly. The
+// functions live in two storage buffers (Fig. 6): `offsets[i]..offsets[i + 1]` indexes texel i's
+// (depth, visibility) vertices in `vertices`. Dynamic casters, absent from the precompute, come
+// from a per-frame shadow map with percentage-closer filtering, multiplied in (section 5).
+#import softshadow::frame::{load_surface, light_cosine}
+#import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
+#import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
+
+struct PdsmParams {
+    // s_min, s_max, t_min, t_max of the PDSM window (slopes from the light centre).
+    window: vec4<f32>,
+    // PDSM edge in texels, bias in texel footprints, slope extent of one PDSM texel,
+    // PCF kernel radius in texels of the dynamic map.
+    size_bias: vec4<f32>,
+    // 1 when the dynamic-caster map was drawn this frame.
+    has_dynamic: vec4<f32>,
+}
+
+@group(1) @binding(0) var<uniform> params: PdsmParams;
+@group(1) @binding(1) var<storage, read> offsets: array<u32>;
+@group(1) @binding(2) var<storage, read> vertices: array<vec2<f32>>;
+@group(1) @binding(3) var<uniform> dynamic_view: ShadowView;
+@group(1) @binding(4) var dynamic_map: texture_depth_2d;
+
+@vertex
+fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
+    return fullscreen_vertex(index);
+}
+
+// One texel's piecewise-linear function at `depth` (constant beyond its ends; no vertices = lit).
+fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
+    let n = i32(params.size_bias.x);
+    let c = clamp(texel, vec2<i32>(0), vec2<i32>(n - 1));
+    let index = u32(c.y * n + c.x);
+    let start = offsets[index];
+    let end = offsets[index + 1u];
+    if start == end {
+        return 1.0;
+    }
+    var previous = vertices[start];
+    if depth < previous.x {
+        return previous.y;
+    }
+    for (var i = start + 1u; i < end; i++) {
+        let next = vertices[i];
+        if depth < next.x {
+            return mix(previous.y, next.y, (depth - previous.x) / (next.x - previous.x));
+        }
+        previous = next;
+    }
+    return previous.y;
+}
+
+fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
+    let uv = view_uv(dynamic_view, light_pos);
+    if !in_map(uv) {
+        return 1.0;
+    }
+    let radius = i32(params.size_bias.w);
+    let bias = params.size_bias.y * texel_slope(dynamic_view) * light_pos.z / cosine;
+    let centre = vec2<i32>(uv * dynamic_view.size.xy);
+    let last = vec2<i32>(dynamic_view.size.xy) - 1;
+    var lit = 0.0;
+    var total = 0.0;
+    for (var dy = -radius; dy <= radius; dy++) {
+        for (var dx = -radius; dx <= radius; dx++) {
+            let texel = clamp(centre + vec2<i32>(dx, dy), vec2<i32>(0), last);
+            let d = textureLoad(dynamic_map, texel, 0);
+            let unoccluded = d >= 1.0 || linear_depth(dynamic_view, d) >= light_pos.z - bias;
+            lit += select(0.0, 1.0, unoccluded);
+            total += 1.0;
+        }
+    }
+    return lit / total;
+}
+
+@fragment
+fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
+    let s = load_surface(vec2<i32>(in.position.xy));
+    if !s.is_receiver {
+        return vec4<f32>(1.0);
+    }
+    if s.light.z <= 0.0 {
+        // Behind the one-sided light.
+        return vec4<f32>(0.0);
+    }
+    let cosine = light_cosine(s);
+    // Bias: PDSM texel footprints at the receiver's depth, larger on slopes.
+    let depth = s.light.z * (1.0 - params.size_bias.y * params.size_bias.z / cosine);
+    let slope = s.light.xy / s.light.z;
+    let w = params.window;
+    let n = params.size_bias.x;
+    // Texel coordinates with texel centres at integers (row 0 at t_max).
+    let p = vec2<f32>(
+        (slope.x - w.x) / (w.y - w.x) * n - 0.5,
+        (w.w - slope.y) / (w.w - w.z) * n - 0.5,
+    );
+    if any(p < vec2<f32>(-0.5)) || any(p > vec2<f32>(n - 0.5)) {
+        // Outside the window no static caster can shadow (the window is fitted to cover every
+        // point they shadow): only dynamic casters remain.
+        if params.has_dynamic.x > 0.5 {
+            return vec4<f32>(dynamic_visibility(s.light, cosine));
+        }
+        return vec4<f32>(1.0);
+    }
+    let base = floor(p);
+    let f = p - base;
+    let t = vec2<i32>(base);
+    let v00 = texel_visibility(t, depth);
+    let v10 = texel_visibility(t + vec2<i32>(1, 0), depth);
+    let v01 = texel_visibility(t + vec2<i32>(0, 1), depth);
+    let v11 = texel_visibility(t + vec2<i32>(1, 1), depth);
+    var v = mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
+    if params.has_dynamic.x > 0.5 {
+        v *= dynamic_visibility(s.light, cosine);
+    }
+    return vec4<f32>(clamp(v, 0.0, 1.0));
+}
