@@ -703,7 +703,14 @@ pub fn run_all(
     progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
     let indexed: Vec<(usize, RunSpec)> = specs.iter().cloned().enumerate().collect();
-    run_indexed(gpu, &indexed, RunSetup::default(), options, out_dir, progress)
+    run_indexed(
+        gpu,
+        &indexed,
+        RunSetup::default(),
+        options,
+        out_dir,
+        progress,
+    )
 }
 
 /// How a set of runs is made beyond [`BenchOptions`]: which sweep (and shard) they belong to,

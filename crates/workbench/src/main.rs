@@ -279,7 +279,8 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
             TimingSource::parse(t).ok_or_else(|| softshadow_bench::BenchError::BadTiming(t.into()))
         })
         .transpose()?;
-    let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) = &sweep
+    let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) =
+        &sweep
     {
         (
             sweep.runs.clone(),
@@ -342,13 +343,8 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         camera: view.0,
         light: view.1,
     };
-    let results = softshadow_bench::run_indexed(
-        gpu,
-        &indexed,
-        setup,
-        options,
-        &args.out,
-        |_, run| {
+    let results =
+        softshadow_bench::run_indexed(gpu, &indexed, setup, options, &args.out, |_, run| {
             progress.set_message(format!("{} / {}", run.scene, run.technique));
             progress.inc(1);
             if run.status == Status::Error {
@@ -357,8 +353,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
                     run.scene, run.technique, run.message
                 ));
             }
-        },
-    )?;
+        })?;
     progress.finish_and_clear();
     let failed = results
         .runs

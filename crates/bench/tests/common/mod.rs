@@ -10,7 +10,8 @@ use softshadow_core::{glam::Vec3, Gpu, Scene};
 /// user's cache nor leave files in it.
 pub fn gpu() -> Result<Gpu> {
     if std::env::var_os("SOFTSHADOW_CACHE_DIR").is_none() {
-        let dir = std::env::temp_dir().join(format!("softshadow-test-cache-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("softshadow-test-cache-{}", std::process::id()));
         std::env::set_var("SOFTSHADOW_CACHE_DIR", dir);
     }
     Gpu::new_headless().context(
