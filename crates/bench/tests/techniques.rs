@@ -195,13 +195,11 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
             technique.as_mut(),
             None,
         )?;
+        // Every technique but the reference shows what it built (a shadow map, its comparison
+        // of map pairs, ...) in the viewer's debug views.
         if info.id != "reference" {
             let views = technique.debug_views();
-            ensure!(
-                views.iter().any(|d| d.name == "shadow_map"),
-                "{}: no shadow-map debug view",
-                info.id
-            );
+            ensure!(!views.is_empty(), "{}: no debug view", info.id);
         }
         let v = renderer.read_visibility()?;
         let mask = renderer.read_receiver_mask()?;

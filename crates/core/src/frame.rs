@@ -295,6 +295,8 @@ pub struct Frame<'a> {
     passes_run: &'a mut Vec<String>,
     /// `Some` when passes are timed serially.
     serial: Option<SerialTimes>,
+    /// Wall times of CPU passes when timing with timestamps ([`Frame::end_cpu_pass`]).
+    cpu_passes: Vec<(String, f64)>,
 }
 
 impl<'a> Frame<'a> {
@@ -310,6 +312,7 @@ impl<'a> Frame<'a> {
             profiler,
             passes_run,
             serial: None,
+            cpu_passes: Vec::new(),
         }
     }
 
@@ -429,6 +432,36 @@ impl<'a> Frame<'a> {
         let recorded = std::mem::replace(&mut *self.encoder, fresh);
         self.gpu.queue.submit([recorded.finish()]);
         self.gpu.wait_idle()
+    }
+
+    /// Starts timing work the CPU does inside the frame (a read-back and what is computed from
+    /// it, a precompute such as the PDSM's): with serial timing it first drains the GPU work
+    /// recorded so far. End it with [`Frame::end_cpu_pass`].
+    pub fn begin_cpu_pass(&mut self) -> std::time::Instant {
+        let _ = self.begin_serial();
+        std::time::Instant::now()
+    }
+
+    /// Ends a CPU pass begun with [`Frame::begin_cpu_pass`] and records it as the pass `label`
+    /// with its wall time, in both timing modes (a CPU stage has no GPU time to query; leaving it
+    /// out would hide it from the frame's pass times).
+    pub fn end_cpu_pass(&mut self, label: &str, start: std::time::Instant) {
+        if self.serial.is_some() {
+            self.end_serial(label, Some(start));
+        } else {
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            match self.cpu_passes.iter_mut().find(|(n, _)| n == label) {
+                Some((_, t)) => *t += ms,
+                None => self.cpu_passes.push((label.to_string(), ms)),
+            }
+        }
+        self.note_pass(label);
+    }
+
+    /// The CPU passes of a frame timed with timestamps (with serial timing they are among the
+    /// serial times).
+    pub fn take_cpu_passes(&mut self) -> Vec<(String, f64)> {
+        std::mem::take(&mut self.cpu_passes)
     }
 
     /// Records a pass name for work that is not a render or compute pass (a texture copy).

@@ -226,6 +226,7 @@ impl Renderer {
         let mut passes_run = Vec::new();
         let timing_source = self.timing;
         let serial;
+        let cpu_passes;
         let result = {
             let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
             if timing_source == TimingSource::Serial {
@@ -249,6 +250,7 @@ impl Renderer {
                 }
             }
             serial = frame.take_serial_times();
+            cpu_passes = frame.take_cpu_passes();
             result
         };
         self.profiler.resolve_queries(&mut encoder);
@@ -270,7 +272,11 @@ impl Renderer {
                     passes: serial.passes,
                 })
             }
-            None => timestamps,
+            None => timestamps.map(|mut timing| {
+                timing.total_ms += cpu_passes.iter().map(|(_, ms)| ms).sum::<f64>();
+                timing.passes.extend(cpu_passes);
+                timing
+            }),
         };
         self.last_states.insert(technique.id(), state);
         Ok(FrameOutput {

@@ -416,7 +416,10 @@ impl PdsmShadows {
             None
         };
         if let Some(dir) = &cache_dir {
-            match cache::load(dir, key) {
+            let clock = frame.begin_cpu_pass();
+            let loaded = cache::load(dir, key);
+            frame.end_cpu_pass("pdsm/cache_load", clock);
+            match loaded {
                 Ok(Some(data)) if data.size == self.settings.pdsm_size => {
                     self.keep(frame.gpu, key, data, started.elapsed(), true)?;
                     return Ok(());
@@ -427,7 +430,10 @@ impl PdsmShadows {
         }
         let data = self.build(frame, inputs)?;
         if let Some(dir) = &cache_dir {
-            if let Err(e) = cache::store(dir, key, &data) {
+            let clock = frame.begin_cpu_pass();
+            let stored = cache::store(dir, key, &data);
+            frame.end_cpu_pass("pdsm/cache_store", clock);
+            if let Err(e) = stored {
                 self.warn(format!(
                     "pdsm: could not write the cache file in {}: {e}; set SOFTSHADOW_CACHE_DIR to a writable folder",
                     dir.display()
@@ -488,14 +494,16 @@ impl PdsmShadows {
             return Ok(empty(frustum));
         }
         let maps = self.render_sample_maps(frame, inputs, &windows)?;
-        build::build(
+        let clock = frame.begin_cpu_pass();
+        let built = build::build(
             &maps,
             &frustum,
             size,
             self.settings.compression_error,
             &self.control,
-        )
-        .map_err(|build::Cancelled| {
+        );
+        frame.end_cpu_pass("pdsm/build", clock);
+        built.map_err(|build::Cancelled| {
             technique_error(
                 "PDSM build cancelled: clear the cancel flag of build_control() to build again"
                     .into(),
@@ -572,7 +580,7 @@ impl PdsmShadows {
                     },
                 );
             }
-            frame.note_pass("pdsm/readback");
+            let clock = frame.begin_cpu_pass();
             frame.submit_and_wait()?;
             let slice = buffer.slice(..);
             let (sender, receiver) = std::sync::mpsc::channel();
@@ -611,6 +619,7 @@ impl PdsmShadows {
                 }
             }
             buffer.unmap();
+            frame.end_cpu_pass("pdsm/readback", clock);
         }
         Ok(build::SampleMaps { size: m, maps })
     }
