@@ -1,4 +1,4 @@
-// Gather backprojection (Guennebaud, Barthe & Paulin 2006; shared/notes/ALGORITHMS.md section 1)
+// Gather backprojection (Guennebaud, Barthe & Paulin 2006)
 // with the micro-quads and the multi-scale shadow map of the bitmask soft shadows paper (Schwarz &
 // Stamminger 2007, sections 4 and 5). One invocation per screen pixel:
 //   1. search area of the receiver point p (light space) on the centre shadow map, refined twice

@@ -1,7 +1,7 @@
 #define_import_path softshadow::search_area
 
 // The search area of gather backprojection and its refinement with a depth hierarchy
-// (shared/notes/ALGORITHMS.md section 1; bitmask soft shadows paper, Schwarz & Stamminger 2007,
+// (Guennebaud, Barthe & Paulin 2006; bitmask soft shadows paper, Schwarz & Stamminger 2007,
 // section 5). Shared by every technique that backprojects shadow-map texels (backprojection,
 // bitmask). Hierarchies are built by `softshadow_core::hierarchy` (`shaders/core/hierarchy.wgsl`):
 //   hsm:  texture_2d<f32> (rg32float, min/max), mip i = min/max over aligned 2^i x 2^i blocks;

@@ -1,4 +1,4 @@
-// PCSS (Fernando 2005; shared/notes/ALGORITHMS.md section 2), in the slope space of one perspective
+// PCSS (Fernando 2005), in the slope space of one perspective
 // shadow map from the light centre: a light-space point (x, y, z) has slopes (x / z, y / z).
 //   1. Blocker search over the slopes that the light rectangle [-a, a] x [-b, b] subtends behind
 //      the receiver down to the near plane: half extent a (z_r - near) / (z_r near) (and b ...).

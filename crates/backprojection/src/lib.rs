@@ -1,5 +1,5 @@
-//! `backprojection`: gather backprojection soft shadows (Guennebaud, Barthe & Paulin 2006;
-//! `shared/notes/ALGORITHMS.md` section 1) with the improvements of the bitmask soft shadows paper
+//! `backprojection`: gather backprojection soft shadows (Guennebaud, Barthe & Paulin 2006,
+//! "Real-time soft shadow mapping by backprojection") with the improvements of the bitmask soft shadows paper
 //! (Schwarz & Stamminger 2007): micro-quads (section 4) and the multi-scale shadow map (section 5).
 //!
 //! Reads: the casters (one shadow map from the light centre) and the G-buffer.

@@ -1,6 +1,6 @@
 //! The rectangular area light and light space.
 //!
-//! Light space (the convention of every paper here and of `shared/notes/ALGORITHMS.md`): the light
+//! Light space (the convention of every paper implemented here): the light
 //! centre is the origin, the light faces +z, and the light is the rectangle
 //! `[-a, a] x [-b, b]` in the plane z = 0 with `a = width / 2`, `b = height / 2`.
 //! A point's light-space z is therefore its distance in front of the light plane ("linear depth"),

@@ -1,4 +1,4 @@
-//! `pcss`: percentage-closer soft shadows (Fernando 2005; `shared/notes/ALGORITHMS.md` section 2).
+//! `pcss`: percentage-closer soft shadows (Fernando 2005, "Percentage-closer soft shadows").
 //!
 //! Reads: the casters (one shadow map from the light centre) and the G-buffer.
 //! Writes: the visibility buffer. Passes: `pcss/shadow_map`, `pcss/filter` (blocker search,
