@@ -261,13 +261,7 @@ impl Scene {
         let mut h = Fnv1a::default();
         h.write_str(&self.name);
         for mesh in &self.meshes {
-            h.write_u64(mesh.positions.len() as u64);
-            for p in &mesh.positions {
-                h.write_f32s(&p.to_array());
-            }
-            for i in &mesh.indices {
-                h.write_u64(*i as u64);
-            }
+            h.write_mesh(mesh);
         }
         for inst in &self.instances {
             h.write_u64(inst.mesh as u64);
@@ -290,14 +284,7 @@ impl Scene {
     pub fn instances_hash(&self, dynamic: bool) -> u64 {
         let mut h = Fnv1a::default();
         for inst in self.instances.iter().filter(|i| i.dynamic == dynamic) {
-            let mesh = &self.meshes[inst.mesh];
-            h.write_u64(mesh.positions.len() as u64);
-            for p in &mesh.positions {
-                h.write_f32s(&p.to_array());
-            }
-            for i in &mesh.indices {
-                h.write_u64(*i as u64);
-            }
+            h.write_mesh(&self.meshes[inst.mesh]);
             h.write_f32s(&inst.transform.to_cols_array());
             h.write_u64(inst.casts_shadow as u64 | (inst.receives_shadow as u64) << 1);
         }
@@ -328,6 +315,16 @@ impl Fnv1a {
     pub fn write_f32s(&mut self, v: &[f32]) {
         for x in v {
             self.write_bytes(&x.to_bits().to_le_bytes());
+        }
+    }
+    /// Vertex count, positions and indices of `mesh` (what its shadow depends on).
+    pub fn write_mesh(&mut self, mesh: &Mesh) {
+        self.write_u64(mesh.positions.len() as u64);
+        for p in &mesh.positions {
+            self.write_f32s(&p.to_array());
+        }
+        for i in &mesh.indices {
+            self.write_u64(*i as u64);
         }
     }
     pub fn write_str(&mut self, s: &str) {
