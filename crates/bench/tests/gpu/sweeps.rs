@@ -3,12 +3,10 @@
 //! of different sweeps and warns of a missing shard; every scene of the report has an SVG plot
 //! with one point per run and a Pareto polyline that dominates every other point.
 
-mod common;
-
 use std::path::Path;
 
+use crate::common::gpu;
 use anyhow::{ensure, Context, Result};
-use common::gpu;
 use softshadow_bench::{
     merge::{self, Loaded},
     report, run_indexed, BenchOptions, RunSetup, Shard, Status, Sweep, SweepInfo,

@@ -1,5 +1,4 @@
-//! Helpers shared by the technique tests in this folder (each test binary uses a subset).
-#![allow(dead_code)]
+//! Helpers shared by the GPU test modules in this folder.
 
 use anyhow::{ensure, Context, Result};
 use softshadow_bench::{results::Run, Bench, RunSpec, Status};
@@ -9,11 +8,16 @@ use softshadow_core::{glam::Vec3, Gpu, Scene};
 /// Also points the PDSM disk cache at a folder of this test process, so tests neither read a
 /// user's cache nor leave files in it.
 pub fn gpu() -> Result<Gpu> {
-    if std::env::var_os("SOFTSHADOW_CACHE_DIR").is_none() {
-        let dir =
-            std::env::temp_dir().join(format!("softshadow-test-cache-{}", std::process::id()));
-        std::env::set_var("SOFTSHADOW_CACHE_DIR", dir);
-    }
+    // Once per process: tests run on several threads, and the variable is set before any of
+    // them can read it (every test gets its GPU through here first).
+    static CACHE_DIR: std::sync::Once = std::sync::Once::new();
+    CACHE_DIR.call_once(|| {
+        if std::env::var_os("SOFTSHADOW_CACHE_DIR").is_none() {
+            let dir =
+                std::env::temp_dir().join(format!("softshadow-test-cache-{}", std::process::id()));
+            std::env::set_var("SOFTSHADOW_CACHE_DIR", dir);
+        }
+    });
     Gpu::new_headless().context(
         "these tests need a GPU adapter: install Mesa's lavapipe (apt-get install -y mesa-vulkan-drivers)",
     )

@@ -2,10 +2,8 @@
 //! the frame's wall time, and a compute-heavy pass reads as the largest; with `timestamps` the
 //! calibration frame flags the compute pass whose timestamps miss its work.
 
-mod common;
-
+use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
-use common::{gpu, run_checked};
 use softshadow_bench::{parse_params, registry, results, Bench, BenchOptions, RunSpec};
 use softshadow_core::{Renderer, SceneGpu, ShadingMode, TimingSource};
 

@@ -3,10 +3,8 @@
 //! with the bounds stated in docs/TECHNIQUES.md. Small images and maps keep this affordable on
 //! lavapipe.
 
-mod common;
-
+use crate::common::{closed_form, gpu};
 use anyhow::{ensure, Context, Result};
-use common::{closed_form, gpu};
 use softshadow_adaptive::{
     AdaptiveSampling, AdaptiveSettings, Evaluation, FrameReport, Start, ThresholdMode,
 };

@@ -9,10 +9,8 @@
 //! defaults. The benchmark (`workbench bench --suite stiff`) does the 128^2 runs recorded in
 //! STABILITY.md.
 
-mod common;
-
+use crate::common::{gpu, run_checked};
 use anyhow::{bail, ensure, Context, Result};
-use common::{gpu, run_checked};
 use softshadow_bench::{registry, results::Run, Bench, BenchOptions, RunSpec, Status, Sweep};
 use softshadow_core::{ParamValue, Renderer, SceneGpu};
 

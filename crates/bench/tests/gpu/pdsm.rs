@@ -5,12 +5,10 @@
 //! cancellation. Every test uses its own temporary cache folder. Small sizes keep it fast on
 //! lavapipe: 64² images, 64² to 128² PDSMs, 256² maps.
 
-mod common;
-
 use std::sync::atomic::Ordering;
 
+use crate::common::{closed_form, gpu};
 use anyhow::{ensure, Context, Result};
-use common::{closed_form, gpu};
 use softshadow_core::{
     glam::{Mat4, Vec3},
     Gpu, Instance, Renderer, Scene, SceneGpu, ShadowTechnique,

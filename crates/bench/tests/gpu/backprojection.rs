@@ -2,10 +2,8 @@
 //! search, and at the extremes, with the bounds stated in docs/TECHNIQUES.md. Small images (96²),
 //! small shadow maps (256²) and a 16 x 16 reference keep this affordable on lavapipe.
 
-mod common;
-
+use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
-use common::{gpu, run_checked};
 use softshadow_backprojection::{Backprojection, BackprojectionSettings, Primitive};
 use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec};
 use softshadow_core::Gpu;

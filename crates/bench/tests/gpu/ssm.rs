@@ -4,10 +4,8 @@
 //! and the extremes of the backprojection (occluder touching the receiver or the light, a point
 //! light, occluders partly outside the light's reach). Small images keep this fast on lavapipe.
 
-mod common;
-
+use crate::common::{closed_form, gpu, mae_shadowed, run_checked};
 use anyhow::{ensure, Result};
-use common::{closed_form, gpu, mae_shadowed, run_checked};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
 use softshadow_core::{Gpu, ParamValue, Renderer, SceneGpu, ShadowTechnique, TechniqueStats};
 use softshadow_metrics::ErrorReport;

@@ -2,10 +2,8 @@
 //! work, with the bounds stated in docs/TECHNIQUES.md. Small images (96^2) and a 16 x 16
 //! reference keep this fast on lavapipe; the benchmark does the large runs.
 
-mod common;
-
+use crate::common::{gpu, mae_shadowed, run_checked};
 use anyhow::{ensure, Context, Result};
-use common::{gpu, mae_shadowed, run_checked};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec, Status};
 use softshadow_core::ParamValue;
 

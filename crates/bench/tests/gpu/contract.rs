@@ -4,10 +4,8 @@
 //! Found by hand: with every caster behind the light, the `*/no_casters` shortcut cleared the
 //! buffer to 1 and lit receivers behind the light.
 
-mod common;
-
+use crate::common::gpu;
 use anyhow::{ensure, Result};
-use common::gpu;
 use softshadow_bench::registry;
 use softshadow_core::{glam::Vec3, ParamValue, Renderer, Scene, SceneGpu};
 

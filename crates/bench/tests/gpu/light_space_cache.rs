@@ -3,10 +3,8 @@
 //! moved gives the visibility a full frame gives at that camera, runs fewer passes where the
 //! technique has light-space passes, and moving the light or a dynamic instance brings them back.
 
-mod common;
-
+use crate::common::gpu;
 use anyhow::{ensure, Context, Result};
-use common::gpu;
 use softshadow_bench::{orbit_camera, registry};
 use softshadow_core::{
     glam::{Mat4, Vec3},

@@ -3,10 +3,8 @@
 //! light-space caching and the extremes, with the bounds stated in docs/TECHNIQUES.md. Small images
 //! (64² and 96²) and small shadow maps (256²) keep this affordable on lavapipe.
 
-mod common;
-
+use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
-use common::{gpu, run_checked};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
 use softshadow_bitmask::{Bitmask, BitmaskSettings, Pattern};
 use softshadow_core::{

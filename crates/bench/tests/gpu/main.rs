@@ -1,0 +1,17 @@
+//! The benchmark crate's GPU tests, one module per subject, linked into one test binary: each
+//! binary links wgpu and every technique, so one binary instead of eleven saves minutes of
+//! linking in a cold CI build (the tests themselves are unchanged by this).
+
+mod common;
+
+mod adaptive;
+mod backprojection;
+mod bitmask;
+mod contract;
+mod light_space_cache;
+mod pdsm;
+mod ssm;
+mod stiff;
+mod sweeps;
+mod techniques;
+mod timing;
