@@ -41,7 +41,7 @@ use softshadow_core::{
     TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
-pub use refine::Start;
+pub use refine::{Start, Weighting};
 
 pub const ID: &str = "adaptive";
 
@@ -102,8 +102,9 @@ softshadow_core::technique_settings! {
         max_depth: u32 = 3, in 0..=7;
         /// Most shadow maps rendered in one frame (the refinement stops splitting at this cap)
         max_shadow_maps: u32 = 128, in 2..=512;
-        /// Weights of eq. 5 / eq. 6 normalised to sum 1 (off: every map weighs 1/n)
-        weights: bool = true;
+        /// Map weights: paper (eq. 5 / eq. 6, normalised), area (each leaf's area shared by its
+        /// corners: the trapezoid rule, no edge bias) or off (every map weighs 1/n)
+        weights: Weighting = Weighting::Paper;
         /// Evaluation: one pass over a texture array, or one pass per map into an accumulation buffer
         evaluation: Evaluation = Evaluation::Array;
         /// 2x2 percentage-closer filtering of each map (section 3.4.3)

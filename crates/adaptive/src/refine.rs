@@ -24,6 +24,21 @@ softshadow_core::param_choice! {
     }
 }
 
+softshadow_core::param_choice! {
+    /// What each map weighs in the final image (the weights always sum to 1).
+    pub enum Weighting {
+        /// The paper's eq. 5 (segment) / eq. 6 (rectangle) with d = the deepest leaf that has
+        /// the sample as a corner, normalised (section 3.3.6).
+        Paper = "paper",
+        /// Each leaf cell's length (area) shared equally by its 2 ends (4 corners): the
+        /// trapezoid rule over the leaves. Unlike eq. 6 it gives the light's edge and corner
+        /// samples the half and quarter cell they stand for (not in the paper).
+        Area = "area",
+        /// Every map weighs 1/n.
+        Off = "off",
+    }
+}
+
 /// How many axes the light has: a segment (section 3.3, eq. 5) or a rectangle (3.3.5, eq. 6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shape {
@@ -177,40 +192,50 @@ impl Layout {
         }
     }
 
-    /// The samples the final image uses and their weights, summing to 1. `weighted`: eq. 5
-    /// (segment) or eq. 6 (rectangle) with d = the deepest leaf that has the sample as a corner,
-    /// normalised (section 3.3.6); for `centre` the analogue is the sample's share of its leaf's
-    /// area (1 / 2^(d+1) or 1 / 4^(d+1), already summing to 1). Not weighted: 1 / n each.
-    pub fn weights(&self, leaves: &BTreeSet<Cell>, weighted: bool) -> Vec<(SampleKey, f64)> {
+    /// The samples the final image uses and their weights, summing to 1 (see [`Weighting`]). For
+    /// `start = centre` both `paper` and `area` give each sample its share of its leaf's area
+    /// (1 / 2^(d+1) or 1 / 4^(d+1), already summing to 1), the centre scheme's analogue of eq. 5
+    /// / 6.
+    pub fn weights(&self, leaves: &BTreeSet<Cell>, weighting: Weighting) -> Vec<(SampleKey, f64)> {
+        // Per sample: the deepest leaf that has it as a corner (eq. 5 / 6), and the trapezoid
+        // weight summed over the leaves that have it.
         let mut depth: BTreeMap<SampleKey, u32> = BTreeMap::new();
+        let mut area: BTreeMap<SampleKey, f64> = BTreeMap::new();
+        let corners = if self.shape.is_segment() { 2 } else { 4 };
         for leaf in leaves {
+            let leaf_share = if self.shape.is_segment() {
+                0.5f64.powi(leaf.depth as i32)
+            } else {
+                0.25f64.powi(leaf.depth as i32)
+            } / f64::from(corners);
             for key in self.samples(*leaf) {
                 let d = depth.entry(key).or_insert(leaf.depth);
                 *d = (*d).max(leaf.depth);
+                *area.entry(key).or_insert(0.0) += leaf_share;
             }
         }
-        let n = depth.len() as f64;
         let raw: Vec<(SampleKey, f64)> = depth
             .into_iter()
             .map(|(key, d)| {
-                let w = if !weighted {
-                    1.0
+                let per_axis = match self.start {
+                    Start::Corners => 2f64.powi(d as i32) + 1.0,
+                    Start::Centre => 2f64.powi(d as i32 + 1),
+                };
+                let paper = if self.shape.is_segment() {
+                    1.0 / per_axis
                 } else {
-                    let per_axis = match self.start {
-                        Start::Corners => 2f64.powi(d as i32) + 1.0,
-                        Start::Centre => 2f64.powi(d as i32 + 1),
-                    };
-                    if self.shape.is_segment() {
-                        1.0 / per_axis
-                    } else {
-                        1.0 / (per_axis * per_axis)
-                    }
+                    1.0 / (per_axis * per_axis)
+                };
+                let w = match (weighting, self.start) {
+                    (Weighting::Off, _) => 1.0,
+                    (Weighting::Paper, _) | (Weighting::Area, Start::Centre) => paper,
+                    (Weighting::Area, Start::Corners) => area[&key],
                 };
                 (key, w)
             })
             .collect();
         let total: f64 = raw.iter().map(|(_, w)| w).sum();
-        if total <= 0.0 || n == 0.0 {
+        if total <= 0.0 || raw.is_empty() {
             return raw;
         }
         raw.into_iter().map(|(k, w)| (k, w / total)).collect()
@@ -242,7 +267,7 @@ mod tests {
                 start,
                 max_depth: 4,
             };
-            let weights = layout.weights(&full_split(&layout, depth), true);
+            let weights = layout.weights(&full_split(&layout, depth), Weighting::Paper);
             assert_eq!(weights.len(), expected, "{start:?} {shape:?}");
             for (_, w) in &weights {
                 assert!((w - 1.0 / expected as f64).abs() < 1e-12);
@@ -295,7 +320,7 @@ mod tests {
         };
         leaves.remove(&first);
         leaves.extend(layout.children(first));
-        let weights = layout.weights(&leaves, true);
+        let weights = layout.weights(&leaves, Weighting::Paper);
         // 9 corners of depth 1 plus 5 new ones (4 edge midpoints of the quadrant and its centre,
         // two of which already existed): 9 + 5 = 14.
         assert_eq!(weights.len(), 14);
@@ -313,5 +338,43 @@ mod tests {
             .1;
         // eq. 6: 1/(2^1+1)^2 against 1/(2^2+1)^2 before normalising.
         assert!((far_corner / deep - 25.0 / 9.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn area_weights_are_the_trapezoid_rule_over_the_leaves() {
+        let layout = Layout {
+            shape: Shape::Rectangle,
+            start: Start::Corners,
+            max_depth: 3,
+        };
+        // A full split to depth 1: a 3 x 3 grid; trapezoid weights 1/16 (corners), 1/8 (edge
+        // midpoints), 1/4 (centre).
+        let weights = layout.weights(&full_split(&layout, 1), Weighting::Area);
+        assert_eq!(weights.len(), 9);
+        let r = layout.resolution();
+        for (key, w) in &weights {
+            let on_edge = |k: u32| k == 0 || k == r;
+            let expected = match (on_edge(key.x), on_edge(key.y)) {
+                (true, true) => 1.0 / 16.0,
+                (true, false) | (false, true) => 1.0 / 8.0,
+                (false, false) => 1.0 / 4.0,
+            };
+            assert!((w - expected).abs() < 1e-12, "{key:?}: {w} vs {expected}");
+        }
+        // A segment split to depth 2: ends 1/8, inner points 1/4.
+        let segment = Layout {
+            shape: Shape::SegmentU,
+            ..layout
+        };
+        let weights = segment.weights(&full_split(&segment, 2), Weighting::Area);
+        let got: Vec<f64> = weights.iter().map(|(_, w)| *w).collect();
+        let expected = [0.125, 0.25, 0.25, 0.25, 0.125];
+        assert_eq!(got.len(), 5);
+        for (g, e) in got.iter().zip(expected) {
+            assert!((g - e).abs() < 1e-12, "{got:?}");
+        }
+        // Paper weights on the same grid are equal (eq. 6 with one depth): the edge bias.
+        let paper = layout.weights(&full_split(&layout, 1), Weighting::Paper);
+        assert!(paper.iter().all(|(_, w)| (w - 1.0 / 9.0).abs() < 1e-12));
     }
 }
