@@ -1,6 +1,9 @@
-//! Every technique against the accumulated reference on scenes where its paper says it should
-//! work, with the bounds stated in docs/TECHNIQUES.md. Small images (96^2) and a 16 x 16
-//! reference keep this fast on lavapipe; the benchmark does the large runs.
+//! Every registered technique against the exact answer on a planar square and a curved blob
+//! (64^2, bounds per technique and case that must reject "no shadow" and `hard`), PCSS and its
+//! parameters against the accumulated reference or the exact answer, and what every technique
+//! must do on scenes without casters and in umbra and lit regions; bounds stated in
+//! docs/TECHNIQUES.md. Small images (64^2-96^2) keep this fast on lavapipe; the benchmark does
+//! the large runs.
 
 use crate::common::{
     all_lit_vs_exact, at_most, check, exact_bench, exact_errors, gpu, mae_shadowed, run_checked,
