@@ -72,9 +72,7 @@ fn vs_main(
     // Section 3.3: the penumbra pyramid cut by the farthest receiver plane z_far. In slopes the
     // apex construction reduces to growing the patch by a (1/z_O - 1/z_far) (b along t), which
     // stays finite for a point light (crates/ssm/src/math.rs checks both agree).
-    let z_far = params.ssm_depth.w;
-    let grow = params.light.xy * max(1.0 / z_o - 1.0 / z_far, 0.0);
-    let penumbra = patch_rect + vec4<f32>(-grow.x, grow.x, -grow.y, grow.y);
+    let penumbra = penumbra_slopes(patch_rect, z_o, params.ssm_depth.w, params.light.xy);
 
     // Corner of a triangle strip: 0 (s0, t0), 1 (s1, t0), 2 (s0, t1), 3 (s1, t1).
     let s = select(penumbra.x, penumbra.y, (corner & 1u) != 0u);
@@ -99,6 +97,30 @@ fn axis_coverage(lo: f32, hi: f32, half: f32) -> f32 {
     return max(u.y - u.x, 0.0);
 }
 
+// Section 3.4: fraction of the light (half extents `half`) hidden by the micro-patch
+// `patch_rect` (slopes s0, s1, t0, t1) at depth `z_o`, seen from the receiver point with slopes
+// `receiver` at depth `z_r`: the patch backprojected through the receiver point onto the light
+// plane is the rectangle k (patch - receiver), k = z_r z_o / (z_r - z_o). 0 when the patch is not
+// in front of the receiver (or touches it). Mirrors `math::occluded_fraction`; the bench's GPU
+// test `ssm::the_scatter_shader_functions_equal_their_cpu_mirrors` runs this function and
+// compares.
+fn occluded_fraction(patch_rect: vec4<f32>, z_o: f32, receiver: vec2<f32>, z_r: f32, half: vec2<f32>) -> f32 {
+    if !(z_o > 0.0 && z_o < z_r * (1.0 - CONTACT_EPSILON)) {
+        return 0.0;
+    }
+    let k = z_r * z_o / (z_r - z_o);
+    let shadow = k * (patch_rect - receiver.xxyy);
+    return axis_coverage(shadow.x, shadow.y, half.x) * axis_coverage(shadow.z, shadow.w, half.y);
+}
+
+// Section 3.3 in slopes: the patch grown by a (1/z_O - 1/z_far) along s and b (...) along t bounds
+// the penumbra on every receiver nearer than z_far; finite for a point light. Mirrors
+// `math::penumbra_slopes` (tested as `occluded_fraction` is).
+fn penumbra_slopes(patch_rect: vec4<f32>, z_o: f32, z_far: f32, half: vec2<f32>) -> vec4<f32> {
+    let grow = half * max(1.0 / z_o - 1.0 / z_far, 0.0);
+    return patch_rect + vec4<f32>(-grow.x, grow.x, -grow.y, grow.y);
+}
+
 @fragment
 fn fs_main(in: PatchVertex) -> @location(0) vec4<f32> {
     let texel = vec2<i32>(in.position.xy);
@@ -108,24 +130,16 @@ fn fs_main(in: PatchVertex) -> @location(0) vec4<f32> {
         discard;
     }
     let z_r = linear_depth(d_r, params.ssm_depth.x, params.ssm_depth.y);
-    let z_o = in.depth;
-    if z_o >= z_r * (1.0 - CONTACT_EPSILON) {
-        // The patch is not in front of this receiver (or touches it).
-        discard;
-    }
     let v = params.ssm_window;
     let r = params.ssm_depth.z;
     let sigma = vec2<f32>(
         v.x + in.position.x * (v.y - v.x) / r,
         v.w - in.position.y * (v.w - v.z) / r,
     );
-    // Section 3.4: backprojection of the patch through the receiver point onto the light plane.
-    let k = z_r * z_o / (z_r - z_o);
-    let shadow = k * (in.patch_rect - sigma.xxyy);
-    let fraction = axis_coverage(shadow.x, shadow.y, params.light.x)
-        * axis_coverage(shadow.z, shadow.w, params.light.y);
+    let fraction = occluded_fraction(in.patch_rect, in.depth, sigma, z_r, params.light.xy);
     if fraction <= 0.0 {
-        // Nothing hidden: no blend, and the fragment is not counted as a texel update.
+        // Nothing hidden (or the patch is not in front of this receiver): no blend, and the
+        // fragment is not counted as a texel update.
         discard;
     }
     return vec4<f32>(fraction, 0.0, 0.0, 0.0);

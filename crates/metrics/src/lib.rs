@@ -294,10 +294,10 @@ fn check_size(what: &'static str, len: usize, expected: u64) -> Result<(), Metri
 /// # Errors
 ///
 /// * [`MetricsError::EmptyImage`] if `width` or `height` is zero.
+/// * [`MetricsError::ImageTooLarge`] if `width * height * 3` does not fit in
+///   `u32` (a limit of the bindings), whatever the buffers.
 /// * [`MetricsError::SizeMismatch`] if either buffer is not exactly
 ///   `width * height * 3` bytes.
-/// * [`MetricsError::ImageTooLarge`] if `width * height * 3` does not fit in
-///   `u32` (a limit of the bindings).
 pub fn flip_mean(
     test_rgb8: &[u8],
     reference_rgb8: &[u8],
@@ -305,11 +305,13 @@ pub fn flip_mean(
     height: u32,
 ) -> Result<f64, MetricsError> {
     let bytes = pixel_count(width, height)? * 3;
-    check_size("test_rgb8", test_rgb8.len(), bytes)?;
-    check_size("reference_rgb8", reference_rgb8.len(), bytes)?;
+    // The size limit first: it depends on the dimensions alone (and so can be tested without
+    // buffers of 4 GiB).
     if bytes > u64::from(u32::MAX) {
         return Err(MetricsError::ImageTooLarge { width, height });
     }
+    check_size("test_rgb8", test_rgb8.len(), bytes)?;
+    check_size("reference_rgb8", reference_rgb8.len(), bytes)?;
 
     let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference_rgb8);
     let test = nv_flip::FlipImageRgb8::with_data(width, height, test_rgb8);

@@ -233,6 +233,28 @@ fn flip_validates_sizes() {
     );
 }
 
+/// The bindings take `u32` byte counts: `width * height * 3` may be `u32::MAX` but no more. The
+/// limit is checked before the buffers, so no 4 GiB buffer is needed to test it.
+#[test]
+fn flip_refuses_images_past_u32_max_bytes_and_accepts_exactly_that() {
+    // 65537 * 21845 * 3 = 4294967295 = u32::MAX: allowed, so the (empty) buffers are checked.
+    assert!(matches!(
+        flip_mean(&[], &[], 65537, 21845).unwrap_err(),
+        MetricsError::SizeMismatch {
+            what: "test_rgb8",
+            ..
+        }
+    ));
+    // One row more is past the limit.
+    assert_eq!(
+        flip_mean(&[], &[], 65537, 21846).unwrap_err(),
+        MetricsError::ImageTooLarge {
+            width: 65537,
+            height: 21846
+        }
+    );
+}
+
 #[test]
 fn difference_image_colours_at_known_pixels() {
     // 3x2 image, row-major.

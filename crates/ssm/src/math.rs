@@ -2,7 +2,10 @@
 //! CPU, in light space (light centre at the origin facing +z, light `[-a, a] x [-b, b]` in z = 0)
 //! and slope space (`s = x / z`, `t = y / z` seen from the light centre). The shaders
 //! (`shaders/ssm/scatter.wgsl`) compute the same quantities; these functions pin them down in unit
-//! tests and serve the window fitting of the crate.
+//! tests and serve the window fitting of the crate. The shader's `axis_coverage`,
+//! `occluded_fraction` and `penumbra_slopes` (and `CONTACT_EPSILON`) are kept equal to these by a
+//! GPU test that cuts them out of the shader and compares (`crates/bench/tests/gpu/ssm.rs`,
+//! `the_scatter_shader_functions_equal_their_cpu_mirrors`): change both together.
 
 use softshadow_core::{
     glam::{Vec2, Vec3},

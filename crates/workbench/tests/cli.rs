@@ -93,6 +93,76 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
     Ok(())
 }
 
+/// The plain `workbench list` a user reads: under "Scenes:" every builtin scene (every `stiff-*`
+/// case among them) and under "Techniques:" every registered technique, in registry order, each
+/// followed by its declared parameters.
+#[test]
+fn list_text_names_every_technique_with_its_parameters_and_every_stiff_scene() -> Result<()> {
+    let o = workbench(&["list"]);
+    ensure!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout)?;
+    let (scenes, techniques) = text
+        .split_once("\nTechniques:\n")
+        .context("no `Techniques:` section")?;
+    let scenes = scenes
+        .strip_prefix("Scenes:\n")
+        .context("no `Scenes:` section first")?;
+    // An entry is a line indented by two spaces; its parameters are indented by six.
+    let entries = |section: &str| -> Vec<(String, Vec<String>)> {
+        let mut entries: Vec<(String, Vec<String>)> = Vec::new();
+        for line in section.lines() {
+            let first_word = || line.split_whitespace().next().unwrap_or("").to_string();
+            if line.starts_with("      ") {
+                if let Some(entry) = entries.last_mut() {
+                    entry.1.push(first_word());
+                }
+            } else if line.starts_with("  ") {
+                entries.push((first_word(), Vec::new()));
+            }
+        }
+        entries
+    };
+    let listed_scenes: Vec<String> = entries(scenes).into_iter().map(|e| e.0).collect();
+    let builtin: Vec<String> = softshadow_scenes::builtin_scenes()
+        .iter()
+        .map(|s| s.id.to_string())
+        .collect();
+    ensure!(
+        listed_scenes == builtin,
+        "list shows scenes {listed_scenes:?}, the builtin ones are {builtin:?}"
+    );
+    let stiff: Vec<&String> = listed_scenes
+        .iter()
+        .filter(|id| id.starts_with("stiff-"))
+        .collect();
+    ensure!(
+        stiff.len() >= 15,
+        "only {} stiff cases: {stiff:?}",
+        stiff.len()
+    );
+    let listed = entries(techniques);
+    let registry = softshadow_bench::registry::techniques();
+    ensure!(
+        listed.len() == registry.len(),
+        "list shows {} techniques, the registry has {}",
+        listed.len(),
+        registry.len()
+    );
+    for ((id, params), info) in listed.iter().zip(&registry) {
+        ensure!(
+            id == info.id,
+            "list shows {id} where the registry has {}",
+            info.id
+        );
+        let declared: Vec<&str> = (info.params)().iter().map(|p| p.name).collect();
+        ensure!(
+            *params == declared,
+            "{id}: list shows parameters {params:?}, declared {declared:?}"
+        );
+    }
+    Ok(())
+}
+
 #[test]
 fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
     let dir = tempfile::tempdir()?;

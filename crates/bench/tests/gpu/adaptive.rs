@@ -306,13 +306,21 @@ fn linear_and_rectangular_lights_converge_as_epsilon_falls() -> Result<()> {
     let base = softshadow_scenes::load("atty-square")?.scene;
     let mut linear = base.clone();
     linear.light.height = 0.0;
-    let epsilons = [0.01, 0.003, 0.001, 0.0];
-    for (name, scene) in [("linear", &linear), ("rectangular", &base)] {
+    // Epsilons at which each step adds maps (measured over 0.03 ... 0: a step that adds none
+    // gives the same image, so it cannot lower the error): the segment's maps 3, 5, 9 (all of
+    // depth 3) at 0.005, 0.004, 0.002; the rectangle's 9, 18, 42, 55, 81 (all) at 0.01 ... 0.003.
+    let linear_epsilons: &[f32] = &[0.005, 0.004, 0.002];
+    let rectangular_epsilons: &[f32] = &[0.01, 0.007, 0.005, 0.004, 0.003];
+    let mut failures = Vec::new();
+    for (name, scene, epsilons) in [
+        ("linear", &linear, linear_epsilons),
+        ("rectangular", &base, rectangular_epsilons),
+    ] {
         let occluders = parallel_rects(scene).context("atty-square: one parallel rectangle")?;
         let half: Vec2 = scene.light.half_extent();
         let mut errors = Vec::new();
         let mut maps = Vec::new();
-        for epsilon in epsilons {
+        for &epsilon in epsilons {
             let mut technique = adaptive(
                 &gpu,
                 AdaptiveSettings {
@@ -344,18 +352,23 @@ fn linear_and_rectangular_lights_converge_as_epsilon_falls() -> Result<()> {
             maps.push(report(&technique).maps_used);
         }
         eprintln!("{name}: epsilons {epsilons:?}: maps {maps:?}, mean error {errors:?}");
-        ensure!(
-            maps.windows(2).all(|w| w[1] >= w[0]) && maps[3] > maps[0],
-            "{name}: maps do not grow: {maps:?}"
-        );
-        ensure!(
-            errors[3] < errors[0] && errors.windows(2).all(|w| w[1] <= w[0] + 1e-3),
-            "{name}: error does not fall: {errors:?}"
-        );
-        // Measured 0.0063 (linear, 9 maps) and 0.0127 (rectangle, 81 maps) at epsilon 0: the
-        // corner grid's bias (its edge samples weigh as much as inner ones), not noise.
-        ensure!(errors[3] < 0.025, "{name}: final error {errors:?}");
+        if !maps.windows(2).all(|w| w[1] > w[0]) {
+            failures.push(format!("{name}: maps do not grow at every step: {maps:?}"));
+        }
+        if !errors.windows(2).all(|w| w[1] < w[0]) {
+            failures.push(format!(
+                "{name}: error does not fall at every step: {errors:?}"
+            ));
+        }
+        // Strictly at every step. Measured: segment 0.0220, 0.0120, 0.0063; rectangle 0.0408,
+        // 0.0294, 0.0185, 0.0166, 0.0127. What remains with every map of depth 3 is the corner
+        // grid's bias (its edge samples weigh as much as inner ones), not noise.
+        let last = errors[errors.len() - 1];
+        if last >= 0.025 {
+            failures.push(format!("{name}: final error {errors:?}"));
+        }
     }
+    ensure!(failures.is_empty(), "{}", failures.join("\n"));
     Ok(())
 }
 

@@ -9,7 +9,10 @@
 //! defaults. The benchmark (`workbench bench --suite stiff`) does the 128^2 runs recorded in
 //! STABILITY.md.
 
-use crate::common::{gpu, run_checked};
+use crate::common::{
+    all_lit_vs_exact, at_most, check, gpu, known_failure, run_checked, vs_exact, Baseline, Expect,
+    Metric,
+};
 use anyhow::{bail, ensure, Context, Result};
 use softshadow_bench::{registry, results::Run, Bench, BenchOptions, RunSpec, Status, Sweep};
 use softshadow_core::{ParamValue, Renderer, SceneGpu};
@@ -37,60 +40,7 @@ fn bench(reference_samples: i64) -> Result<Bench> {
     )?)
 }
 
-/// The error measures a bound is stated in (against the exact answer, over receiver pixels).
-/// Not `mae_all`: a mostly lit ground dilutes it until "no shadow at all" passes a bound on a
-/// small shadow, so `mae_shadowed` (pixels where V_exact < 1) and `max_abs` instead.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Metric {
-    MaeShadowed,
-    MaxAbs,
-}
-
-impl Metric {
-    fn of(self, report: &softshadow_metrics::ErrorReport) -> f64 {
-        match self {
-            Metric::MaeShadowed => report.mae_shadowed,
-            Metric::MaxAbs => report.max_abs,
-        }
-    }
-}
-
-/// What the suite asserts for one technique on one stiff case at 64^2 (docs/STABILITY.md).
-#[derive(Clone, Copy, Debug)]
-enum Expect {
-    /// `metric` at most `bound`; `measured` is the value at 64^2 when the bound was set (bounds
-    /// are about 2-3x that, so a regression shows).
-    AtMost {
-        metric: Metric,
-        bound: f64,
-        measured: f64,
-    },
-    /// A failure by design (docs/STABILITY.md says why): `metric` is `value` +- `tolerance`,
-    /// asserted as such rather than hidden under a loose bound.
-    KnownFailure {
-        metric: Metric,
-        value: f64,
-        tolerance: f64,
-    },
-}
-
 use Metric::{MaeShadowed, MaxAbs};
-
-const fn at_most(metric: Metric, bound: f64, measured: f64) -> Expect {
-    Expect::AtMost {
-        metric,
-        bound,
-        measured,
-    }
-}
-
-const fn known_failure(metric: Metric, value: f64, tolerance: f64) -> Expect {
-    Expect::KnownFailure {
-        metric,
-        value,
-        tolerance,
-    }
-}
 
 /// The stated expectation per technique and stiff case, with the value measured at 64^2 beside
 /// each bound. Keep in step with docs/STABILITY.md.
@@ -227,22 +177,6 @@ fn expect(technique: &str, case: &str) -> Option<Expect> {
     Some(expectation)
 }
 
-/// A deliberately wrong answer run through the same bounds: "no shadow at all" (V = 1) and, for
-/// the soft techniques, the hard-shadow result.
-struct Baseline {
-    name: &'static str,
-    report: softshadow_metrics::ErrorReport,
-}
-
-fn vs_exact(run: &Run) -> Result<&softshadow_metrics::ErrorReport> {
-    run.error
-        .as_ref()
-        .context("no error block")?
-        .vs_exact
-        .as_ref()
-        .context("no vs_exact block")
-}
-
 #[test]
 fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result<()> {
     let mut bench = bench(8)?;
@@ -272,10 +206,7 @@ fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result
         let label = format!("{} / {}", spec.technique, spec.scene);
         let report = vs_exact(run)?;
         let error = run.error.as_ref().context("error block")?;
-        let all_lit = error
-            .all_lit_vs_exact
-            .clone()
-            .context("no all_lit_vs_exact block")?;
+        let all_lit = all_lit_vs_exact(run)?;
         eprintln!(
             "MEASURED {:<16} {:<22} mae_all {:.4} mae_shadowed {:.4} max_abs {:.4} | all-lit {:.4} {:.4} {:.4} | {}",
             spec.technique,
@@ -305,43 +236,9 @@ fn every_technique_survives_every_stiff_case_within_its_stated_bound() -> Result
         }
         match expect(&spec.technique, &spec.scene) {
             None => failures.push(format!(
-                "{label}: no expectation stated: add one to docs/STABILITY.md and to stiff_bounds.rs"
+                "{label}: no expectation stated: add one to docs/STABILITY.md and to stiff.rs"
             )),
-            Some(Expect::KnownFailure {
-                metric,
-                value,
-                tolerance,
-            }) => {
-                let e = metric.of(report);
-                if (e - value).abs() > tolerance {
-                    failures.push(format!(
-                        "{label}: known failure {metric:?} = {value} +- {tolerance}, got {e:.4} (fixed? update the expectation)"
-                    ));
-                }
-            }
-            Some(Expect::AtMost {
-                metric,
-                bound,
-                measured,
-            }) => {
-                let e = metric.of(report);
-                if e > bound {
-                    failures.push(format!(
-                        "{label}: {metric:?} {e:.4} > bound {bound} (measured {measured} when set)"
-                    ));
-                }
-                // The bound must reject every wrong answer that is clearly worse than the
-                // technique (more than 1.5x its measured error and above 1e-3).
-                for baseline in &baselines {
-                    let b = metric.of(&baseline.report);
-                    if b > 1.5 * measured && b > 1e-3 && b <= bound {
-                        failures.push(format!(
-                            "{label}: the bound {metric:?} <= {bound} accepts the {} answer ({b:.4}): tighten it",
-                            baseline.name
-                        ));
-                    }
-                }
-            }
+            Some(expectation) => failures.extend(check(&label, expectation, report, &baselines)),
         }
     }
     if !failures.is_empty() {
