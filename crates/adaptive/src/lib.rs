@@ -121,6 +121,7 @@ pub fn info() -> TechniqueInfo {
         description: "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (occlusion queries)",
         source: "Schwärzler 2009, Real-Time Soft Shadows with Adaptive Light Source Sampling",
         params: AdaptiveSettings::param_specs,
+        requirements: AdaptiveSampling::requirements_static,
         create: |gpu| {
             Ok(Box::new(AdaptiveSampling::new(
                 gpu,
@@ -298,11 +299,16 @@ impl AdaptiveSampling {
         })
     }
 
-    fn requirements_static() -> Requirements {
+    pub(crate) fn requirements_static() -> Requirements {
         Requirements {
             // Occlusion queries are core WebGPU; counting differing pairs per pixel (debug view)
             // and the accumulation buffer blend into R32Float.
             features: wgpu::Features::FLOAT32_BLENDABLE,
+            // One array layer per kept shadow map, at the default `max_shadow_maps`.
+            limits: softshadow_core::MinLimits {
+                max_texture_array_layers: 128,
+                ..Default::default()
+            },
             ..Requirements::default()
         }
     }

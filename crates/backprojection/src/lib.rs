@@ -131,6 +131,14 @@ pub fn info() -> TechniqueInfo {
         description: "Gather backprojection of shadow-map micro-patches or micro-quads, HSM or MSSM search-area refinement",
         source: "Guennebaud, Barthe & Paulin 2006; Schwarz & Stamminger 2007 (sections 4-5)",
         params: BackprojectionSettings::param_specs,
+        requirements: || softshadow_core::Requirements {
+            // The gather pass writes three storage textures (within WebGPU's default of 4).
+            limits: softshadow_core::MinLimits {
+                max_storage_textures_per_shader_stage: 3,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
         create: |gpu| Ok(Box::new(Backprojection::new(gpu, BackprojectionSettings::default())?)),
     }
 }
@@ -282,6 +290,10 @@ impl Backprojection {
 }
 
 impl ShadowTechnique for Backprojection {
+    fn requirements(&self) -> softshadow_core::Requirements {
+        (info().requirements)()
+    }
+
     fn id(&self) -> &'static str {
         ID
     }

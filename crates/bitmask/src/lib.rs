@@ -387,6 +387,14 @@ pub fn info() -> TechniqueInfo {
         description: "Bitmask soft shadows: backprojected micro-patches or micro-quads OR-ed into a bit field of light samples (occluder fusion), depth-peeled layers, HSM or MSSM search, post filter",
         source: "Schwarz & Stamminger 2007",
         params: BitmaskSettings::param_specs,
+        requirements: || softshadow_core::Requirements {
+            // The gather pass writes three storage textures (within WebGPU's default of 4).
+            limits: softshadow_core::MinLimits {
+                max_storage_textures_per_shader_stage: 3,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
         create: |gpu| Ok(Box::new(Bitmask::new(gpu, BitmaskSettings::default())?)),
     }
 }
@@ -653,6 +661,10 @@ impl Bitmask {
 }
 
 impl ShadowTechnique for Bitmask {
+    fn requirements(&self) -> softshadow_core::Requirements {
+        (info().requirements)()
+    }
+
     fn id(&self) -> &'static str {
         ID
     }

@@ -17,6 +17,14 @@ pub enum GpuError {
         #[source]
         source: wgpu::RequestDeviceError,
     },
+    /// A host's device (`Gpu::from_host`) lacks what some technique needs.
+    #[error("the device on `{adapter}` lacks what the techniques need: {lacking}. Create it with `required_features: Requirements::all(&techniques).features` and `required_limits: Requirements::all(&techniques).limits.apply_to(wgpu::Limits::default())` (softshadow_core::Requirements), on an adapter that has them")]
+    HostDeviceLacks {
+        /// The adapter's name.
+        adapter: String,
+        /// Per technique, the features and limits missing.
+        lacking: String,
+    },
     #[error("GPU validation error: {0}. This is a bug in a shader or pass: report it with the scene and technique")]
     Validation(String),
     #[error("GPU device lost or out of memory: {0}. Lower the resolution or shadow-map size and try again")]
@@ -77,11 +85,18 @@ pub enum TechniqueError {
     Gpu(#[from] GpuError),
     #[error(transparent)]
     Param(#[from] ParamError),
-    #[error("technique `{technique}` needs adapter features {missing:?}, which `{adapter}` lacks: use an adapter that has them (lavapipe does)")]
+    /// The device lacks features or limits the technique declares in its
+    /// [`Requirements`](crate::Requirements).
+    #[error("technique `{technique}` needs device features {missing:?} and limits [{limits}], which the device on `{adapter}` lacks: request them when creating the device (`required_features` / `required_limits`, see `Requirements::all`), or use an adapter that has them (lavapipe does)")]
     MissingFeatures {
+        /// The technique's id.
         technique: String,
+        /// The adapter's name.
         adapter: String,
+        /// Features the device was not created with.
         missing: wgpu::Features,
+        /// Limits the device falls short of (`name: needs N, device has M`; empty if none).
+        limits: String,
     },
     #[error("technique `{technique}` cannot run on scene `{scene}`: {reason}")]
     UnsupportedScene {

@@ -94,6 +94,16 @@ pub const CORE_SHADERS: &[ShaderSpec] = &[
         source: shader_file!("core/unshadowed.wgsl").1,
         permutations: &[&[]],
     },
+    ShaderSpec {
+        path: "core/host_surface.wgsl",
+        source: shader_file!("core/host_surface.wgsl").1,
+        permutations: &[&[], &[("FROM_DEPTH", DefValue::Bool(true))]],
+    },
+    ShaderSpec {
+        path: "core/host_output.wgsl",
+        source: shader_file!("core/host_output.wgsl").1,
+        permutations: &[&[]],
+    },
 ];
 
 fn composer() -> Result<Composer, GpuError> {

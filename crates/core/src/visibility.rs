@@ -126,4 +126,18 @@ impl VisibilityBuffer {
             },
         );
     }
+
+    /// Copies this buffer into `target` (an `R32Float` texture of the same size with
+    /// `COPY_DST`).
+    pub fn copy_to(&self, encoder: &mut wgpu::CommandEncoder, target: &wgpu::Texture) {
+        encoder.copy_texture_to_texture(
+            self.texture.as_image_copy(),
+            target.as_image_copy(),
+            wgpu::Extent3d {
+                width: self.width,
+                height: self.height,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
 }

@@ -54,6 +54,7 @@ pub fn info() -> TechniqueInfo {
         description: "Hard shadows: one shadow map from the light centre (cost floor)",
         source: "Williams 1978",
         params: HardSettings::param_specs,
+        requirements: softshadow_core::Requirements::default,
         create: |gpu| Ok(Box::new(HardShadows::new(gpu, HardSettings::default())?)),
     }
 }

@@ -80,6 +80,7 @@ pub fn info() -> TechniqueInfo {
         description: "PCSS: blocker search, penumbra estimate, percentage-closer filtering",
         source: "Fernando 2005",
         params: PcssSettings::param_specs,
+        requirements: softshadow_core::Requirements::default,
         create: |gpu| Ok(Box::new(Pcss::new(gpu, PcssSettings::default())?)),
     }
 }

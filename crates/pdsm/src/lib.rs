@@ -137,6 +137,7 @@ pub fn info() -> TechniqueInfo {
         description: "Penumbra deep shadow maps: precomputed, compressed attenuation per texel (static casters), PCF for dynamic ones",
         source: "St-Amour, Paquette & Poulin 2005",
         params: PdsmSettings::param_specs,
+        requirements: softshadow_core::Requirements::default,
         create: |gpu| Ok(Box::new(PdsmShadows::new(gpu, PdsmSettings::default())?)),
     }
 }

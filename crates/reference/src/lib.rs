@@ -187,6 +187,7 @@ pub fn info() -> TechniqueInfo {
         description: "Reference: accumulated hard shadows from N x N stratified light samples",
         source: "Heckbert & Herf 1997 (accumulated hard shadows)",
         params: ReferenceSettings::param_specs,
+        requirements: AccumulatedReference::requirements_static,
         create: |gpu| {
             Ok(Box::new(AccumulatedReference::new(
                 gpu,
@@ -261,7 +262,7 @@ impl AccumulatedReference {
         })
     }
 
-    fn requirements_static() -> Requirements {
+    pub(crate) fn requirements_static() -> Requirements {
         Requirements {
             // Summing per-batch counts into an R32Float target by additive blending.
             features: wgpu::Features::FLOAT32_BLENDABLE,
@@ -282,7 +283,9 @@ impl AccumulatedReference {
         let mut h = Fnv1a::default();
         h.write_u64(inputs.scene.content_hash);
         h.write_u64(inputs.light.content_hash());
-        h.write_u64(inputs.camera.content_hash());
+        // The camera as the frame sees it (a host renderer has no workbench `Camera`).
+        h.write_f32s(&inputs.uniforms.view_proj.concat());
+        h.write_f32s(&inputs.uniforms.camera_pos);
         h.write_u64(inputs.width as u64 | (inputs.height as u64) << 32);
         for (_, v) in self.params().entries {
             h.write_str(&v.to_string());

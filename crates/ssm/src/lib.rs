@@ -273,12 +273,27 @@ pub struct SoftShadowMaps {
     light_space_ready: bool,
 }
 
+/// What SSM needs at `precision`: FP32 blending for `fp32` and for the FP32 totals of
+/// `fp16-batched`, and casters that are not also receivers.
+fn requirements_for(precision: Precision) -> Requirements {
+    Requirements {
+        features: if precision == Precision::Fp16 {
+            wgpu::Features::empty()
+        } else {
+            wgpu::Features::FLOAT32_BLENDABLE
+        },
+        occluder_receiver_split: true,
+        ..Requirements::default()
+    }
+}
+
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Soft shadow maps: per occluder-map texel, the occluded fraction of the light scattered over its penumbra",
         source: "Atty et al. 2006",
         params: SsmSettings::param_specs,
+        requirements: || requirements_for(Precision::Fp32),
         create: |gpu| Ok(Box::new(SoftShadowMaps::new(gpu, SsmSettings::default())?)),
     }
 }
@@ -630,16 +645,7 @@ impl ShadowTechnique for SoftShadowMaps {
     }
 
     fn requirements(&self) -> Requirements {
-        Requirements {
-            // FP32 blending for `fp32` and for the FP32 totals of `fp16-batched`.
-            features: if self.settings.precision == Precision::Fp16 {
-                wgpu::Features::empty()
-            } else {
-                wgpu::Features::FLOAT32_BLENDABLE
-            },
-            occluder_receiver_split: true,
-            static_scene: false,
-        }
+        requirements_for(self.settings.precision)
     }
 
     fn settings(&self) -> &dyn TechniqueSettings {
