@@ -11,12 +11,19 @@ use crate::{light::AreaLight, scene_gpu::SceneGpu, Camera, Gpu};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
+    /// World to clip of the camera.
     pub view_proj: [[f32; 4]; 4],
+    /// World to light space (light centre at the origin, facing +z).
     pub world_to_light: [[f32; 4]; 4],
+    /// xyz camera position, w = 1.
     pub camera_pos: [f32; 4],
+    /// xyz light centre, w = light intensity.
     pub light_center: [f32; 4],
+    /// xyz light direction, w = the ambient term ([`AMBIENT`]).
     pub light_dir: [f32; 4],
+    /// Half width, half height and area of the light rectangle; w unused.
     pub light_half: [f32; 4],
+    /// Width, height, 1 / width, 1 / height of the frame.
     pub screen: [f32; 4],
 }
 
@@ -86,6 +93,7 @@ pub struct CoreLayouts {
 }
 
 impl CoreLayouts {
+    /// Creates the layouts on `device`.
     pub fn new(device: &wgpu::Device) -> Self {
         let all =
             wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -283,6 +291,7 @@ pub enum TimingSource {
 }
 
 impl TimingSource {
+    /// Both sources, in the order the GUI lists them.
     pub const ALL: [Self; 2] = [Self::Timestamps, Self::Serial];
 
     /// `serial` on a CPU adapter (whose timestamps do not cover compute work), `timestamps` on a
@@ -295,6 +304,7 @@ impl TimingSource {
         }
     }
 
+    /// The name used in JSON and on the command line.
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Timestamps => "timestamps",
@@ -328,7 +338,9 @@ pub struct SerialTimes {
 /// [`TimingSource::Serial`] a submission of its own) and records its name in
 /// [`Frame::passes_run`].
 pub struct Frame<'a> {
+    /// The GPU context.
     pub gpu: &'a Gpu,
+    /// The encoder passes are recorded into (replaced by a fresh one by [`Frame::submit_and_wait`]).
     pub encoder: &'a mut wgpu::CommandEncoder,
     profiler: &'a wgpu_profiler::GpuProfiler,
     passes_run: &'a mut Vec<String>,
@@ -339,6 +351,8 @@ pub struct Frame<'a> {
 }
 
 impl<'a> Frame<'a> {
+    /// A frame recording into `encoder`, timing passes with `profiler`'s timestamp queries (see
+    /// [`Frame::time_serially`]) and listing their names in `passes_run`.
     pub fn new(
         gpu: &'a Gpu,
         encoder: &'a mut wgpu::CommandEncoder,
@@ -510,6 +524,7 @@ impl<'a> Frame<'a> {
         }
     }
 
+    /// Names of the passes recorded so far, in first-run order.
     pub fn passes_run(&self) -> &[String] {
         self.passes_run
     }

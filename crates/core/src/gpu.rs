@@ -17,8 +17,11 @@ pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
 /// Adapter facts that go into reports.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AdapterSummary {
+    /// Adapter name, e.g. `llvmpipe (LLVM 17.0.6, 256 bits)`.
     pub name: String,
+    /// Backend in lower case (`vulkan`, `metal`, `dx12`, `gl`).
     pub backend: String,
+    /// Driver name and version.
     pub driver: String,
 }
 
@@ -139,9 +142,10 @@ impl Gpu {
     /// the features and limits every technique in `techniques` declares
     /// ([`TechniqueInfo::requirements`](crate::TechniqueInfo::requirements)). The error lists
     /// what is missing and how to request it; to get it right the first time, create the device
-    /// with [`Requirements::all`](crate::Requirements::all):
+    /// with [`Requirements::all`](crate::Requirements::all) (`examples/embed` compiles and runs
+    /// this; a doctest would cost CI one more link of wgpu):
     ///
-    /// ```no_run
+    /// ```ignore
     /// # fn make(adapter: wgpu::Adapter, techniques: &[softshadow_core::TechniqueInfo]) -> Result<(), Box<dyn std::error::Error>> {
     /// let needs = softshadow_core::Requirements::all(techniques);
     /// let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -201,6 +205,7 @@ impl Gpu {
         }
     }
 
+    /// Adapter facts for reports.
     pub fn summary(&self) -> AdapterSummary {
         let info = self.adapter.get_info();
         AdapterSummary {
@@ -212,10 +217,12 @@ impl Gpu {
         }
     }
 
+    /// Features the device was created with.
     pub fn features(&self) -> wgpu::Features {
         self.device.features()
     }
 
+    /// Whether the device has timestamp queries (GPU pass timing).
     pub fn has_timestamps(&self) -> bool {
         self.features().contains(wgpu::Features::TIMESTAMP_QUERY)
     }

@@ -5,6 +5,8 @@
 //! Data flow of a frame (see [`renderer::Renderer::render`]):
 //! `Scene -> SceneGpu -> G-buffer -> technique -> VisibilityBuffer -> shading`.
 
+#![warn(missing_docs)]
+
 pub mod camera;
 pub mod error;
 pub mod frame;

@@ -34,8 +34,11 @@ pub enum ParamKind {
 /// One parameter: name, meaning and range.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ParamSpec {
+    /// Name as used on the command line, in JSON and in the GUI.
     pub name: &'static str,
+    /// What it does (the doc comment of its declaration).
     pub description: &'static str,
+    /// Type and range.
     #[serde(flatten)]
     pub kind: ParamKind,
 }
@@ -62,6 +65,7 @@ impl fmt::Display for ParamValue {
 }
 
 impl ParamValue {
+    /// The value as a number (`None` for choices).
     pub fn as_f64(&self) -> Option<f64> {
         match self {
             ParamValue::Float(x) => Some(*x),
@@ -72,6 +76,7 @@ impl ParamValue {
 }
 
 impl ParamSpec {
+    /// A float parameter with its range (`log`: the GUI slider is logarithmic).
     pub const fn float(
         name: &'static str,
         description: &'static str,
@@ -91,6 +96,7 @@ impl ParamSpec {
         }
     }
 
+    /// An integer parameter with its range.
     pub const fn int(
         name: &'static str,
         description: &'static str,
@@ -105,6 +111,7 @@ impl ParamSpec {
         }
     }
 
+    /// A boolean parameter.
     pub const fn boolean(name: &'static str, description: &'static str, default: bool) -> Self {
         Self {
             name,
@@ -113,6 +120,7 @@ impl ParamSpec {
         }
     }
 
+    /// A choice among `options` (the first variant names of a [`param_choice!`](crate::param_choice) enum).
     pub const fn choice(
         name: &'static str,
         description: &'static str,
@@ -126,6 +134,7 @@ impl ParamSpec {
         }
     }
 
+    /// The declared default.
     pub fn default_value(&self) -> ParamValue {
         match &self.kind {
             ParamKind::Float { default, .. } => ParamValue::Float(*default),
@@ -235,10 +244,12 @@ impl ParamSpec {
 /// The current values of a technique's parameters, in declaration order.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ParamSet {
+    /// Every parameter with its current value.
     pub entries: Vec<(ParamSpec, ParamValue)>,
 }
 
 impl ParamSet {
+    /// The value of parameter `name`.
     pub fn get(&self, name: &str) -> Option<&ParamValue> {
         self.entries
             .iter()

@@ -28,7 +28,9 @@ pub const MAX_RESOLUTION: u32 = 8192;
 /// pass per light sample) are summed; `total_ms` is the sum over all passes.
 #[derive(Clone, Debug, Default)]
 pub struct GpuFrameTiming {
+    /// Sum of every pass.
     pub total_ms: f64,
+    /// Time per pass name, in first-run order.
     pub passes: Vec<(String, f64)>,
 }
 
@@ -48,8 +50,10 @@ pub fn is_core_pass(name: &str) -> bool {
     name == "gbuffer" || name == "shading"
 }
 
+/// What [`Renderer::render`] returns about a frame.
 #[derive(Clone, Debug)]
 pub struct FrameOutput {
+    /// Names of the passes that ran, in order (light-space passes kept from an earlier frame are not in it).
     pub passes_run: Vec<String>,
     /// Wall time from the start of recording to the end of GPU work.
     pub cpu_ms: f64,
@@ -60,17 +64,25 @@ pub struct FrameOutput {
     pub timing_source: TimingSource,
 }
 
+/// The workbench's renderer: its own G-buffer over an uploaded [`SceneGpu`], a technique, and an
+/// optional shading pass, every pass timed. Runs techniques through the same [`ShadowStage`] as
+/// [`crate::host::HostRenderer`].
 pub struct Renderer {
     gpu: Gpu,
+    /// Frame width in pixels.
     pub width: u32,
+    /// Frame height in pixels.
     pub height: u32,
+    /// The G-buffer drawn every frame.
     pub gbuffer: GBuffer,
     gbuffer_pass: GBufferPass,
     shading: ShadingPass,
     /// Bind group 0 over the G-buffer: the same stage a host renderer runs over its textures.
     stage: ShadowStage,
     uniform_bind_group: wgpu::BindGroup,
+    /// The technique's output of the last frame.
     pub visibility: VisibilityBuffer,
+    /// The shaded image of the last frame rendered with a [`ShadingMode`] (sRGB RGBA8).
     pub shaded: wgpu::Texture,
     shaded_view: wgpu::TextureView,
     profiler: GpuProfiler,
@@ -79,6 +91,7 @@ pub struct Renderer {
 }
 
 impl Renderer {
+    /// A renderer for `width` x `height` frames (1 to [`MAX_RESOLUTION`] pixels each way).
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> Result<Self, RenderError> {
         let max = MAX_RESOLUTION.min(gpu.device.limits().max_texture_dimension_2d);
         if width == 0 || height == 0 || width > max || height > max {
@@ -127,6 +140,7 @@ impl Renderer {
         })
     }
 
+    /// The GPU context.
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
     }
@@ -261,6 +275,7 @@ impl Renderer {
         Some(timing)
     }
 
+    /// The visibility buffer of the last frame, row-major.
     pub fn read_visibility(&self) -> Result<Vec<f32>, GpuError> {
         readback::read_r32f(&self.gpu, &self.visibility.texture)
     }

@@ -11,17 +11,16 @@ use naga_oil::compose::{
 
 use crate::{error::GpuError, Gpu};
 
-/// Includes `shaders/<path>` from the workspace root as a `(path, source)` pair.
+/// Includes `shaders/<path>` as a `(path, source)` pair, read from the calling crate's own
+/// `shaders/` folder: each crate holds symbolic links to its folders of the workspace's
+/// `shaders/` (`crates/pcss/shaders/pcss -> ../../../shaders/pcss`), so a packaged crate
+/// carries its WGSL (`cargo package` follows the links) while the files stay in one tree.
 #[macro_export]
 macro_rules! shader_file {
     ($path:literal) => {
         (
             $path,
-            include_str!(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../shaders/",
-                $path
-            )),
+            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $path)),
         )
     };
 }
@@ -52,6 +51,7 @@ pub type Permutation = &'static [(&'static str, DefValue)];
 pub struct ShaderSpec {
     /// Path under `shaders/`, e.g. `pcss/pcss.wgsl`.
     pub path: &'static str,
+    /// The WGSL source.
     pub source: &'static str,
     /// At least one (use `&[&[]]` for "no defs").
     pub permutations: &'static [Permutation],

@@ -128,7 +128,9 @@ pub type TechniqueStats = BTreeMap<String, f64>;
 
 /// A technique-specific image for the viewer (shadow map, chosen level, ...).
 pub struct DebugView {
+    /// Name shown in the viewer's view list.
     pub name: String,
+    /// The image.
     pub texture: wgpu::Texture,
 }
 
@@ -179,10 +181,13 @@ pub trait ShadowTechnique {
 /// A registry entry: what `workbench list` prints without a GPU, and how to build the technique.
 #[derive(Clone, Copy)]
 pub struct TechniqueInfo {
+    /// Stable id ([`ShadowTechnique::id`]).
     pub id: &'static str,
+    /// One line for `workbench list` and the GUI.
     pub description: &'static str,
     /// Paper or source the technique follows.
     pub source: &'static str,
+    /// The parameters with their specs.
     pub params: fn() -> Vec<ParamSpec>,
     /// What the technique needs from the device at its default settings (features and limits),
     /// known without a device: what a host checks or requests when it creates its own device

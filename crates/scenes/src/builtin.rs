@@ -25,13 +25,17 @@ pub struct BuiltinInfo {
 /// One numeric parameter of a builtin scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParamInfo {
+    /// Parameter name, as in `atty-square:occluder_height=1.5`.
     pub name: &'static str,
+    /// Value when not given.
     pub default: f64,
+    /// What it changes.
     pub description: &'static str,
     /// Smallest accepted value (excluded when `min_exclusive`).
     pub min: f64,
     /// Largest accepted value (included).
     pub max: f64,
+    /// `min` itself is not accepted.
     pub min_exclusive: bool,
 }
 

@@ -10,6 +10,8 @@
 //! Every loaded scene has had [`Mesh::repair`] run on all meshes (what was dropped becomes a
 //! warning) and has passed [`Scene::validate`].
 
+#![warn(missing_docs)]
+
 pub mod builtin;
 mod error;
 pub mod file;
@@ -29,6 +31,7 @@ pub use gltf_import::{load_gltf, GltfGeometry};
 /// A loaded, repaired and validated scene with what the loader had to fix or skip.
 #[derive(Clone, Debug)]
 pub struct Loaded {
+    /// The scene.
     pub scene: Scene,
     /// One line each, e.g. "mesh `x` from file.glb: dropped 3 degenerate and 2 non-finite
     /// triangles".

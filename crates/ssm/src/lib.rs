@@ -16,6 +16,8 @@
 //! 4. `ssm/project`: the soft shadow map(s), merged by maximum, projected onto the receivers.
 //! 5. `ssm/stats`: counters for the report (micro-patches drawn, texels with occlusion).
 
+#![warn(missing_docs)]
+
 pub mod math;
 
 use bytemuck::{Pod, Zeroable};
@@ -31,8 +33,10 @@ use softshadow_core::{
     TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "ssm";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "ssm/depth.wgsl",
@@ -244,7 +248,9 @@ struct LastFrame {
     queries: Option<u32>,
 }
 
+/// The `ssm` technique: a [`ShadowTechnique`] with its settings.
 pub struct SoftShadowMaps {
+    /// Its settings; changes take effect on the next frame.
     pub settings: SsmSettings,
     gpu: Gpu,
     occluder_front_pipeline: wgpu::RenderPipeline,
@@ -287,6 +293,7 @@ fn requirements_for(precision: Precision) -> Requirements {
     }
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
@@ -342,6 +349,7 @@ const RECEIVER_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     [Vertex::ATTRIBUTES[0], Vertex::ATTRIBUTES[2]];
 
 impl SoftShadowMaps {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: SsmSettings) -> Result<Self, TechniqueError> {
         let device = &gpu.device;
         let depth_module = create_module(gpu, &SHADERS[0], &[])?;

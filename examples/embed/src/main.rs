@@ -175,7 +175,6 @@ struct Host {
     device: wgpu::Device,
     queue: wgpu::Queue,
     gpu: Gpu,
-    size: u32,
     meshes: Vec<(wgpu::Buffer, wgpu::Buffer, u32, wgpu::BindGroup)>,
     camera_group: wgpu::BindGroup,
     pipeline: wgpu::RenderPipeline,
@@ -403,7 +402,6 @@ impl Host {
             device,
             queue,
             gpu,
-            size,
             meshes,
             camera_group,
             pipeline,
@@ -656,10 +654,12 @@ mod tests {
                 info.id,
                 diffs.len()
             );
+            // Measured: PCSS 0 (bit-identical), bitmask 5e-5 (the R8Unorm output's rounding and
+            // depth-reconstructed positions), no pixel off by more than 0.05 in either.
             ensure!(
-                mean < 0.005 && far_off <= diffs.len() / 100,
-                "{}: host image differs from the workbench's: mean |diff| {mean} (bound 0.005), \
-                 {far_off} pixels off by more than 0.05 (bound 1%)",
+                mean < 0.001 && far_off <= diffs.len() / 200,
+                "{}: host image differs from the workbench's: mean |diff| {mean} (bound 0.001), \
+                 {far_off} pixels off by more than 0.05 (bound 0.5%)",
                 info.id
             );
         }
