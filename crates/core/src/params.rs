@@ -11,22 +11,36 @@ use crate::error::ParamError;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum ParamKind {
+    /// A real number in `[min, max]`.
     Float {
+        /// Smallest value.
         min: f64,
+        /// Largest value.
         max: f64,
+        /// Default value.
         default: f64,
+        /// The GUI slider is logarithmic.
         logarithmic: bool,
     },
+    /// An integer in `[min, max]`.
     Int {
+        /// Smallest value.
         min: i64,
+        /// Largest value.
         max: i64,
+        /// Default value.
         default: i64,
     },
+    /// On or off.
     Bool {
+        /// Default value.
         default: bool,
     },
+    /// One of named options.
     Choice {
+        /// The option names.
         options: &'static [&'static str],
+        /// Default option.
         default: &'static str,
     },
 }
@@ -47,9 +61,13 @@ pub struct ParamSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum ParamValue {
+    /// For [`ParamKind::Bool`].
     Bool(bool),
+    /// For [`ParamKind::Int`].
     Int(i64),
+    /// For [`ParamKind::Float`].
     Float(f64),
+    /// For [`ParamKind::Choice`]: the option name.
     Choice(String),
 }
 
@@ -294,6 +312,7 @@ pub trait ParamType: Sized + Clone + PartialEq {
         range: Option<(f64, f64)>,
         logarithmic: bool,
     ) -> ParamSpec;
+    /// The value as a [`ParamValue`].
     fn to_value(&self) -> ParamValue;
     /// Converts a value that [`ParamSpec::check`] accepted.
     fn from_value(value: &ParamValue) -> Option<Self>;
@@ -375,7 +394,9 @@ impl ParamType for bool {
 pub trait ParamChoice: Copy + PartialEq + 'static {
     /// Option names in declaration order (what the CLI, sweeps and JSON use).
     const NAMES: &'static [&'static str];
+    /// This option's name.
     fn name(self) -> &'static str;
+    /// The option called `name`.
     fn from_name(name: &str) -> Option<Self>;
 }
 

@@ -28,8 +28,11 @@ macro_rules! shader_file {
 /// A shader-def value, constructible in `const` tables.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DefValue {
+    /// A boolean def (`#ifdef NAME`).
     Bool(bool),
+    /// A signed integer def.
     Int(i32),
+    /// An unsigned integer def.
     UInt(u32),
 }
 

@@ -138,11 +138,14 @@ pub struct DebugView {
 pub trait ShadowTechnique {
     /// Stable id used on the command line, in JSON and in the GUI.
     fn id(&self) -> &'static str;
+    /// What the technique needs from the device at its current settings (checked before every
+    /// frame).
     fn requirements(&self) -> Requirements {
         Requirements::default()
     }
     /// The technique's settings (declared with [`technique_settings!`](crate::technique_settings)).
     fn settings(&self) -> &dyn TechniqueSettings;
+    /// The settings, to change (through [`ShadowTechnique::set_param`] or directly).
     fn settings_mut(&mut self) -> &mut dyn TechniqueSettings;
     /// Current parameter values with their specs.
     fn params(&self) -> ParamSet {
@@ -173,6 +176,7 @@ pub trait ShadowTechnique {
     fn stats(&self) -> TechniqueStats {
         TechniqueStats::new()
     }
+    /// Technique-specific images of the last frame for the viewer (empty by default).
     fn debug_views(&self) -> Vec<DebugView> {
         Vec::new()
     }

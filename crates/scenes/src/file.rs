@@ -125,7 +125,9 @@ impl Default for CameraDef {
 #[derive(Debug, Deserialize, Clone, Copy)]
 #[serde(untagged)]
 pub enum ScaleDef {
+    /// The same factor on every axis.
     Uniform(f32),
+    /// One factor per axis.
     PerAxis([f32; 3]),
 }
 

@@ -21,7 +21,7 @@ use softshadow_core::{
         SurfacePositions,
     },
     wgpu::{self, util::DeviceExt},
-    AreaLight, Gpu, Requirements, SceneGpu, ShadowTechnique,
+    AreaLight, Gpu, Requirements, SceneGpu,
 };
 
 /// The host's vertex layout (not the workbench's): normal, position, uv.
@@ -575,7 +575,7 @@ fn main() -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softshadow_core::{Camera, Instance, Mesh, Renderer, Scene};
+    use softshadow_core::{Camera, Instance, Mesh, Renderer, Scene, ShadowTechnique};
 
     /// The same scene as the host's, as a workbench `Scene`.
     fn workbench_scene() -> Scene {
