@@ -243,7 +243,6 @@ struct SurfaceConversion {
     layout_depth: wgpu::BindGroupLayout,
     pipeline_world: wgpu::RenderPipeline,
     pipeline_depth: wgpu::RenderPipeline,
-    uniforms: wgpu::Buffer,
     /// Bound when the host gives no receiver mask (the shader then ignores it).
     no_mask: wgpu::TextureView,
 }
@@ -313,12 +312,6 @@ impl SurfaceConversion {
         };
         let pipeline_world = pipeline(&layout_world, &[])?;
         let pipeline_depth = pipeline(&layout_depth, &[("FROM_DEPTH", DefValue::Bool(true))])?;
-        let uniforms = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("host/surface uniforms"),
-            size: std::mem::size_of::<SurfaceUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let no_mask = gpu
             .device
             .create_texture_with_data(
@@ -346,7 +339,6 @@ impl SurfaceConversion {
             layout_depth,
             pipeline_world,
             pipeline_depth,
-            uniforms,
             no_mask,
         })
     }
@@ -467,6 +459,24 @@ impl HostRenderer {
         let (state, changes) =
             self.stage
                 .begin(&self.gpu, casters, light, uniforms, &*technique)?;
+        // The stage wrote the uniforms through the queue, which lands before the submission:
+        // a second frame recorded into the same encoder would overwrite them. Copying them in
+        // encoder order keeps each frame's own (several techniques may share one encoder).
+        let staged = self
+            .gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("host/frame uniforms"),
+                contents: bytemuck::bytes_of(&uniforms),
+                usage: wgpu::BufferUsages::COPY_SRC,
+            });
+        encoder.copy_buffer_to_buffer(
+            &staged,
+            0,
+            self.stage.uniform_buffer(),
+            0,
+            std::mem::size_of::<FrameUniforms>() as u64,
+        );
         let convert = self.surface_bind_group(surface, view)?;
         if let Some(HostOutput::View { format, .. }) = output {
             self.output_pipeline(format)?;
@@ -626,9 +636,15 @@ impl HostRenderer {
                 0.0,
             ],
         };
-        self.gpu
-            .queue
-            .write_buffer(&self.conversion.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        // A buffer per frame (not a queue write) for the same reason as the frame uniforms.
+        let buffer = self
+            .gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("host/surface uniforms"),
+                contents: bytemuck::bytes_of(&uniforms),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
         let texture = |binding, view| wgpu::BindGroupEntry {
             binding,
             resource: wgpu::BindingResource::TextureView(view),
@@ -642,7 +658,7 @@ impl HostRenderer {
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
-                        resource: self.conversion.uniforms.as_entire_binding(),
+                        resource: buffer.as_entire_binding(),
                     },
                     texture(1, positions),
                     texture(2, surface.normal),
