@@ -253,7 +253,7 @@ fn pdsm_window(
 }
 
 /// Bytes the precompute is estimated to need: read-back maps (light-space depth, f32) and the
-/// PDSM (index plus [`ESTIMATED_VERTICES_PER_TEXEL`] vertices per texel).
+/// PDSM (index plus `ESTIMATED_VERTICES_PER_TEXEL` vertices per texel).
 pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
     let m = settings.shadow_map_size as u64;
     let n = settings.pdsm_size as u64;
