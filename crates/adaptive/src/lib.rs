@@ -21,6 +21,8 @@
 //! while the light, the casters and the parameters stand still (a camera-only frame redoes the
 //! camera-dependent comparisons and renders only maps of samples it has not kept).
 
+#![warn(missing_docs)]
+
 pub mod refine;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -43,8 +45,10 @@ use softshadow_core::{
 
 pub use refine::{Start, Weighting};
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "adaptive";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "adaptive/compare.wgsl",
@@ -116,12 +120,14 @@ softshadow_core::technique_settings! {
     }
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (occlusion queries)",
         source: "Schwärzler 2009, Real-Time Soft Shadows with Adaptive Light Source Sampling",
         params: AdaptiveSettings::param_specs,
+        requirements: AdaptiveSampling::requirements_static,
         create: |gpu| {
             Ok(Box::new(AdaptiveSampling::new(
                 gpu,
@@ -170,6 +176,7 @@ pub struct FrameReport {
     pub maps_rendered: u32,
     /// Deepest leaf cell.
     pub depth_reached: u32,
+    /// What each refinement level did.
     pub levels: Vec<LevelReport>,
     /// `Frame::submit_and_wait` calls (one per level with comparisons).
     pub round_trips: u32,
@@ -200,7 +207,9 @@ struct Store {
     kept_layout: Option<Layout>,
 }
 
+/// The `adaptive` technique: a [`ShadowTechnique`] with its settings.
 pub struct AdaptiveSampling {
+    /// Its settings; changes take effect on the next frame.
     pub settings: AdaptiveSettings,
     depth: DepthMapRenderer,
     layout: wgpu::BindGroupLayout,
@@ -218,6 +227,7 @@ pub struct AdaptiveSampling {
 }
 
 impl AdaptiveSampling {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: AdaptiveSettings) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
         let stage = wgpu::ShaderStages::FRAGMENT;
@@ -299,11 +309,16 @@ impl AdaptiveSampling {
         })
     }
 
-    fn requirements_static() -> Requirements {
+    pub(crate) fn requirements_static() -> Requirements {
         Requirements {
             // Occlusion queries are core WebGPU; counting differing pairs per pixel (debug view)
             // and the accumulation buffer blend into R32Float.
             features: wgpu::Features::FLOAT32_BLENDABLE,
+            // One array layer per kept shadow map, at the default `max_shadow_maps`.
+            limits: softshadow_core::MinLimits {
+                max_texture_array_layers: 128,
+                ..Default::default()
+            },
             ..Requirements::default()
         }
     }

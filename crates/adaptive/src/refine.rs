@@ -47,10 +47,12 @@ pub enum Shape {
     SegmentU,
     /// Width 0, height > 0: a segment along v.
     SegmentV,
+    /// Width and height > 0.
     Rectangle,
 }
 
 impl Shape {
+    /// The shape of a light of half extents `half`.
     pub fn of(half: Vec2) -> Self {
         if half.y == 0.0 {
             Shape::SegmentU
@@ -61,6 +63,7 @@ impl Shape {
         }
     }
 
+    /// The light is a segment (one of its extents is 0).
     pub fn is_segment(self) -> bool {
         self != Shape::Rectangle
     }
@@ -69,19 +72,25 @@ impl Shape {
 /// A sample position in grid steps (`y` is 0 on a segment).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SampleKey {
+    /// Grid step along the light's width.
     pub x: u32,
+    /// Grid step along the light's height.
     pub y: u32,
 }
 
 /// A quadtree cell (an interval of a binary tree on a segment): `2^depth` cells per axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Cell {
+    /// Subdivision level (0 = the whole light).
     pub depth: u32,
+    /// Column at this level.
     pub i: u32,
+    /// Row at this level.
     pub j: u32,
 }
 
 impl Cell {
+    /// The whole light.
     pub const ROOT: Cell = Cell {
         depth: 0,
         i: 0,
@@ -92,8 +101,11 @@ impl Cell {
 /// The sampling layout of one frame: light shape, start scheme and grid resolution.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Layout {
+    /// Rectangle or segment.
     pub shape: Shape,
+    /// Where a cell's samples are.
     pub start: Start,
+    /// Deepest subdivision level.
     pub max_depth: u32,
 }
 

@@ -11,6 +11,8 @@
 //! micro-primitives and area accumulation; also the counters behind the stats and the debug
 //! views).
 
+#![warn(missing_docs)]
+
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     frame::uniform_entry,
@@ -24,8 +26,10 @@ use softshadow_core::{
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "backprojection";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "backprojection/gather.wgsl",
     source: shader_file!("backprojection/gather.wgsl").1,
@@ -106,7 +110,9 @@ struct DebugTargets {
     level_view: wgpu::TextureView,
 }
 
+/// The `backprojection` technique: a [`ShadowTechnique`] with its settings.
 pub struct Backprojection {
+    /// Its settings; changes take effect on the next frame.
     pub settings: BackprojectionSettings,
     gpu: Gpu,
     shadow_map: CentreShadowMap,
@@ -125,17 +131,27 @@ pub struct Backprojection {
     hierarchy_built: bool,
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Gather backprojection of shadow-map micro-patches or micro-quads, HSM or MSSM search-area refinement",
         source: "Guennebaud, Barthe & Paulin 2006; Schwarz & Stamminger 2007 (sections 4-5)",
         params: BackprojectionSettings::param_specs,
+        requirements: || softshadow_core::Requirements {
+            // The gather pass writes three storage textures (within WebGPU's default of 4).
+            limits: softshadow_core::MinLimits {
+                max_storage_textures_per_shader_stage: 3,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
         create: |gpu| Ok(Box::new(Backprojection::new(gpu, BackprojectionSettings::default())?)),
     }
 }
 
 impl Backprojection {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: BackprojectionSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::COMPUTE;
         let float_texture = |binding, dimension| wgpu::BindGroupLayoutEntry {
@@ -282,6 +298,10 @@ impl Backprojection {
 }
 
 impl ShadowTechnique for Backprojection {
+    fn requirements(&self) -> softshadow_core::Requirements {
+        (info().requirements)()
+    }
+
     fn id(&self) -> &'static str {
         ID
     }

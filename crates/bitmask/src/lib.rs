@@ -14,6 +14,8 @@
 //! moves. Every frame: `bitmask/gather` (per pixel: search, early outs, level choice,
 //! backprojection into the bitmask, counters) and `bitmask/filter` (`filter_passes` times).
 
+#![warn(missing_docs)]
+
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     frame::uniform_entry,
@@ -28,6 +30,7 @@ use softshadow_core::{
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "bitmask";
 
 /// Most depth layers (`layers`); the gather pass binds this many hierarchies.
@@ -36,6 +39,7 @@ pub const MAX_LAYERS: u32 = 4;
 /// The gather's mask sizes in 32-bit words: one pipeline each (`MASK_WORDS` in `gather.wgsl`).
 const MASK_WORD_COUNTS: [u32; 3] = [2, 8, 32];
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "bitmask/gather.wgsl",
@@ -99,16 +103,19 @@ pub struct PatternLayout {
 }
 
 impl PatternLayout {
+    /// Light samples (bits) in the pattern.
     pub fn samples(self) -> u32 {
         self.rows * self.columns
     }
 
+    /// 32-bit words of the occlusion mask.
     pub fn words(self) -> u32 {
         self.samples() / 32
     }
 }
 
 impl Pattern {
+    /// Rows, columns and jitter of this pattern.
     pub fn layout(self) -> PatternLayout {
         let (rows, columns, jittered) = match self {
             Pattern::Grid8 => (8, 8, false),
@@ -353,7 +360,9 @@ impl Peeler {
     }
 }
 
+/// The `bitmask` technique: a [`ShadowTechnique`] with its settings.
 pub struct Bitmask {
+    /// Its settings; changes take effect on the next frame.
     pub settings: BitmaskSettings,
     gpu: Gpu,
     shadow_map: CentreShadowMap,
@@ -381,12 +390,21 @@ pub struct Bitmask {
     filtered: bool,
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Bitmask soft shadows: backprojected micro-patches or micro-quads OR-ed into a bit field of light samples (occluder fusion), depth-peeled layers, HSM or MSSM search, post filter",
         source: "Schwarz & Stamminger 2007",
         params: BitmaskSettings::param_specs,
+        requirements: || softshadow_core::Requirements {
+            // The gather pass writes three storage textures (within WebGPU's default of 4).
+            limits: softshadow_core::MinLimits {
+                max_storage_textures_per_shader_stage: 3,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
         create: |gpu| Ok(Box::new(Bitmask::new(gpu, BitmaskSettings::default())?)),
     }
 }
@@ -440,6 +458,7 @@ fn compute_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 }
 
 impl Bitmask {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: BitmaskSettings) -> Result<Self, TechniqueError> {
         let device = &gpu.device;
         let gather_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -653,6 +672,10 @@ impl Bitmask {
 }
 
 impl ShadowTechnique for Bitmask {
+    fn requirements(&self) -> softshadow_core::Requirements {
+        (info().requirements)()
+    }
+
     fn id(&self) -> &'static str {
         ID
     }

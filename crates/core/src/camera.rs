@@ -3,14 +3,20 @@
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
 
+/// A perspective camera looking from `eye` at `target`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
+    /// Camera position in world space.
     pub eye: Vec3,
+    /// The point looked at.
     pub target: Vec3,
+    /// Up direction (need not be orthogonal to the view direction, must not be parallel to it).
     pub up: Vec3,
     /// Vertical field of view, degrees.
     pub fov_y_degrees: f32,
+    /// Near clipping distance.
     pub near: f32,
+    /// Far clipping distance.
     pub far: f32,
 }
 
@@ -28,6 +34,7 @@ impl Default for Camera {
 }
 
 impl Camera {
+    /// World to view (right-handed, looking down -z).
     pub fn view(&self) -> Mat4 {
         glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
     }
@@ -42,10 +49,12 @@ impl Camera {
         )
     }
 
+    /// Projection times view for frames of width / height `aspect`.
     pub fn view_projection(&self, aspect: f32) -> Mat4 {
         self.projection(aspect) * self.view()
     }
 
+    /// Checks the camera is usable; the error says what to change.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
             return Err("camera eye, target or up is not finite: give finite numbers".into());
@@ -73,6 +82,7 @@ impl Camera {
         Ok(())
     }
 
+    /// Hash of every field (for caches keyed by the view).
     pub fn content_hash(&self) -> u64 {
         let mut h = crate::scene::Fnv1a::default();
         h.write_f32s(&self.eye.to_array());

@@ -2,30 +2,62 @@
 
 use thiserror::Error;
 
+/// GPU context, device and shader problems.
 #[derive(Debug, Error)]
 pub enum GpuError {
     #[error(
         "no GPU adapter found{filter}: on Linux without a GPU install Mesa's lavapipe \
          (`sudo apt-get install -y mesa-vulkan-drivers`), or unset WGPU_BACKEND / WGPU_ADAPTER_NAME"
     )]
-    NoAdapter { filter: String },
+    /// No adapter at all (or none matching `WGPU_BACKEND`).
+    NoAdapter {
+        /// ` for WGPU_BACKEND=...` when the variable is set.
+        filter: String,
+    },
     #[error("WGPU_ADAPTER_NAME=`{wanted}` matches no adapter; available: {available}. Unset it or pick one of those names")]
-    AdapterNameNotFound { wanted: String, available: String },
+    /// `WGPU_ADAPTER_NAME` matches no adapter.
+    AdapterNameNotFound {
+        /// The variable's value.
+        wanted: String,
+        /// Names of the adapters there are.
+        available: String,
+    },
     #[error("could not create the GPU device on `{adapter}`: {source}. Try another adapter with WGPU_ADAPTER_NAME")]
+    /// The adapter refused to create a device.
     Device {
+        /// The adapter's name.
         adapter: String,
+        /// What wgpu said.
         #[source]
         source: wgpu::RequestDeviceError,
     },
+    /// A host's device (`Gpu::from_host`) lacks what some technique needs.
+    #[error("the device on `{adapter}` lacks what the techniques need: {lacking}. Create it with `required_features: Requirements::all(&techniques).features` and `required_limits: Requirements::all(&techniques).limits.apply_to(wgpu::Limits::default())` (softshadow_core::Requirements), on an adapter that has them")]
+    HostDeviceLacks {
+        /// The adapter's name.
+        adapter: String,
+        /// Per technique, the features and limits missing.
+        lacking: String,
+    },
     #[error("GPU validation error: {0}. This is a bug in a shader or pass: report it with the scene and technique")]
+    /// A wgpu validation error (a bug).
     Validation(String),
     #[error("GPU device lost or out of memory: {0}. Lower the resolution or shadow-map size and try again")]
+    /// The device was lost or ran out of memory.
     DeviceLost(String),
     #[error("GPU readback failed: {0}")]
+    /// Reading a texture or buffer back failed.
     Readback(String),
     #[error("shader `{path}` failed to compose: {message}")]
-    Shader { path: String, message: String },
+    /// A shader did not compose or validate.
+    Shader {
+        /// Path under `shaders/`.
+        path: String,
+        /// naga_oil's or naga's message.
+        message: String,
+    },
     #[error("the GPU timer could not be created: {0}")]
+    /// The GPU profiler could not be created.
     Profiler(String),
 }
 
@@ -35,37 +67,59 @@ pub enum ParamError {
     #[error(
         "unknown parameter `{name}` for technique `{technique}`: known parameters are {known}"
     )]
+    /// No parameter of that name.
     Unknown {
+        /// The technique's id.
         technique: String,
+        /// The name given.
         name: String,
+        /// The names there are.
         known: String,
     },
     #[error("parameter `{name}` = {value} is out of range: use a value from {min} to {max}")]
+    /// A number outside the declared range.
     OutOfRange {
+        /// Parameter name.
         name: String,
+        /// The value given.
         value: String,
+        /// Smallest accepted value.
         min: String,
+        /// Largest accepted value.
         max: String,
     },
     #[error(
         "parameter `{name}` = {value} is not finite: give a finite number from {min} to {max}"
     )]
+    /// NaN or infinity.
     NotFinite {
+        /// Parameter name.
         name: String,
+        /// The value given.
         value: String,
+        /// Smallest accepted value.
         min: String,
+        /// Largest accepted value.
         max: String,
     },
     #[error("parameter `{name}` expects {expected}, got `{value}`")]
+    /// A value of the wrong type (text that is not a number, say).
     WrongType {
+        /// Parameter name.
         name: String,
+        /// What the parameter takes.
         expected: String,
+        /// The value given.
         value: String,
     },
     #[error("parameter `{name}` = `{value}` is not one of {options}")]
+    /// A choice that is not one of the options.
     UnknownChoice {
+        /// Parameter name.
         name: String,
+        /// The value given.
         value: String,
+        /// The options there are.
         options: String,
     },
 }
@@ -74,34 +128,64 @@ pub enum ParamError {
 #[derive(Debug, Error)]
 pub enum TechniqueError {
     #[error(transparent)]
+    /// A GPU problem.
     Gpu(#[from] GpuError),
     #[error(transparent)]
+    /// A parameter problem.
     Param(#[from] ParamError),
-    #[error("technique `{technique}` needs adapter features {missing:?}, which `{adapter}` lacks: use an adapter that has them (lavapipe does)")]
+    /// The device lacks features or limits the technique declares in its
+    /// [`Requirements`](crate::Requirements).
+    #[error("technique `{technique}` needs device features {missing:?} and limits [{limits}], which the device on `{adapter}` lacks: request them when creating the device (`required_features` / `required_limits`, see `Requirements::all`), or use an adapter that has them (lavapipe does)")]
     MissingFeatures {
+        /// The technique's id.
         technique: String,
+        /// The adapter's name.
         adapter: String,
+        /// Features the device was not created with.
         missing: wgpu::Features,
+        /// Limits the device falls short of (`name: needs N, device has M`; empty if none).
+        limits: String,
     },
     #[error("technique `{technique}` cannot run on scene `{scene}`: {reason}")]
+    /// The scene is outside what the technique handles.
     UnsupportedScene {
+        /// The technique's id.
         technique: String,
+        /// The scene's name.
         scene: String,
+        /// Why, and what to do.
         reason: String,
     },
     #[error("technique `{technique}`: {message}")]
-    Other { technique: String, message: String },
+    /// Any other failure.
+    Other {
+        /// The technique's id.
+        technique: String,
+        /// What went wrong and what to do.
+        message: String,
+    },
 }
 
 /// Problems with a frame request (resolution, scene).
 #[derive(Debug, Error)]
 pub enum RenderError {
     #[error("resolution {width}x{height} is invalid: width and height must be 1 to {max} pixels")]
-    BadResolution { width: u32, height: u32, max: u32 },
+    /// Width or height out of range.
+    BadResolution {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+        /// Largest accepted edge.
+        max: u32,
+    },
     #[error("invalid scene: {0}")]
+    /// The scene, camera or light is invalid.
     Scene(String),
     #[error(transparent)]
+    /// A GPU problem.
     Gpu(#[from] GpuError),
     #[error(transparent)]
+    /// The technique failed.
     Technique(#[from] TechniqueError),
 }

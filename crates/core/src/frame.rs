@@ -5,18 +5,25 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 
-use crate::{gbuffer::GBuffer, light::AreaLight, scene_gpu::SceneGpu, Camera, Gpu};
+use crate::{light::AreaLight, scene_gpu::SceneGpu, Camera, Gpu};
 
 /// Mirrors `FrameUniforms` in `shaders/common/frame_types.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
+    /// World to clip of the camera.
     pub view_proj: [[f32; 4]; 4],
+    /// World to light space (light centre at the origin, facing +z).
     pub world_to_light: [[f32; 4]; 4],
+    /// xyz camera position, w = 1.
     pub camera_pos: [f32; 4],
+    /// xyz light centre, w = light intensity.
     pub light_center: [f32; 4],
+    /// xyz light direction, w = the ambient term ([`AMBIENT`]).
     pub light_dir: [f32; 4],
+    /// Half width, half height and area of the light rectangle; w unused.
     pub light_half: [f32; 4],
+    /// Width, height, 1 / width, 1 / height of the frame.
     pub screen: [f32; 4],
 }
 
@@ -24,13 +31,26 @@ pub struct FrameUniforms {
 pub const AMBIENT: f32 = 0.12;
 
 impl FrameUniforms {
+    /// The uniforms of a frame seen by the workbench's `camera`.
     pub fn new(camera: &Camera, light: &AreaLight, width: u32, height: u32) -> Self {
         let view_proj = camera.view_projection(width as f32 / height as f32);
+        Self::from_view(view_proj, camera.eye, light, width, height)
+    }
+
+    /// The uniforms of a frame seen through any view-projection matrix (a host renderer's
+    /// camera) from `eye`. Depth in clip space is [0, 1], as wgpu's.
+    pub fn from_view(
+        view_proj: Mat4,
+        eye: glam::Vec3,
+        light: &AreaLight,
+        width: u32,
+        height: u32,
+    ) -> Self {
         let half = light.half_extent();
         Self {
             view_proj: view_proj.to_cols_array_2d(),
             world_to_light: light.view().to_cols_array_2d(),
-            camera_pos: camera.eye.extend(1.0).to_array(),
+            camera_pos: eye.extend(1.0).to_array(),
             light_center: light.center.extend(light.intensity).to_array(),
             light_dir: light
                 .direction
@@ -47,6 +67,17 @@ impl FrameUniforms {
         }
     }
 
+    /// The camera's view-projection matrix.
+    pub fn view_proj(&self) -> Mat4 {
+        Mat4::from_cols_array_2d(&self.view_proj)
+    }
+
+    /// The camera position.
+    pub fn eye(&self) -> glam::Vec3 {
+        glam::Vec3::new(self.camera_pos[0], self.camera_pos[1], self.camera_pos[2])
+    }
+
+    /// World to light space (light centre at the origin, facing +z).
     pub fn world_to_light(&self) -> Mat4 {
         Mat4::from_cols_array_2d(&self.world_to_light)
     }
@@ -62,6 +93,7 @@ pub struct CoreLayouts {
 }
 
 impl CoreLayouts {
+    /// Creates the layouts on `device`.
     pub fn new(device: &wgpu::Device) -> Self {
         let all =
             wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -189,11 +221,19 @@ impl FrameChanges {
 /// What [`FrameChanges`] is computed from: the inputs of one frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameState {
-    pub camera: Camera,
+    /// The camera's view-projection matrix.
+    pub view_proj: Mat4,
+    /// The camera position.
+    pub eye: glam::Vec3,
+    /// The area light.
     pub light: AreaLight,
+    /// [`SceneGpu::static_hash`] of the casters.
     pub static_hash: u64,
+    /// [`SceneGpu::dynamic_hash`] of the casters.
     pub dynamic_hash: u64,
+    /// Frame width and height.
     pub size: (u32, u32),
+    /// The technique's parameters.
     pub params: crate::params::ParamSet,
 }
 
@@ -203,7 +243,7 @@ impl FrameState {
         match previous {
             None => FrameChanges::ALL,
             Some(p) => FrameChanges {
-                camera: self.camera != p.camera,
+                camera: self.view_proj != p.view_proj || self.eye != p.eye,
                 light: self.light != p.light,
                 static_instances: self.static_hash != p.static_hash,
                 dynamic_instances: self.dynamic_hash != p.dynamic_hash,
@@ -214,18 +254,25 @@ impl FrameState {
     }
 }
 
-/// What a technique reads each frame.
+/// What a technique reads each frame. Built by [`crate::ShadowStage::inputs`], for the
+/// workbench's [`crate::Renderer`] (over its G-buffer and an uploaded scene) and for a host
+/// renderer through [`crate::host::HostRenderer`] (over the host's textures and buffers) alike.
 pub struct ShadowInputs<'a> {
     /// What changed since this technique's last frame on this renderer.
     pub changes: FrameChanges,
+    /// The shadow casters (and receivers' bounds): a scene uploaded by the workbench
+    /// ([`SceneGpu::upload`]) or a host's buffers ([`SceneGpu::from_host`]).
     pub scene: &'a SceneGpu,
+    /// The area light.
     pub light: &'a AreaLight,
-    pub camera: &'a Camera,
-    pub gbuffer: &'a GBuffer,
-    /// Bind group for [`CoreLayouts::frame`].
+    /// Bind group for [`CoreLayouts::frame`]: the frame uniforms and the receiver surface
+    /// (world position and normal textures, `shaders/common/frame.wgsl`).
     pub frame_bind_group: &'a wgpu::BindGroup,
-    pub uniforms: &'a FrameUniforms,
+    /// The values in the frame bind group's uniform buffer.
+    pub uniforms: FrameUniforms,
+    /// Frame width in pixels.
     pub width: u32,
+    /// Frame height in pixels.
     pub height: u32,
 }
 
@@ -244,6 +291,7 @@ pub enum TimingSource {
 }
 
 impl TimingSource {
+    /// Both sources, in the order the GUI lists them.
     pub const ALL: [Self; 2] = [Self::Timestamps, Self::Serial];
 
     /// `serial` on a CPU adapter (whose timestamps do not cover compute work), `timestamps` on a
@@ -256,6 +304,7 @@ impl TimingSource {
         }
     }
 
+    /// The name used in JSON and on the command line.
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Timestamps => "timestamps",
@@ -289,7 +338,9 @@ pub struct SerialTimes {
 /// [`TimingSource::Serial`] a submission of its own) and records its name in
 /// [`Frame::passes_run`].
 pub struct Frame<'a> {
+    /// The GPU context.
     pub gpu: &'a Gpu,
+    /// The encoder passes are recorded into (replaced by a fresh one by [`Frame::submit_and_wait`]).
     pub encoder: &'a mut wgpu::CommandEncoder,
     profiler: &'a wgpu_profiler::GpuProfiler,
     passes_run: &'a mut Vec<String>,
@@ -300,6 +351,8 @@ pub struct Frame<'a> {
 }
 
 impl<'a> Frame<'a> {
+    /// A frame recording into `encoder`, timing passes with `profiler`'s timestamp queries (see
+    /// [`Frame::time_serially`]) and listing their names in `passes_run`.
     pub fn new(
         gpu: &'a Gpu,
         encoder: &'a mut wgpu::CommandEncoder,
@@ -471,6 +524,7 @@ impl<'a> Frame<'a> {
         }
     }
 
+    /// Names of the passes recorded so far, in first-run order.
     pub fn passes_run(&self) -> &[String] {
         self.passes_run
     }

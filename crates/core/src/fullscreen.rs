@@ -5,7 +5,9 @@ use crate::{
     shader::DefValue, shader::ShaderSpec, visibility::VISIBILITY_FORMAT, Frame, Gpu, GpuError,
 };
 
+/// A fullscreen-triangle render pipeline: group 0 the frame, group 1 the pass's own.
 pub struct FullscreenPipeline {
+    /// The pipeline.
     pub pipeline: wgpu::RenderPipeline,
 }
 
@@ -22,6 +24,7 @@ impl FullscreenPipeline {
         Self::with_format(gpu, label, spec, defs, group1, VISIBILITY_FORMAT, blend)
     }
 
+    /// As [`FullscreenPipeline::new`], writing one target of `format`.
     pub fn with_format(
         gpu: &Gpu,
         label: &str,

@@ -7,11 +7,16 @@ use crate::{
     shader, Gpu,
 };
 
+/// Format of [`GBuffer::position`].
 pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Format of [`GBuffer::normal`].
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of [`GBuffer::albedo`].
 pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Format of [`GBuffer::depth`].
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
+/// The workbench's G-buffer: what the camera sees, per pixel.
 pub struct GBuffer {
     /// xyz world position, w = 1 where geometry was hit.
     pub position: wgpu::Texture,
@@ -19,15 +24,23 @@ pub struct GBuffer {
     pub normal: wgpu::Texture,
     /// rgb albedo, a = 1 where geometry was hit.
     pub albedo: wgpu::Texture,
+    /// Depth of the G-buffer pass.
     pub depth: wgpu::Texture,
+    /// View of [`GBuffer::position`].
     pub position_view: wgpu::TextureView,
+    /// View of [`GBuffer::normal`].
     pub normal_view: wgpu::TextureView,
+    /// View of [`GBuffer::albedo`].
     pub albedo_view: wgpu::TextureView,
+    /// View of [`GBuffer::depth`].
     pub depth_view: wgpu::TextureView,
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
 }
 
+/// A 2D texture of one mip level and one layer.
 pub fn create_texture(
     gpu: &Gpu,
     label: &str,
@@ -53,6 +66,7 @@ pub fn create_texture(
 }
 
 impl GBuffer {
+    /// The G-buffer textures for `width` x `height` frames.
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
@@ -89,6 +103,7 @@ pub struct GBufferPass {
 }
 
 impl GBufferPass {
+    /// Builds the pipeline (`shaders/core/gbuffer.wgsl`).
     pub fn new(gpu: &Gpu) -> Result<Self, crate::GpuError> {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[0], &[])?;
         let layout = gpu
@@ -144,6 +159,7 @@ impl GBufferPass {
         Ok(Self { pipeline })
     }
 
+    /// Records the pass (`gbuffer`) drawing every instance of `scene` into `gbuffer`.
     pub fn record(
         &self,
         frame: &mut Frame<'_>,

@@ -17,17 +17,29 @@ pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
 /// Adapter facts that go into reports.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AdapterSummary {
+    /// Adapter name, e.g. `llvmpipe (LLVM 17.0.6, 256 bits)`.
     pub name: String,
+    /// Backend in lower case (`vulkan`, `metal`, `dx12`, `gl`).
     pub backend: String,
+    /// Driver name and version.
     pub driver: String,
 }
 
 /// Shared GPU handles. Cheap to clone (wgpu handles are reference counted).
+///
+/// Made either by the workbench ([`Gpu::new_headless`], [`Gpu::from_adapter`]: it picks the
+/// adapter and creates the device with every optional feature it offers) or from a host
+/// renderer's own adapter, device and queue ([`Gpu::from_host`]).
 #[derive(Clone)]
 pub struct Gpu {
-    pub instance: wgpu::Instance,
+    /// The instance the adapter came from; `None` for a [`Gpu::from_host`] context (the host
+    /// keeps its instance; only the viewer needs one, to create window surfaces).
+    pub instance: Option<wgpu::Instance>,
+    /// The adapter the device was created on.
     pub adapter: wgpu::Adapter,
+    /// The device every technique creates its resources on.
     pub device: wgpu::Device,
+    /// The queue frames are submitted to.
     pub queue: wgpu::Queue,
     /// Uncaptured validation / out-of-memory errors, drained by [`Gpu::take_errors`].
     errors: Arc<Mutex<Vec<String>>>,
@@ -123,8 +135,66 @@ impl Gpu {
                 e.push(error.to_string());
             }
         }));
+        Ok(Self::wrap(Some(instance), adapter, device, queue, errors))
+    }
+
+    /// Wraps a host renderer's own adapter, device and queue, after checking that the device has
+    /// the features and limits every technique in `techniques` declares
+    /// ([`TechniqueInfo::requirements`](crate::TechniqueInfo::requirements)). The error lists
+    /// what is missing and how to request it; to get it right the first time, create the device
+    /// with [`Requirements::all`](crate::Requirements::all) (`examples/embed` compiles and runs
+    /// this; a doctest would cost CI one more link of wgpu):
+    ///
+    /// ```ignore
+    /// # fn make(adapter: wgpu::Adapter, techniques: &[softshadow_core::TechniqueInfo]) -> Result<(), Box<dyn std::error::Error>> {
+    /// let needs = softshadow_core::Requirements::all(techniques);
+    /// let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+    ///     required_features: needs.features,
+    ///     required_limits: needs.limits.apply_to(wgpu::Limits::default()),
+    ///     ..Default::default()
+    /// }))?;
+    /// let gpu = softshadow_core::Gpu::from_host(adapter, device, queue, techniques)?;
+    /// # Ok(()) }
+    /// ```
+    ///
+    /// The host's device keeps its own uncaptured-error handler (this does not replace it), so
+    /// [`Gpu::take_errors`] reports nothing for such a context.
+    pub fn from_host(
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        techniques: &[crate::TechniqueInfo],
+    ) -> Result<Self, GpuError> {
+        let mut lacking = Vec::new();
+        for info in techniques {
+            let (features, limits) = (info.requirements)().missing_on(&device);
+            if !features.is_empty() || !limits.is_empty() {
+                let mut what = Vec::new();
+                if !features.is_empty() {
+                    what.push(format!("features {features:?}"));
+                }
+                what.extend(limits);
+                lacking.push(format!("`{}` needs {}", info.id, what.join(", ")));
+            }
+        }
+        if !lacking.is_empty() {
+            return Err(GpuError::HostDeviceLacks {
+                adapter: adapter.get_info().name,
+                lacking: lacking.join("; "),
+            });
+        }
+        Ok(Self::wrap(None, adapter, device, queue, Arc::default()))
+    }
+
+    fn wrap(
+        instance: Option<wgpu::Instance>,
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        errors: Arc<Mutex<Vec<String>>>,
+    ) -> Self {
         let layouts = Arc::new(crate::frame::CoreLayouts::new(&device));
-        Ok(Self {
+        Self {
             instance,
             adapter,
             device,
@@ -132,9 +202,10 @@ impl Gpu {
             errors,
             layouts,
             unshadowed: Arc::default(),
-        })
+        }
     }
 
+    /// Adapter facts for reports.
     pub fn summary(&self) -> AdapterSummary {
         let info = self.adapter.get_info();
         AdapterSummary {
@@ -146,10 +217,12 @@ impl Gpu {
         }
     }
 
+    /// Features the device was created with.
     pub fn features(&self) -> wgpu::Features {
         self.device.features()
     }
 
+    /// Whether the device has timestamp queries (GPU pass timing).
     pub fn has_timestamps(&self) -> bool {
         self.features().contains(wgpu::Features::TIMESTAMP_QUERY)
     }

@@ -22,6 +22,7 @@ use crate::{
 
 /// Depth of a texel without a caster (mirrors `HIERARCHY_EMPTY` in `search_area.wgsl`).
 pub const HIERARCHY_EMPTY: f32 = 1.0e30;
+/// Texel format of both hierarchies: light-space (min, max) depth.
 pub const HIERARCHY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 /// Loops over levels in the shaders stop here (`MAX_HIERARCHY_LEVELS`).
 pub const MAX_HIERARCHY_LEVELS: u32 = 16;
@@ -139,9 +140,11 @@ struct Mssm {
 /// What the last build produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Built {
+    /// Which hierarchy.
     pub kind: HierarchyKind,
     /// Highest level built (0 = only the linearised map).
     pub levels: u32,
+    /// Edge of the shadow map it was built over.
     pub map_size: u32,
 }
 
@@ -155,6 +158,7 @@ struct BuildTimer {
 }
 
 impl DepthHierarchy {
+    /// Builds the pipelines (`shaders/core/hierarchy.wgsl`); textures are made by the first build.
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let spec = shader::CORE_SHADERS
             .iter()
@@ -523,6 +527,7 @@ impl DepthHierarchy {
         self.hsm.as_ref().map(|h| &h.view)
     }
 
+    /// The HSM texture (mip pyramid), once built.
     pub fn hsm_texture(&self) -> Option<&wgpu::Texture> {
         self.hsm.as_ref().map(|h| &h.texture)
     }
@@ -536,6 +541,7 @@ impl DepthHierarchy {
         }
     }
 
+    /// The MSSM texture (array of full-resolution levels 1..), once built.
     pub fn mssm_texture(&self) -> Option<&wgpu::Texture> {
         self.mssm.as_ref().map(|m| &m.texture)
     }

@@ -5,6 +5,8 @@
 //! Data flow of a frame (see [`renderer::Renderer::render`]):
 //! `Scene -> SceneGpu -> G-buffer -> technique -> VisibilityBuffer -> shading`.
 
+#![warn(missing_docs)]
+
 pub mod camera;
 pub mod error;
 pub mod frame;
@@ -12,6 +14,7 @@ pub mod fullscreen;
 pub mod gbuffer;
 pub mod gpu;
 pub mod hierarchy;
+pub mod host;
 pub mod light;
 pub mod params;
 pub mod readback;
@@ -21,6 +24,7 @@ pub mod scene_gpu;
 pub mod shader;
 pub mod shading;
 pub mod shadow_map;
+pub mod stage;
 pub mod technique;
 pub mod visibility;
 
@@ -39,7 +43,10 @@ pub use renderer::{FrameOutput, GpuFrameTiming, Renderer};
 pub use scene::{Aabb, Instance, Mesh, MeshRepair, Scene};
 pub use scene_gpu::SceneGpu;
 pub use shading::ShadingMode;
-pub use technique::{DebugView, Requirements, ShadowTechnique, TechniqueInfo, TechniqueStats};
+pub use stage::ShadowStage;
+pub use technique::{
+    DebugView, MinLimits, Requirements, ShadowTechnique, TechniqueInfo, TechniqueStats,
+};
 pub use visibility::VisibilityBuffer;
 
 // Re-exported so technique crates use the same versions.

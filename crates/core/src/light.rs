@@ -93,10 +93,12 @@ impl AreaLight {
         self.center + x * u + y * v
     }
 
+    /// A world-space point in light space.
     pub fn to_light_space(&self, world: Vec3) -> Vec3 {
         (self.view() * world.extend(1.0)).xyz()
     }
 
+    /// Checks the light is usable; the error says what to change.
     pub fn validate(&self) -> Result<(), String> {
         let finite = self.center.is_finite()
             && self.direction.is_finite()
@@ -125,6 +127,7 @@ impl AreaLight {
         Ok(())
     }
 
+    /// Hash of every field (for caches keyed by the light).
     pub fn content_hash(&self) -> u64 {
         let mut h = crate::scene::Fnv1a::default();
         h.write_f32s(&self.center.to_array());
@@ -144,12 +147,17 @@ impl AreaLight {
 pub struct SlopeFrustum {
     /// Eye position on the light plane, light-space (x, y).
     pub eye: Vec2,
+    /// Smallest s slope of the window.
     pub s_min: f32,
+    /// Largest s slope of the window.
     pub s_max: f32,
+    /// Smallest t slope of the window.
     pub t_min: f32,
+    /// Largest t slope of the window.
     pub t_max: f32,
-    /// Near and far light-space depths (z).
+    /// Near light-space depth (z).
     pub near: f32,
+    /// Far light-space depth (z).
     pub far: f32,
 }
 

@@ -11,22 +11,36 @@ use crate::error::ParamError;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum ParamKind {
+    /// A real number in `[min, max]`.
     Float {
+        /// Smallest value.
         min: f64,
+        /// Largest value.
         max: f64,
+        /// Default value.
         default: f64,
+        /// The GUI slider is logarithmic.
         logarithmic: bool,
     },
+    /// An integer in `[min, max]`.
     Int {
+        /// Smallest value.
         min: i64,
+        /// Largest value.
         max: i64,
+        /// Default value.
         default: i64,
     },
+    /// On or off.
     Bool {
+        /// Default value.
         default: bool,
     },
+    /// One of named options.
     Choice {
+        /// The option names.
         options: &'static [&'static str],
+        /// Default option.
         default: &'static str,
     },
 }
@@ -34,8 +48,11 @@ pub enum ParamKind {
 /// One parameter: name, meaning and range.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ParamSpec {
+    /// Name as used on the command line, in JSON and in the GUI.
     pub name: &'static str,
+    /// What it does (the doc comment of its declaration).
     pub description: &'static str,
+    /// Type and range.
     #[serde(flatten)]
     pub kind: ParamKind,
 }
@@ -44,9 +61,13 @@ pub struct ParamSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum ParamValue {
+    /// For [`ParamKind::Bool`].
     Bool(bool),
+    /// For [`ParamKind::Int`].
     Int(i64),
+    /// For [`ParamKind::Float`].
     Float(f64),
+    /// For [`ParamKind::Choice`]: the option name.
     Choice(String),
 }
 
@@ -62,6 +83,7 @@ impl fmt::Display for ParamValue {
 }
 
 impl ParamValue {
+    /// The value as a number (`None` for choices).
     pub fn as_f64(&self) -> Option<f64> {
         match self {
             ParamValue::Float(x) => Some(*x),
@@ -72,6 +94,7 @@ impl ParamValue {
 }
 
 impl ParamSpec {
+    /// A float parameter with its range (`log`: the GUI slider is logarithmic).
     pub const fn float(
         name: &'static str,
         description: &'static str,
@@ -91,6 +114,7 @@ impl ParamSpec {
         }
     }
 
+    /// An integer parameter with its range.
     pub const fn int(
         name: &'static str,
         description: &'static str,
@@ -105,6 +129,7 @@ impl ParamSpec {
         }
     }
 
+    /// A boolean parameter.
     pub const fn boolean(name: &'static str, description: &'static str, default: bool) -> Self {
         Self {
             name,
@@ -113,6 +138,7 @@ impl ParamSpec {
         }
     }
 
+    /// A choice among `options` (the first variant names of a [`param_choice!`](crate::param_choice) enum).
     pub const fn choice(
         name: &'static str,
         description: &'static str,
@@ -126,6 +152,7 @@ impl ParamSpec {
         }
     }
 
+    /// The declared default.
     pub fn default_value(&self) -> ParamValue {
         match &self.kind {
             ParamKind::Float { default, .. } => ParamValue::Float(*default),
@@ -235,10 +262,12 @@ impl ParamSpec {
 /// The current values of a technique's parameters, in declaration order.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ParamSet {
+    /// Every parameter with its current value.
     pub entries: Vec<(ParamSpec, ParamValue)>,
 }
 
 impl ParamSet {
+    /// The value of parameter `name`.
     pub fn get(&self, name: &str) -> Option<&ParamValue> {
         self.entries
             .iter()
@@ -283,6 +312,7 @@ pub trait ParamType: Sized + Clone + PartialEq {
         range: Option<(f64, f64)>,
         logarithmic: bool,
     ) -> ParamSpec;
+    /// The value as a [`ParamValue`].
     fn to_value(&self) -> ParamValue;
     /// Converts a value that [`ParamSpec::check`] accepted.
     fn from_value(value: &ParamValue) -> Option<Self>;
@@ -364,7 +394,9 @@ impl ParamType for bool {
 pub trait ParamChoice: Copy + PartialEq + 'static {
     /// Option names in declaration order (what the CLI, sweeps and JSON use).
     const NAMES: &'static [&'static str];
+    /// This option's name.
     fn name(self) -> &'static str;
+    /// The option called `name`.
     fn from_name(name: &str) -> Option<Self>;
 }
 

@@ -3,19 +3,19 @@
 //! with every pass timed (GPU timestamps, or each pass submitted and waited for on its own: see
 //! [`TimingSource`]) and listed in `passes_run`.
 
-use std::{collections::HashMap, time::Instant};
+use std::time::Instant;
 
-use wgpu::util::DeviceExt;
 use wgpu_profiler::{GpuProfiler, GpuProfilerSettings, GpuTimerQueryResult};
 
 use crate::{
     error::{GpuError, RenderError},
-    frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs, TimingSource},
+    frame::{Frame, FrameUniforms, ShadowInputs, TimingSource},
     gbuffer::{GBuffer, GBufferPass},
     readback,
     scene_gpu::SceneGpu,
     shading::{ShadingMode, ShadingPass},
-    technique::{check_requirements, ShadowTechnique},
+    stage::ShadowStage,
+    technique::ShadowTechnique,
     visibility::VisibilityBuffer,
     AreaLight, Camera, Gpu,
 };
@@ -28,7 +28,9 @@ pub const MAX_RESOLUTION: u32 = 8192;
 /// pass per light sample) are summed; `total_ms` is the sum over all passes.
 #[derive(Clone, Debug, Default)]
 pub struct GpuFrameTiming {
+    /// Sum of every pass.
     pub total_ms: f64,
+    /// Time per pass name, in first-run order.
     pub passes: Vec<(String, f64)>,
 }
 
@@ -48,8 +50,10 @@ pub fn is_core_pass(name: &str) -> bool {
     name == "gbuffer" || name == "shading"
 }
 
+/// What [`Renderer::render`] returns about a frame.
 #[derive(Clone, Debug)]
 pub struct FrameOutput {
+    /// Names of the passes that ran, in order (light-space passes kept from an earlier frame are not in it).
     pub passes_run: Vec<String>,
     /// Wall time from the start of recording to the end of GPU work.
     pub cpu_ms: f64,
@@ -60,71 +64,54 @@ pub struct FrameOutput {
     pub timing_source: TimingSource,
 }
 
+/// The workbench's renderer: its own G-buffer over an uploaded [`SceneGpu`], a technique, and an
+/// optional shading pass, every pass timed. Runs techniques through the same [`ShadowStage`] as
+/// [`crate::host::HostRenderer`].
 pub struct Renderer {
     gpu: Gpu,
+    /// Frame width in pixels.
     pub width: u32,
+    /// Frame height in pixels.
     pub height: u32,
+    /// The G-buffer drawn every frame.
     pub gbuffer: GBuffer,
     gbuffer_pass: GBufferPass,
     shading: ShadingPass,
-    uniforms: wgpu::Buffer,
+    /// Bind group 0 over the G-buffer: the same stage a host renderer runs over its textures.
+    stage: ShadowStage,
     uniform_bind_group: wgpu::BindGroup,
-    frame_bind_group: wgpu::BindGroup,
+    /// The technique's output of the last frame.
     pub visibility: VisibilityBuffer,
+    /// The shaded image of the last frame rendered with a [`ShadingMode`] (sRGB RGBA8).
     pub shaded: wgpu::Texture,
     shaded_view: wgpu::TextureView,
     profiler: GpuProfiler,
     /// How passes are timed; [`TimingSource::default_for`] the adapter unless set.
     pub timing: TimingSource,
-    last_uniforms: FrameUniforms,
-    /// The inputs of the last frame drawn with each technique id, for [`FrameChanges`].
-    last_states: HashMap<&'static str, FrameState>,
 }
 
 impl Renderer {
+    /// A renderer for `width` x `height` frames (1 to [`MAX_RESOLUTION`] pixels each way).
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> Result<Self, RenderError> {
         let max = MAX_RESOLUTION.min(gpu.device.limits().max_texture_dimension_2d);
         if width == 0 || height == 0 || width > max || height > max {
             return Err(RenderError::BadResolution { width, height, max });
         }
         let gbuffer = GBuffer::new(gpu, width, height);
-        let uniforms = gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("core/frame uniforms"),
-                contents: bytemuck::bytes_of(&FrameUniforms::new(
-                    &Camera::default(),
-                    &AreaLight::default(),
-                    width,
-                    height,
-                )),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
+        let stage = ShadowStage::new(
+            gpu,
+            &gbuffer.position_view,
+            &gbuffer.normal_view,
+            width,
+            height,
+        );
         let uniform_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("core/frame-uniform"),
             layout: &gpu.layouts.frame_uniform,
             entries: &[wgpu::BindGroupEntry {
                 binding: 0,
-                resource: uniforms.as_entire_binding(),
+                resource: stage.uniform_buffer().as_entire_binding(),
             }],
-        });
-        let frame_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("core/frame"),
-            layout: &gpu.layouts.frame,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniforms.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&gbuffer.position_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&gbuffer.normal_view),
-                },
-            ],
         });
         let profiler = GpuProfiler::new(
             &gpu.device,
@@ -142,49 +129,34 @@ impl Renderer {
             height,
             gbuffer_pass: GBufferPass::new(gpu)?,
             shading: ShadingPass::new(gpu)?,
-            uniforms,
+            stage,
             uniform_bind_group,
-            frame_bind_group,
             visibility: VisibilityBuffer::new(gpu, "visibility", width, height),
             shaded_view: shaded.create_view(&Default::default()),
             shaded,
             gbuffer,
             profiler,
             timing: TimingSource::default_for(gpu),
-            last_uniforms: FrameUniforms::new(
-                &Camera::default(),
-                &AreaLight::default(),
-                width,
-                height,
-            ),
-            last_states: HashMap::new(),
         })
     }
 
+    /// The GPU context.
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
     }
 
-    /// What a technique reads: the scene, light, camera, G-buffer and frame bind group (also used
-    /// for [`ShadowTechnique::prepare`] outside a frame, where `uniforms` are the last frame's and
-    /// `changes` says everything changed).
+    /// What a technique reads: the scene, light and the frame bind group over the G-buffer,
+    /// for [`ShadowTechnique::prepare`] outside a frame (`changes` says everything changed). The
+    /// uniforms are those of `camera` at this renderer's size.
     pub fn inputs<'a>(
         &'a self,
         scene: &'a SceneGpu,
         camera: &'a Camera,
         light: &'a AreaLight,
     ) -> ShadowInputs<'a> {
-        ShadowInputs {
-            changes: FrameChanges::ALL,
-            scene,
-            light,
-            camera,
-            gbuffer: &self.gbuffer,
-            frame_bind_group: &self.frame_bind_group,
-            uniforms: &self.last_uniforms,
-            width: self.width,
-            height: self.height,
-        }
+        let mut inputs = self.stage.inputs(scene, light);
+        inputs.uniforms = FrameUniforms::new(camera, light, self.width, self.height);
+        inputs
     }
 
     /// Renders one frame with `technique` into [`Renderer::visibility`] (and [`Renderer::shaded`]
@@ -199,23 +171,11 @@ impl Renderer {
     ) -> Result<FrameOutput, RenderError> {
         puffin::profile_function!();
         camera.validate().map_err(RenderError::Scene)?;
-        light.validate().map_err(RenderError::Scene)?;
-        check_requirements(&self.gpu, technique.id(), &technique.requirements())?;
+        let uniforms = FrameUniforms::new(camera, light, self.width, self.height);
+        let (state, changes) = self
+            .stage
+            .begin(&self.gpu, scene, light, uniforms, technique)?;
         let start = Instant::now();
-        let state = FrameState {
-            camera: *camera,
-            light: *light,
-            static_hash: scene.static_hash,
-            dynamic_hash: scene.dynamic_hash,
-            size: (self.width, self.height),
-            params: technique.params(),
-        };
-        // A failed frame leaves nothing to compare with: the next one sees everything changed.
-        let changes = state.changes_since(self.last_states.remove(technique.id()).as_ref());
-        self.last_uniforms = FrameUniforms::new(camera, light, self.width, self.height);
-        self.gpu
-            .queue
-            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&self.last_uniforms));
 
         let mut encoder = self
             .gpu
@@ -234,15 +194,20 @@ impl Renderer {
             }
             self.gbuffer_pass
                 .record(&mut frame, &self.gbuffer, &self.uniform_bind_group, scene);
-            let mut inputs = self.inputs(scene, camera, light);
-            inputs.changes = changes;
-            let result = technique.render(&mut frame, &inputs, &self.visibility);
+            let result = self.stage.record(
+                &mut frame,
+                scene,
+                light,
+                changes,
+                technique,
+                &self.visibility,
+            );
             if result.is_ok() {
                 if let Some(mode) = shade {
                     self.shading.record(
                         &mut frame,
                         mode,
-                        &self.frame_bind_group,
+                        self.stage.frame_bind_group(),
                         &self.gbuffer,
                         &self.visibility,
                         &self.shaded_view,
@@ -278,7 +243,7 @@ impl Renderer {
                 timing
             }),
         };
-        self.last_states.insert(technique.id(), state);
+        self.stage.finish(technique.id(), state);
         Ok(FrameOutput {
             passes_run,
             cpu_ms,
@@ -310,6 +275,7 @@ impl Renderer {
         Some(timing)
     }
 
+    /// The visibility buffer of the last frame, row-major.
     pub fn read_visibility(&self) -> Result<Vec<f32>, GpuError> {
         readback::read_r32f(&self.gpu, &self.visibility.texture)
     }

@@ -12,6 +12,7 @@ use crate::{camera::Camera, light::AreaLight};
 pub struct Mesh {
     /// Human-readable name (procedural primitive or glTF mesh name), used in error messages.
     pub name: String,
+    /// Vertex positions in object space.
     pub positions: Vec<Vec3>,
     /// One normal per position. May be empty: [`Mesh::ensure_normals`] computes flat-ish vertex normals.
     pub normals: Vec<Vec3>,
@@ -31,12 +32,14 @@ pub struct MeshRepair {
 }
 
 impl MeshRepair {
+    /// Triangles dropped, of every kind.
     pub fn total(&self) -> usize {
         self.non_finite_triangles + self.degenerate_triangles + self.out_of_range_triangles
     }
 }
 
 impl Mesh {
+    /// Triangles (indices / 3).
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }
@@ -128,6 +131,7 @@ pub struct Instance {
 }
 
 impl Instance {
+    /// An instance of mesh `mesh` placed by `transform`, white, casting and receiving shadows, static.
     pub fn new(mesh: usize, transform: Mat4) -> Self {
         Self {
             mesh,
@@ -145,34 +149,44 @@ impl Instance {
 pub struct Scene {
     /// Scene id (procedural) or file stem.
     pub name: String,
+    /// The meshes instances refer to by index.
     pub meshes: Vec<Mesh>,
+    /// Placed meshes.
     pub instances: Vec<Instance>,
+    /// The area light.
     pub light: AreaLight,
+    /// The camera the scene was set up with.
     pub camera: Camera,
 }
 
 /// Axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// Smallest corner.
     pub min: Vec3,
+    /// Largest corner.
     pub max: Vec3,
 }
 
 impl Aabb {
+    /// The empty box (`extend` of any point makes it that point).
     pub const EMPTY: Aabb = Aabb {
         min: Vec3::splat(f32::INFINITY),
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// No point was added.
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// Grows the box to contain `p`.
     pub fn extend(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
+    /// The smallest box containing both.
     pub fn union(self, other: Aabb) -> Aabb {
         Aabb {
             min: self.min.min(other.min),
@@ -180,6 +194,7 @@ impl Aabb {
         }
     }
 
+    /// The eight corners.
     pub fn corners(&self) -> [Vec3; 8] {
         let (a, b) = (self.min, self.max);
         [
@@ -196,6 +211,7 @@ impl Aabb {
 }
 
 impl Scene {
+    /// Triangles over every instance.
     pub fn triangle_count(&self) -> usize {
         self.instances
             .iter()
@@ -303,15 +319,18 @@ impl Default for Fnv1a {
 }
 
 impl Fnv1a {
+    /// Hashes raw bytes.
     pub fn write_bytes(&mut self, bytes: &[u8]) {
         for b in bytes {
             self.0 ^= *b as u64;
             self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
         }
     }
+    /// Hashes a number.
     pub fn write_u64(&mut self, v: u64) {
         self.write_bytes(&v.to_le_bytes());
     }
+    /// Hashes floats by their bits.
     pub fn write_f32s(&mut self, v: &[f32]) {
         for x in v {
             self.write_bytes(&x.to_bits().to_le_bytes());
@@ -327,10 +346,12 @@ impl Fnv1a {
             self.write_u64(*i as u64);
         }
     }
+    /// Hashes a string (with its length, so concatenations differ).
     pub fn write_str(&mut self, s: &str) {
         self.write_u64(s.len() as u64);
         self.write_bytes(s.as_bytes());
     }
+    /// The hash so far.
     pub fn finish(&self) -> u64 {
         self.0
     }

@@ -13,19 +13,25 @@ use crate::{light::AreaLight, scene::Aabb, Gpu, Scene};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Vertex {
+    /// World position.
     pub position: [f32; 3],
+    /// World normal.
     pub normal: [f32; 3],
     /// RGB8 albedo in the low 24 bits; bit 24 = casts shadow, bit 25 = receives shadow.
     pub color_flags: u32,
 }
 
+/// [`Vertex::color_flags`] bit of instances that cast shadows.
 pub const FLAG_CASTS: u32 = 1 << 24;
+/// [`Vertex::color_flags`] bit of instances that receive shadows.
 pub const FLAG_RECEIVES: u32 = 1 << 25;
 
 impl Vertex {
+    /// The three attributes at locations 0, 1, 2.
     pub const ATTRIBUTES: [wgpu::VertexAttribute; 3] =
         wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
 
+    /// All attributes (the G-buffer pass).
     pub fn layout() -> wgpu::VertexBufferLayout<'static> {
         wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<Vertex>() as u64,
@@ -46,33 +52,48 @@ impl Vertex {
 
 /// An index list in [`SceneGpu`]; `None` when empty.
 pub struct IndexList {
+    /// The `u32` index buffer.
     pub buffer: wgpu::Buffer,
+    /// Indices in it.
     pub count: u32,
 }
 
+/// An uploaded scene: what techniques draw into shadow maps and fit their windows to.
 pub struct SceneGpu {
+    /// Scene name (for messages).
     pub name: String,
+    /// [`Scene::content_hash`] of the uploaded scene.
     pub content_hash: u64,
     /// [`Scene::instances_hash`] of the static instances.
     pub static_hash: u64,
     /// [`Scene::instances_hash`] of the dynamic instances.
     pub dynamic_hash: u64,
+    /// Every vertex, world space.
     pub vertices: wgpu::Buffer,
+    /// Every triangle.
     pub all: Option<IndexList>,
+    /// Triangles of instances that cast shadows.
     pub casters: Option<IndexList>,
     /// Casters of static instances only (precomputes such as the PDSM).
     pub static_casters: Option<IndexList>,
     /// Casters of dynamic instances only (drawn per frame beside a static precompute).
     pub dynamic_casters: Option<IndexList>,
+    /// Triangles of instances that receive shadows.
     pub receivers: Option<IndexList>,
+    /// World bounds of everything.
     pub bounds: Aabb,
+    /// World bounds of the casters.
     pub caster_bounds: Aabb,
     /// World bounds of the static instances, and of their casters (precomputes over the static
     /// scene fit their views to these, so a moved dynamic instance does not change them).
     pub static_bounds: Aabb,
+    /// World bounds of the static casters.
     pub static_caster_bounds: Aabb,
+    /// World bounds of the receivers.
     pub receiver_bounds: Aabb,
+    /// Triangles in [`SceneGpu::all`].
     pub triangle_count: usize,
+    /// Triangles in [`SceneGpu::casters`].
     pub caster_triangle_count: usize,
     /// World positions of caster vertices (for tight light-space bounds).
     caster_positions: Vec<Vec3>,
@@ -206,6 +227,7 @@ impl SceneGpu {
         }
     }
 
+    /// Whether any instance casts shadows.
     pub fn has_casters(&self) -> bool {
         self.casters.is_some()
     }
@@ -262,6 +284,7 @@ impl SceneGpu {
         }
     }
 
+    /// Draws the receivers.
     pub fn draw_receivers(&self, pass: &mut wgpu::RenderPass<'_>) {
         if let Some(list) = &self.receivers {
             pass.set_vertex_buffer(0, self.vertices.slice(..));
@@ -270,6 +293,7 @@ impl SceneGpu {
         }
     }
 
+    /// Draws everything (the G-buffer pass).
     pub fn draw_all(&self, pass: &mut wgpu::RenderPass<'_>) {
         if let Some(list) = &self.all {
             pass.set_vertex_buffer(0, self.vertices.slice(..));

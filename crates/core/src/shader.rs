@@ -11,17 +11,16 @@ use naga_oil::compose::{
 
 use crate::{error::GpuError, Gpu};
 
-/// Includes `shaders/<path>` from the workspace root as a `(path, source)` pair.
+/// Includes `shaders/<path>` as a `(path, source)` pair, read from the calling crate's own
+/// `shaders/` folder: each crate holds symbolic links to its folders of the workspace's
+/// `shaders/` (`crates/pcss/shaders/pcss -> ../../../shaders/pcss`), so a packaged crate
+/// carries its WGSL (`cargo package` follows the links) while the files stay in one tree.
 #[macro_export]
 macro_rules! shader_file {
     ($path:literal) => {
         (
             $path,
-            include_str!(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../shaders/",
-                $path
-            )),
+            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $path)),
         )
     };
 }
@@ -29,8 +28,11 @@ macro_rules! shader_file {
 /// A shader-def value, constructible in `const` tables.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DefValue {
+    /// A boolean def (`#ifdef NAME`).
     Bool(bool),
+    /// A signed integer def.
     Int(i32),
+    /// An unsigned integer def.
     UInt(u32),
 }
 
@@ -52,6 +54,7 @@ pub type Permutation = &'static [(&'static str, DefValue)];
 pub struct ShaderSpec {
     /// Path under `shaders/`, e.g. `pcss/pcss.wgsl`.
     pub path: &'static str,
+    /// The WGSL source.
     pub source: &'static str,
     /// At least one (use `&[&[]]` for "no defs").
     pub permutations: &'static [Permutation],
@@ -92,6 +95,16 @@ pub const CORE_SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "core/unshadowed.wgsl",
         source: shader_file!("core/unshadowed.wgsl").1,
+        permutations: &[&[]],
+    },
+    ShaderSpec {
+        path: "core/host_surface.wgsl",
+        source: shader_file!("core/host_surface.wgsl").1,
+        permutations: &[&[], &[("FROM_DEPTH", DefValue::Bool(true))]],
+    },
+    ShaderSpec {
+        path: "core/host_output.wgsl",
+        source: shader_file!("core/host_output.wgsl").1,
         permutations: &[&[]],
     },
 ];

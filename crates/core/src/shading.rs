@@ -14,9 +14,12 @@ use crate::{
 /// sRGB-encoded 8-bit output, so the bytes read back are what a PNG stores.
 pub const SHADED_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
+/// What the shading pass draws.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadingMode {
+    /// Albedo lit by the area light through the visibility, plus ambient.
     Shaded = 0,
+    /// The visibility as grey.
     Visibility = 1,
 }
 
@@ -27,6 +30,7 @@ struct ShadingParams {
     _pad: [u32; 3],
 }
 
+/// The shading pass: albedo * (ambient + V * intensity * cos), or V as grey.
 pub struct ShadingPass {
     pipeline: FullscreenPipeline,
     layout: wgpu::BindGroupLayout,
@@ -34,6 +38,7 @@ pub struct ShadingPass {
 }
 
 impl ShadingPass {
+    /// Builds the pipeline (`shaders/core/shading.wgsl`).
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let stage = wgpu::ShaderStages::FRAGMENT;
         let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
@@ -70,6 +75,7 @@ impl ShadingPass {
         })
     }
 
+    /// The target the shading pass writes (`SHADED_FORMAT`, readable back).
     pub fn create_target(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
         create_texture(
             gpu,
@@ -83,6 +89,7 @@ impl ShadingPass {
         )
     }
 
+    /// Records the pass (`shading`) from the G-buffer and `visibility` into `target`.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,

@@ -12,19 +12,25 @@ use crate::{
     shader, Gpu, GpuError,
 };
 
+/// Format of every shadow map.
 pub const SHADOW_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// Mirrors `ShadowView` in `shaders/common/shadow_view.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ShadowViewUniform {
+    /// World to the map's clip space.
     pub light_view_proj: [[f32; 4]; 4],
+    /// The slope window: s_min, s_max, t_min, t_max.
     pub window: [f32; 4],
+    /// Eye (x, y) on the light plane, near and far depth.
     pub eye_near_far: [f32; 4],
+    /// Map edge in texels, its inverse, and two unused values.
     pub size: [f32; 4],
 }
 
 impl ShadowViewUniform {
+    /// The view of a `map_size`² map through `frustum`.
     pub fn new(light: &AreaLight, frustum: &SlopeFrustum, map_size: u32) -> Self {
         let m = frustum.projection() * light.view();
         let n = map_size as f32;
@@ -73,6 +79,7 @@ pub struct DepthMapRenderer {
 }
 
 impl DepthMapRenderer {
+    /// Builds the depth pipeline (`shaders/core/depth.wgsl`).
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[1], &[])?;
         let layout = gpu
@@ -271,6 +278,7 @@ pub struct CentreShadowMap {
 }
 
 impl CentreShadowMap {
+    /// The renderer of the map; the texture is made by the first render.
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
@@ -395,6 +403,7 @@ impl CentreShadowMap {
         self.map.as_ref().map(|m| &m.2)
     }
 
+    /// The map drawn by the last render, if any.
     pub fn map_texture(&self) -> Option<&wgpu::Texture> {
         self.map.as_ref().map(|m| &m.1)
     }

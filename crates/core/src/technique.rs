@@ -10,11 +10,112 @@ use crate::{
     Gpu,
 };
 
+/// Device limits a technique needs beyond nothing at all. Every technique of the workspace fits in
+/// [`wgpu::Limits::default`] at its default settings; a host that creates its device with
+/// `wgpu::Limits::downlevel_defaults()` or smaller limits is told which of these it lacks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MinLimits {
+    /// Largest 2D texture edge the technique creates (shadow maps at the largest settable size).
+    pub max_texture_dimension_2d: u32,
+    /// Layers of the largest texture array (shadow-map arrays, depth-peeled layers).
+    pub max_texture_array_layers: u32,
+    /// Largest storage-buffer binding, in bytes.
+    pub max_storage_buffer_binding_size: u64,
+    /// Storage textures one shader stage binds.
+    pub max_storage_textures_per_shader_stage: u32,
+}
+
+impl Default for MinLimits {
+    /// What the core passes need: the 8192-texel frame edge ([`crate::renderer::MAX_RESOLUTION`])
+    /// is not required, the 4096-texel shadow maps every technique allows are.
+    fn default() -> Self {
+        Self {
+            max_texture_dimension_2d: 4096,
+            max_texture_array_layers: 1,
+            max_storage_buffer_binding_size: 0,
+            max_storage_textures_per_shader_stage: 0,
+        }
+    }
+}
+
+impl MinLimits {
+    /// The larger of each limit (what a device running both techniques needs).
+    pub fn max(self, other: Self) -> Self {
+        Self {
+            max_texture_dimension_2d: self
+                .max_texture_dimension_2d
+                .max(other.max_texture_dimension_2d),
+            max_texture_array_layers: self
+                .max_texture_array_layers
+                .max(other.max_texture_array_layers),
+            max_storage_buffer_binding_size: self
+                .max_storage_buffer_binding_size
+                .max(other.max_storage_buffer_binding_size),
+            max_storage_textures_per_shader_stage: self
+                .max_storage_textures_per_shader_stage
+                .max(other.max_storage_textures_per_shader_stage),
+        }
+    }
+
+    /// `limits` raised to at least these values: what to pass as
+    /// `wgpu::DeviceDescriptor::required_limits`.
+    pub fn apply_to(&self, limits: wgpu::Limits) -> wgpu::Limits {
+        wgpu::Limits {
+            max_texture_dimension_2d: limits
+                .max_texture_dimension_2d
+                .max(self.max_texture_dimension_2d),
+            max_texture_array_layers: limits
+                .max_texture_array_layers
+                .max(self.max_texture_array_layers),
+            max_storage_buffer_binding_size: limits
+                .max_storage_buffer_binding_size
+                .max(self.max_storage_buffer_binding_size),
+            max_storage_textures_per_shader_stage: limits
+                .max_storage_textures_per_shader_stage
+                .max(self.max_storage_textures_per_shader_stage),
+            ..limits
+        }
+    }
+
+    /// `name: needs N, device has M` for every limit `device` falls short of.
+    pub fn shortfalls(&self, device: &wgpu::Limits) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut check = |name: &str, needs: u64, has: u64| {
+            if has < needs {
+                out.push(format!("{name}: needs {needs}, device has {has}"));
+            }
+        };
+        check(
+            "max_texture_dimension_2d",
+            self.max_texture_dimension_2d.into(),
+            device.max_texture_dimension_2d.into(),
+        );
+        check(
+            "max_texture_array_layers",
+            self.max_texture_array_layers.into(),
+            device.max_texture_array_layers.into(),
+        );
+        check(
+            "max_storage_buffer_binding_size",
+            self.max_storage_buffer_binding_size,
+            device.max_storage_buffer_binding_size,
+        );
+        check(
+            "max_storage_textures_per_shader_stage",
+            self.max_storage_textures_per_shader_stage.into(),
+            device.max_storage_textures_per_shader_stage.into(),
+        );
+        out
+    }
+}
+
 /// What a technique needs from the adapter and the scene.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Requirements {
     /// Adapter features without which the technique cannot run.
     pub features: wgpu::Features,
+    /// Device limits the technique needs at any of its settings.
+    pub limits: MinLimits,
     /// Needs the occluder / receiver split (Atty et al.): casters must not also be receivers to
     /// get correct results (receiver pixels on casters are still shaded, without self-shadowing).
     pub occluder_receiver_split: bool,
@@ -27,7 +128,9 @@ pub type TechniqueStats = BTreeMap<String, f64>;
 
 /// A technique-specific image for the viewer (shadow map, chosen level, ...).
 pub struct DebugView {
+    /// Name shown in the viewer's view list.
     pub name: String,
+    /// The image.
     pub texture: wgpu::Texture,
 }
 
@@ -35,11 +138,14 @@ pub struct DebugView {
 pub trait ShadowTechnique {
     /// Stable id used on the command line, in JSON and in the GUI.
     fn id(&self) -> &'static str;
+    /// What the technique needs from the device at its current settings (checked before every
+    /// frame).
     fn requirements(&self) -> Requirements {
         Requirements::default()
     }
     /// The technique's settings (declared with [`technique_settings!`](crate::technique_settings)).
     fn settings(&self) -> &dyn TechniqueSettings;
+    /// The settings, to change (through [`ShadowTechnique::set_param`] or directly).
     fn settings_mut(&mut self) -> &mut dyn TechniqueSettings;
     /// Current parameter values with their specs.
     fn params(&self) -> ParamSet {
@@ -70,6 +176,7 @@ pub trait ShadowTechnique {
     fn stats(&self) -> TechniqueStats {
         TechniqueStats::new()
     }
+    /// Technique-specific images of the last frame for the viewer (empty by default).
     fn debug_views(&self) -> Vec<DebugView> {
         Vec::new()
     }
@@ -78,11 +185,19 @@ pub trait ShadowTechnique {
 /// A registry entry: what `workbench list` prints without a GPU, and how to build the technique.
 #[derive(Clone, Copy)]
 pub struct TechniqueInfo {
+    /// Stable id ([`ShadowTechnique::id`]).
     pub id: &'static str,
+    /// One line for `workbench list` and the GUI.
     pub description: &'static str,
     /// Paper or source the technique follows.
     pub source: &'static str,
+    /// The parameters with their specs.
     pub params: fn() -> Vec<ParamSpec>,
+    /// What the technique needs from the device at its default settings (features and limits),
+    /// known without a device: what a host checks or requests when it creates its own device
+    /// ([`Gpu::from_host`], [`Requirements::all`]).
+    pub requirements: fn() -> Requirements,
+    /// Builds the technique on `gpu` with its default settings.
     pub create: fn(&Gpu) -> Result<Box<dyn ShadowTechnique>, TechniqueError>,
 }
 
@@ -113,20 +228,47 @@ impl TechniqueInfo {
     }
 }
 
-/// Checks the adapter has what `requirements` lists.
+impl Requirements {
+    /// The union of what `techniques` need: the features and limits to request when creating a
+    /// device for them (`required_features: r.features`,
+    /// `required_limits: r.limits.apply_to(wgpu::Limits::default())`).
+    pub fn all(techniques: &[TechniqueInfo]) -> Self {
+        techniques.iter().fold(Self::default(), |acc, t| {
+            let r = (t.requirements)();
+            Self {
+                features: acc.features | r.features,
+                limits: acc.limits.max(r.limits),
+                occluder_receiver_split: acc.occluder_receiver_split || r.occluder_receiver_split,
+                static_scene: acc.static_scene || r.static_scene,
+            }
+        })
+    }
+
+    /// What `device` lacks of these requirements: missing features and the limits it falls
+    /// short of (empty when it has everything).
+    pub fn missing_on(&self, device: &wgpu::Device) -> (wgpu::Features, Vec<String>) {
+        (
+            self.features - device.features(),
+            self.limits.shortfalls(&device.limits()),
+        )
+    }
+}
+
+/// Checks the device has what `requirements` lists.
 pub fn check_requirements(
     gpu: &Gpu,
     id: &str,
     requirements: &Requirements,
 ) -> Result<(), TechniqueError> {
-    let missing = requirements.features - gpu.features();
-    if missing.is_empty() {
+    let (missing, limits) = requirements.missing_on(&gpu.device);
+    if missing.is_empty() && limits.is_empty() {
         Ok(())
     } else {
         Err(TechniqueError::MissingFeatures {
             technique: id.into(),
             adapter: gpu.summary().name,
             missing,
+            limits: limits.join("; "),
         })
     }
 }

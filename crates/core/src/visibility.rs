@@ -36,16 +36,23 @@ impl UnshadowedPass {
     }
 }
 
+/// The visibility buffer's format.
 pub const VISIBILITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
+/// The visibility buffer: V per pixel ([module docs](self)).
 pub struct VisibilityBuffer {
+    /// The texture.
     pub texture: wgpu::Texture,
+    /// Its view.
     pub view: wgpu::TextureView,
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
 }
 
 impl VisibilityBuffer {
+    /// A buffer for `width` x `height` frames (render target, storage, sampled, copyable).
     pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> Self {
         let texture = create_texture(
             gpu,
@@ -119,6 +126,20 @@ impl VisibilityBuffer {
         encoder.copy_texture_to_texture(
             source.as_image_copy(),
             self.texture.as_image_copy(),
+            wgpu::Extent3d {
+                width: self.width,
+                height: self.height,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+
+    /// Copies this buffer into `target` (an `R32Float` texture of the same size with
+    /// `COPY_DST`).
+    pub fn copy_to(&self, encoder: &mut wgpu::CommandEncoder, target: &wgpu::Texture) {
+        encoder.copy_texture_to_texture(
+            self.texture.as_image_copy(),
+            target.as_image_copy(),
             wgpu::Extent3d {
                 width: self.width,
                 height: self.height,

@@ -4,6 +4,8 @@
 //! It is the floor of every cost comparison and the limit every soft technique must approach as
 //! the light shrinks to a point.
 
+#![warn(missing_docs)]
+
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     fullscreen::{uniform_buffer, FullscreenPipeline},
@@ -14,8 +16,10 @@ use softshadow_core::{
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "hard";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "hard/hard.wgsl",
     source: shader_file!("hard/hard.wgsl").1,
@@ -39,7 +43,9 @@ struct HardParams {
     _pad: [f32; 3],
 }
 
+/// The `hard` technique: a [`ShadowTechnique`] with its settings.
 pub struct HardShadows {
+    /// Its settings; changes take effect on the next frame.
     pub settings: HardSettings,
     shadow_map: CentreShadowMap,
     lookup: FullscreenPipeline,
@@ -48,17 +54,20 @@ pub struct HardShadows {
     stats: TechniqueStats,
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Hard shadows: one shadow map from the light centre (cost floor)",
         source: "Williams 1978",
         params: HardSettings::param_specs,
+        requirements: softshadow_core::Requirements::default,
         create: |gpu| Ok(Box::new(HardShadows::new(gpu, HardSettings::default())?)),
     }
 }
 
 impl HardShadows {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
         let layout = CentreShadowMap::lookup_layout(gpu, "hard/lookup");
         Ok(Self {

@@ -24,6 +24,8 @@
 //! [`difference_image`] (false-colour signed-error image) and
 //! [`visibility_to_gray8`] (8-bit preview of a visibility buffer).
 
+#![warn(missing_docs)]
+
 use serde::{Deserialize, Serialize};
 
 /// Errors returned by the metrics functions. Each message names the problem

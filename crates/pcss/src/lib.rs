@@ -4,6 +4,8 @@
 //! Writes: the visibility buffer. Passes: `pcss/shadow_map`, `pcss/filter` (blocker search,
 //! penumbra estimate and percentage-closer filtering in one fullscreen pass).
 
+#![warn(missing_docs)]
+
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     fullscreen::{uniform_buffer, FullscreenPipeline},
@@ -14,8 +16,10 @@ use softshadow_core::{
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "pcss";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "pcss/pcss.wgsl",
     source: shader_file!("pcss/pcss.wgsl").1,
@@ -65,7 +69,9 @@ struct PcssUniform {
     _pad1: [f32; 2],
 }
 
+/// The `pcss` technique: a [`ShadowTechnique`] with its settings.
 pub struct Pcss {
+    /// Its settings; changes take effect on the next frame.
     pub settings: PcssSettings,
     shadow_map: CentreShadowMap,
     filter: FullscreenPipeline,
@@ -74,17 +80,20 @@ pub struct Pcss {
     stats: TechniqueStats,
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "PCSS: blocker search, penumbra estimate, percentage-closer filtering",
         source: "Fernando 2005",
         params: PcssSettings::param_specs,
+        requirements: softshadow_core::Requirements::default,
         create: |gpu| Ok(Box::new(Pcss::new(gpu, PcssSettings::default())?)),
     }
 }
 
 impl Pcss {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PcssSettings) -> Result<Self, TechniqueError> {
         let layout = CentreShadowMap::lookup_layout(gpu, "pcss/filter");
         Ok(Self {

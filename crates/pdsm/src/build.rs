@@ -12,13 +12,17 @@ use crate::function::{self, Event};
 /// One shadow map read back from the GPU: light-space depth per texel (row 0 at `t_max`),
 /// `f32::INFINITY` where no caster was drawn.
 pub struct SampleMap {
+    /// The map's window and depth range.
     pub frustum: SlopeFrustum,
+    /// Light-space depth per texel, row-major.
     pub depth: Vec<f32>,
 }
 
 /// The k shadow maps of the light samples, all `size`².
 pub struct SampleMaps {
+    /// Edge of every map in texels.
     pub size: u32,
+    /// One map per light sample.
     pub maps: Vec<SampleMap>,
 }
 
@@ -36,11 +40,15 @@ impl SampleMaps {
 /// and data (`[depth, visibility]` vertices, see [`crate::function`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PdsmData {
+    /// Edge in texels.
     pub size: u32,
     /// Window from the light centre (eye = 0) and the depth range of the rays.
     pub frustum: SlopeFrustum,
+    /// Start of each texel's vertices in `vertices` (one more entry than texels).
     pub offsets: Vec<u32>,
+    /// `[depth, visibility]` vertices of every texel's function.
     pub vertices: Vec<[f32; 2]>,
+    /// What the build measured.
     pub stats: BuildStats,
 }
 
@@ -48,10 +56,15 @@ pub struct PdsmData {
 /// measured against the uncompressed function.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BuildStats {
+    /// Mean events per texel before compression.
     pub events_mean: f64,
+    /// Most events in one texel.
     pub events_max: u32,
+    /// Mean vertices per texel after compression.
     pub vertices_mean: f64,
+    /// Most vertices in one texel.
     pub vertices_max: u32,
+    /// Largest difference between the compressed and the exact function.
     pub max_compression_error: f32,
 }
 
@@ -63,7 +76,9 @@ pub struct Cancelled;
 /// finished PDSM rows (of `pdsm_size`).
 #[derive(Clone, Debug, Default)]
 pub struct BuildControl {
+    /// Set to stop the build.
     pub cancel: std::sync::Arc<AtomicBool>,
+    /// PDSM rows finished so far.
     pub rows_done: std::sync::Arc<AtomicU32>,
 }
 

@@ -39,6 +39,7 @@ pub fn file_path(dir: &Path, key: u64) -> PathBuf {
     dir.join(format!("pdsm-{key:016x}.bin"))
 }
 
+/// The cache file's bytes for `pdsm` under `key`.
 pub fn encode(key: u64, pdsm: &PdsmData) -> Vec<u8> {
     let mut out = Vec::with_capacity(96 + pdsm.offsets.len() * 4 + pdsm.vertices.len() * 8);
     out.extend_from_slice(MAGIC);

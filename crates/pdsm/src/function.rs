@@ -11,7 +11,9 @@
 /// point shadowed changes by `delta` (+1 entry, -1 exit; section 3.1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Event {
+    /// Light-space depth of the event.
     pub depth: f32,
+    /// Change in the number of maps that see the point shadowed.
     pub delta: i32,
 }
 

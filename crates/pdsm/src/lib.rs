@@ -15,6 +15,8 @@
 //! Watching and cancelling a build: [`PdsmShadows::build_control`] hands out the cancel flag and
 //! the row counter (`rows_done` of `pdsm_size`) a viewer or CLI can poll from another thread.
 
+#![warn(missing_docs)]
+
 pub mod build;
 pub mod cache;
 pub mod function;
@@ -40,8 +42,10 @@ use softshadow_core::{
 
 pub use build::{BuildControl, BuildStats, PdsmData};
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "pdsm";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "pdsm/evaluate.wgsl",
     source: shader_file!("pdsm/evaluate.wgsl").1,
@@ -108,7 +112,9 @@ struct DynamicMap {
     drawn: bool,
 }
 
+/// The `pdsm` technique: a [`ShadowTechnique`] with its settings.
 pub struct PdsmShadows {
+    /// Its settings; changes take effect on the next frame.
     pub settings: PdsmSettings,
     /// Where built PDSMs are cached; `None` = [`cache::default_dir`].
     pub cache_dir: Option<PathBuf>,
@@ -131,12 +137,14 @@ pub struct PdsmShadows {
     debug: Vec<DebugView>,
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Penumbra deep shadow maps: precomputed, compressed attenuation per texel (static casters), PCF for dynamic ones",
         source: "St-Amour, Paquette & Poulin 2005",
         params: PdsmSettings::param_specs,
+        requirements: softshadow_core::Requirements::default,
         create: |gpu| Ok(Box::new(PdsmShadows::new(gpu, PdsmSettings::default())?)),
     }
 }
@@ -245,7 +253,7 @@ fn pdsm_window(
 }
 
 /// Bytes the precompute is estimated to need: read-back maps (light-space depth, f32) and the
-/// PDSM (index plus [`ESTIMATED_VERTICES_PER_TEXEL`] vertices per texel).
+/// PDSM (index plus `ESTIMATED_VERTICES_PER_TEXEL` vertices per texel).
 pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
     let m = settings.shadow_map_size as u64;
     let n = settings.pdsm_size as u64;
@@ -255,6 +263,7 @@ pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
 }
 
 impl PdsmShadows {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PdsmSettings) -> Result<Self, TechniqueError> {
         let fragment = wgpu::ShaderStages::FRAGMENT;
         let storage = |binding| wgpu::BindGroupLayoutEntry {

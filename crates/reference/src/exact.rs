@@ -12,8 +12,11 @@ use softshadow_core::{
 /// A rectangle `[min, max]` (light-space x, y) in the plane `z` (distance from the light plane).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParallelRect {
+    /// Smallest corner (light-space x, y).
     pub min: Vec2,
+    /// Largest corner.
     pub max: Vec2,
+    /// Distance from the light plane.
     pub z: f32,
 }
 

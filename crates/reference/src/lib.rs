@@ -10,6 +10,8 @@
 //!
 //! Reads: the casters and the G-buffer. Writes: the visibility buffer.
 
+#![warn(missing_docs)]
+
 pub mod exact;
 pub mod raycast;
 
@@ -29,8 +31,10 @@ use softshadow_core::{
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "reference";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "reference/accumulate.wgsl",
@@ -129,7 +133,9 @@ struct Cached {
     texture: wgpu::Texture,
 }
 
+/// The `reference` technique: accumulated hard shadows, with its settings.
 pub struct AccumulatedReference {
+    /// Its settings; changes take effect on the next frame.
     pub settings: ReferenceSettings,
     depth: DepthMapRenderer,
     accumulate: FullscreenPipeline,
@@ -151,11 +157,14 @@ pub struct AccumulatedReference {
 /// How far a progressive reference has come: `done` of `total` light samples accumulated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Progress {
+    /// Light samples accumulated so far.
     pub done: u32,
+    /// Light samples in all.
     pub total: u32,
 }
 
 impl Progress {
+    /// Every sample has been accumulated.
     pub fn is_complete(&self) -> bool {
         self.done >= self.total
     }
@@ -181,12 +190,14 @@ struct InProgress {
     result: VisibilityBuffer,
 }
 
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Reference: accumulated hard shadows from N x N stratified light samples",
         source: "Heckbert & Herf 1997 (accumulated hard shadows)",
         params: ReferenceSettings::param_specs,
+        requirements: AccumulatedReference::requirements_static,
         create: |gpu| {
             Ok(Box::new(AccumulatedReference::new(
                 gpu,
@@ -197,6 +208,7 @@ pub fn info() -> TechniqueInfo {
 }
 
 impl AccumulatedReference {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: ReferenceSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::FRAGMENT;
         let accumulate_layout =
@@ -261,7 +273,7 @@ impl AccumulatedReference {
         })
     }
 
-    fn requirements_static() -> Requirements {
+    pub(crate) fn requirements_static() -> Requirements {
         Requirements {
             // Summing per-batch counts into an R32Float target by additive blending.
             features: wgpu::Features::FLOAT32_BLENDABLE,
@@ -282,7 +294,9 @@ impl AccumulatedReference {
         let mut h = Fnv1a::default();
         h.write_u64(inputs.scene.content_hash);
         h.write_u64(inputs.light.content_hash());
-        h.write_u64(inputs.camera.content_hash());
+        // The camera as the frame sees it (a host renderer has no workbench `Camera`).
+        h.write_f32s(&inputs.uniforms.view_proj.concat());
+        h.write_f32s(&inputs.uniforms.camera_pos);
         h.write_u64(inputs.width as u64 | (inputs.height as u64) << 32);
         for (_, v) in self.params().entries {
             h.write_str(&v.to_string());

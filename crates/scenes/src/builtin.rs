@@ -14,7 +14,7 @@ use crate::SceneError;
 /// A builtin scene as a CLI lists it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BuiltinInfo {
-    /// The id to pass to [`crate::load`] / [`crate::builtin`], e.g. `atty-square`.
+    /// The id to pass to [`crate::load`] / [`crate::builtin()`], e.g. `atty-square`.
     pub id: &'static str,
     /// One line: what the scene shows and where it comes from.
     pub description: &'static str,
@@ -25,13 +25,17 @@ pub struct BuiltinInfo {
 /// One numeric parameter of a builtin scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParamInfo {
+    /// Parameter name, as in `atty-square:occluder_height=1.5`.
     pub name: &'static str,
+    /// Value when not given.
     pub default: f64,
+    /// What it changes.
     pub description: &'static str,
     /// Smallest accepted value (excluded when `min_exclusive`).
     pub min: f64,
     /// Largest accepted value (included).
     pub max: f64,
+    /// `min` itself is not accepted.
     pub min_exclusive: bool,
 }
 
@@ -293,7 +297,7 @@ fn resolve(info: &BuiltinInfo, params: &[(String, f64)]) -> Result<Vec<f64>, Sce
 
 /// Builds builtin scene `id` with `params` (name, value); unnamed parameters take their
 /// defaults. Meshes are not yet repaired and the scene is not yet validated: use
-/// [`crate::builtin`] for that.
+/// [`crate::builtin()`] for that.
 pub fn build(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> {
     let info = builtin_scenes()
         .into_iter()

@@ -8,37 +8,59 @@ use thiserror::Error;
 pub enum SceneError {
     /// The spec is neither a builtin id nor a path to a supported file.
     #[error("unknown scene `{spec}`: run `workbench list` to see scene ids, or give a path to a .toml/.gltf/.glb file")]
-    UnknownScene { spec: String },
+    UnknownScene {
+        /// The spec given.
+        spec: String,
+    },
 
     /// A `id:key=value,...` parameter list could not be parsed.
     #[error("scene spec `{spec}`: {detail}; write parameters as `id:key=value,key=value`")]
-    BadSpec { spec: String, detail: String },
+    BadSpec {
+        /// The spec given.
+        spec: String,
+        /// What is wrong with it.
+        detail: String,
+    },
 
     /// A parameter name the builtin scene does not have.
     #[error("unknown parameter `{name}` for scene `{scene}`: known parameters are {known}")]
     UnknownParameter {
+        /// The builtin scene.
         scene: String,
+        /// The name given.
         name: String,
+        /// The names there are.
         known: String,
     },
 
     /// A parameter value that does not parse as a number.
     #[error("parameter `{name}` = `{value}` for scene `{scene}` is not a number: give a number such as 1.5")]
     ParameterNotANumber {
+        /// The builtin scene.
         scene: String,
+        /// Parameter name.
         name: String,
+        /// The text given.
         value: String,
     },
 
     /// A NaN or infinite parameter value.
     #[error("parameter `{name}` = {value} is not finite: give a finite number")]
-    ParameterNotFinite { name: String, value: f64 },
+    ParameterNotFinite {
+        /// Parameter name.
+        name: String,
+        /// The value given.
+        value: f64,
+    },
 
     /// A parameter outside its allowed range.
     #[error("parameter `{name}` = {value} for scene `{scene}` is out of range: {expected}")]
     ParameterOutOfRange {
+        /// The builtin scene.
         scene: String,
+        /// Parameter name.
         name: String,
+        /// The value given.
         value: f64,
         /// What would be accepted, e.g. "use 0 to 4".
         expected: String,
@@ -46,48 +68,80 @@ pub enum SceneError {
 
     /// A scene or glTF file that does not exist. `kind` is "scene file" or "glTF file".
     #[error("{kind} `{path}` not found: check the path")]
-    FileNotFound { kind: &'static str, path: String },
+    FileNotFound {
+        /// "scene file" or "glTF file".
+        kind: &'static str,
+        /// The path given.
+        path: String,
+    },
 
     /// Any other I/O failure while reading a file.
     #[error("cannot read `{path}`: {message}; check the file permissions")]
-    Io { path: String, message: String },
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
 
     /// A file with an extension this crate does not read.
     #[error(
         "`{path}` is not a supported scene file: give a .toml scene file or a .gltf/.glb model"
     )]
-    UnsupportedFile { path: String },
+    UnsupportedFile {
+        /// The path given.
+        path: String,
+    },
 
     /// A TOML syntax or schema error (unknown field, wrong type, missing field).
     #[error("scene file `{path}`{}: {message}", line.map(|l| format!(" line {l}")).unwrap_or_default())]
     SceneFile {
+        /// The file.
         path: String,
+        /// 1-based line of the error, when known.
         line: Option<usize>,
+        /// The parser's message.
         message: String,
     },
 
     /// A semantically invalid `[[object]]` entry (no or several mesh sources, bad primitive size).
     #[error("scene file `{path}` object {index}{}: {message}", name.as_ref().map(|n| format!(" (`{n}`)")).unwrap_or_default())]
     SceneObject {
+        /// The file.
         path: String,
         /// 1-based position of the `[[object]]` table in the file.
         index: usize,
+        /// The object's `name`, if it has one.
         name: Option<String>,
+        /// What is wrong with it.
         message: String,
     },
 
     /// A glTF file the `gltf` crate rejects (syntax, truncated binary, missing buffer, ...).
     #[error("glTF file `{path}` is malformed: {message}; re-export it as glTF 2.0")]
-    GltfMalformed { path: String, message: String },
+    GltfMalformed {
+        /// The file.
+        path: String,
+        /// The gltf crate's message.
+        message: String,
+    },
 
     /// A glTF file without any triangle geometry.
     #[error("glTF file `{path}` contains no triangle meshes: export at least one mesh with triangle primitives")]
-    GltfNoGeometry { path: String },
+    GltfNoGeometry {
+        /// The file.
+        path: String,
+    },
 
     /// The finished scene failed [`softshadow_core::Scene::validate`]. `origin` says where it
     /// came from (e.g. "scene file `x.toml`" or "builtin scene `atty-square`").
     #[error("{origin}: {message}")]
-    Invalid { origin: String, message: String },
+    Invalid {
+        /// Where the scene came from.
+        origin: String,
+        /// What `validate` said.
+        message: String,
+    },
 }
 
 /// Puts a message on one line (glTF and TOML errors sometimes span several).

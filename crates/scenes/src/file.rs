@@ -34,8 +34,10 @@ use crate::{primitives, SceneError};
 pub struct SceneFile {
     /// Scene name; defaults to the file stem.
     pub name: Option<String>,
+    /// `[light]`.
     #[serde(default)]
     pub light: LightDef,
+    /// `[camera]`.
     #[serde(default)]
     pub camera: CameraDef,
     /// The `[[object]]` array.
@@ -48,17 +50,22 @@ pub struct SceneFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightDef {
+    /// Centre of the light rectangle (default 0, 4, 0).
     #[serde(default = "LightDef::default_center")]
     pub center: [f32; 3],
+    /// Direction the light faces.
     pub direction: Option<[f32; 3]>,
+    /// A point the light faces (instead of `direction`).
     pub target: Option<[f32; 3]>,
     /// Light +y (the `height` edge); default +z for lights facing (nearly) straight up or down,
     /// +y otherwise.
     pub up: Option<[f32; 3]>,
+    /// Edge along the light's x axis (default 1).
     #[serde(default = "one")]
     pub width: f32,
     /// Defaults to `width` (a square light).
     pub height: Option<f32>,
+    /// Radiant scale of the light (default 1).
     #[serde(default = "one")]
     pub intensity: f32,
 }
@@ -87,11 +94,17 @@ impl Default for LightDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraDef {
+    /// Camera position.
     pub eye: [f32; 3],
+    /// The point looked at.
     pub target: [f32; 3],
+    /// Up direction.
     pub up: [f32; 3],
+    /// Vertical field of view in degrees.
     pub fov_y_degrees: f32,
+    /// Near clipping distance.
     pub near: f32,
+    /// Far clipping distance.
     pub far: f32,
 }
 
@@ -112,7 +125,9 @@ impl Default for CameraDef {
 #[derive(Debug, Deserialize, Clone, Copy)]
 #[serde(untagged)]
 pub enum ScaleDef {
+    /// The same factor on every axis.
     Uniform(f32),
+    /// One factor per axis.
     PerAxis([f32; 3]),
 }
 
@@ -129,26 +144,39 @@ impl ScaleDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectDef {
+    /// Object name (for messages).
     pub name: Option<String>,
+    /// A plane mesh.
     pub plane: Option<PlaneDef>,
+    /// A box mesh (`box = { ... }` in the file).
     #[serde(rename = "box")]
     pub cuboid: Option<BoxDef>,
+    /// A sphere mesh.
     pub sphere: Option<SphereDef>,
+    /// A random blob mesh.
     pub blob: Option<BlobDef>,
+    /// A cylinder mesh.
     pub cylinder: Option<CylinderDef>,
     /// Path of a `.gltf`/`.glb` file, relative to the scene file (or absolute).
     pub gltf: Option<PathBuf>,
+    /// Translation (default 0).
     #[serde(default)]
     pub translation: [f32; 3],
+    /// Rotation about x, then y, then z, in degrees (default 0).
     #[serde(default)]
     pub rotation_degrees: [f32; 3],
+    /// Scale: one number or one per axis (default 1).
     pub scale: Option<ScaleDef>,
+    /// Linear RGB albedo in [0, 1] (default light grey).
     #[serde(default = "default_albedo")]
     pub albedo: [f32; 3],
+    /// Casts shadows (default true).
     #[serde(default = "yes")]
     pub casts_shadow: bool,
+    /// Receives shadows (default true).
     #[serde(default = "yes")]
     pub receives_shadow: bool,
+    /// Moves between frames (default false): precomputes over static casters leave it out.
     #[serde(default)]
     pub dynamic: bool,
 }
@@ -157,6 +185,7 @@ pub struct ObjectDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlaneDef {
+    /// Extent along x and z.
     pub size: [f32; 2],
 }
 
@@ -164,6 +193,7 @@ pub struct PlaneDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxDef {
+    /// Extent along x, y and z.
     pub size: [f32; 3],
 }
 
@@ -171,7 +201,9 @@ pub struct BoxDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SphereDef {
+    /// Radius.
     pub radius: f32,
+    /// Segments around (default 32).
     #[serde(default = "default_segments")]
     pub segments: u32,
 }
@@ -180,9 +212,12 @@ pub struct SphereDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BlobDef {
+    /// Mean radius.
     pub radius: f32,
+    /// Triangle count (default 20000).
     #[serde(default = "default_blob_triangles")]
     pub triangles: u32,
+    /// Random seed (default 1).
     #[serde(default = "one_u64")]
     pub seed: u64,
 }
@@ -191,8 +226,11 @@ pub struct BlobDef {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CylinderDef {
+    /// Radius.
     pub radius: f32,
+    /// Height along y.
     pub height: f32,
+    /// Segments around (default 32).
     #[serde(default = "default_segments")]
     pub segments: u32,
 }

@@ -4,11 +4,13 @@
 //! Entry point: [`load`], which accepts
 //! * a builtin id, optionally with parameters: `atty-square`,
 //!   `atty-square:occluder_height=1.5,light_width=0.2` (see [`builtin_scenes`]);
-//! * a `.toml` scene file (format in `docs/SCENES.md` and [`file`]);
+//! * a `.toml` scene file (format in `docs/SCENES.md` and [`file`](mod@file));
 //! * a `.gltf` / `.glb` model, wrapped into a scene (see [`wrap_gltf`]).
 //!
 //! Every loaded scene has had [`Mesh::repair`] run on all meshes (what was dropped becomes a
 //! warning) and has passed [`Scene::validate`].
+
+#![warn(missing_docs)]
 
 pub mod builtin;
 mod error;
@@ -29,6 +31,7 @@ pub use gltf_import::{load_gltf, GltfGeometry};
 /// A loaded, repaired and validated scene with what the loader had to fix or skip.
 #[derive(Clone, Debug)]
 pub struct Loaded {
+    /// The scene.
     pub scene: Scene,
     /// One line each, e.g. "mesh `x` from file.glb: dropped 3 degenerate and 2 non-finite
     /// triangles".
@@ -77,7 +80,7 @@ pub fn builtin(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> 
     Ok(loaded.scene)
 }
 
-/// Loads a `.toml` scene file (see [`file`] and `docs/SCENES.md`).
+/// Loads a `.toml` scene file (see [`file`](mod@file) and `docs/SCENES.md`).
 pub fn load_scene_file(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let bytes = read_file(path, "scene file")?;

@@ -7,8 +7,8 @@
 //! the exact closed form (`softshadow_reference::exact`); the others (contact, grazing light,
 //! occluder crossing the light plane) are scored against the CPU ray-cast reference.
 //!
-//! Conventions as in [`crate::builtin`]: an 8 x 8 receiver-only ground at y = 0, casters are not
-//! receivers unless said, lights face the ground.
+//! Conventions as in [`crate::builtin`](mod@crate::builtin): an 8 x 8 receiver-only ground at
+//! y = 0, casters are not receivers unless said, lights face the ground.
 
 use glam::{Mat4, Vec3};
 use softshadow_core::{AreaLight, Mesh, Scene};

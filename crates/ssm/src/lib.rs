@@ -16,6 +16,8 @@
 //! 4. `ssm/project`: the soft shadow map(s), merged by maximum, projected onto the receivers.
 //! 5. `ssm/stats`: counters for the report (micro-patches drawn, texels with occlusion).
 
+#![warn(missing_docs)]
+
 pub mod math;
 
 use bytemuck::{Pod, Zeroable};
@@ -31,8 +33,10 @@ use softshadow_core::{
     TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
+/// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "ssm";
 
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "ssm/depth.wgsl",
@@ -244,7 +248,9 @@ struct LastFrame {
     queries: Option<u32>,
 }
 
+/// The `ssm` technique: a [`ShadowTechnique`] with its settings.
 pub struct SoftShadowMaps {
+    /// Its settings; changes take effect on the next frame.
     pub settings: SsmSettings,
     gpu: Gpu,
     occluder_front_pipeline: wgpu::RenderPipeline,
@@ -273,12 +279,28 @@ pub struct SoftShadowMaps {
     light_space_ready: bool,
 }
 
+/// What SSM needs at `precision`: FP32 blending for `fp32` and for the FP32 totals of
+/// `fp16-batched`, and casters that are not also receivers.
+fn requirements_for(precision: Precision) -> Requirements {
+    Requirements {
+        features: if precision == Precision::Fp16 {
+            wgpu::Features::empty()
+        } else {
+            wgpu::Features::FLOAT32_BLENDABLE
+        },
+        occluder_receiver_split: true,
+        ..Requirements::default()
+    }
+}
+
+/// The registry entry: id, description, parameters, requirements and constructor.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         id: ID,
         description: "Soft shadow maps: per occluder-map texel, the occluded fraction of the light scattered over its penumbra",
         source: "Atty et al. 2006",
         params: SsmSettings::param_specs,
+        requirements: || requirements_for(Precision::Fp32),
         create: |gpu| Ok(Box::new(SoftShadowMaps::new(gpu, SsmSettings::default())?)),
     }
 }
@@ -327,6 +349,7 @@ const RECEIVER_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     [Vertex::ATTRIBUTES[0], Vertex::ATTRIBUTES[2]];
 
 impl SoftShadowMaps {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: SsmSettings) -> Result<Self, TechniqueError> {
         let device = &gpu.device;
         let depth_module = create_module(gpu, &SHADERS[0], &[])?;
@@ -630,16 +653,7 @@ impl ShadowTechnique for SoftShadowMaps {
     }
 
     fn requirements(&self) -> Requirements {
-        Requirements {
-            // FP32 blending for `fp32` and for the FP32 totals of `fp16-batched`.
-            features: if self.settings.precision == Precision::Fp16 {
-                wgpu::Features::empty()
-            } else {
-                wgpu::Features::FLOAT32_BLENDABLE
-            },
-            occluder_receiver_split: true,
-            static_scene: false,
-        }
+        requirements_for(self.settings.precision)
     }
 
     fn settings(&self) -> &dyn TechniqueSettings {

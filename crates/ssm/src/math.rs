@@ -15,9 +15,13 @@ use softshadow_core::{
 /// A rectangle in slope space: `s` in `[s0, s1]`, `t` in `[t0, t1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlopeRect {
+    /// Smallest s.
     pub s0: f32,
+    /// Largest s.
     pub s1: f32,
+    /// Smallest t.
     pub t0: f32,
+    /// Largest t.
     pub t1: f32,
 }
 

@@ -70,7 +70,9 @@ pub fn render_state(
     egui_wgpu::RenderState {
         adapter: gpu.adapter.clone(),
         available_adapters: vec![gpu.adapter.clone()],
-        instance: gpu.instance.clone(),
+        // A viewer's Gpu comes from `Gpu::new_headless` / `from_adapter`, which keep the instance;
+        // a host context has none, and egui only needs one to enumerate adapters.
+        instance: gpu.instance.clone().unwrap_or_default(),
         device: gpu.device.clone(),
         queue: gpu.queue.clone(),
         target_format,

@@ -1,0 +1,122 @@
+//! The library crates are ready to publish: each has the metadata crates.io shows (description,
+//! license, readme, keywords, categories), a README that exists, documents every public item
+//! (`#![warn(missing_docs)]`, kept clean by clippy's `-D warnings`), carries its shaders, and
+//! `cargo package --workspace` succeeds. Nothing is uploaded and nothing is compiled
+//! (`--no-verify`), so this costs a few seconds, not a build; docs/LIBRARY.md lists the
+//! `cargo doc` check, which would cost CI a `cargo check` of every dependency.
+
+use std::{path::Path, process::Command};
+
+use anyhow::{ensure, Context, Result};
+
+/// The crates a user adds to their own renderer (docs/LIBRARY.md).
+const LIBRARY_CRATES: &[&str] = &[
+    "softshadow-core",
+    "softshadow-scenes",
+    "softshadow-metrics",
+    "softshadow-reference",
+    "softshadow-hard",
+    "softshadow-pcss",
+    "softshadow-ssm",
+    "softshadow-backprojection",
+    "softshadow-bitmask",
+    "softshadow-adaptive",
+    "softshadow-pdsm",
+];
+
+fn cargo(args: &[&str], target: &Path) -> Result<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let output = Command::new(&cargo)
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        // Its own target folder: the package step must not wait for (or disturb) the build lock.
+        .env("CARGO_TARGET_DIR", target)
+        .output()
+        .with_context(|| format!("running {cargo} {}", args.join(" ")))?;
+    ensure!(
+        output.status.success(),
+        "`cargo {}` failed:\n{}",
+        args.join(" "),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    Ok(String::from_utf8(output.stdout)?)
+}
+
+#[test]
+fn library_crates_have_metadata_docs_and_package() -> Result<()> {
+    let target = std::env::temp_dir().join(format!("softshadow-package-{}", std::process::id()));
+    let metadata: serde_json::Value = serde_json::from_str(&cargo(
+        &[
+            "metadata",
+            "--no-deps",
+            "--format-version",
+            "1",
+            "--offline",
+        ],
+        &target,
+    )?)?;
+    let packages = metadata["packages"]
+        .as_array()
+        .context("cargo metadata without packages")?;
+    let mut problems = Vec::new();
+    for name in LIBRARY_CRATES {
+        let Some(package) = packages.iter().find(|p| p["name"] == *name) else {
+            problems.push(format!("{name}: not a workspace member"));
+            continue;
+        };
+        for field in ["description", "license", "readme", "rust_version"] {
+            if !package[field].is_string() {
+                problems.push(format!("{name}: no `{field}` in its Cargo.toml"));
+            }
+        }
+        for field in ["keywords", "categories"] {
+            if package[field].as_array().is_none_or(|a| a.is_empty()) {
+                problems.push(format!("{name}: no `{field}` in its Cargo.toml"));
+            }
+        }
+        let manifest = Path::new(package["manifest_path"].as_str().context("manifest_path")?);
+        let dir = manifest.parent().context("manifest folder")?;
+        if !dir.join("README.md").is_file() {
+            problems.push(format!("{name}: no README.md beside its Cargo.toml"));
+        }
+        let lib = std::fs::read_to_string(dir.join("src/lib.rs"))?;
+        if !lib.contains("#![warn(missing_docs)]") {
+            problems.push(format!(
+                "{name}: src/lib.rs lacks `#![warn(missing_docs)]`: add it and document what it reports"
+            ));
+        }
+    }
+    ensure!(problems.is_empty(), "{}", problems.join("\n"));
+
+    cargo(
+        &[
+            "package",
+            "--workspace",
+            "--no-verify",
+            "--allow-dirty",
+            "--offline",
+        ],
+        &target,
+    )?;
+    // Every WGSL file a crate includes must travel with it (through its `shaders/` links).
+    for name in ["softshadow-core", "softshadow-pcss", "softshadow-bitmask"] {
+        let list = cargo(
+            &[
+                "package",
+                "--list",
+                "--allow-dirty",
+                "--offline",
+                "-p",
+                name,
+            ],
+            &target,
+        )?;
+        ensure!(
+            list.lines()
+                .any(|l| l.starts_with("shaders/") && l.ends_with(".wgsl")),
+            "{name}'s package holds no shaders: its `shaders/` links are missing\n{list}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&target);
+    Ok(())
+}
