@@ -56,10 +56,15 @@ impl Gpu {
     /// adapter whose name contains it (case-insensitive). Without a match this returns an error
     /// that says what to install, never panics.
     pub fn new_headless() -> Result<Self, GpuError> {
+        Self::new_headless_with(wgpu::MemoryHints::default())
+    }
+
+    /// [`Gpu::new_headless`] with the device's memory hints (see [`Gpu::from_adapter_with`]).
+    pub fn new_headless_with(memory_hints: wgpu::MemoryHints) -> Result<Self, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pollster::block_on(Self::pick_adapter(&instance, None))?;
-        pollster::block_on(Self::from_adapter(instance, adapter))
+        pollster::block_on(Self::from_adapter_with(instance, adapter, memory_hints))
     }
 
     /// Adapter selection shared by the headless path and the windowed viewer.
@@ -106,6 +111,18 @@ impl Gpu {
         instance: wgpu::Instance,
         adapter: wgpu::Adapter,
     ) -> Result<Self, GpuError> {
+        Self::from_adapter_with(instance, adapter, wgpu::MemoryHints::default()).await
+    }
+
+    /// [`Gpu::from_adapter`] with the device's memory hints. wgpu's default, `Performance`,
+    /// sub-allocates from blocks of 64-256 MiB and keeps the last block of each memory type when
+    /// it empties; `MemoryUsage` uses blocks of 4-32 MiB and gives larger buffers blocks of their
+    /// own that are freed with them (the viewer, which loads and drops large scenes).
+    pub async fn from_adapter_with(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        memory_hints: wgpu::MemoryHints,
+    ) -> Result<Self, GpuError> {
         let features = adapter.features() & OPTIONAL_FEATURES;
         let adapter_limits = adapter.limits();
         let limits = wgpu::Limits {
@@ -120,6 +137,7 @@ impl Gpu {
                 label: Some("softshadow device"),
                 required_features: features,
                 required_limits: limits,
+                memory_hints,
                 ..Default::default()
             })
             .await

@@ -34,6 +34,14 @@ pub use error::ViewerError;
 pub use state::ViewerState;
 pub use window::{run, ViewOptions, ViewSummary};
 
+/// Memory hints of the viewer's device: small sub-allocation blocks, and blocks of their own for
+/// large buffers, so that a dropped scene's buffers are handed back to the driver at once.
+/// wgpu's default (`Performance`) kept the last 64-128 MiB block of lavapipe's one memory type
+/// reserved after `polycount-1m` was left, with the pages the scene had touched still resident
+/// (docs/BENCHMARKS.md, "Viewer resident memory").
+pub const MEMORY_HINTS: softshadow_core::wgpu::MemoryHints =
+    softshadow_core::wgpu::MemoryHints::MemoryUsage;
+
 /// The viewer's shaders (validated with every other crate's by the root `tests/shaders.rs`).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {

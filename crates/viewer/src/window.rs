@@ -188,7 +188,11 @@ impl Handler {
             .create_surface(window.clone())
             .map_err(|e| window_error(&e))?;
         let adapter = pollster::block_on(Gpu::pick_adapter(&instance, Some(&surface)))?;
-        let gpu = pollster::block_on(Gpu::from_adapter(instance, adapter))?;
+        let gpu = pollster::block_on(Gpu::from_adapter_with(
+            instance,
+            adapter,
+            crate::MEMORY_HINTS,
+        ))?;
         let capabilities = surface.get_capabilities(&gpu.adapter);
         // egui-wgpu writes gamma-space colours: prefer a non-sRGB surface format.
         let format = capabilities

@@ -1,33 +1,82 @@
 //! Resident memory across scene and technique switches (issue 16: 4.9 GB stayed resident after
-//! `polycount-1m` was left for a 6-triangle scene). Its own test binary, so no other test's
-//! allocations share the process. `VIEWER_MEMORY_SCENE=polycount-1m` measures the issue's case
-//! (docs/BENCHMARKS.md); the default heavy scene keeps the test quick.
+//! `polycount-1m` was left for a 6-triangle scene; issue 15: no growth per switch over 10
+//! minutes). Its own test binary, so no other test's allocations share the process.
+//!
+//! - `VIEWER_MEMORY_SCENE=polycount-1m` measures the issue's case (docs/BENCHMARKS.md); the
+//!   default heavy scene keeps the test quick.
+//! - `VIEWER_MEMORY_SECONDS=600` keeps switching for that long instead of 20 times and prints a
+//!   sample every 5 s (docs/STABILITY.md).
+
+use std::time::{Duration, Instant};
 
 use anyhow::{ensure, Context, Result};
 use egui_kittest::{wgpu::WgpuTestRenderer, Harness};
 use softshadow_core::{wgpu, Gpu, ParamValue};
 use softshadow_viewer::{ViewerApp, ViewerOptions};
 
-/// Resident set size of this process, MiB (Linux `/proc/self/status`).
-fn resident_mib() -> Result<f64> {
+/// A value of this process's `/proc/self/status` in MiB (`VmRSS`: resident now; `VmHWM`: the
+/// peak resident so far).
+fn status_mib(field: &str) -> Result<f64> {
     let status =
         std::fs::read_to_string("/proc/self/status").context("reading /proc/self/status")?;
     let line = status
         .lines()
-        .find(|l| l.starts_with("VmRSS:"))
-        .context("no VmRSS line")?;
+        .find(|l| l.starts_with(field))
+        .with_context(|| format!("no {field} line"))?;
     let kib: f64 = line
         .split_whitespace()
         .nth(1)
-        .context("VmRSS value")?
+        .with_context(|| format!("{field} value"))?
         .parse()?;
     Ok(kib / 1024.0)
+}
+
+fn resident_mib() -> Result<f64> {
+    status_mib("VmRSS:")
+}
+
+/// Least-squares slope of `y` against `x`.
+fn slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
+        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
+    });
+    if sxx > 0.0 {
+        sxy / sxx
+    } else {
+        0.0
+    }
 }
 
 #[test]
 fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> {
     let heavy = std::env::var("VIEWER_MEMORY_SCENE").unwrap_or_else(|_| "polycount-100k".into());
-    let gpu = Gpu::new_headless().context("the memory test needs a GPU adapter")?;
+    let duration = std::env::var("VIEWER_MEMORY_SECONDS")
+        .ok()
+        .map(|s| s.parse().map(Duration::from_secs))
+        .transpose()
+        .context("VIEWER_MEMORY_SECONDS")?;
+    // The viewer's own memory hints, as the window uses them.
+    let gpu = Gpu::new_headless_with(softshadow_viewer::MEMORY_HINTS)
+        .context("the memory test needs a GPU adapter")?;
+    let device = gpu.device.clone();
+    // What wgpu's allocator holds: allocated by live resources / reserved in memory blocks.
+    let gpu_memory = move || {
+        device.generate_allocator_report().map_or_else(
+            || "no allocator report".to_string(),
+            |r| {
+                format!(
+                    "wgpu allocated {:.0} MiB, reserved {:.0} MiB in {} blocks",
+                    r.total_allocated_bytes as f64 / 1048576.0,
+                    r.total_reserved_bytes as f64 / 1048576.0,
+                    r.blocks.len()
+                )
+            },
+        )
+    };
     let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
     let mut app = ViewerApp::new(
         gpu,
@@ -69,27 +118,57 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
         switch(&mut harness, k)?;
     }
     let baseline = resident_mib()?;
-    let mut peak = baseline;
+    println!("baseline {baseline:.0} MiB; {}", gpu_memory());
+    let began = Instant::now();
+    let mut last_sample = began;
     let mut on_heavy = Vec::new();
-    for k in 0..20 {
+    // Resident memory each time the light scene and `hard` are back (the baseline's state).
+    let mut back = Vec::new();
+    let mut k = 0;
+    loop {
+        let done = match duration {
+            Some(d) => began.elapsed() >= d && k % 4 == 0,
+            None => k == 20,
+        };
+        if done {
+            break;
+        }
         switch(&mut harness, k)?;
         let now = resident_mib()?;
-        peak = peak.max(now);
-        if k % 4 == 0 {
-            on_heavy.push(now);
+        match k % 4 {
+            0 => on_heavy.push(now),
+            3 => back.push((k as f64 + 1.0, now)),
+            _ => {}
         }
+        if duration.is_some() && last_sample.elapsed() >= Duration::from_secs(5) {
+            last_sample = Instant::now();
+            println!(
+                "sample: {:.0} s, {} switches, resident {now:.0} MiB, peak {:.0} MiB; {}",
+                began.elapsed().as_secs_f64(),
+                k + 1,
+                status_mib("VmHWM:")?,
+                gpu_memory()
+            );
+        }
+        k += 1;
     }
     let end = resident_mib()?;
+    let peak = status_mib("VmHWM:")?;
+    let per_switch = slope(&back);
     println!(
         "{heavy}: start {start:.0} MiB, baseline {baseline:.0} MiB, on the heavy scene {:?} MiB, \
-         peak {peak:.0} MiB, end {end:.0} MiB (after 20 switches, back on atty-square / hard)",
-        on_heavy.iter().map(|m| m.round()).collect::<Vec<_>>()
+         peak {peak:.0} MiB, end {end:.0} MiB after {k} switches over {:.0} s (back on \
+         atty-square / hard); slope {per_switch:.3} MiB per switch over the {} returns; {}",
+        on_heavy.iter().map(|m| m.round()).collect::<Vec<_>>(),
+        began.elapsed().as_secs_f64(),
+        back.len(),
+        gpu_memory()
     );
     // Back on the light scene, what the heavy one held is released: within 64 MiB of the
     // baseline (measured: see docs/BENCHMARKS.md).
     ensure!(
         end - baseline < 64.0,
-        "resident memory grew from {baseline:.0} to {end:.0} MiB across 20 switches"
+        "resident memory grew from {baseline:.0} to {end:.0} MiB across {k} switches"
     );
     Ok(())
 }

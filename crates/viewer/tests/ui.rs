@@ -160,6 +160,52 @@ fn a_scene_that_fails_to_load_shows_its_error_and_keeps_the_scene() -> Result<()
 }
 
 #[test]
+fn enter_in_the_scene_path_field_opens_the_file() -> Result<()> {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../assets/scenes/tetrahedron.toml"
+    );
+    let mut harness = harness("hard")?;
+    harness.run_steps(1);
+    harness
+        .get_by_role_and_label(Role::DisclosureTriangle, "Scene")
+        .click();
+    harness.run_steps(1);
+    // The scene path field is the left panel's text field (the right panel has the sweep's).
+    harness
+        .query_all_by_role(Role::TextInput)
+        .find(|n| n.rect().left() < SIZE.x * 0.5)
+        .context("the scene path field")?
+        .focus();
+    harness.run_steps(1);
+    harness
+        .query_all_by_role(Role::TextInput)
+        .find(|n| n.rect().left() < SIZE.x * 0.5)
+        .context("the scene path field")?
+        .type_text(path);
+    harness.run_steps(1);
+    ensure!(
+        harness.state().scene_spec() == "atty-square",
+        "typing alone opens nothing: {}",
+        harness.state().scene_spec()
+    );
+    // Enter, not the Open button, opens the file.
+    harness.key_press(egui::Key::Enter);
+    harness.run_steps(2);
+    ensure!(
+        harness.state().scene_spec().ends_with("tetrahedron.toml"),
+        "scene after Enter: {}",
+        harness.state().scene_spec()
+    );
+    ensure!(
+        harness.state().errors().is_empty(),
+        "{:?}",
+        harness.state().errors()
+    );
+    Ok(())
+}
+
+#[test]
 fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
     let mut harness = harness("pcss")?;
     // 16 light samples, one batch: converged after the first frame; the point needs 5 frames

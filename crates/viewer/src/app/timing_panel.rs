@@ -98,44 +98,39 @@ impl ViewerApp {
     }
 }
 
+/// One bar per pass, longest = the chart's width, with the pass's name and time written over its
+/// bar: every bar is labelled, one row each, whatever the number of passes (an egui_plot bar
+/// chart labelled through its axis showed only the names its tick spacing allowed, often one).
 fn timing_chart(ui: &mut egui::Ui, rows: &[PassRow]) {
-    let bars: Vec<egui_plot::Bar> = rows
-        .iter()
-        .enumerate()
-        .map(|(i, row)| {
-            egui_plot::Bar::new(i as f64, row.median_ms)
-                .name(&row.name)
-                .width(0.7)
-        })
-        .collect();
-    let names: Vec<String> = rows.iter().map(|r| r.name.clone()).collect();
-    egui_plot::Plot::new("pass bars")
-        .height(30.0 + 22.0 * rows.len() as f32)
-        .allow_drag(false)
-        .allow_zoom(false)
-        .allow_scroll(false)
-        .show_grid(false)
-        .y_axis_formatter(move |mark, _| {
-            let i = mark.value.round();
-            if (mark.value - i).abs() < 1e-6 && i >= 0.0 {
-                names.get(i as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        })
-        .x_axis_label("ms")
-        .show(ui, |plot| {
-            // Fitted to the bars, so the axis has readable ticks rather than a lone "0".
-            let longest = rows.iter().map(|r| r.median_ms).fold(0.0, f64::max);
-            let x_max = if longest > 0.0 { longest * 1.15 } else { 1.0 };
-            plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(
-                [0.0, -0.6],
-                [x_max, rows.len() as f64 - 0.4],
-            ));
-            plot.bar_chart(
-                egui_plot::BarChart::new("GPU ms", bars)
-                    .horizontal()
-                    .color(egui::Color32::from_rgb(90, 170, 250)),
-            );
-        });
+    let longest = rows.iter().map(|r| r.median_ms).fold(0.0, f64::max);
+    let font = egui::TextStyle::Small.resolve(ui.style());
+    let row_height = ui.text_style_height(&egui::TextStyle::Small) + 6.0;
+    let width = ui.available_width();
+    let (rect, _) = ui.allocate_exact_size(
+        egui::vec2(width, row_height * rows.len() as f32),
+        egui::Sense::hover(),
+    );
+    let painter = ui.painter_at(rect);
+    let bar_colour = egui::Color32::from_rgb(90, 170, 250).gamma_multiply(0.45);
+    let text_colour = ui.visuals().strong_text_color();
+    for (i, row) in rows.iter().enumerate() {
+        let top = rect.top() + row_height * i as f32;
+        let fraction = if longest > 0.0 {
+            (row.median_ms / longest).clamp(0.0, 1.0) as f32
+        } else {
+            0.0
+        };
+        let bar = egui::Rect::from_min_size(
+            egui::pos2(rect.left(), top + 1.0),
+            egui::vec2(width * fraction, row_height - 2.0),
+        );
+        painter.rect_filled(bar, 2.0, bar_colour);
+        painter.text(
+            egui::pos2(rect.left() + 4.0, top + row_height * 0.5),
+            egui::Align2::LEFT_CENTER,
+            format!("{}  {} ms", row.name, format_ms(row.median_ms)),
+            font.clone(),
+            text_colour,
+        );
+    }
 }
