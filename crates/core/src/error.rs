@@ -91,6 +91,19 @@ pub enum TechniqueError {
     },
     #[error("technique `{technique}`: {message}")]
     Other { technique: String, message: String },
+    /// The technique's precompute runs off the calling thread
+    /// ([`ShadowTechnique::set_background_build`](crate::ShadowTechnique::set_background_build))
+    /// and is not done yet: nothing was drawn this frame. Not a failure: call `render` again.
+    #[error("technique `{technique}` is still building its precompute ({done} of {total} {unit}); render again to draw once it is done, or cancel it through its BuildControl")]
+    Building {
+        technique: String,
+        done: u32,
+        total: u32,
+        unit: &'static str,
+    },
+    /// The precompute was cancelled through the technique's [`BuildControl`](crate::BuildControl).
+    #[error("technique `{technique}`: its precompute was cancelled (Ctrl-C in the workbench, Cancel in the viewer); it builds again once the BuildControl's cancel flag is cleared")]
+    Cancelled { technique: String },
 }
 
 /// Problems with a frame request (resolution, scene).

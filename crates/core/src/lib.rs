@@ -39,7 +39,9 @@ pub use renderer::{FrameOutput, GpuFrameTiming, Renderer};
 pub use scene::{Aabb, Instance, Mesh, MeshRepair, Scene};
 pub use scene_gpu::SceneGpu;
 pub use shading::ShadingMode;
-pub use technique::{DebugView, Requirements, ShadowTechnique, TechniqueInfo, TechniqueStats};
+pub use technique::{
+    BuildControl, DebugView, Requirements, ShadowTechnique, TechniqueInfo, TechniqueStats,
+};
 pub use visibility::VisibilityBuffer;
 
 // Re-exported so technique crates use the same versions.
