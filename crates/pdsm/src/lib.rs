@@ -577,6 +577,8 @@ impl PdsmShadows {
             return Err(building(done, total));
         }
         let pending = self.pending.take().expect("looked at above");
+        let done = pending.control.done.load(Ordering::Relaxed);
+        self.control.done.store(done, Ordering::Relaxed);
         self.control.finish();
         let built = pending
             .handle
