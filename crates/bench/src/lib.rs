@@ -17,8 +17,8 @@ use std::{
 };
 
 use softshadow_core::{
-    AreaLight, Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError, Renderer, Scene,
-    SceneGpu, ShadingMode, ShadowTechnique, TechniqueError, TimingSource,
+    AreaLight, BuildControl, Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError,
+    Renderer, Scene, SceneGpu, ShadingMode, ShadowTechnique, TechniqueError, TimingSource,
 };
 use softshadow_metrics::ErrorReport;
 use thiserror::Error;
@@ -199,6 +199,8 @@ pub struct Bench {
     /// Camera and light replacing every scene's own (a sweep exported by the viewer).
     camera: Option<Camera>,
     light: Option<AreaLight>,
+    /// Installed in every technique ([`ShadowTechnique::set_build_control`]).
+    build_control: Option<BuildControl>,
 }
 
 impl Bench {
@@ -219,7 +221,15 @@ impl Bench {
             references: HashMap::new(),
             camera: None,
             light: None,
+            build_control: None,
         })
+    }
+
+    /// Shares `control` with every technique this benchmark creates: a long precompute (the
+    /// PDSM's) counts its progress there and stops when its `cancel` flag is set (the run then
+    /// fails with "cancelled").
+    pub fn set_build_control(&mut self, control: Option<BuildControl>) {
+        self.build_control = control;
     }
 
     /// How this benchmark times passes: [`TimingSource::default_for`] the adapter (`serial` on a
@@ -293,6 +303,9 @@ impl Bench {
         check_size(spec.width, spec.height)?;
         let info = registry::find(&spec.technique)?;
         let mut technique = info.create_with(&self.gpu, &spec.params)?;
+        if let Some(control) = &self.build_control {
+            technique.set_build_control(control.clone());
+        }
         run.params = technique.params().to_map();
         if !self.scenes.contains_key(&spec.scene) {
             let loaded = softshadow_scenes::load(&spec.scene)?;
@@ -722,6 +735,10 @@ pub struct RunSetup {
     pub timing: Option<TimingSource>,
     pub camera: Option<Camera>,
     pub light: Option<AreaLight>,
+    /// Progress and cancellation of long precomputes ([`Bench::set_build_control`]); once its
+    /// `cancel` flag is set no further run starts: the results hold the runs done so far (the
+    /// one cancelled included, failed with its message).
+    pub build_control: Option<BuildControl>,
 }
 
 /// Like [`run_all`] for runs that carry their index in a sweep (a shard, see
@@ -741,6 +758,7 @@ pub fn run_indexed(
     let mut bench = Bench::new(gpu, options)?;
     bench.set_timing(setup.timing);
     bench.set_view(setup.camera, setup.light);
+    bench.set_build_control(setup.build_control.clone());
     let mut results = Results {
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),
@@ -751,6 +769,13 @@ pub fn run_indexed(
         let run = bench.run(*index, spec, out_dir);
         progress(k, &run);
         results.runs.push(run);
+        if setup
+            .build_control
+            .as_ref()
+            .is_some_and(BuildControl::is_cancelled)
+        {
+            break;
+        }
     }
     write_results(&results, out_dir)?;
     Ok(results)

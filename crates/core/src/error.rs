@@ -164,6 +164,26 @@ pub enum TechniqueError {
         /// What went wrong and what to do.
         message: String,
     },
+    /// The technique's precompute runs off the calling thread
+    /// ([`ShadowTechnique::set_background_build`](crate::ShadowTechnique::set_background_build))
+    /// and is not done yet: nothing was drawn this frame. Not a failure: call `render` again.
+    #[error("technique `{technique}` is still building its precompute ({done} of {total} {unit}); render again to draw once it is done, or cancel it through its BuildControl")]
+    Building {
+        /// The technique's id.
+        technique: String,
+        /// Units of work finished.
+        done: u32,
+        /// Units of work in all.
+        total: u32,
+        /// What a unit is (e.g. "rows").
+        unit: &'static str,
+    },
+    /// The precompute was cancelled through the technique's [`BuildControl`](crate::BuildControl).
+    #[error("technique `{technique}`: its precompute was cancelled (Ctrl-C in the workbench, Cancel in the viewer); it builds again once the BuildControl's cancel flag is cleared")]
+    Cancelled {
+        /// The technique's id.
+        technique: String,
+    },
 }
 
 /// Problems with a frame request (resolution, scene).

@@ -45,7 +45,8 @@ pub use scene_gpu::SceneGpu;
 pub use shading::ShadingMode;
 pub use stage::ShadowStage;
 pub use technique::{
-    DebugView, MinLimits, Requirements, ShadowTechnique, TechniqueInfo, TechniqueStats,
+    BuildControl, DebugView, MinLimits, Requirements, ShadowTechnique, TechniqueInfo,
+    TechniqueStats,
 };
 pub use visibility::VisibilityBuffer;
 

@@ -1,6 +1,12 @@
 //! The one trait every technique implements (GUIDE.md section 2, shaped like wgpu's `Example`).
 
-use std::collections::BTreeMap;
+use std::{
+    collections::BTreeMap,
+    sync::{
+        atomic::{AtomicBool, AtomicU32, Ordering},
+        Arc,
+    },
+};
 
 use crate::{
     error::{ParamError, TechniqueError},
@@ -134,6 +140,60 @@ pub struct DebugView {
     pub texture: wgpu::Texture,
 }
 
+/// Progress and cancellation of a long precompute (the PDSM's), shared between the thread that
+/// builds and those that watch it (the workbench's progress bar and Ctrl-C handler, the viewer's
+/// panel). A technique counts `done` of `total` units (PDSM rows) while `building` is set; setting
+/// `cancel` stops the build at the next unit, and the technique then fails with
+/// [`TechniqueError::Cancelled`] until the flag is cleared.
+#[derive(Clone, Debug, Default)]
+pub struct BuildControl {
+    /// Set to stop the build at its next unit.
+    pub cancel: Arc<AtomicBool>,
+    /// Units finished so far.
+    pub done: Arc<AtomicU32>,
+    /// Units of the running build.
+    pub total: Arc<AtomicU32>,
+    /// Set while a build runs.
+    pub building: Arc<AtomicBool>,
+}
+
+impl BuildControl {
+    /// `(done, total)` while a build runs, `None` otherwise.
+    pub fn progress(&self) -> Option<(u32, u32)> {
+        self.building.load(Ordering::Relaxed).then(|| {
+            let total = self.total.load(Ordering::Relaxed);
+            (self.done.load(Ordering::Relaxed).min(total), total)
+        })
+    }
+
+    /// Asks the running build (and any later one, until [`BuildControl::clear_cancel`]) to stop.
+    pub fn cancel(&self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether a cancel was asked for and not cleared since.
+    pub fn is_cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+
+    /// Lets the next build run (after a cancel).
+    pub fn clear_cancel(&self) {
+        self.cancel.store(false, Ordering::Relaxed);
+    }
+
+    /// Marks a build of `total` units as started (`done` = 0).
+    pub fn start(&self, total: u32) {
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+        self.building.store(true, Ordering::Relaxed);
+    }
+
+    /// Marks the build as over (finished, failed or cancelled).
+    pub fn finish(&self) {
+        self.building.store(false, Ordering::Relaxed);
+    }
+}
+
 /// A soft-shadow technique: fills the visibility buffer for the current frame.
 pub trait ShadowTechnique {
     /// Stable id used on the command line, in JSON and in the GUI.
@@ -172,6 +232,15 @@ pub trait ShadowTechnique {
     /// [`ShadowInputs::changes`] says. The benchmark calls it before every frame of its `timing`
     /// block so that timings measure the technique, not a cache hit. Default: nothing.
     fn invalidate_cache(&mut self) {}
+    /// Shares the progress counter and cancel flag of the technique's long precompute (the
+    /// PDSM's) with `control`, which a progress bar or a Cancel button watches from elsewhere.
+    /// Default: nothing (no long precompute).
+    fn set_build_control(&mut self, _control: BuildControl) {}
+    /// With `true`, a long precompute runs on a thread of its own: `render` starts it and fails
+    /// with [`TechniqueError::Building`] (nothing drawn) until it is done, so an interactive
+    /// caller stays responsive. With `false` (the default, and what the benchmark uses) it runs
+    /// inside `render` and counts in that frame's cost. Default: ignored (nothing to build).
+    fn set_background_build(&mut self, _on: bool) {}
     /// Counters of the last frame.
     fn stats(&self) -> TechniqueStats {
         TechniqueStats::new()

@@ -2,10 +2,10 @@
 //! every PDSM texel's ray scan-converted in every shadow map, shadowed intervals turned into
 //! +-1/k events, summed, merged and compressed. Rayon runs over PDSM rows.
 
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::atomic::Ordering;
 
 use rayon::prelude::*;
-use softshadow_core::{glam::Vec2, SlopeFrustum};
+use softshadow_core::{glam::Vec2, BuildControl, SlopeFrustum};
 
 use crate::function::{self, Event};
 
@@ -72,16 +72,6 @@ pub struct BuildStats {
 #[derive(Debug, PartialEq, Eq)]
 pub struct Cancelled;
 
-/// Shared with whoever watches a build (viewer, CLI): set `cancel` to stop it; `rows_done` counts
-/// finished PDSM rows (of `pdsm_size`).
-#[derive(Clone, Debug, Default)]
-pub struct BuildControl {
-    /// Set to stop the build.
-    pub cancel: std::sync::Arc<AtomicBool>,
-    /// PDSM rows finished so far.
-    pub rows_done: std::sync::Arc<AtomicU32>,
-}
-
 /// Slopes `(s, t)` of the centre of PDSM texel `(column, row)`.
 pub fn texel_slope(frustum: &SlopeFrustum, size: u32, column: u32, row: u32) -> Vec2 {
     let n = size as f32;
@@ -95,7 +85,8 @@ pub fn texel_slope(frustum: &SlopeFrustum, size: u32, column: u32, row: u32) -> 
 type RowResult = (Vec<u32>, Vec<[f32; 2]>, BuildStats, u64);
 
 /// Builds the PDSM for the `frustum` window at `size`², with events merged within
-/// `merge_fraction * depth` and functions compressed within `max_error`.
+/// `merge_fraction * depth` and functions compressed within `max_error`. Counts finished rows in
+/// `control.done` and stops at the next row once `control.cancel` is set.
 pub fn build(
     maps: &SampleMaps,
     frustum: &SlopeFrustum,
@@ -160,7 +151,7 @@ pub fn build(
                 counts.push(compressed.len() as u32);
                 data.extend_from_slice(&compressed);
             }
-            control.rows_done.fetch_add(1, Ordering::Relaxed);
+            control.done.fetch_add(1, Ordering::Relaxed);
             Ok((counts, data, stats, event_sum))
         })
         .collect::<Result<_, _>>()?;

@@ -13,7 +13,11 @@
 //! shadow through a per-frame PCF map of the dynamic casters, multiplied in (section 5).
 //!
 //! Watching and cancelling a build: [`PdsmShadows::build_control`] hands out the cancel flag and
-//! the row counter (`rows_done` of `pdsm_size`) a viewer or CLI can poll from another thread.
+//! the row counter (`done` of `pdsm_size` rows) a viewer or CLI can poll from another thread, or
+//! [`ShadowTechnique::set_build_control`] installs the caller's. With
+//! [`ShadowTechnique::set_background_build`] the CPU construction runs on a thread of its own and
+//! `render` fails with [`TechniqueError::Building`] until it is done (the viewer); without it
+//! (the default, the benchmark) it runs inside `render` and counts in that frame's cost.
 
 #![warn(missing_docs)]
 
@@ -24,6 +28,7 @@ pub mod function;
 use std::{
     path::PathBuf,
     sync::atomic::Ordering,
+    thread::JoinHandle,
     time::{Duration, Instant},
 };
 
@@ -36,11 +41,12 @@ use softshadow_core::{
     shader_file,
     shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
     wgpu::{self, util::DeviceExt},
-    AreaLight, DebugView, Frame, Gpu, GpuError, ShadowInputs, ShadowTechnique, SlopeFrustum,
-    TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    AreaLight, BuildControl, DebugView, Frame, Gpu, GpuError, ShadowInputs, ShadowTechnique,
+    SlopeFrustum, TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats,
+    VisibilityBuffer,
 };
 
-pub use build::{BuildControl, BuildStats, PdsmData};
+pub use build::{BuildStats, PdsmData};
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "pdsm";
@@ -104,6 +110,27 @@ struct Kept {
     from_cache: bool,
 }
 
+/// A CPU construction running on a thread of its own (background builds, the viewer).
+struct Pending {
+    key: u64,
+    /// Stops this build only (cancelled, superseded by other inputs, or the technique dropped).
+    /// The thread counts rows in its own `done`, copied to the shared control on every poll, so
+    /// a superseded build never moves the progress of the next one.
+    control: BuildControl,
+    handle: JoinHandle<Result<PdsmData, build::Cancelled>>,
+    /// When the build started (its sample maps), for `construction_ms`.
+    started: Instant,
+    cache_dir: Option<PathBuf>,
+}
+
+/// A PDSM set aside by `invalidate_cache` in background mode (see [`PdsmShadows::background`]).
+struct Shelved {
+    key: u64,
+    data: PdsmData,
+    construction_ms: f64,
+    from_cache: bool,
+}
+
 /// The per-frame map of the dynamic casters.
 struct DynamicMap {
     size: u32,
@@ -132,6 +159,13 @@ pub struct PdsmShadows {
     centre_map: Option<wgpu::Texture>,
     dynamic: Option<DynamicMap>,
     control: BuildControl,
+    /// Builds run on a thread of their own ([`ShadowTechnique::set_background_build`]). Then
+    /// `invalidate_cache` sets the built PDSM aside in memory instead of dropping it (a background
+    /// build takes seconds; rebuilding it for every frame the viewer times would never end), and
+    /// the next frame uploads it again, as a disk-cache load does.
+    background: bool,
+    pending: Option<Pending>,
+    shelved: Option<Shelved>,
     warnings: Vec<String>,
     stats: TechniqueStats,
     debug: Vec<DebugView>,
@@ -252,6 +286,38 @@ fn pdsm_window(
     })
 }
 
+/// What the CPU construction starts from.
+enum BuildInput {
+    /// No static caster in front of the light: lit everywhere.
+    Empty(PdsmData),
+    Maps {
+        maps: build::SampleMaps,
+        frustum: SlopeFrustum,
+    },
+}
+
+fn building(done: u32, total: u32) -> TechniqueError {
+    TechniqueError::Building {
+        technique: ID.into(),
+        done,
+        total,
+        unit: "PDSM rows",
+    }
+}
+
+fn cancelled() -> TechniqueError {
+    TechniqueError::Cancelled {
+        technique: ID.into(),
+    }
+}
+
+fn cache_write_warning(dir: &std::path::Path, e: &impl std::fmt::Display) -> String {
+    format!(
+        "pdsm: could not write the cache file in {}: {e}; set SOFTSHADOW_CACHE_DIR to a writable folder",
+        dir.display()
+    )
+}
+
 /// Bytes the precompute is estimated to need: read-back maps (light-space depth, f32) and the
 /// PDSM (index plus `ESTIMATED_VERTICES_PER_TEXEL` vertices per texel).
 pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
@@ -327,6 +393,9 @@ impl PdsmShadows {
             centre_map: None,
             dynamic: None,
             control: BuildControl::default(),
+            background: false,
+            pending: None,
+            shelved: None,
             warnings: Vec::new(),
             stats: TechniqueStats::new(),
             debug: Vec::new(),
@@ -334,9 +403,10 @@ impl PdsmShadows {
     }
 
     /// The cancel flag and progress counter of the precompute, to poll from another thread: a
-    /// build counts finished PDSM rows in `rows_done` (out of `pdsm_size`, reset when a build
-    /// starts) and stops at the next row once `cancel` is set; `render` then fails with a
-    /// "cancelled" error, and keeps failing at once until the caller clears `cancel`.
+    /// build counts finished PDSM rows in `done` (out of `total` = `pdsm_size`, reset when a build
+    /// starts; `building` is set meanwhile) and stops at the next row once `cancel` is set;
+    /// `render` then fails with [`TechniqueError::Cancelled`], and keeps failing at once until the
+    /// caller clears `cancel`.
     pub fn build_control(&self) -> BuildControl {
         self.control.clone()
     }
@@ -384,7 +454,9 @@ impl PdsmShadows {
         h.finish()
     }
 
-    /// Builds (or loads) the PDSM for this frame's static scene and light.
+    /// Builds (or loads) the PDSM for this frame's static scene and light. In background mode a
+    /// build runs on its own thread and this fails with [`TechniqueError::Building`] until it is
+    /// done.
     fn prepare_pdsm(
         &mut self,
         frame: &mut Frame<'_>,
@@ -397,6 +469,15 @@ impl PdsmShadows {
             }
         }
         self.kept = None;
+        if let Some(shelved) = self.shelved.take() {
+            if shelved.key == key {
+                let elapsed = Duration::from_secs_f64(shelved.construction_ms / 1e3);
+                return self.keep(frame.gpu, key, shelved.data, elapsed, shelved.from_cache);
+            }
+        }
+        if self.poll_pending(frame.gpu, key)? {
+            return Ok(());
+        }
         let (maps_bytes, pdsm_bytes) = estimate_bytes(&self.settings);
         let budget = self.settings.memory_budget_mib as u64 * (1 << 20);
         if maps_bytes + pdsm_bytes > budget {
@@ -437,46 +518,133 @@ impl PdsmShadows {
                 Err(reason) => self.warn(format!("pdsm: cache file refused, rebuilding: {reason}")),
             }
         }
-        let data = self.build(frame, inputs)?;
-        if let Some(dir) = &cache_dir {
-            let clock = frame.begin_cpu_pass();
-            let stored = cache::store(dir, key, &data);
-            frame.end_cpu_pass("pdsm/cache_store", clock);
-            if let Err(e) = stored {
-                self.warn(format!(
-                    "pdsm: could not write the cache file in {}: {e}; set SOFTSHADOW_CACHE_DIR to a writable folder",
-                    dir.display()
-                ));
-            }
+        if self.control.is_cancelled() {
+            return Err(cancelled());
         }
+        let (maps, frustum) = match self.build_input(frame, inputs)? {
+            BuildInput::Empty(data) => {
+                return self.keep(frame.gpu, key, data, started.elapsed(), false)
+            }
+            BuildInput::Maps { maps, frustum } => (maps, frustum),
+        };
+        let size = self.settings.pdsm_size;
+        let max_error = self.settings.compression_error;
+        if self.background {
+            // The thread counts rows in a control of its own (see `Pending`).
+            let control = BuildControl::default();
+            control.start(size);
+            self.control.start(size);
+            let thread_control = control.clone();
+            let handle = std::thread::Builder::new()
+                .name("pdsm build".into())
+                .spawn(move || build::build(&maps, &frustum, size, max_error, &thread_control))
+                .map_err(|e| {
+                    self.control.finish();
+                    technique_error(format!("cannot start the PDSM build thread: {e}"))
+                })?;
+            self.pending = Some(Pending {
+                key,
+                control,
+                handle,
+                started,
+                cache_dir,
+            });
+            return Err(building(0, size));
+        }
+        self.control.start(size);
+        let clock = frame.begin_cpu_pass();
+        let built = build::build(&maps, &frustum, size, max_error, &self.control);
+        frame.end_cpu_pass("pdsm/build", clock);
+        self.control.finish();
+        let data = built.map_err(|build::Cancelled| cancelled())?;
+        self.store_in_cache(frame, cache_dir.as_deref(), key, &data);
         self.keep(frame.gpu, key, data, started.elapsed(), false)
     }
 
-    /// Renders the k sample maps, reads them back and runs the CPU construction.
-    fn build(
+    /// Background mode: looks at the build running for `key`. `Ok(true)`: it finished and the
+    /// PDSM is kept; `Ok(false)`: no build runs for `key` (one for other inputs is stopped);
+    /// [`TechniqueError::Building`] while it runs, [`TechniqueError::Cancelled`] once it ended
+    /// with the cancel flag set (its result, if it got to the end, is dropped).
+    fn poll_pending(&mut self, gpu: &Gpu, key: u64) -> Result<bool, TechniqueError> {
+        let Some(pending) = &self.pending else {
+            return Ok(false);
+        };
+        if pending.key != key {
+            // Superseded: it stops at its next row and its result is never read.
+            pending.control.cancel();
+            self.pending = None;
+            self.control.finish();
+            return Ok(false);
+        }
+        if self.control.is_cancelled() {
+            pending.control.cancel();
+        }
+        if !pending.handle.is_finished() {
+            let done = pending.control.done.load(Ordering::Relaxed);
+            let total = pending.control.total.load(Ordering::Relaxed);
+            self.control.done.store(done, Ordering::Relaxed);
+            return Err(building(done, total));
+        }
+        let pending = self.pending.take().expect("looked at above");
+        let done = pending.control.done.load(Ordering::Relaxed);
+        self.control.done.store(done, Ordering::Relaxed);
+        self.control.finish();
+        let built = pending
+            .handle
+            .join()
+            .map_err(|_| technique_error("the PDSM build thread panicked; see the log".into()))?;
+        // A cancel discards the result even when the build got to its end first.
+        if self.control.is_cancelled() {
+            return Err(cancelled());
+        }
+        let data = built.map_err(|build::Cancelled| cancelled())?;
+        if let Some(dir) = &pending.cache_dir {
+            if let Err(e) = cache::store(dir, key, &data) {
+                self.warn(cache_write_warning(dir, &e));
+            }
+        }
+        self.keep(gpu, key, data, pending.started.elapsed(), false)?;
+        Ok(true)
+    }
+
+    fn store_in_cache(
+        &mut self,
+        frame: &mut Frame<'_>,
+        dir: Option<&std::path::Path>,
+        key: u64,
+        data: &PdsmData,
+    ) {
+        let Some(dir) = dir else { return };
+        let clock = frame.begin_cpu_pass();
+        let stored = cache::store(dir, key, data);
+        frame.end_cpu_pass("pdsm/cache_store", clock);
+        if let Err(e) = stored {
+            self.warn(cache_write_warning(dir, &e));
+        }
+    }
+
+    /// What the CPU construction starts from (Algorithm 1 steps 1-2): the PDSM window and the
+    /// sample maps rendered and read back, or an empty PDSM when no static caster is in front of
+    /// the light.
+    fn build_input(
         &mut self,
         frame: &mut Frame<'_>,
         inputs: &ShadowInputs<'_>,
-    ) -> Result<PdsmData, TechniqueError> {
-        if self.control.cancel.load(Ordering::Relaxed) {
-            return Err(technique_error(
-                "PDSM build cancelled: clear the cancel flag of build_control() to build again"
-                    .into(),
-            ));
-        }
-        self.control.rows_done.store(0, Ordering::Relaxed);
+    ) -> Result<BuildInput, TechniqueError> {
         let light = inputs.light;
         let scene = inputs.scene;
         let crosses = scene.light_bounds(light).casters_cross_light_plane;
         let casters = light_corners(light, &scene.static_caster_bounds);
         let everything = light_corners(light, &scene.static_bounds);
         let size = self.settings.pdsm_size;
-        let empty = |frustum| PdsmData {
-            size,
-            frustum,
-            offsets: vec![0; (size * size + 1) as usize],
-            vertices: Vec::new(),
-            stats: BuildStats::default(),
+        let empty = |frustum| {
+            BuildInput::Empty(PdsmData {
+                size,
+                frustum,
+                offsets: vec![0; (size * size + 1) as usize],
+                vertices: Vec::new(),
+                stats: BuildStats::default(),
+            })
         };
         let unit = SlopeFrustum {
             eye: Vec2::ZERO,
@@ -503,21 +671,7 @@ impl PdsmShadows {
             return Ok(empty(frustum));
         }
         let maps = self.render_sample_maps(frame, inputs, &windows)?;
-        let clock = frame.begin_cpu_pass();
-        let built = build::build(
-            &maps,
-            &frustum,
-            size,
-            self.settings.compression_error,
-            &self.control,
-        );
-        frame.end_cpu_pass("pdsm/build", clock);
-        built.map_err(|build::Cancelled| {
-            technique_error(
-                "PDSM build cancelled: clear the cancel flag of build_control() to build again"
-                    .into(),
-            )
-        })
+        Ok(BuildInput::Maps { maps, frustum })
     }
 
     /// Algorithm 1 step 2 on the GPU: one depth map of the static casters per window, copied to
@@ -920,10 +1074,28 @@ impl ShadowTechnique for PdsmShadows {
     }
 
     fn invalidate_cache(&mut self) {
-        self.kept = None;
+        if let Some(kept) = self.kept.take().filter(|_| self.background) {
+            self.shelved = Some(Shelved {
+                key: kept.key,
+                data: kept.data,
+                construction_ms: kept.construction_ms,
+                from_cache: kept.from_cache,
+            });
+        }
         self.centre_map = None;
         if let Some(d) = &mut self.dynamic {
             d.drawn = false;
+        }
+    }
+
+    fn set_build_control(&mut self, control: BuildControl) {
+        self.control = control;
+    }
+
+    fn set_background_build(&mut self, on: bool) {
+        self.background = on;
+        if !on {
+            self.shelved = None;
         }
     }
 
@@ -953,5 +1125,15 @@ impl ShadowTechnique for PdsmShadows {
             });
         }
         views
+    }
+}
+
+impl Drop for PdsmShadows {
+    fn drop(&mut self) {
+        // A build running on its own thread stops at its next row; nobody reads its result.
+        if let Some(pending) = &self.pending {
+            pending.control.cancel();
+            self.control.finish();
+        }
     }
 }

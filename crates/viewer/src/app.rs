@@ -6,10 +6,12 @@
 //! ([`crate::window`]) and the egui_kittest tests drive the same function.
 //!
 //! The modules follow the window: the left panel's [`scene_panel`] (scene, light, camera),
-//! [`technique_panel`] (parameters, view modes) and [`files_panel`]; the right panel's
+//! [`technique_panel`] (parameters, view modes), [`build_panel`] (a precompute building off the
+//! UI thread) and [`files_panel`]; the right panel's
 //! [`timing_panel`] and [`error_panel`] (metrics and the error-against-time plot); the central
 //! [`image`]. This file holds the state, the actions and the GPU frame.
 
+mod build_panel;
 mod error_panel;
 mod files_panel;
 mod image;
@@ -177,6 +179,8 @@ pub struct ViewerApp {
 
     errors: Vec<String>,
     technique_error: Option<String>,
+    /// The active technique's precompute when it builds off the UI thread ([`build_panel`]).
+    build: build_panel::BuildState,
     scene_path: String,
     state_path: String,
     screenshot_path: String,
@@ -262,6 +266,7 @@ impl ViewerApp {
             render_size: None,
             errors: Vec::new(),
             technique_error: None,
+            build: Default::default(),
             scene_path: String::new(),
             state_path: "viewer-state.json".into(),
             screenshot_path: "screenshot.png".into(),
@@ -447,7 +452,10 @@ impl ViewerApp {
                 Ok(info.create_with(&self.gpu, &saved)?)
             });
         match result {
-            Ok(technique) => self.technique = Some(technique),
+            Ok(mut technique) => {
+                self.build.attach(technique.as_mut());
+                self.technique = Some(technique);
+            }
             Err(e) => {
                 let message = format!("technique `{id}` failed to start: {e}");
                 self.technique_error = Some(message.clone());
@@ -780,6 +788,7 @@ impl ViewerApp {
             Some(ShadingMode::Shaded),
         ) {
             Ok(output) => {
+                self.build.note(Ok(()));
                 if let Some(gpu) = &output.gpu {
                     self.timings.push(gpu.clone());
                     if measuring_cost {
@@ -788,6 +797,12 @@ impl ViewerApp {
                 }
                 self.last_output = Some(output);
                 self.technique_error = None;
+            }
+            Err(e) if self.build.note(Err(&e)) => {
+                // The precompute builds off the UI thread: nothing drawn, nothing timed.
+                self.technique_error = None;
+                self.timings.clear();
+                self.cost_timings.clear();
             }
             Err(e) => {
                 // Keep running: the error is shown and the next frame tries again.
@@ -895,7 +910,11 @@ impl ViewerApp {
         // A reference for other inputs (the camera moved while it waited) does not count.
         let converged = self.reference_key == Some(self.current_reference_key())
             && self.reference_progress.is_complete();
-        if !converged || self.technique_error.is_some() || self.technique.is_none() {
+        if !converged
+            || self.technique_error.is_some()
+            || self.technique.is_none()
+            || self.build.is_running()
+        {
             return;
         }
         let setting = self.setting();
@@ -1065,6 +1084,7 @@ impl ViewerApp {
     fn controls_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Soft-shadow viewer");
         self.errors_ui(ui);
+        self.build_ui(ui);
         if let Some(status) = &self.status {
             // Where the last screenshot, state or sweep went, whichever section is open.
             ui.colored_label(egui::Color32::LIGHT_GREEN, status);

@@ -550,3 +550,59 @@ fn an_exported_sweep_benchmarks_the_view_the_viewer_plotted() -> Result<()> {
     );
     Ok(())
 }
+
+/// Issue 13: the PDSM's precompute builds off the UI thread. The first frame starts it and
+/// returns while it runs (the panel shows its progress and a Cancel button, no plot point);
+/// Cancel stops it and offers Build again. A 512² PDSM keeps it running for seconds, so the
+/// frames below see it running; the harness's drop stops the last build.
+#[test]
+fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut app = ViewerApp::new(
+        gpu,
+        render_state.renderer.clone(),
+        &ViewerOptions {
+            scene: "atty-square".into(),
+            technique: "pdsm".into(),
+            params: vec![
+                ("pdsm_size".into(), ParamValue::Int(512)),
+                ("shadow_map_size".into(), ParamValue::Int(256)),
+                ("disk_cache".into(), ParamValue::Bool(false)),
+            ],
+            ..ViewerOptions::default()
+        },
+    )?;
+    app.set_reference_param("samples_per_axis", ParamValue::Int(4));
+    app.set_reference_param("shadow_map_size", ParamValue::Int(256));
+    let mut harness = Harness::builder()
+        .with_size(SIZE)
+        .renderer(WgpuTestRenderer::from_render_state(render_state))
+        .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
+    harness.run_steps(1);
+    let progress = harness.state().build_progress();
+    ensure!(
+        progress.is_some_and(|(_, total)| total == 512),
+        "the frame returned while the build runs: {progress:?}"
+    );
+    ensure!(harness.state().technique_error().is_none());
+    ensure!(harness.state().points().is_empty());
+    harness.get_by_label("Cancel").click();
+    for _ in 0..2_000 {
+        harness.run_steps(1);
+        if harness.state().build_cancelled() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    ensure!(harness.state().build_cancelled(), "the build was cancelled");
+    ensure!(harness.state().build_progress().is_none());
+    harness.run_steps(1);
+    harness.get_by_label("Build again").click();
+    harness.run_steps(1);
+    ensure!(
+        harness.state().build_progress().is_some(),
+        "Build again starts a new build"
+    );
+    Ok(())
+}

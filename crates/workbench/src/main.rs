@@ -14,9 +14,9 @@ use std::{path::PathBuf, process::ExitCode};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use softshadow_bench::{registry, BenchOptions, RunSetup, RunSpec, Status, Sweep, SweepInfo};
-use softshadow_core::{Gpu, ParamKind, TimingSource};
+use softshadow_core::{BuildControl, Gpu, ParamKind, TimingSource};
 
 #[derive(Parser)]
 #[command(
@@ -332,28 +332,41 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         None => specs.into_iter().enumerate().collect(),
     };
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
-    let progress = ProgressBar::new(indexed.len() as u64);
+    // Bars on stderr (indicatif draws nothing when it is not a terminal): the runs, and below
+    // them the rows of a PDSM precompute while one builds.
+    let bars = MultiProgress::new();
+    let progress = bars.add(ProgressBar::new(indexed.len() as u64));
     progress.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let control = BuildControl::default();
+    interrupt_on_ctrl_c(&control, &bars)?;
     let setup = RunSetup {
         sweep: sweep_info,
         timing,
         camera: view.0,
         light: view.1,
+        build_control: Some(control.clone()),
     };
-    let results =
-        softshadow_bench::run_indexed(gpu, &indexed, setup, options, &args.out, |_, run| {
-            progress.set_message(format!("{} / {}", run.scene, run.technique));
-            progress.inc(1);
-            if run.status == Status::Error {
-                progress.println(format!(
-                    "run failed: {} / {}: {}",
-                    run.scene, run.technique, run.message
-                ));
-            }
-        })?;
+    let runs_total = indexed.len();
+    let finished = std::sync::atomic::AtomicBool::new(false);
+    let results = std::thread::scope(|scope| {
+        scope.spawn(|| watch_builds(&control, &bars, &finished));
+        let results =
+            softshadow_bench::run_indexed(gpu, &indexed, setup, options, &args.out, |_, run| {
+                progress.set_message(format!("{} / {}", run.scene, run.technique));
+                progress.inc(1);
+                if run.status == Status::Error {
+                    progress.println(format!(
+                        "run failed: {} / {}: {}",
+                        run.scene, run.technique, run.message
+                    ));
+                }
+            });
+        finished.store(true, std::sync::atomic::Ordering::Relaxed);
+        results
+    })?;
     progress.finish_and_clear();
     let failed = results
         .runs
@@ -410,6 +423,13 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         })
         .count();
     println!("wrote {}", args.out.join("results.json").display());
+    if control.is_cancelled() {
+        eprintln!(
+            "interrupted (Ctrl-C): {} of {runs_total} runs done, the last one cancelled; results.json holds them",
+            results.runs.len()
+        );
+        return Ok(ExitCode::from(130));
+    }
     if failed > 0 || invalid > 0 {
         eprintln!(
             "{failed} of {} runs failed and {invalid} wrote NaN, Inf or values outside [0, 1]; details are in results.json",
@@ -418,6 +438,62 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         return Ok(ExitCode::from(3));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Ctrl-C stops the benchmark cleanly: a PDSM build stops at its next row (its run fails with
+/// "cancelled"), no further run starts, and results.json holds the runs done. A second Ctrl-C
+/// quits at once without writing it.
+fn interrupt_on_ctrl_c(control: &BuildControl, bars: &MultiProgress) -> Result<()> {
+    let control = control.clone();
+    let bars = bars.clone();
+    ctrlc::set_handler(move || {
+        if control.is_cancelled() {
+            std::process::exit(130);
+        }
+        control.cancel();
+        let message = "interrupted: stopping after the current run (a PDSM build stops at once); \
+                       Ctrl-C again quits without writing results.json";
+        if bars.println(message).is_err() || bars.is_hidden() {
+            eprintln!("{message}");
+        }
+    })
+    .context("cannot install the Ctrl-C handler")
+}
+
+/// Shows a bar of the PDSM rows built while a precompute runs (polls `control` until
+/// `finished`).
+fn watch_builds(
+    control: &BuildControl,
+    bars: &MultiProgress,
+    finished: &std::sync::atomic::AtomicBool,
+) {
+    let style = ProgressStyle::with_template("pdsm build {bar:30} {pos}/{len} rows {elapsed}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar());
+    let mut bar: Option<ProgressBar> = None;
+    while !finished.load(std::sync::atomic::Ordering::Relaxed) {
+        match (control.progress(), &bar) {
+            (Some((done, total)), Some(b)) => {
+                b.set_length(total.into());
+                b.set_position(done.into());
+            }
+            (Some((done, total)), None) => {
+                let b = bars.add(ProgressBar::new(total.into()).with_style(style.clone()));
+                b.set_position(done.into());
+                bar = Some(b);
+            }
+            (None, Some(b)) => {
+                b.finish_and_clear();
+                bars.remove(b);
+                bar = None;
+            }
+            (None, None) => {}
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+        bars.remove(&b);
+    }
 }
 
 fn merge(inputs: &[PathBuf], out: &std::path::Path) -> Result<ExitCode> {

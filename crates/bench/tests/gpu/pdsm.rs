@@ -11,7 +11,7 @@ use crate::common::{closed_form, gpu};
 use anyhow::{ensure, Context, Result};
 use softshadow_core::{
     glam::{Mat4, Vec3},
-    Gpu, Instance, Renderer, Scene, SceneGpu, ShadowTechnique,
+    Gpu, Instance, RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
 };
 use softshadow_pdsm::{PdsmSettings, PdsmShadows};
 use softshadow_scenes::primitives;
@@ -388,7 +388,7 @@ fn a_cancelled_build_fails_and_progress_counts_every_row() -> Result<()> {
     ensure!(pdsm.data().is_none());
     control.cancel.store(false, Ordering::Relaxed);
     render(&gpu, &scene, &mut pdsm)?;
-    ensure!(control.rows_done.load(Ordering::Relaxed) == 64);
+    ensure!(control.done.load(Ordering::Relaxed) == 64);
     Ok(())
 }
 
@@ -432,4 +432,103 @@ fn construction_at_the_paper_settings() -> Result<()> {
         ensure!(frame.passes.iter().any(|p| p == "pdsm/sample_maps"));
     }
     Ok(())
+}
+
+/// The technique error of a failed frame.
+fn technique_error(error: &anyhow::Error) -> Option<&TechniqueError> {
+    match error.downcast_ref::<RenderError>()? {
+        RenderError::Technique(e) => Some(e),
+        _ => None,
+    }
+}
+
+/// Background builds (the viewer): the first frame starts the CPU construction on its own thread
+/// and returns at once with "building" (nothing drawn); a later frame uploads the same PDSM a
+/// synchronous build gives; `invalidate_cache` keeps it in memory; a cancel ends the build with
+/// "cancelled" until the flag is cleared. No time is asserted: frames are polled until done.
+#[test]
+fn a_background_build_returns_at_once_draws_when_done_and_cancels() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-quads")?;
+    let uncached = PdsmSettings {
+        disk_cache: false,
+        ..settings(16, 64)
+    };
+    let mut sync = technique(&gpu, uncached.clone(), cache.path())?;
+    render(&gpu, &scene, &mut sync)?;
+
+    let mut pdsm = technique(&gpu, uncached, cache.path())?;
+    pdsm.set_background_build(true);
+    let control = pdsm.build_control();
+    let first = render(&gpu, &scene, &mut pdsm).err().context("building")?;
+    ensure!(
+        matches!(
+            technique_error(&first),
+            Some(TechniqueError::Building { total: 64, .. })
+        ),
+        "{first:#}"
+    );
+    ensure!(pdsm.data().is_none() && control.progress().is_some());
+    let frame = poll_until_drawn(&gpu, &scene, &mut pdsm)?;
+    ensure!(
+        pdsm.data() == sync.data(),
+        "the same PDSM as a synchronous build"
+    );
+    ensure!(control.progress().is_none());
+    ensure!(control.done.load(Ordering::Relaxed) == 64);
+    ensure!(!frame.passes.iter().any(|p| p == "pdsm/build"));
+    // Set aside in memory, not rebuilt, by invalidate_cache.
+    pdsm.invalidate_cache();
+    let again = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(!again.passes.iter().any(|p| p == "pdsm/sample_maps"));
+
+    // Other inputs start another build; cancel it.
+    pdsm.settings.samples = 4;
+    let started = render(&gpu, &scene, &mut pdsm).err().context("building")?;
+    ensure!(matches!(
+        technique_error(&started),
+        Some(TechniqueError::Building { .. })
+    ));
+    control.cancel();
+    let cancelled = loop {
+        match render(&gpu, &scene, &mut pdsm) {
+            Err(e) if matches!(technique_error(&e), Some(TechniqueError::Building { .. })) => {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+            other => break other.err().context("a cancelled build draws nothing")?,
+        }
+    };
+    ensure!(
+        matches!(
+            technique_error(&cancelled),
+            Some(TechniqueError::Cancelled { .. })
+        ),
+        "{cancelled:#}"
+    );
+    ensure!(pdsm.data().is_none() && control.progress().is_none());
+    let still = render(&gpu, &scene, &mut pdsm)
+        .err()
+        .context("still cancelled")?;
+    ensure!(matches!(
+        technique_error(&still),
+        Some(TechniqueError::Cancelled { .. })
+    ));
+    control.clear_cancel();
+    ensure!(render(&gpu, &scene, &mut pdsm).is_err(), "builds again");
+    poll_until_drawn(&gpu, &scene, &mut pdsm)?;
+    ensure!(pdsm.data().is_some_and(|d| d.size == 64));
+    Ok(())
+}
+
+/// Renders until the background build is done and the frame is drawn.
+fn poll_until_drawn(gpu: &Gpu, scene: &Scene, pdsm: &mut PdsmShadows) -> Result<Frame> {
+    loop {
+        match render(gpu, scene, pdsm) {
+            Err(e) if matches!(technique_error(&e), Some(TechniqueError::Building { .. })) => {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+            other => return other,
+        }
+    }
 }
