@@ -60,6 +60,10 @@ struct TechniqueGrid {
     params: BTreeMap<String, toml::Value>,
 }
 
+/// Most runs one sweep file may expand to (its grids multiply, so a few lines can name more runs
+/// than memory holds; 100,000 runs take days even at 32²).
+pub const MAX_SWEEP_RUNS: usize = 100_000;
+
 /// A parsed sweep: the runs and the shared options.
 #[derive(Debug)]
 pub struct Sweep {
@@ -155,6 +159,13 @@ impl Sweep {
                     })?;
                     parsed.push(info.parse_param(&format!("{name}={text}"))?);
                 }
+                let expanded = combos.len().saturating_mul(parsed.len());
+                if expanded.saturating_mul(file.scenes.len()) > MAX_SWEEP_RUNS {
+                    return Err(err(format!(
+                        "the grid of [[technique]] `{}` has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split the sweep into several files",
+                        grid.id
+                    )));
+                }
                 combos = combos
                     .into_iter()
                     .flat_map(|combo| {
@@ -165,6 +176,11 @@ impl Sweep {
                         })
                     })
                     .collect();
+            }
+            if runs.len() + combos.len() * file.scenes.len() > MAX_SWEEP_RUNS {
+                return Err(err(format!(
+                    "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
+                )));
             }
             for scene in &file.scenes {
                 for combo in &combos {

@@ -84,6 +84,19 @@ pub enum SceneError {
     #[error("glTF file `{path}` contains no triangle meshes: export at least one mesh with triangle primitives")]
     GltfNoGeometry { path: String },
 
+    /// A file over one of the loader limits ([`crate::limits`]).
+    #[error("{origin}: {what} is over the limit of {limit}: {advice}")]
+    Limit {
+        /// Where, e.g. "glTF file `x.glb`".
+        origin: String,
+        /// What was counted, e.g. "the triangle count (40000000)".
+        what: String,
+        /// The limit, with its unit, e.g. "32000000 triangles (softshadow_scenes::limits::MAX_TRIANGLES)".
+        limit: String,
+        /// What to do about it.
+        advice: String,
+    },
+
     /// The finished scene failed [`softshadow_core::Scene::validate`]. `origin` says where it
     /// came from (e.g. "scene file `x.toml`" or "builtin scene `atty-square`").
     #[error("{origin}: {message}")]
