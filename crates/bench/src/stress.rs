@@ -1,7 +1,7 @@
 //! Random parameter stress on the GPU (docs/STABILITY.md, "Random parameter stress").
 //!
-//! Each case draws, from one seeded generator: a registered technique, a value inside the
-//! declared range of every one of its parameters, a small scene, a light of random size and
+//! Each case takes the next registered technique in turn and draws, from one seeded generator, a
+//! value inside the declared range of every one of its parameters, a small scene, a light of random size and
 //! placement (degenerate ones included: zero width, aspect 1000, a light almost touching a
 //! caster, a light facing up or sideways, an `up` hint parallel to the direction) and a
 //! resolution of 32² or 48². It renders two frames (the full work, then one with only the camera
@@ -83,10 +83,22 @@ impl Rng {
     }
 }
 
+/// Which part of each declared range the cases draw from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ranges {
+    /// The whole declared range of every parameter (`bench --stress`).
+    Full,
+    /// Integer ranges wider than a factor of 8 above a positive minimum (map sides, sample and
+    /// map counts, memory budgets) are cut to `min..=8 min`, so a case takes a second rather
+    /// than a minute on a CPU device: the CI test. Every other range is whole.
+    Quick,
+}
+
 /// A value inside `spec`'s declared range: 1 in 5 draws takes an end of the range exactly; the
 /// rest are uniform, or log-uniform where the range spans more than a factor of 8 above a
-/// positive minimum (so map sizes 64..4096 are not almost always in the thousands).
-pub fn random_value(spec: &ParamSpec, rng: &mut Rng) -> ParamValue {
+/// positive minimum (so map sizes 64..4096 are not almost always in the thousands). With
+/// [`Ranges::Quick`] such integer ranges end at 8 x their minimum.
+pub fn random_value(spec: &ParamSpec, rng: &mut Rng, ranges: Ranges) -> ParamValue {
     match &spec.kind {
         ParamKind::Float { min, max, .. } => {
             let x = if rng.chance(0.2) {
@@ -103,13 +115,19 @@ pub fn random_value(spec: &ParamSpec, rng: &mut Rng) -> ParamValue {
             ParamValue::Float(x)
         }
         ParamKind::Int { min, max, .. } => {
+            let wide = *min > 0 && *max / *min > 8;
+            let max = &if wide && ranges == Ranges::Quick {
+                min * 8
+            } else {
+                *max
+            };
             let i = if rng.chance(0.2) {
                 if rng.chance(0.5) {
                     *min
                 } else {
                     *max
                 }
-            } else if *min > 0 && *max / *min > 8 {
+            } else if wide {
                 let x = rng
                     .range((*min as f64).ln(), (*max as f64 + 1.0).ln())
                     .exp();
@@ -256,6 +274,7 @@ impl Counts {
 pub struct Stress {
     gpu: softshadow_core::Gpu,
     rng: Rng,
+    ranges: Ranges,
     next_case: u64,
     scenes: HashMap<&'static str, (Scene, SceneGpu)>,
     renderers: HashMap<(u32, u32), Renderer>,
@@ -264,7 +283,7 @@ pub struct Stress {
 }
 
 impl Stress {
-    pub fn new(gpu: softshadow_core::Gpu, seed: u64) -> Result<Self, BenchError> {
+    pub fn new(gpu: softshadow_core::Gpu, seed: u64, ranges: Ranges) -> Result<Self, BenchError> {
         let mut scenes = HashMap::new();
         for &id in SCENES {
             let scene = softshadow_scenes::load(id)?.scene;
@@ -274,6 +293,7 @@ impl Stress {
         Ok(Self {
             gpu,
             rng: Rng::new(seed),
+            ranges,
             next_case: 0,
             scenes,
             renderers: HashMap::new(),
@@ -286,10 +306,11 @@ impl Stress {
     pub fn draw(&mut self) -> Case {
         let rng = &mut self.rng;
         let techniques = registry::techniques();
-        let info = *rng.pick(&techniques);
+        // In turn, so that every technique gets its share however few the cases.
+        let info = techniques[(self.next_case % techniques.len() as u64) as usize];
         let params = (info.params)()
             .iter()
-            .map(|spec| (spec.name.to_string(), random_value(spec, rng)))
+            .map(|spec| (spec.name.to_string(), random_value(spec, rng, self.ranges)))
             .collect();
         let scene = *rng.pick(SCENES);
         let (width, height) = *rng.pick(SIZES);

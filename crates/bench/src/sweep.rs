@@ -326,6 +326,32 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_grid_over_the_run_limit_is_refused_before_it_is_expanded() {
+        let list = |range: std::ops::RangeInclusive<u32>| {
+            range.map(|v| v.to_string()).collect::<Vec<_>>().join(",")
+        };
+        // 256 x 64 x 137 = 2.2 million runs from five lines.
+        let text = format!(
+            "scenes = [\"atty-square\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [{}]\nblocker_samples = [{}]\nshadow_map_size = [{}]\n",
+            list(1..=256),
+            list(1..=64),
+            list(64..=200)
+        );
+        let message = Sweep::parse(&text).unwrap_err().to_string();
+        assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
+        // Just under the limit in total but over it across two tables.
+        let table = format!(
+            "[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [{}]\nblocker_samples = [{}]\n",
+            list(1..=256),
+            list(1..=64)
+        );
+        let text =
+            format!("scenes = [\"atty-square\", \"stiff-fusion\"]\n{table}{table}{table}{table}");
+        let message = Sweep::parse(&text).unwrap_err().to_string();
+        assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
+    }
+
+    #[test]
     fn the_stiff_suite_runs_every_technique_on_every_stiff_case() {
         let sweep = Sweep::suite("stiff").unwrap();
         let stiff = softshadow_scenes::builtin_scenes()

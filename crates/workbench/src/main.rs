@@ -375,10 +375,11 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         Some(sweep) => sweep.shard(shard),
         None => specs.into_iter().enumerate().collect(),
     };
+    let gpu = Gpu::new_headless().context("cannot start the GPU")?;
+    // After the last check that can fail, so bad input and a missing GPU write nothing.
     if !resuming {
         resume::save(&args, &out)?;
     }
-    let gpu = Gpu::new_headless().context("cannot start the GPU")?;
     let progress = ProgressBar::new(indexed.len() as u64);
     progress.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")

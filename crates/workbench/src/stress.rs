@@ -4,7 +4,7 @@
 use std::{path::Path, process::ExitCode, time::Instant};
 
 use anyhow::{Context, Result};
-use softshadow_bench::stress::{Outcome, Stress};
+use softshadow_bench::stress::{Outcome, Ranges, Stress};
 use softshadow_core::Gpu;
 
 pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
@@ -15,11 +15,17 @@ pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
         std::env::set_var("SOFTSHADOW_CACHE_DIR", out.join("pdsm-cache"));
     }
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
-    let mut stress = Stress::new(gpu, seed)?;
+    let mut stress = Stress::new(gpu, seed, Ranges::Full)?;
     let start = Instant::now();
     let mut last_report = Instant::now();
     while start.elapsed().as_secs() < seconds {
+        let case_start = Instant::now();
         let (case, result) = stress.step();
+        log::debug!(
+            "{case}: {:?} after {:.1} s",
+            result.as_ref().map_err(|f| &f.problem),
+            case_start.elapsed().as_secs_f64()
+        );
         match &result {
             Ok(Outcome::Ok) => {}
             Ok(Outcome::ClearError(message)) => log::info!("{case}: {message}"),
