@@ -4,7 +4,7 @@
 #
 #   bash docs/stability-census.sh [path/to/workbench] > census.md
 #
-# Needs python3 (to write the glTF fixtures) and, for the permission rows, setpriv (the script
+# Needs python3 (to write the glTF fixtures), xvfb-run (the viewer rows) and, for the permission rows, setpriv (the script
 # then runs those as user nobody, since root reads every file).
 set -uo pipefail
 WB="${1:-target/debug/workbench}"
@@ -185,5 +185,5 @@ row "interrupted run" "\`--resume\` of a folder that does not exist" "$WB" bench
 row "merge" "merge of a folder without results.json" "$WB" merge not-a-benchmark --out "$T/merged"
 row "GPU" "no adapter (\`WGPU_BACKEND=metal\`)" env WGPU_BACKEND=metal "${S[@]}" --technique hard
 row "GPU" "\`WGPU_ADAPTER_NAME=nonexistent\`" env WGPU_ADAPTER_NAME=nonexistent "${S[@]}" --technique hard
-row "viewer state" "truncated JSON" "$WB" view --state state-truncated.json --frames 1
-row "viewer state" "unsupported version 7" "$WB" view --state state-version.json --frames 1
+row "viewer state" "truncated JSON" xvfb-run -a "$WB" view --state state-truncated.json --frames 1
+row "viewer state" "unsupported version 7" xvfb-run -a "$WB" view --state state-version.json --frames 1

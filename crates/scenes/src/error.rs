@@ -48,6 +48,12 @@ pub enum SceneError {
     #[error("{kind} `{path}` not found: check the path")]
     FileNotFound { kind: &'static str, path: String },
 
+    /// A path that names a folder, device or pipe (reading `/dev/zero` would never end).
+    #[error(
+        "`{path}` is not a regular file (a folder, device or pipe): give the path of a {kind}"
+    )]
+    NotAFile { kind: &'static str, path: String },
+
     /// Any other I/O failure while reading a file.
     #[error("cannot read `{path}`: {message}; check the file permissions")]
     Io { path: String, message: String },

@@ -279,12 +279,7 @@ pub(crate) fn check_file(path: &Path, kind: &'static str) -> Result<(), SceneErr
         },
     })?;
     if !metadata.is_file() {
-        return Err(SceneError::Io {
-            path: shown,
-            message: format!(
-                "it is not a regular file (a folder, device or pipe), so it is no {kind}"
-            ),
-        });
+        return Err(SceneError::NotAFile { kind, path: shown });
     }
     if metadata.len() > limits::MAX_FILE_BYTES {
         return Err(SceneError::Limit {
