@@ -101,7 +101,7 @@ row() { # kind, description, command...
   "$@" >/dev/null 2>"$T/stderr"
   local code=$?
   local err
-  err="$(grep -v -e XDG_RUNTIME_DIR -e 'wgpu_hal::gles' -e '^\s*$' "$T/stderr")"
+  err="$(grep -v -e XDG_RUNTIME_DIR -e '^\[20[0-9-]*T[0-9:]*Z \(WARN\|ERROR\) ' -e '^\s*$' "$T/stderr")"
   local lines
   lines=$(printf '%s' "$err" | grep -c .)
   err="${err//|/\\|}"
