@@ -57,6 +57,19 @@ pub fn parse_gltf(
         limit,
         advice: advice.into(),
     };
+    // gltf 1.4 subtracts 12 from the GLB header's length unchecked (a panic below 12: found by
+    // the `gltf` fuzz target), so that header is checked here first.
+    if let Some(length) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
+    {
+        if length < 12 {
+            return Err(malformed(format!(
+                "its GLB header gives a length of {length} bytes, less than the 12-byte header"
+            )));
+        }
+    }
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(bytes).map_err(|e| malformed(e.to_string()))?;
     for buffer in document.buffers() {

@@ -126,6 +126,19 @@ mod tests {
         assert!(message.contains("limits::MAX_INSTANCES"), "{message}");
     }
 
+    /// Fuzz finding (`gltf` target, crash-31b61e5f, minimised): a GLB header whose length is
+    /// below its own 12 bytes panicked inside the gltf crate.
+    #[test]
+    fn a_glb_header_shorter_than_itself_is_malformed_not_a_panic() {
+        let mut bytes = b"glTF\x02\x00\x00\x00\x00\x00\x00\x00".to_vec();
+        bytes.resize(434, 0);
+        let message = load_gltf(&bytes).unwrap_err().to_string();
+        assert!(
+            message.contains("less than the 12-byte header"),
+            "{message}"
+        );
+    }
+
     #[test]
     fn a_cyclic_node_graph_stops_at_the_depth_limit() {
         let nodes = json!([{"mesh": 0, "children": [1]}, {"children": [0]}]);
