@@ -9,6 +9,7 @@ pub mod output;
 pub mod registry;
 pub mod report;
 pub mod results;
+pub mod stress;
 pub mod sweep;
 
 use std::{
@@ -749,6 +750,22 @@ pub fn run_indexed(
     setup: RunSetup,
     options: BenchOptions,
     out_dir: &Path,
+    progress: impl FnMut(usize, &Run),
+) -> Result<Results, BenchError> {
+    run_resumed(gpu, specs, setup, options, out_dir, Vec::new(), progress)
+}
+
+/// Like [`run_indexed`], continuing an interrupted benchmark: `finished` are the runs its
+/// results.json already holds; runs of `specs` whose index is among them are skipped. The
+/// results.json is rewritten (atomically) after every run, so an interrupted benchmark keeps
+/// every finished run; runs are kept in index order.
+pub fn run_resumed(
+    gpu: Gpu,
+    specs: &[(usize, RunSpec)],
+    setup: RunSetup,
+    options: BenchOptions,
+    out_dir: &Path,
+    finished: Vec<Run>,
     mut progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
     std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Write {
@@ -763,17 +780,25 @@ pub fn run_indexed(
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),
         sweep: setup.sweep,
-        runs: Vec::with_capacity(specs.len()),
+        runs: finished,
     };
-    for (k, (index, spec)) in specs.iter().enumerate() {
+    let done: std::collections::HashSet<usize> = results.runs.iter().map(|r| r.index).collect();
+    let todo: Vec<&(usize, RunSpec)> = specs.iter().filter(|(i, _)| !done.contains(i)).collect();
+    for (k, (index, spec)) in todo.into_iter().enumerate() {
         let run = bench.run(*index, spec, out_dir);
-        progress(k, &run);
-        results.runs.push(run);
-        if setup
+        let cancelled = setup
             .build_control
             .as_ref()
-            .is_some_and(BuildControl::is_cancelled)
-        {
+            .is_some_and(BuildControl::is_cancelled);
+        if cancelled && run.status == Status::Error {
+            // The run the cancel interrupted is left out, so `bench --resume` makes it again.
+            break;
+        }
+        progress(k, &run);
+        results.runs.push(run);
+        results.runs.sort_by_key(|r| r.index);
+        write_results(&results, out_dir)?;
+        if cancelled {
             break;
         }
     }

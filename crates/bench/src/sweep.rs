@@ -60,6 +60,10 @@ struct TechniqueGrid {
     params: BTreeMap<String, toml::Value>,
 }
 
+/// Most runs one sweep file may expand to (its grids multiply, so a few lines can name more runs
+/// than memory holds; 100,000 runs take days even at 32²).
+pub const MAX_SWEEP_RUNS: usize = 100_000;
+
 /// A parsed sweep: the runs and the shared options.
 #[derive(Debug)]
 pub struct Sweep {
@@ -155,6 +159,13 @@ impl Sweep {
                     })?;
                     parsed.push(info.parse_param(&format!("{name}={text}"))?);
                 }
+                let expanded = combos.len().saturating_mul(parsed.len());
+                if expanded.saturating_mul(file.scenes.len()) > MAX_SWEEP_RUNS {
+                    return Err(err(format!(
+                        "the grid of [[technique]] `{}` has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split the sweep into several files",
+                        grid.id
+                    )));
+                }
                 combos = combos
                     .into_iter()
                     .flat_map(|combo| {
@@ -165,6 +176,11 @@ impl Sweep {
                         })
                     })
                     .collect();
+            }
+            if runs.len() + combos.len() * file.scenes.len() > MAX_SWEEP_RUNS {
+                return Err(err(format!(
+                    "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
+                )));
             }
             for scene in &file.scenes {
                 for combo in &combos {
@@ -308,6 +324,32 @@ impl Sweep {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_grid_over_the_run_limit_is_refused_before_it_is_expanded() {
+        let list = |range: std::ops::RangeInclusive<u32>| {
+            range.map(|v| v.to_string()).collect::<Vec<_>>().join(",")
+        };
+        // 256 x 64 x 137 = 2.2 million runs from five lines.
+        let text = format!(
+            "scenes = [\"atty-square\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [{}]\nblocker_samples = [{}]\nshadow_map_size = [{}]\n",
+            list(1..=256),
+            list(1..=64),
+            list(64..=200)
+        );
+        let message = Sweep::parse(&text).unwrap_err().to_string();
+        assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
+        // Just under the limit in total but over it across two tables.
+        let table = format!(
+            "[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [{}]\nblocker_samples = [{}]\n",
+            list(1..=256),
+            list(1..=64)
+        );
+        let text =
+            format!("scenes = [\"atty-square\", \"stiff-fusion\"]\n{table}{table}{table}{table}");
+        let message = Sweep::parse(&text).unwrap_err().to_string();
+        assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
+    }
 
     #[test]
     fn the_stiff_suite_runs_every_technique_on_every_stiff_case() {

@@ -147,7 +147,14 @@ impl Gpu {
             })?;
         let errors: Arc<Mutex<Vec<String>>> = Arc::default();
         let sink = errors.clone();
+        // Tests set SOFTSHADOW_GPU_ERRORS=panic: an error then panics in the wgpu call that
+        // raised it (as wgpu's own default handler does), so it fails the test that caused it
+        // even where no `take_errors` would have looked (docs/STABILITY.md).
+        let panic_on_error = std::env::var("SOFTSHADOW_GPU_ERRORS").is_ok_and(|v| v == "panic");
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            if panic_on_error {
+                panic!("wgpu error (SOFTSHADOW_GPU_ERRORS=panic): {error}");
+            }
             log::error!("wgpu: {error}");
             if let Ok(mut e) = sink.lock() {
                 e.push(error.to_string());

@@ -75,6 +75,17 @@ pub enum SceneError {
         path: String,
     },
 
+    /// A path that names a folder, device or pipe (reading `/dev/zero` would never end).
+    #[error(
+        "`{path}` is not a regular file (a folder, device or pipe): give the path of a {kind}"
+    )]
+    NotAFile {
+        /// "scene file" or "glTF file".
+        kind: &'static str,
+        /// The path given.
+        path: String,
+    },
+
     /// Any other I/O failure while reading a file.
     #[error("cannot read `{path}`: {message}; check the file permissions")]
     Io {
@@ -131,6 +142,19 @@ pub enum SceneError {
     GltfNoGeometry {
         /// The file.
         path: String,
+    },
+
+    /// A file over one of the loader limits ([`crate::limits`]).
+    #[error("{origin}: {what} is over the limit of {limit}: {advice}")]
+    Limit {
+        /// Where, e.g. "glTF file `x.glb`".
+        origin: String,
+        /// What was counted, e.g. "the triangle count (40000000)".
+        what: String,
+        /// The limit, with its unit, e.g. "32000000 triangles (softshadow_scenes::limits::MAX_TRIANGLES)".
+        limit: String,
+        /// What to do about it.
+        advice: String,
     },
 
     /// The finished scene failed [`softshadow_core::Scene::validate`]. `origin` says where it

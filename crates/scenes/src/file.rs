@@ -291,6 +291,10 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
         camera: camera(&file.camera),
     };
     let mut warnings = Vec::new();
+    let origin = format!("scene file `{shown}`");
+    crate::check_instances(file.objects.len(), &origin)?;
+    // Triangles so far (every instance counted), checked before each object is built.
+    let mut triangles = 0usize;
     for (k, object) in file.objects.iter().enumerate() {
         let object_error = |message: String| SceneError::SceneObject {
             path: shown.clone(),
@@ -310,6 +314,8 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
             .name
             .clone()
             .unwrap_or_else(|| format!("object {}", k + 1));
+        triangles = triangles.saturating_add(expected_triangles(object));
+        crate::check_triangles(triangles, &origin)?;
         match mesh_source(object).map_err(&object_error)? {
             Source::Procedural(mut mesh) => {
                 mesh.name = label;
@@ -328,6 +334,14 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
                         )),
                         other => other,
                     })?;
+                let instanced: usize = geometry
+                    .instances
+                    .iter()
+                    .map(|(mesh, _)| geometry.meshes[*mesh].triangle_count())
+                    .sum();
+                triangles = triangles.saturating_add(instanced);
+                crate::check_triangles(triangles, &origin)?;
+                crate::check_instances(scene.instances.len() + geometry.instances.len(), &origin)?;
                 let first = scene.meshes.len();
                 scene.meshes.extend(geometry.meshes);
                 for (mesh, node_transform) in geometry.instances {
@@ -342,6 +356,25 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
         }
     }
     Ok((scene, warnings))
+}
+
+/// Triangles a procedural `[[object]]` will have, computed before it is built (0 for glTF, which
+/// is counted once read, and for invalid sources, which `mesh_source` rejects).
+fn expected_triangles(object: &ObjectDef) -> usize {
+    if object.plane.is_some() {
+        2
+    } else if object.cuboid.is_some() {
+        12
+    } else if let Some(s) = &object.sphere {
+        let segments = s.segments.max(3);
+        primitives::latitude_longitude_triangles((segments / 2).max(2), segments)
+    } else if let Some(b) = &object.blob {
+        b.triangles as usize
+    } else if let Some(c) = &object.cylinder {
+        4 * c.segments.max(3) as usize
+    } else {
+        0
+    }
 }
 
 enum Source<'a> {

@@ -12,6 +12,9 @@ use glam::{Mat4, Vec3};
 use gltf::mesh::Mode;
 use softshadow_core::Mesh;
 
+use crate::limits::{
+    MAX_FILE_BYTES, MAX_INSTANCES, MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_TRIANGLES, MAX_VERTICES,
+};
 use crate::{repair_warnings, SceneError};
 
 /// Geometry read from a glTF file.
@@ -25,21 +28,75 @@ pub struct GltfGeometry {
     pub warnings: Vec<String>,
 }
 
-/// Node hierarchies deeper than this are treated as malformed (guards against cycles).
-const MAX_NODE_DEPTH: usize = 256;
-
 /// Reads the geometry of a `.gltf` or `.glb` file. See the module documentation.
 pub fn load_gltf(path: &Path) -> Result<GltfGeometry, SceneError> {
-    let shown = path.display().to_string();
     let bytes = crate::read_file(path, "glTF file")?;
+    parse_gltf(
+        &bytes,
+        Some(path.parent().unwrap_or_else(|| Path::new("."))),
+        path,
+    )
+}
+
+/// Reads the geometry of `.gltf` / `.glb` bytes; `path` names the file in messages and
+/// warnings. Buffers in other files are read from folder `base`; with `None` they are refused.
+/// Checks the [`crate::limits`] before reading anything large.
+pub fn parse_gltf(
+    bytes: &[u8],
+    base: Option<&Path>,
+    path: &Path,
+) -> Result<GltfGeometry, SceneError> {
+    let shown = path.display().to_string();
     let malformed = |message: String| SceneError::GltfMalformed {
         path: shown.clone(),
         message: crate::error::one_line(&message),
     };
+    let limit = |what: String, limit: String, advice: &str| SceneError::Limit {
+        origin: format!("glTF file `{shown}`"),
+        what,
+        limit,
+        advice: advice.into(),
+    };
+    // gltf 1.4 subtracts 12 from the GLB header's length unchecked (a panic below 12: found by
+    // the `gltf` fuzz target), so that header is checked here first.
+    if let Some(length) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
+    {
+        if length < 12 {
+            return Err(malformed(format!(
+                "its GLB header gives a length of {length} bytes, less than the 12-byte header"
+            )));
+        }
+    }
     let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| malformed(e.to_string()))?;
-    let base = path.parent().unwrap_or_else(|| Path::new("."));
-    let buffers = gltf::import_buffers(&document, Some(base), blob)
+        gltf::Gltf::from_slice(bytes).map_err(|e| malformed(e.to_string()))?;
+    for buffer in document.buffers() {
+        if buffer.length() as u64 > MAX_FILE_BYTES {
+            return Err(limit(
+                format!("buffer {} ({} bytes)", buffer.index(), buffer.length()),
+                format!("{MAX_FILE_BYTES} bytes (limits::MAX_FILE_BYTES)"),
+                "split or decimate the model",
+            ));
+        }
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            if !uri.starts_with("data:") {
+                let Some(base) = base else {
+                    return Err(malformed(format!(
+                        "buffer {} is in another file (`{uri}`), which is not read here; embed it (save as .glb)",
+                        buffer.index()
+                    )));
+                };
+                // A device or pipe named as a buffer would never end: check before gltf reads it.
+                let file = base.join(uri.strip_prefix("file://").unwrap_or(uri));
+                if file.exists() {
+                    crate::check_file(&file, "glTF buffer file")?;
+                }
+            }
+        }
+    }
+    let buffers = gltf::import_buffers(&document, base, blob)
         .map_err(|e| malformed(format!("cannot load its buffers ({e})")))?;
     let file_name = path
         .file_name()
@@ -48,6 +105,8 @@ pub fn load_gltf(path: &Path) -> Result<GltfGeometry, SceneError> {
     let mut geometry = GltfGeometry::default();
     // For each glTF mesh, the indices of the meshes made from its triangle primitives.
     let mut primitives_of: Vec<Vec<usize>> = Vec::new();
+    // Triangles of every primitive read so far, checked against the limit before reading more.
+    let mut triangles_read = 0usize;
     for gmesh in document.meshes() {
         let mesh_name = gmesh
             .name()
@@ -60,6 +119,22 @@ pub fn load_gltf(path: &Path) -> Result<GltfGeometry, SceneError> {
             } else {
                 mesh_name.clone()
             };
+            let (vertices, triangles) = primitive_size(&primitive);
+            if vertices > MAX_VERTICES {
+                return Err(limit(
+                    format!("mesh `{name}`'s vertex count ({vertices})"),
+                    format!("{MAX_VERTICES} vertices per primitive (limits::MAX_VERTICES)"),
+                    "decimate the model",
+                ));
+            }
+            triangles_read = triangles_read.saturating_add(triangles);
+            if triangles_read > MAX_TRIANGLES {
+                return Err(limit(
+                    format!("the triangle count of its meshes (at least {triangles_read})"),
+                    format!("{MAX_TRIANGLES} triangles (limits::MAX_TRIANGLES)"),
+                    "decimate the model",
+                ));
+            }
             match read_primitive(&primitive, &buffers, &name) {
                 Ok(mut mesh) => {
                     let repair = mesh.repair();
@@ -87,15 +162,24 @@ pub fn load_gltf(path: &Path) -> Result<GltfGeometry, SceneError> {
         .or_else(|| document.scenes().next());
     match scene {
         Some(scene) => {
+            let mut walker = Walker {
+                primitives_of: &primitives_of,
+                triangles_of: geometry.meshes.iter().map(Mesh::triangle_count).collect(),
+                triangles: 0,
+                visits: 0,
+                out: &mut geometry.instances,
+            };
             for node in scene.nodes() {
-                walk(
-                    &node,
-                    Mat4::IDENTITY,
-                    0,
-                    &primitives_of,
-                    &mut geometry.instances,
-                )
-                .map_err(malformed)?;
+                walker
+                    .walk(&node, Mat4::IDENTITY, 0)
+                    .map_err(|e| match e {
+                        WalkError::Malformed(message) => malformed(message),
+                        WalkError::Limit { what, limit: l } => limit(
+                            what,
+                            l,
+                            "instance the mesh fewer times (a node graph that reuses children multiplies)",
+                        ),
+                    })?;
             }
         }
         None => {
@@ -113,29 +197,74 @@ pub fn load_gltf(path: &Path) -> Result<GltfGeometry, SceneError> {
     Ok(geometry)
 }
 
-/// Adds the instances of `node` and its descendants, composing transforms parent * child.
-fn walk(
-    node: &gltf::Node<'_>,
-    parent: Mat4,
-    depth: usize,
-    primitives_of: &[Vec<usize>],
-    out: &mut Vec<(usize, Mat4)>,
-) -> Result<(), String> {
-    if depth > MAX_NODE_DEPTH {
-        return Err(format!(
-            "node hierarchy deeper than {MAX_NODE_DEPTH} levels (a cycle?)"
-        ));
-    }
-    let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-    if let Some(mesh) = node.mesh() {
-        for &m in primitives_of.get(mesh.index()).into_iter().flatten() {
-            out.push((m, world));
+/// (vertices, triangles) a primitive declares, from its accessors' counts (nothing is read).
+fn primitive_size(primitive: &gltf::Primitive<'_>) -> (usize, usize) {
+    let vertices = primitive
+        .get(&gltf::Semantic::Positions)
+        .map_or(0, |a| a.count());
+    let indices = primitive.indices().map_or(vertices, |a| a.count());
+    (vertices, indices / 3)
+}
+
+enum WalkError {
+    Malformed(String),
+    Limit { what: String, limit: String },
+}
+
+/// Collects node uses of meshes, counting instances and their triangles against the limits (a
+/// node graph that reuses children can name 2^depth instances in a few hundred bytes).
+struct Walker<'a> {
+    primitives_of: &'a [Vec<usize>],
+    triangles_of: Vec<usize>,
+    triangles: usize,
+    visits: usize,
+    out: &'a mut Vec<(usize, Mat4)>,
+}
+
+impl Walker<'_> {
+    /// Adds the instances of `node` and its descendants, composing transforms parent * child.
+    fn walk(&mut self, node: &gltf::Node<'_>, parent: Mat4, depth: usize) -> Result<(), WalkError> {
+        if depth > MAX_NODE_DEPTH {
+            return Err(WalkError::Malformed(format!(
+                "node hierarchy deeper than {MAX_NODE_DEPTH} levels (limits::MAX_NODE_DEPTH; a cycle?)"
+            )));
         }
+        self.visits += 1;
+        if self.visits > MAX_NODE_VISITS {
+            return Err(WalkError::Limit {
+                what: format!("the number of node visits (more than {MAX_NODE_VISITS})"),
+                limit: format!("{MAX_NODE_VISITS} node visits (limits::MAX_NODE_VISITS)"),
+            });
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            for &m in self.primitives_of.get(mesh.index()).into_iter().flatten() {
+                if self.out.len() >= MAX_INSTANCES {
+                    return Err(WalkError::Limit {
+                        what: format!(
+                            "the number of mesh uses by nodes (more than {MAX_INSTANCES})"
+                        ),
+                        limit: format!("{MAX_INSTANCES} instances (limits::MAX_INSTANCES)"),
+                    });
+                }
+                self.triangles = self.triangles.saturating_add(self.triangles_of[m]);
+                if self.triangles > MAX_TRIANGLES {
+                    return Err(WalkError::Limit {
+                        what: format!(
+                            "the triangle count of its node uses (at least {})",
+                            self.triangles
+                        ),
+                        limit: format!("{MAX_TRIANGLES} triangles (limits::MAX_TRIANGLES)"),
+                    });
+                }
+                self.out.push((m, world));
+            }
+        }
+        for child in node.children() {
+            self.walk(&child, world, depth + 1)?;
+        }
+        Ok(())
     }
-    for child in node.children() {
-        walk(&child, world, depth + 1, primitives_of, out)?;
-    }
-    Ok(())
 }
 
 /// Reads one primitive into a mesh, or says why it was skipped.

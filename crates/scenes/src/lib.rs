@@ -16,6 +16,7 @@ pub mod builtin;
 mod error;
 pub mod file;
 pub mod gltf_import;
+pub mod limits;
 pub mod primitives;
 pub mod stiff;
 
@@ -26,7 +27,7 @@ use softshadow_core::{AreaLight, Camera, Instance, Mesh, MeshRepair, Scene};
 
 pub use builtin::{builtin_scenes, AttySquare, BuiltinInfo, ParamInfo};
 pub use error::SceneError;
-pub use gltf_import::{load_gltf, GltfGeometry};
+pub use gltf_import::{load_gltf, parse_gltf, GltfGeometry};
 
 /// A loaded, repaired and validated scene with what the loader had to fix or skip.
 #[derive(Clone, Debug)]
@@ -50,12 +51,7 @@ pub fn load(spec: &str) -> Result<Loaded, SceneError> {
         Some("toml") => load_scene_file(path),
         Some("gltf" | "glb") => {
             let geometry = load_gltf(path)?;
-            let scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
-            let mut loaded = finalize(scene, &format!("glTF file `{spec}`"))?;
-            let mut warnings = geometry.warnings;
-            warnings.append(&mut loaded.warnings);
-            loaded.warnings = warnings;
-            Ok(loaded)
+            load_gltf_geometry(path, geometry)
         }
         _ if path.is_file() => Err(SceneError::UnsupportedFile { path: spec.into() }),
         _ => {
@@ -80,16 +76,45 @@ pub fn builtin(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> 
     Ok(loaded.scene)
 }
 
+/// Loads a `.gltf` / `.glb` model held in memory as [`load`] loads the file `path` (wrapped
+/// into a scene, repaired, validated). With `external_buffers`, buffers in other files are
+/// read next to `path`; without, they are refused (only embedded data and the GLB binary chunk
+/// are read: how the fuzz targets load untrusted bytes without touching the file system).
+pub fn load_gltf_bytes(
+    bytes: &[u8],
+    path: &Path,
+    external_buffers: bool,
+) -> Result<Loaded, SceneError> {
+    let base = external_buffers.then(|| path.parent().unwrap_or_else(|| Path::new(".")));
+    let geometry = parse_gltf(bytes, base, path)?;
+    load_gltf_geometry(path, geometry)
+}
+
+fn load_gltf_geometry(path: &Path, geometry: GltfGeometry) -> Result<Loaded, SceneError> {
+    let scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    let mut loaded = finalize(scene, &format!("glTF file `{}`", path.display()))?;
+    let mut warnings = geometry.warnings;
+    warnings.append(&mut loaded.warnings);
+    loaded.warnings = warnings;
+    Ok(loaded)
+}
+
 /// Loads a `.toml` scene file (see [`file`](mod@file) and `docs/SCENES.md`).
 pub fn load_scene_file(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let bytes = read_file(path, "scene file")?;
-    let text = String::from_utf8(bytes).map_err(|_| SceneError::SceneFile {
+    load_scene_bytes(&bytes, path)
+}
+
+/// Loads scene-file bytes as [`load_scene_file`] loads the file `path` (glTF objects are resolved
+/// relative to `path`'s folder).
+pub fn load_scene_bytes(bytes: &[u8], path: &Path) -> Result<Loaded, SceneError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| SceneError::SceneFile {
         path: path.display().to_string(),
         line: None,
         message: "is not UTF-8 text: save it as UTF-8".into(),
     })?;
-    let def = file::parse(&text, path)?;
+    let def = file::parse(text, path)?;
     let (scene, mut warnings) = file::build(&def, path)?;
     let mut loaded = finalize(scene, &format!("scene file `{}`", path.display()))?;
     warnings.append(&mut loaded.warnings);
@@ -101,6 +126,8 @@ pub fn load_scene_file(path: impl AsRef<Path>) -> Result<Loaded, SceneError> {
 /// computes missing normals and validates the scene. `source` says where the scene came from,
 /// e.g. "scene file `x.toml`"; it starts every warning and the validation error.
 pub fn finalize(mut scene: Scene, source: &str) -> Result<Loaded, SceneError> {
+    check_instances(scene.instances.len(), source)?;
+    check_triangles(scene.triangle_count(), source)?;
     let mut warnings = Vec::new();
     for mesh in &mut scene.meshes {
         let had_triangles = !mesh.indices.is_empty();
@@ -207,8 +234,71 @@ pub fn wrap_gltf(path: &Path, mut meshes: Vec<Mesh>, instances: &[(usize, Mat4)]
     scene
 }
 
-/// Reads a whole file; a missing file becomes [`SceneError::FileNotFound`] naming `kind`.
+/// Fails with [`SceneError::Limit`] when a scene would have more than
+/// [`limits::MAX_TRIANGLES`] triangles (counted per instance). `origin` says where from.
+pub(crate) fn check_triangles(triangles: usize, origin: &str) -> Result<(), SceneError> {
+    if triangles <= limits::MAX_TRIANGLES {
+        return Ok(());
+    }
+    Err(SceneError::Limit {
+        origin: origin.into(),
+        what: format!("the triangle count ({triangles}, every instance counted)"),
+        limit: format!(
+            "{} triangles (limits::MAX_TRIANGLES)",
+            limits::MAX_TRIANGLES
+        ),
+        advice: "decimate the model or use fewer instances".into(),
+    })
+}
+
+/// Fails with [`SceneError::Limit`] above [`limits::MAX_INSTANCES`] instances.
+pub(crate) fn check_instances(instances: usize, origin: &str) -> Result<(), SceneError> {
+    if instances <= limits::MAX_INSTANCES {
+        return Ok(());
+    }
+    Err(SceneError::Limit {
+        origin: origin.into(),
+        what: format!("the instance count ({instances})"),
+        limit: format!(
+            "{} instances (limits::MAX_INSTANCES)",
+            limits::MAX_INSTANCES
+        ),
+        advice: "merge meshes or use fewer node uses / objects".into(),
+    })
+}
+
+/// Checks that `path` is a regular file no larger than [`limits::MAX_FILE_BYTES`] (a device such
+/// as `/dev/zero` or a FIFO would never end), describing it as `kind` in errors.
+pub(crate) fn check_file(path: &Path, kind: &'static str) -> Result<(), SceneError> {
+    let shown = path.display().to_string();
+    let metadata = std::fs::metadata(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => SceneError::FileNotFound {
+            kind,
+            path: shown.clone(),
+        },
+        _ => SceneError::Io {
+            path: shown.clone(),
+            message: error::one_line(&e.to_string()),
+        },
+    })?;
+    if !metadata.is_file() {
+        return Err(SceneError::NotAFile { kind, path: shown });
+    }
+    if metadata.len() > limits::MAX_FILE_BYTES {
+        return Err(SceneError::Limit {
+            origin: format!("{kind} `{shown}`"),
+            what: format!("the file size ({} bytes)", metadata.len()),
+            limit: format!("{} bytes (limits::MAX_FILE_BYTES)", limits::MAX_FILE_BYTES),
+            advice: "split or decimate the model".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Reads a whole file after [`check_file`]; a missing file becomes
+/// [`SceneError::FileNotFound`] naming `kind`.
 pub(crate) fn read_file(path: &Path, kind: &'static str) -> Result<Vec<u8>, SceneError> {
+    check_file(path, kind)?;
     std::fs::read(path).map_err(|e| match e.kind() {
         std::io::ErrorKind::NotFound => SceneError::FileNotFound {
             kind,

@@ -55,7 +55,16 @@ impl ViewerState {
         };
         let text = std::fs::read_to_string(path)
             .map_err(|e| error(format!("cannot read it ({e}): check the path")))?;
-        let state: Self = serde_json::from_str(&text)
+        Self::parse(&text, path)
+    }
+
+    /// Parses and checks the text of a state file; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ViewerError> {
+        let error = |message: String| ViewerError::State {
+            path: path.display().to_string(),
+            message,
+        };
+        let state: Self = serde_json::from_str(text)
             .map_err(|e| error(format!("not a viewer state file: {e}")))?;
         if state.version != STATE_VERSION {
             return Err(error(format!(

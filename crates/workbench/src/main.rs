@@ -7,6 +7,10 @@
 //! - `workbench bench --sweep FILE --out DIR`
 //! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `benches/NAME.toml`)
 //! - `workbench bench --sweep FILE --shard I/N --out DIR`: shard I (0-based) of N
+//! - `workbench bench --resume DIR`: finish an interrupted benchmark (its results.json keeps every
+//!   finished run)
+//! - `workbench bench --stress SECONDS [--seed N] --out DIR`: random parameter stress
+//!   (docs/STABILITY.md)
 //! - `workbench merge DIR... --out DIR`: the shards of one sweep as one results.json
 //! - `workbench report DIR_OR_RESULTS_JSON... --out report.html [--csv runs.csv]`
 
@@ -17,6 +21,9 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use softshadow_bench::{registry, BenchOptions, RunSetup, RunSpec, Status, Sweep, SweepInfo};
 use softshadow_core::{BuildControl, Gpu, ParamKind, TimingSource};
+
+mod resume;
+mod stress;
 
 #[derive(Parser)]
 #[command(
@@ -89,7 +96,7 @@ struct ViewArgs {
     screenshot: Option<PathBuf>,
 }
 
-#[derive(Args)]
+#[derive(Args, Clone, serde::Serialize, serde::Deserialize)]
 struct BenchArgs {
     /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
     #[arg(long, conflicts_with_all = ["sweep", "suite"])]
@@ -145,8 +152,22 @@ struct BenchArgs {
     #[arg(long, value_name = "INDEX/COUNT")]
     shard: Option<String>,
     /// Output folder (created if missing).
-    #[arg(long)]
-    out: PathBuf,
+    #[arg(long, required_unless_present = "resume")]
+    out: Option<PathBuf>,
+    /// Finish the benchmark interrupted in DIR (Ctrl-C, killed): runs what its results.json
+    /// lacks, with the arguments it was started with, and adds them to it.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "technique", "sweep", "suite", "out", "stress"])]
+    #[serde(skip)]
+    resume: Option<PathBuf>,
+    /// Random parameter stress for SECONDS seconds: every technique, random parameters in their
+    /// ranges, random lights, 32² to 48²; writes stress.json to --out (docs/STABILITY.md).
+    #[arg(long, value_name = "SECONDS", conflicts_with_all = ["scene", "technique", "sweep", "suite"])]
+    #[serde(skip)]
+    stress: Option<u64>,
+    /// Seed of the random cases of --stress.
+    #[arg(long, default_value_t = 1, requires = "stress")]
+    #[serde(skip)]
+    seed: u64,
 }
 
 fn main() -> ExitCode {
@@ -257,6 +278,21 @@ fn load_suite(name: &str) -> Result<Sweep> {
 }
 
 fn bench(args: BenchArgs) -> Result<ExitCode> {
+    if let Some(seconds) = args.stress {
+        let out = args
+            .out
+            .context("--stress needs --out DIR for stress.json")?;
+        return stress::run(seconds, args.seed, &out);
+    }
+    let resuming = args.resume.is_some();
+    let (args, finished, finished_hash) = match &args.resume {
+        Some(dir) => {
+            let previous = resume::load(dir)?;
+            (previous.args, previous.runs, previous.sweep_hash)
+        }
+        None => (args, Vec::new(), None),
+    };
+    let out = args.out.clone().context("give --out DIR")?;
     // Everything that can be checked without a GPU is checked first, so bad input fails fast
     // and writes nothing.
     let sweep = match (&args.sweep, &args.suite) {
@@ -327,11 +363,23 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         runs_total: sweep.runs.len(),
         shard,
     });
+    if let (Some(info), Some(hash)) = (&sweep_info, &finished_hash) {
+        if &info.hash != hash {
+            bail!(
+                "cannot resume: the sweep (or its options) changed since its results.json was written (hash {hash}, now {}); start it again with a new --out",
+                info.hash
+            );
+        }
+    }
     let indexed: Vec<(usize, RunSpec)> = match &sweep {
         Some(sweep) => sweep.shard(shard),
         None => specs.into_iter().enumerate().collect(),
     };
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
+    // After the last check that can fail, so bad input and a missing GPU write nothing.
+    if !resuming {
+        resume::save(&args, &out)?;
+    }
     // Bars on stderr (indicatif draws nothing when it is not a terminal): the runs, and below
     // them the rows of a PDSM precompute while one builds.
     let bars = MultiProgress::new();
@@ -340,6 +388,7 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    progress.set_position(finished.len() as u64);
     let control = BuildControl::default();
     interrupt_on_ctrl_c(&control, &bars)?;
     let setup = RunSetup {
@@ -350,11 +399,17 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
         build_control: Some(control.clone()),
     };
     let runs_total = indexed.len();
-    let finished = std::sync::atomic::AtomicBool::new(false);
+    let all_done = std::sync::atomic::AtomicBool::new(false);
     let results = std::thread::scope(|scope| {
-        scope.spawn(|| watch_builds(&control, &bars, &finished));
-        let results =
-            softshadow_bench::run_indexed(gpu, &indexed, setup, options, &args.out, |_, run| {
+        scope.spawn(|| watch_builds(&control, &bars, &all_done));
+        let results = softshadow_bench::run_resumed(
+            gpu,
+            &indexed,
+            setup,
+            options,
+            &out,
+            finished,
+            |_, run| {
                 progress.set_message(format!("{} / {}", run.scene, run.technique));
                 progress.inc(1);
                 if run.status == Status::Error {
@@ -363,8 +418,9 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
                         run.scene, run.technique, run.message
                     ));
                 }
-            });
-        finished.store(true, std::sync::atomic::Ordering::Relaxed);
+            },
+        );
+        all_done.store(true, std::sync::atomic::Ordering::Relaxed);
         results
     })?;
     progress.finish_and_clear();
@@ -422,11 +478,12 @@ fn bench(args: BenchArgs) -> Result<ExitCode> {
                 .is_some_and(|s| s.nan + s.inf + s.out_of_range > 0)
         })
         .count();
-    println!("wrote {}", args.out.join("results.json").display());
+    println!("wrote {}", out.join("results.json").display());
     if control.is_cancelled() {
         eprintln!(
-            "interrupted (Ctrl-C): {} of {runs_total} runs done, the last one cancelled; results.json holds them",
-            results.runs.len()
+            "interrupted (Ctrl-C): {} of {runs_total} runs done and in results.json (the cancelled one left out); `workbench bench --resume {}` finishes the rest",
+            results.runs.len(),
+            out.display()
         );
         return Ok(ExitCode::from(130));
     }

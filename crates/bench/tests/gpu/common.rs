@@ -18,6 +18,9 @@ pub fn gpu() -> Result<Gpu> {
                 std::env::temp_dir().join(format!("softshadow-test-cache-{}", std::process::id()));
             std::env::set_var("SOFTSHADOW_CACHE_DIR", dir);
         }
+        // A wgpu validation error panics in the call that caused it, failing its test
+        // (docs/STABILITY.md, "Validation errors fail tests").
+        std::env::set_var("SOFTSHADOW_GPU_ERRORS", "panic");
     });
     Gpu::new_headless().context(
         "these tests need a GPU adapter: install Mesa's lavapipe (apt-get install -y mesa-vulkan-drivers)",

@@ -12,6 +12,7 @@ mod light_space_cache;
 mod pdsm;
 mod ssm;
 mod stiff;
+mod stress;
 mod sweeps;
 mod techniques;
 mod timing;

@@ -1,0 +1,537 @@
+//! Random parameter stress on the GPU (docs/STABILITY.md, "Random parameter stress").
+//!
+//! Each case takes the next registered technique in turn and draws, from one seeded generator, a
+//! value inside the declared range of every one of its parameters, a small scene, a light of random size and
+//! placement (degenerate ones included: zero width, aspect 1000, a light almost touching a
+//! caster, a light facing up or sideways, an `up` hint parallel to the direction) and a
+//! resolution of 32² or 48². It renders two frames (the full work, then one with only the camera
+//! moved, which keeps light-space results) and checks each: either the frame succeeded with every
+//! visibility value finite and in [0, 1], or it failed with a clear one-line error. A wgpu
+//! validation error, a panic, or an invalid visibility value is a [`Finding`].
+//!
+//! The same seed gives the same cases, so a finding is reproduced with
+//! `workbench bench --stress SECONDS --seed SEED` and the case number it names.
+
+use std::{
+    collections::{BTreeMap, HashMap},
+    panic::AssertUnwindSafe,
+};
+
+use softshadow_core::{
+    glam::Vec3, AreaLight, GpuError, ParamKind, ParamSpec, ParamValue, RenderError, Renderer,
+    Scene, SceneGpu, ShadowTechnique, TechniqueError,
+};
+
+use crate::{registry, BenchError};
+
+/// Builtin scenes the stress draws from: a few hundred triangles each, every stiff geometry
+/// that matters for light placement (contact, zero thickness, a caster crossing the light plane,
+/// repaired input, overlapping casters) and a scene with a dynamic-free PDSM set-up.
+pub const SCENES: &[&str] = &[
+    "atty-square",
+    "stiff-contact",
+    "stiff-zero-thickness",
+    "stiff-partly-outside",
+    "stiff-degenerate",
+    "stiff-fusion",
+    "pdsm-quads",
+];
+
+/// Image sizes the stress draws from.
+pub const SIZES: &[(u32, u32)] = &[(32, 32), (48, 48), (48, 32)];
+
+/// A small, fast, seedable generator (SplitMix64): the stress needs reproducible draws, not
+/// cryptographic ones, and no dependency.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in [lo, hi].
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    /// Uniform integer in [lo, hi].
+    pub fn int(&mut self, lo: i64, hi: i64) -> i64 {
+        let span = (hi - lo) as u64 + 1;
+        lo + (self.next_u64() % span) as i64
+    }
+
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+
+    pub fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
+        &items[(self.next_u64() % items.len() as u64) as usize]
+    }
+}
+
+/// Which part of each declared range the cases draw from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ranges {
+    /// The whole declared range of every parameter (`bench --stress`).
+    Full,
+    /// Integer ranges wider than a factor of 8 above a positive minimum (map sides, sample and
+    /// map counts, memory budgets) are cut to `min..=8 min`, so a case takes a second rather
+    /// than a minute on a CPU device: the CI test. Every other range is whole.
+    Quick,
+}
+
+/// A value inside `spec`'s declared range: 1 in 5 draws takes an end of the range exactly; the
+/// rest are uniform, or log-uniform where the range spans more than a factor of 8 above a
+/// positive minimum (so map sizes 64..4096 are not almost always in the thousands). With
+/// [`Ranges::Quick`] such integer ranges end at 8 x their minimum.
+pub fn random_value(spec: &ParamSpec, rng: &mut Rng, ranges: Ranges) -> ParamValue {
+    match &spec.kind {
+        ParamKind::Float { min, max, .. } => {
+            let x = if rng.chance(0.2) {
+                if rng.chance(0.5) {
+                    *min
+                } else {
+                    *max
+                }
+            } else if *min > 0.0 && max / min > 8.0 {
+                (rng.range(min.ln(), max.ln())).exp().clamp(*min, *max)
+            } else {
+                rng.range(*min, *max)
+            };
+            ParamValue::Float(x)
+        }
+        ParamKind::Int { min, max, .. } => {
+            let wide = *min > 0 && *max / *min > 8;
+            let max = &if wide && ranges == Ranges::Quick {
+                min * 8
+            } else {
+                *max
+            };
+            let i = if rng.chance(0.2) {
+                if rng.chance(0.5) {
+                    *min
+                } else {
+                    *max
+                }
+            } else if wide {
+                let x = rng
+                    .range((*min as f64).ln(), (*max as f64 + 1.0).ln())
+                    .exp();
+                (x.floor() as i64).clamp(*min, *max)
+            } else {
+                rng.int(*min, *max)
+            };
+            ParamValue::Int(i)
+        }
+        ParamKind::Bool { .. } => ParamValue::Bool(rng.chance(0.5)),
+        ParamKind::Choice { options, .. } => ParamValue::Choice(rng.pick(options).to_string()),
+    }
+}
+
+/// How the light of a case was placed (so a count per kind can be reported).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum LightKind {
+    /// Random size (0 to 2 per side) above the scene, aimed near its target.
+    Ordinary,
+    /// Width 0 (a line light) or both sides 0 (a point light).
+    ZeroWidth,
+    /// Aspect ratio 1000 (either way round).
+    Aspect1000,
+    /// Facing down from 1e-5 to 1e-2 above the top of the casters.
+    TouchingCaster,
+    /// Any direction (up, sideways, grazing) from anywhere around the scene.
+    AnyDirection,
+    /// The `up` hint parallel to the direction (light space must pick its own).
+    UpParallel,
+}
+
+/// One drawn case.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// 0-based position in the seeded sequence.
+    pub number: u64,
+    pub technique: &'static str,
+    pub params: Vec<(String, ParamValue)>,
+    pub scene: &'static str,
+    pub light_kind: LightKind,
+    pub light: AreaLight,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl std::fmt::Display for Case {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let params: Vec<String> = self
+            .params
+            .iter()
+            .map(|(n, v)| format!("{n}={v}"))
+            .collect();
+        let l = &self.light;
+        write!(
+            f,
+            "case {} ({}x{}): {} [{}] on {} with a {:?} light center {:?} direction {:?} up {:?} size {}x{}",
+            self.number,
+            self.width,
+            self.height,
+            self.technique,
+            params.join(","),
+            self.scene,
+            self.light_kind,
+            l.center.to_array(),
+            l.direction.to_array(),
+            l.up.to_array(),
+            l.width,
+            l.height
+        )
+    }
+}
+
+/// What a case did.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    /// Both frames rendered; every visibility value finite and in [0, 1].
+    Ok,
+    /// The technique refused the case with this one-line message.
+    ClearError(String),
+}
+
+/// A case that broke a rule: the case, then what went wrong.
+#[derive(Clone, Debug)]
+pub struct Finding {
+    pub case: String,
+    pub problem: String,
+}
+
+impl std::fmt::Display for Finding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.case, self.problem)
+    }
+}
+
+/// Counts of a stress run.
+#[derive(Clone, Debug, Default)]
+pub struct Counts {
+    pub cases: u64,
+    pub ok: u64,
+    pub clear_errors: u64,
+    /// Frames rendered (two per case that got that far).
+    pub frames: u64,
+    /// Technique id -> (cases, ok).
+    pub per_technique: BTreeMap<String, (u64, u64)>,
+    /// Light kind -> cases.
+    pub per_light: BTreeMap<String, u64>,
+    /// Distinct clear-error messages (numbers stripped) -> how often.
+    pub error_messages: BTreeMap<String, u64>,
+    pub findings: Vec<Finding>,
+}
+
+impl Counts {
+    fn add(&mut self, case: &Case, result: &Result<Outcome, Finding>) {
+        self.cases += 1;
+        *self
+            .per_light
+            .entry(format!("{:?}", case.light_kind))
+            .or_default() += 1;
+        let entry = self
+            .per_technique
+            .entry(case.technique.to_string())
+            .or_default();
+        entry.0 += 1;
+        match result {
+            Ok(Outcome::Ok) => {
+                self.ok += 1;
+                entry.1 += 1;
+            }
+            Ok(Outcome::ClearError(message)) => {
+                self.clear_errors += 1;
+                let shape: String = message
+                    .chars()
+                    .map(|c| if c.is_ascii_digit() { '#' } else { c })
+                    .collect();
+                *self.error_messages.entry(shape).or_default() += 1;
+            }
+            Err(finding) => self.findings.push(finding.clone()),
+        }
+    }
+}
+
+/// The GPU state of a stress run: one renderer per size, scenes uploaded once, one technique
+/// object per id (re-parameterised for every case, as the viewer's sliders do).
+pub struct Stress {
+    gpu: softshadow_core::Gpu,
+    rng: Rng,
+    ranges: Ranges,
+    next_case: u64,
+    scenes: HashMap<&'static str, (Scene, SceneGpu)>,
+    renderers: HashMap<(u32, u32), Renderer>,
+    techniques: HashMap<&'static str, Box<dyn ShadowTechnique>>,
+    pub counts: Counts,
+}
+
+impl Stress {
+    pub fn new(gpu: softshadow_core::Gpu, seed: u64, ranges: Ranges) -> Result<Self, BenchError> {
+        let mut scenes = HashMap::new();
+        for &id in SCENES {
+            let scene = softshadow_scenes::load(id)?.scene;
+            let uploaded = SceneGpu::upload(&gpu, &scene);
+            scenes.insert(id, (scene, uploaded));
+        }
+        Ok(Self {
+            gpu,
+            rng: Rng::new(seed),
+            ranges,
+            next_case: 0,
+            scenes,
+            renderers: HashMap::new(),
+            techniques: HashMap::new(),
+            counts: Counts::default(),
+        })
+    }
+
+    /// Draws the next case of the seeded sequence.
+    pub fn draw(&mut self) -> Case {
+        let rng = &mut self.rng;
+        let techniques = registry::techniques();
+        // In turn, so that every technique gets its share however few the cases.
+        let info = techniques[(self.next_case % techniques.len() as u64) as usize];
+        let params = (info.params)()
+            .iter()
+            .map(|spec| (spec.name.to_string(), random_value(spec, rng, self.ranges)))
+            .collect();
+        let scene = *rng.pick(SCENES);
+        let (width, height) = *rng.pick(SIZES);
+        let (light_kind, light) = random_light(&self.scenes[scene].0, rng);
+        let number = self.next_case;
+        self.next_case += 1;
+        Case {
+            number,
+            technique: info.id,
+            params,
+            scene,
+            light_kind,
+            light,
+            width,
+            height,
+        }
+    }
+
+    /// Draws and runs one case, adds it to [`Stress::counts`] and returns it with its result.
+    pub fn step(&mut self) -> (Case, Result<Outcome, Finding>) {
+        let case = self.draw();
+        let result = std::panic::catch_unwind(AssertUnwindSafe(|| self.run(&case)))
+            .unwrap_or_else(|panic| {
+                let message = panic
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_else(|| "a panic without a message".into());
+                // The technique may be half-updated: start it afresh.
+                self.techniques.remove(case.technique);
+                Err(format!("panicked: {message}"))
+            })
+            .map_err(|problem| Finding {
+                case: case.to_string(),
+                problem,
+            });
+        self.counts.add(&case, &result);
+        (case, result)
+    }
+
+    fn run(&mut self, case: &Case) -> Result<Outcome, String> {
+        let gpu = self.gpu.clone();
+        let info = registry::find(case.technique).map_err(|e| e.to_string())?;
+        let technique = match self.techniques.entry(case.technique) {
+            std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert((info.create)(&gpu).map_err(|e| e.to_string())?)
+            }
+        };
+        for (name, value) in &case.params {
+            // Every value was drawn inside its declared range: refusing one is a finding.
+            technique
+                .set_param(name, value.clone())
+                .map_err(|e| format!("refused an in-range value: {e}"))?;
+        }
+        let renderer = match self.renderers.entry((case.width, case.height)) {
+            std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert(Renderer::new(&gpu, case.width, case.height).map_err(|e| e.to_string())?)
+            }
+        };
+        let (scene, scene_gpu) = &self.scenes[case.scene];
+        let camera = scene.camera;
+        let prepared = technique.prepare(&gpu, &renderer.inputs(scene_gpu, &camera, &case.light));
+        if let Err(e) = prepared {
+            return classify(RenderError::Technique(e), &gpu, &mut self.techniques, case);
+        }
+        let moved = crate::orbit_camera(&camera, 0);
+        for (k, camera) in [camera, moved].iter().enumerate() {
+            if k == 0 {
+                technique.invalidate_cache();
+            }
+            if let Err(e) =
+                renderer.render(scene_gpu, camera, &case.light, technique.as_mut(), None)
+            {
+                return classify(e, &gpu, &mut self.techniques, case);
+            }
+            self.counts.frames += 1;
+            let visibility = renderer.read_visibility().map_err(|e| e.to_string())?;
+            let s = softshadow_metrics::stability(&visibility);
+            if s.nan + s.inf + s.out_of_range > 0 {
+                return Err(format!(
+                    "frame {} wrote {} NaN, {} Inf and {} out-of-range visibility values",
+                    k + 1,
+                    s.nan,
+                    s.inf,
+                    s.out_of_range
+                ));
+            }
+        }
+        Ok(Outcome::Ok)
+    }
+}
+
+/// A failed frame is a clear error when it is a technique's own one-line refusal or a device
+/// out of memory (the technique is then rebuilt); a validation error is a finding.
+fn classify(
+    error: RenderError,
+    gpu: &softshadow_core::Gpu,
+    techniques: &mut HashMap<&'static str, Box<dyn ShadowTechnique>>,
+    case: &Case,
+) -> Result<Outcome, String> {
+    let _ = gpu.take_errors();
+    techniques.remove(case.technique);
+    let message = error.to_string();
+    let validation = matches!(
+        error,
+        RenderError::Gpu(GpuError::Validation(_))
+            | RenderError::Technique(TechniqueError::Gpu(GpuError::Validation(_)))
+    );
+    if validation {
+        return Err(format!("wgpu validation error: {message}"));
+    }
+    if message.trim().is_empty() || message.contains('\n') {
+        return Err(format!("an error that is not one clear line: {message:?}"));
+    }
+    Ok(Outcome::ClearError(message))
+}
+
+/// A random light for `scene` (see [`LightKind`]).
+pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
+    let casters = scene.bounds(|i| i.casts_shadow);
+    let all = scene.bounds(|_| true);
+    let (center, extent) = if all.is_empty() {
+        (Vec3::ZERO, 1.0)
+    } else {
+        (
+            (all.min + all.max) * 0.5,
+            (all.max - all.min).max_element().max(1e-3),
+        )
+    };
+    let kinds = [
+        LightKind::Ordinary,
+        LightKind::ZeroWidth,
+        LightKind::Aspect1000,
+        LightKind::TouchingCaster,
+        LightKind::AnyDirection,
+        LightKind::UpParallel,
+    ];
+    let kind = *rng.pick(&kinds);
+    let mut width = rng.range(0.0, 2.0) as f32;
+    let mut height = rng.range(0.0, 2.0) as f32;
+    let above = |rng: &mut Rng| {
+        center
+            + Vec3::new(
+                rng.range(-0.5, 0.5) as f32 * extent,
+                rng.range(0.5, 2.0) as f32 * extent,
+                rng.range(-0.5, 0.5) as f32 * extent,
+            )
+    };
+    let aim = |from: Vec3, rng: &mut Rng| {
+        let target = center
+            + Vec3::new(
+                rng.range(-0.3, 0.3) as f32,
+                0.0,
+                rng.range(-0.3, 0.3) as f32,
+            ) * extent;
+        (target - from).try_normalize().unwrap_or(Vec3::NEG_Y)
+    };
+    let random_unit = |rng: &mut Rng| loop {
+        let v = Vec3::new(
+            rng.range(-1.0, 1.0) as f32,
+            rng.range(-1.0, 1.0) as f32,
+            rng.range(-1.0, 1.0) as f32,
+        );
+        if let Some(n) = v.try_normalize() {
+            break n;
+        }
+    };
+    let (light_center, direction, up) = match kind {
+        LightKind::Ordinary | LightKind::ZeroWidth | LightKind::Aspect1000 => {
+            let c = above(rng);
+            (c, aim(c, rng), Vec3::Z)
+        }
+        LightKind::TouchingCaster => {
+            let top = if casters.is_empty() {
+                center
+            } else {
+                Vec3::new(
+                    rng.range(casters.min.x as f64, casters.max.x as f64) as f32,
+                    casters.max.y,
+                    rng.range(casters.min.z as f64, casters.max.z as f64) as f32,
+                )
+            };
+            let gap = 10f64.powf(rng.range(-5.0, -2.0)) as f32;
+            (top + Vec3::Y * gap, Vec3::NEG_Y, Vec3::Z)
+        }
+        LightKind::AnyDirection => {
+            let c = center + random_unit(rng) * extent * rng.range(0.2, 2.0) as f32;
+            (c, random_unit(rng), random_unit(rng))
+        }
+        LightKind::UpParallel => {
+            let c = above(rng);
+            let d = aim(c, rng);
+            (c, d, if rng.chance(0.5) { d } else { -d })
+        }
+    };
+    match kind {
+        LightKind::ZeroWidth => {
+            width = 0.0;
+            if rng.chance(0.5) {
+                height = 0.0;
+            }
+        }
+        LightKind::Aspect1000 => {
+            let long = rng.range(0.1, 4.0) as f32;
+            if rng.chance(0.5) {
+                (width, height) = (long, long / 1000.0);
+            } else {
+                (width, height) = (long / 1000.0, long);
+            }
+        }
+        _ => {}
+    }
+    let light = AreaLight {
+        center: light_center,
+        direction,
+        up,
+        width,
+        height,
+        intensity: 1.0,
+    };
+    (kind, light)
+}

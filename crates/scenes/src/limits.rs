@@ -1,0 +1,193 @@
+//! Limits that keep a hostile or broken file from exhausting memory or time. Every loader checks
+//! them before it allocates, and a file over a limit gets [`crate::SceneError::Limit`], which
+//! names the limit and its value.
+//!
+//! They sit far above every scene of this workbench (the largest builtin scene has 8 million
+//! triangles, `blob` objects at most 8 million each).
+
+/// Largest file a loader reads (scene file, glTF, GLB or an external glTF buffer): 1 GiB.
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// Most triangles a scene may have, counted per instance (what is uploaded to the GPU, about
+/// 14 bytes per triangle: 32 million is about 450 MB).
+pub const MAX_TRIANGLES: usize = 32_000_000;
+
+/// Most vertices one glTF primitive may have (checked on the accessor before it is read).
+pub const MAX_VERTICES: usize = 32_000_000;
+
+/// Most mesh instances a scene may have (glTF node uses and `[[object]]` tables).
+pub const MAX_INSTANCES: usize = 100_000;
+
+/// Deepest glTF node hierarchy (deeper is treated as a cycle).
+pub const MAX_NODE_DEPTH: usize = 256;
+
+/// Most glTF nodes visited while walking the node graph: a graph whose nodes reuse their
+/// children names 2^depth paths in a few hundred bytes, with or without meshes.
+pub const MAX_NODE_VISITS: usize = 1_000_000;
+
+/// Every limit on a file built to cross it, and the regression inputs of the fuzz targets
+/// (docs/STABILITY.md): each must give its one-line error, fast, without exhausting memory.
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use serde_json::json;
+
+    use crate::SceneError;
+
+    const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+
+    /// A glTF document with one triangle (embedded), `nodes`, and the first node in the scene.
+    fn gltf(nodes: serde_json::Value, accessor_count: u64) -> Vec<u8> {
+        let bytes: Vec<u8> = TRIANGLE.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&bytes));
+        json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"byteLength": bytes.len(), "uri": uri}],
+            "bufferViews": [{"buffer": 0, "byteLength": bytes.len()}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": accessor_count,
+                           "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 1]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "nodes": nodes,
+            "scenes": [{"nodes": [0]}],
+            "scene": 0,
+        })
+        .to_string()
+        .into_bytes()
+    }
+
+    fn base64(bytes: &[u8]) -> String {
+        const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut out = String::new();
+        for chunk in bytes.chunks(3) {
+            let n = chunk
+                .iter()
+                .enumerate()
+                .fold(0u32, |n, (k, &b)| n | (b as u32) << (16 - 8 * k));
+            for k in 0..4 {
+                if k <= chunk.len() {
+                    out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
+                } else {
+                    out.push('=');
+                }
+            }
+        }
+        out
+    }
+
+    fn load_gltf(bytes: &[u8]) -> Result<crate::Loaded, SceneError> {
+        crate::load_gltf_bytes(bytes, Path::new("limits.gltf"), false)
+    }
+
+    #[test]
+    fn the_test_document_loads() {
+        let loaded = load_gltf(&gltf(json!([{"mesh": 0}]), 3)).unwrap();
+        assert_eq!(
+            loaded.scene.triangle_count(),
+            1 + 2,
+            "the triangle and the ground"
+        );
+    }
+
+    #[test]
+    fn nodes_that_reuse_their_children_stop_at_the_visit_limit() {
+        // 40 levels, each node using both nodes of the next: 2^40 paths in a few kB.
+        let nodes: Vec<_> = (0..40)
+            .flat_map(|level| {
+                let children = if level < 39 {
+                    json!([2 * level + 2, 2 * level + 3])
+                } else {
+                    json!([])
+                };
+                [json!({"children": children}), json!({"children": children})]
+            })
+            .collect();
+        let message = load_gltf(&gltf(json!(nodes), 3)).unwrap_err().to_string();
+        assert!(message.contains("limits::MAX_NODE_VISITS"), "{message}");
+        assert_eq!(message.lines().count(), 1, "{message}");
+    }
+
+    #[test]
+    fn nodes_that_reuse_a_mesh_stop_at_the_instance_limit() {
+        let nodes: Vec<_> = (0..40)
+            .flat_map(|level| {
+                let children = if level < 39 {
+                    json!([2 * level + 2, 2 * level + 3])
+                } else {
+                    json!([])
+                };
+                [
+                    json!({"mesh": 0, "children": children}),
+                    json!({"mesh": 0, "children": children}),
+                ]
+            })
+            .collect();
+        let message = load_gltf(&gltf(json!(nodes), 3)).unwrap_err().to_string();
+        assert!(message.contains("limits::MAX_INSTANCES"), "{message}");
+    }
+
+    /// Fuzz finding (`gltf` target, crash-31b61e5f, minimised): a GLB header whose length is
+    /// below its own 12 bytes panicked inside the gltf crate.
+    #[test]
+    fn a_glb_header_shorter_than_itself_is_malformed_not_a_panic() {
+        let mut bytes = b"glTF\x02\x00\x00\x00\x00\x00\x00\x00".to_vec();
+        bytes.resize(434, 0);
+        let message = load_gltf(&bytes).unwrap_err().to_string();
+        assert!(
+            message.contains("less than the 12-byte header"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_cyclic_node_graph_stops_at_the_depth_limit() {
+        let nodes = json!([{"mesh": 0, "children": [1]}, {"children": [0]}]);
+        let message = load_gltf(&gltf(nodes, 3)).unwrap_err().to_string();
+        assert!(message.contains("limits::MAX_NODE_DEPTH"), "{message}");
+    }
+
+    #[test]
+    fn an_absurd_accessor_count_is_refused_before_reading() {
+        let message = load_gltf(&gltf(json!([{"mesh": 0}]), 4_000_000_000))
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("limits.gltf"), "{message}");
+        assert_eq!(message.lines().count(), 1, "{message}");
+    }
+
+    #[test]
+    fn a_buffer_that_is_a_device_is_refused() {
+        let dir = std::env::temp_dir();
+        let mut doc: serde_json::Value =
+            serde_json::from_slice(&gltf(json!([{"mesh": 0}]), 3)).unwrap();
+        doc["buffers"][0]["uri"] = json!("file:///dev/zero");
+        let bytes = doc.to_string().into_bytes();
+        let message = crate::parse_gltf(&bytes, Some(&dir), Path::new("zero.gltf"))
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("not a regular file"), "{message}");
+    }
+
+    #[test]
+    fn a_scene_file_over_the_triangle_limit_is_refused_before_building() {
+        let text = "[[object]]\nsphere = { radius = 1, segments = 4096 }\n".repeat(3);
+        let message = crate::load_scene_bytes(text.as_bytes(), Path::new("big.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("limits::MAX_TRIANGLES"), "{message}");
+        assert!(message.contains("big.toml"), "{message}");
+    }
+
+    #[test]
+    fn a_file_that_is_a_device_is_refused() {
+        let message = crate::load_scene_file("/dev/zero.toml")
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("not found"), "{message}");
+        let message = crate::check_file(Path::new("/dev/zero"), "scene file")
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("not a regular file"), "{message}");
+    }
+}
