@@ -189,8 +189,20 @@ fn row_offset(r: u32) -> f32 {
     return rgss[r & 3u];
 }
 
+// Bits of mask word `w` among the mask bits first..last, from the tiled row masks of one word.
+fn word_bits(tiled: u32, first: u32, last: u32, w: u32) -> u32 {
+    let lo = max(i32(first) - i32(w * 32u), 0);
+    let hi = min(i32(last) - i32(w * 32u), 31);
+    return tiled & bit_range(lo, hi);
+}
+
 // ORs the light samples inside the light-space rectangle [lo, hi] into the mask (sec. 3: scale,
 // bias and integer conversion map the extent to bit ranges); adds its clipped area when asked.
+// Loop free on purpose: llvmpipe (lavapipe) ends every loop of an invocation once their
+// iterations together reach 65535 (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops), and the
+// gather already spends up to 256 x 256 of them. A loop here, run for each of those rectangles,
+// used up that budget part way through a full search and silently dropped the occlusion of the
+// remaining blocks (whole rows of the light at 384^2 maps and above).
 fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec2<f32>) {
     let a = g.half_light;
     // Clamped first: a backprojected coordinate can be huge (p next to the occluder).
@@ -211,20 +223,60 @@ fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec
         return;
     }
     // The row masks: one for regular patterns, four (the rotated grid's offsets) when jittered.
-    var masks: array<u32, 4>;
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        masks[k] = row_bits(u0.x, u1.x, row_offset(k));
-    }
-    if masks[0] == 0u && masks[1] == 0u && masks[2] == 0u && masks[3] == 0u {
+    let m0 = row_bits(u0.x, u1.x, row_offset(0u));
+    let m1 = row_bits(u0.x, u1.x, row_offset(1u));
+    let m2 = row_bits(u0.x, u1.x, row_offset(2u));
+    let m3 = row_bits(u0.x, u1.x, row_offset(3u));
+    if (m0 | m1 | m2 | m3) == 0u {
         return;
     }
-    for (var r = u32(r_lo); r <= u32(r_hi); r = r + 1u) {
-        let bit = r * params.columns;
-        let word = bit >> 5u;
-        if word < MASK_WORDS {
-            (*acc).mask[word] |= masks[r & 3u] << (bit & 31u);
-        }
+    // The row masks tiled over one word: a word holds 32 / columns rows, starting at a multiple
+    // of four rows when columns = 8, so its row j takes offset j (only 8-column rows are jittered).
+    var tiled = m0;
+    if params.columns == 8u {
+        tiled = m0 | (m1 << 8u) | (m2 << 16u) | (m3 << 24u);
+    } else if params.columns == 16u {
+        tiled = m0 | (m0 << 16u);
     }
+    // Rows r_lo..r_hi are the mask bits first..last; every word takes its part of them.
+    let first = u32(r_lo) * params.columns;
+    let last = (u32(r_hi) + 1u) * params.columns - 1u;
+    (*acc).mask[0] |= word_bits(tiled, first, last, 0u);
+    (*acc).mask[1] |= word_bits(tiled, first, last, 1u);
+#if MASK_WORDS >= 8
+    (*acc).mask[2] |= word_bits(tiled, first, last, 2u);
+    (*acc).mask[3] |= word_bits(tiled, first, last, 3u);
+    (*acc).mask[4] |= word_bits(tiled, first, last, 4u);
+    (*acc).mask[5] |= word_bits(tiled, first, last, 5u);
+    (*acc).mask[6] |= word_bits(tiled, first, last, 6u);
+    (*acc).mask[7] |= word_bits(tiled, first, last, 7u);
+#endif
+#if MASK_WORDS >= 32
+    (*acc).mask[8] |= word_bits(tiled, first, last, 8u);
+    (*acc).mask[9] |= word_bits(tiled, first, last, 9u);
+    (*acc).mask[10] |= word_bits(tiled, first, last, 10u);
+    (*acc).mask[11] |= word_bits(tiled, first, last, 11u);
+    (*acc).mask[12] |= word_bits(tiled, first, last, 12u);
+    (*acc).mask[13] |= word_bits(tiled, first, last, 13u);
+    (*acc).mask[14] |= word_bits(tiled, first, last, 14u);
+    (*acc).mask[15] |= word_bits(tiled, first, last, 15u);
+    (*acc).mask[16] |= word_bits(tiled, first, last, 16u);
+    (*acc).mask[17] |= word_bits(tiled, first, last, 17u);
+    (*acc).mask[18] |= word_bits(tiled, first, last, 18u);
+    (*acc).mask[19] |= word_bits(tiled, first, last, 19u);
+    (*acc).mask[20] |= word_bits(tiled, first, last, 20u);
+    (*acc).mask[21] |= word_bits(tiled, first, last, 21u);
+    (*acc).mask[22] |= word_bits(tiled, first, last, 22u);
+    (*acc).mask[23] |= word_bits(tiled, first, last, 23u);
+    (*acc).mask[24] |= word_bits(tiled, first, last, 24u);
+    (*acc).mask[25] |= word_bits(tiled, first, last, 25u);
+    (*acc).mask[26] |= word_bits(tiled, first, last, 26u);
+    (*acc).mask[27] |= word_bits(tiled, first, last, 27u);
+    (*acc).mask[28] |= word_bits(tiled, first, last, 28u);
+    (*acc).mask[29] |= word_bits(tiled, first, last, 29u);
+    (*acc).mask[30] |= word_bits(tiled, first, last, 30u);
+    (*acc).mask[31] |= word_bits(tiled, first, last, 31u);
+#endif
 }
 
 // Micro-patches of the blocks lo .. lo + count (level g.level): each block is a rectangle parallel
