@@ -28,8 +28,6 @@
 // per size keeps the small masks in few registers (paper sec. 6).
 const MASK_WORDS: u32 = #{MASK_WORDS}u;
 
-// `hierarchy = none` gathers level-0 texels over the unrefined area, up to this many per axis.
-const FULL_SEARCH_PATCHES: i32 = 256;
 // Bound of the gather loops: quads span one block more than patches.
 const MAX_GATHER_AXIS: i32 = 257;
 const MAX_LAYERS: u32 = 4u;
@@ -200,9 +198,10 @@ fn word_bits(tiled: u32, first: u32, last: u32, w: u32) -> u32 {
 // bias and integer conversion map the extent to bit ranges); adds its clipped area when asked.
 // Loop free on purpose: llvmpipe (lavapipe) ends every loop of an invocation once their
 // iterations together reach 65535 (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops), and the
-// gather already spends up to 256 x 256 of them. A loop here, run for each of those rectangles,
-// used up that budget part way through a full search and silently dropped the occlusion of the
-// remaining blocks (whole rows of the light at 384^2 maps and above).
+// gather already spends up to 240 x 240 of them (core::hierarchy::full_search_patches). A loop
+// here, run for each of those rectangles, used up that budget part way through a full search and
+// silently dropped the occlusion of the remaining blocks (whole rows of the light at 384^2 maps
+// and above).
 fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec2<f32>) {
     let a = g.half_light;
     // Clamped first: a backprojected coordinate can be huge (p next to the occluder).
@@ -404,10 +403,9 @@ fn gather_layer(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: tex
         out.kind = CLASS_UMBRA;
         return out;
     }
-    var per_axis = i32(params.max_patches);
-    if params.hierarchy == HIERARCHY_NONE {
-        per_axis = FULL_SEARCH_PATCHES;
-    }
+    // With `hierarchy = none` the CPU passes the full-search block count here
+    // (softshadow_core::hierarchy::full_search_patches(layers)).
+    let per_axis = i32(params.max_patches);
     var g: Gather;
     g.p = p;
     g.half_light = half_light;

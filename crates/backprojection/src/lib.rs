@@ -37,8 +37,9 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
 }];
 
 /// Micro-patches per axis a full search (`hierarchy = none`) gathers before it must use coarser
-/// blocks (`FULL_SEARCH_PATCHES` in `gather.wgsl`).
-pub const FULL_SEARCH_PATCHES: u32 = 256;
+/// blocks: [`softshadow_core::hierarchy::full_search_patches`] of one pass, which keeps the gather
+/// under lavapipe's loop budget (`FULL_SEARCH_PATCHES` in `gather.wgsl`, the same number).
+pub const FULL_SEARCH_PATCHES: u32 = 240;
 
 softshadow_core::param_choice! {
     /// How a shadow-map texel becomes an occluder.

@@ -21,7 +21,9 @@ use softshadow_core::{
     frame::uniform_entry,
     fullscreen::{depth_texture_entry, uniform_buffer},
     gbuffer::create_texture,
-    hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind},
+    hierarchy::{
+        full_search_patches, max_search_texels, needed_levels, DepthHierarchy, HierarchyKind,
+    },
     scene_gpu::Vertex,
     shader::{self, DefValue, ShaderSpec},
     shader_file,
@@ -61,10 +63,6 @@ pub const SHADERS: &[ShaderSpec] = &[
         permutations: &[&[]],
     },
 ];
-
-/// Micro-patches per axis a full search (`hierarchy = none`) gathers before it must use coarser
-/// blocks (`FULL_SEARCH_PATCHES` in `gather.wgsl`).
-pub const FULL_SEARCH_PATCHES: u32 = 256;
 
 softshadow_core::param_choice! {
     /// How a shadow-map texel becomes an occluder.
@@ -697,8 +695,14 @@ impl ShadowTechnique for Bitmask {
         let gpu = frame.gpu;
         let s = self.settings.clone();
         // The settings are range-checked by set_param; a library user may set any value.
-        let max_patches = s.max_patches.clamp(4, 32);
         let layers = s.layers.clamp(1, MAX_LAYERS);
+        // A full search gathers up to `full_search` blocks per axis in each layer, the most that
+        // keeps all layers of one pixel under lavapipe's loop budget (core::hierarchy).
+        let full_search = full_search_patches(layers);
+        let max_patches = match s.hierarchy {
+            HierarchyKind::None => full_search,
+            _ => s.max_patches.clamp(4, 32),
+        };
         let filter_passes = s.filter_passes.min(8);
         let map_size = s
             .shadow_map_size
@@ -730,7 +734,7 @@ impl ShadowTechnique for Bitmask {
             map_size,
         );
         key.levels = match s.hierarchy {
-            HierarchyKind::None => needed_levels(map_size, search, FULL_SEARCH_PATCHES, false),
+            HierarchyKind::None => needed_levels(map_size, search, full_search, false),
             _ => needed_levels(map_size, search, max_patches, true),
         };
         let mut rebuild = self.shadow_map.rebuilt();

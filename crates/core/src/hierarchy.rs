@@ -79,6 +79,22 @@ pub fn max_search_texels(
     }
 }
 
+/// Loop iterations one shader invocation may run on lavapipe (llvmpipe): its loops end silently
+/// once their iterations together reach 65535 (`LP_MAX_TGSI_LOOP_ITERATIONS` in Mesa's gallivm,
+/// one counter shared by every loop of the invocation). A full search (`hierarchy = none`) must
+/// keep its gather under this, or the blocks after the budget are dropped without an error; the
+/// rest (about 5,000) is left for the shader's other loops.
+pub const LOOP_BUDGET: u32 = 60_000;
+
+/// Blocks per axis a full search (`hierarchy = none`) gathers in each of `passes` gathers of one
+/// invocation (depth layers) before it must use coarser blocks: the gather loops run about
+/// (n + 2)^2 times for n blocks per axis (micro-quads span one block more, and each loop ends
+/// with one test), so n = sqrt([`LOOP_BUDGET`] / passes) - 4: 240 for one pass, 118 for four.
+pub fn full_search_patches(passes: u32) -> u32 {
+    let per_pass = f64::from(LOOP_BUDGET / passes.max(1));
+    (per_pass.sqrt() as u32).saturating_sub(4).max(2)
+}
+
 /// Levels above 0 that a frame can read: the range queries over a search area of up to
 /// `search_texels` texels (2 x 2 HSM texels / four MSSM samples cover it at level
 /// `ceil(log2(search_texels))`), and the gather level that keeps at most `per_axis` blocks per
@@ -592,6 +608,17 @@ fn create_texture(gpu: &Gpu, label: &str, size: u32, mips: u32, layers: u32) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn full_searches_stay_within_lavapipes_loop_budget() {
+        assert_eq!(full_search_patches(1), 240);
+        assert_eq!(full_search_patches(4), 118);
+        for passes in 1..=8 {
+            let n = full_search_patches(passes);
+            // Micro-quads: n + 1 quads per axis, each loop one test more.
+            assert!(passes * (n + 2) * (n + 2) <= LOOP_BUDGET, "{passes}: {n}");
+        }
+    }
 
     #[test]
     fn levels_follow_the_search_area_and_stop_at_the_top() {
