@@ -5,6 +5,39 @@ use crate::{
     shader::DefValue, shader::ShaderSpec, visibility::VISIBILITY_FORMAT, Frame, Gpu, GpuError,
 };
 
+/// The fullscreen triangle of `module` (`vs_main`, `fs_main`; no vertex buffers, no depth) drawn
+/// into `targets` with `layout`: every fullscreen pass of the core builds its pipeline here.
+pub(crate) fn render_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    targets: &[Option<wgpu::ColorTargetState>],
+) -> wgpu::RenderPipeline {
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
 /// A fullscreen-triangle render pipeline: group 0 the frame, group 1 the pass's own.
 pub struct FullscreenPipeline {
     /// The pipeline.
@@ -42,33 +75,12 @@ impl FullscreenPipeline {
                 bind_group_layouts: &[Some(&gpu.layouts.frame), Some(group1)],
                 immediate_size: 0,
             });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        let target = wgpu::ColorTargetState {
+            format,
+            blend,
+            write_mask: wgpu::ColorWrites::ALL,
+        };
+        let pipeline = render_pipeline(gpu, label, &layout, &module, &[Some(target)]);
         Ok(Self { pipeline })
     }
 

@@ -285,30 +285,13 @@ impl SurfaceConversion {
                     write_mask: wgpu::ColorWrites::ALL,
                 })
             };
-            Ok::<_, GpuError>(
-                gpu.device
-                    .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                        label: Some("host/surface"),
-                        layout: Some(&pipeline_layout),
-                        vertex: wgpu::VertexState {
-                            module: &module,
-                            entry_point: Some("vs_main"),
-                            compilation_options: Default::default(),
-                            buffers: &[],
-                        },
-                        primitive: Default::default(),
-                        depth_stencil: None,
-                        multisample: Default::default(),
-                        fragment: Some(wgpu::FragmentState {
-                            module: &module,
-                            entry_point: Some("fs_main"),
-                            compilation_options: Default::default(),
-                            targets: &[target(POSITION_FORMAT), target(NORMAL_FORMAT)],
-                        }),
-                        multiview_mask: None,
-                        cache: None,
-                    }),
-            )
+            Ok::<_, GpuError>(crate::fullscreen::render_pipeline(
+                gpu,
+                "host/surface",
+                &pipeline_layout,
+                &module,
+                &[target(POSITION_FORMAT), target(NORMAL_FORMAT)],
+            ))
         };
         let pipeline_world = pipeline(&layout_world, &[])?;
         let pipeline_depth = pipeline(&layout_depth, &[("FROM_DEPTH", DefValue::Bool(true))])?;
@@ -684,34 +667,18 @@ impl HostRenderer {
                 bind_group_layouts: &[Some(&self.output_layout)],
                 immediate_size: 0,
             });
-        let pipeline = self
-            .gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("host/output"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        let target = wgpu::ColorTargetState {
+            format,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        };
+        let pipeline = crate::fullscreen::render_pipeline(
+            &self.gpu,
+            "host/output",
+            &layout,
+            &module,
+            &[Some(target)],
+        );
         self.output_pipelines.insert(format, pipeline);
         Ok(())
     }
