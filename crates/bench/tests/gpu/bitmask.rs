@@ -95,6 +95,111 @@ fn occluder_fusion_cuts_backprojections_error_to_three_quarters_on_stiff_fusion_
     Ok(())
 }
 
+/// The loop budget again (docs/ARCHITECTURE.md, "Lavapipe's loop budget"): a bitmask block costs
+/// about two of llvmpipe's 65535 loop iterations, so with one pass per layer a full search over a
+/// 448² map (up to 231 x 231 blocks per pixel) silently dropped blocks on stiff-fusion with the
+/// 32x32 pattern: mean |V - exact| 0.41 at 64². With two passes per layer (169 blocks per axis) it
+/// measured 0.023 (one layer) and 0.016 (three layers) at 64². Asserted at 32², against the closed
+/// form: mean below 0.05 for one and three layers at 448² and one layer at 512² (measured 0.0294,
+/// 0.0124, 0.0193; the coarser min-depth blocks past 169 per axis over-occlude a little).
+#[test]
+fn full_search_keeps_every_block_on_stiff_fusion_at_every_map_size() -> Result<()> {
+    let gpu = gpu()?;
+    let scene = softshadow_scenes::load("stiff-fusion")?.scene;
+    for (map, layers) in [(448, 1), (448, 3), (512, 1)] {
+        let mut technique = Bitmask::new(
+            &gpu,
+            BitmaskSettings {
+                shadow_map_size: map,
+                hierarchy: HierarchyKind::None,
+                pattern: Pattern::Grid32,
+                layers,
+                ..Default::default()
+            },
+        )?;
+        let out = render_sized(&gpu, &scene, &mut technique, 32)?;
+        let (mean, max, count) = error_against_closed_form(&scene, &out)?;
+        eprintln!("stiff-fusion 32x32 full search, {map}² map, {layers} layers: mean {mean:.4}, max {max:.4} over {count} pixels");
+        ensure!(count > 100, "only {count} shadowed pixels");
+        ensure!(
+            mean < 0.05,
+            "{map}² map, {layers} layers: mean {mean} >= 0.05"
+        );
+    }
+    Ok(())
+}
+
+/// Mean over-darkening `max(V_exact - V, 0)` and mean |V - V_exact| over the receiver pixels that
+/// the exact answer or V puts in shadow. The exact answer is the closed form where the casters
+/// are parallel rectangles (stiff-fusion), else a 16 x 16 CPU ray cast (balls-3x3x3).
+fn over_darkening(scene: &Scene, out: &Output) -> Result<(f64, f64)> {
+    let exact =
+        match softshadow_reference::exact::visibility_image(scene, &out.positions, &out.receiver) {
+            Some(v) => v,
+            None => softshadow_reference::raycast::visibility_image(
+                scene,
+                &out.positions,
+                &out.receiver,
+                16,
+            ),
+        };
+    let (mut darker, mut abs, mut count) = (0.0, 0.0, 0usize);
+    for ((v, e), receiver) in out.v.iter().zip(&exact).zip(&out.receiver) {
+        if *receiver && (*e < 1.0 || *v < 1.0) {
+            darker += f64::from((e - v).max(0.0));
+            abs += f64::from((e - v).abs());
+            count += 1;
+        }
+    }
+    ensure!(count > 100, "only {count} shadowed pixels");
+    Ok((darker / count as f64, abs / count as f64))
+}
+
+/// Occluder fusion measured where it acts. Backprojection adds the areas of overlapping
+/// backprojected micro-patches and so can only err towards dark there; the bitmask sets each light
+/// sample once (section 3). Both share the micro-patches' own errors (a patch is a whole texel,
+/// gaps between patches of different depths), which go either way, so the part of the error that
+/// fusion removes is the over-darkening `max(V_exact - V, 0)`. Same settings for both (full search,
+/// 256² map, micro-patches, one layer, gap filling), 64². Measured (over-darkening, mean |error|):
+/// stiff-fusion backprojection 0.0143 (0.0159), bitmask 0.0062 (0.0101); balls-3x3x3
+/// backprojection 0.0602 (0.0753), bitmask 0.0027 (0.0398). Asserted: the bitmask at most half of
+/// backprojection's over-darkening on both (the "at most half"); on balls it removes 96 %.
+#[test]
+fn bitmask_at_most_halves_backprojections_over_darkening_on_stiff_fusion_and_balls() -> Result<()> {
+    let gpu = gpu()?;
+    for id in ["stiff-fusion", "balls-3x3x3"] {
+        let scene = softshadow_scenes::load(id)?.scene;
+        let mut back = softshadow_backprojection::Backprojection::new(
+            &gpu,
+            softshadow_backprojection::BackprojectionSettings {
+                shadow_map_size: 256,
+                hierarchy: HierarchyKind::None,
+                ..Default::default()
+            },
+        )?;
+        let mut bits = Bitmask::new(
+            &gpu,
+            BitmaskSettings {
+                shadow_map_size: 256,
+                hierarchy: HierarchyKind::None,
+                ..Default::default()
+            },
+        )?;
+        let (back_dark, back_abs) =
+            over_darkening(&scene, &render_sized(&gpu, &scene, &mut back, 64)?)?;
+        let (bits_dark, bits_abs) =
+            over_darkening(&scene, &render_sized(&gpu, &scene, &mut bits, 64)?)?;
+        eprintln!(
+            "{id}: over-darkening backprojection {back_dark:.4} (|error| {back_abs:.4}), bitmask {bits_dark:.4} (|error| {bits_abs:.4})"
+        );
+        ensure!(
+            bits_dark <= 0.5 * back_dark,
+            "{id}: bitmask's over-darkening {bits_dark} is not at most half of backprojection's {back_dark}"
+        );
+    }
+    Ok(())
+}
+
 /// The single-silhouette box (paper Fig. 9): its side faces are seen edge-on from the light
 /// centre, so one layer misses what they block; the second, depth-peeled layer (the bottom face)
 /// brings the error against the exact answer down. Measured at 64², 256² map
@@ -222,7 +327,7 @@ fn full_search_with_32x32_samples_converges_to_the_closed_form_on_atty_square() 
     Ok(())
 }
 
-/// A full search over a 512² map gathers up to 256 x 256 level-1 blocks per pixel. Lavapipe
+/// A full search over a 512² map gathers up to 169 x 169 level-1 blocks per pixel. Lavapipe
 /// (llvmpipe) ends all loops of an invocation after 65535 iterations in total, and a per-row loop
 /// in `cover_rect` once spent that budget part way through the gather: near the umbra's corners
 /// whole rows of the 32 x 32 light samples stayed unset (this test measured max |V - exact| 0.93,
