@@ -60,6 +60,16 @@ pub fn mae_shadowed(run: &Run) -> Option<f64> {
     mae.is_finite().then_some(mae)
 }
 
+/// The too-dark part of [`mae_shadowed`], against the same answer (`ErrorReport::darker_shadowed`).
+pub fn darker_shadowed(run: &Run) -> Option<f64> {
+    let error = run.error.as_ref()?;
+    let darker = error
+        .vs_exact
+        .as_ref()
+        .map_or(error.report.darker_shadowed, |e| e.darker_shadowed);
+    darker.is_finite().then_some(darker)
+}
+
 /// Which answer [`mae_shadowed`] was measured against.
 pub fn mae_against(run: &Run) -> &'static str {
     match run.error.as_ref().and_then(|e| e.vs_exact.as_ref()) {
@@ -503,7 +513,7 @@ pub fn render_html(merged: &Merged) -> Result<(String, ReportSummary), BenchErro
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
     );
     let mut order = in_scene.to_vec();
     order.sort_by(|&a, &b| {
@@ -533,7 +543,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
         };
         let _ = write!(
             t,
-            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             if front.contains(&i) { " class=\"front\"" } else { "" },
             escape(&run.technique),
             escape(&params_text(run)),
@@ -543,6 +553,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
                 .map_or("-".into(), |p| ms(p.median)),
             timing.map_or("-".into(), |t| t.source.to_string()),
             mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
+            darker_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
             if run.error.is_some() { mae_against(run) } else { "-" },
             flip(run).map_or("-".into(), |v| format!("{v:.4}")),
             status
@@ -685,7 +696,7 @@ fn csv_field(text: &str) -> String {
 /// The runs as one flat CSV (one row per run), for pandas or R.
 pub fn runs_csv(merged: &Merged) -> String {
     let mut out = String::from(
-        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,mae_shadowed,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,mae_shadowed,darker_shadowed,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
     );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for run in &merged.results.runs {
@@ -714,6 +725,7 @@ pub fn runs_csv(merged: &Merged) -> String {
                 .and_then(|t| t.frame_ms.as_ref())
                 .map(|p| p.median)),
             num(mae_shadowed(run)),
+            num(darker_shadowed(run)),
             if error.is_some() {
                 mae_against(run).to_string()
             } else {

@@ -29,7 +29,8 @@ fn identical_images_give_zero_error() {
 /// | 3     | 0.875 | 1.0   | yes      | 0.125 | no (lit) |
 /// | 4     | 0.2   | 0.0   | no       | -     | -        |
 ///
-/// mae_shadowed = (0.25 + 0.5) / 2 = 0.375; mae_all = 0.875 / 4 = 0.21875;
+/// mae_shadowed = (0.25 + 0.5) / 2 = 0.375, of it darker (pixel 1, V < V_ref) 0.5 / 2 = 0.25;
+/// mae_all = 0.875 / 4 = 0.21875;
 /// rmse = sqrt((0.0625 + 0.25 + 0 + 0.015625) / 4) = sqrt(0.08203125) = 0.2864109809...;
 /// max = 0.5; p99 rank = ceil(0.99 * 4) = 4, i.e. the maximum 0.5.
 #[test]
@@ -40,6 +41,7 @@ fn hand_computed_small_case() {
     let r = compare(&v, &v_ref, &mask).unwrap();
     let expected = ErrorReport {
         mae_shadowed: 0.375,
+        darker_shadowed: 0.25,
         mae_all: 0.21875,
         rmse: 0.08203125f64.sqrt(),
         max_abs: 0.5,
@@ -179,6 +181,24 @@ fn report_serde_round_trip() {
     assert!(json.contains("\"flip_mean\":0.125"));
     let back: ErrorReport = serde_json::from_str(&json).unwrap();
     assert_eq!(back, r);
+}
+
+/// Results written before `darker_shadowed` existed still load (as 0), and a too-light technique
+/// has none of its error in it while a too-dark one has all of it.
+#[test]
+fn darker_shadowed_is_the_too_dark_part_and_old_results_load() {
+    let json = r#"{"mae_shadowed":0.25,"mae_all":0.125,"rmse":0.1,"max_abs":0.25,"p99_abs":0.25,"shadowed_pixels":1,"receiver_pixels":2,"flip_mean":null}"#;
+    let old: ErrorReport = serde_json::from_str(json).unwrap();
+    assert_eq!(old.darker_shadowed, 0.0);
+    let v_ref = [0.25, 0.5, 1.0];
+    let mask = [true; 3];
+    let light = compare(&[0.5, 0.75, 1.0], &v_ref, &mask).unwrap();
+    assert_eq!((light.mae_shadowed, light.darker_shadowed), (0.25, 0.0));
+    let dark = compare(&[0.0, 0.25, 0.5], &v_ref, &mask).unwrap();
+    // Pixel 2 is lit in the reference: not a shadowed pixel, so in neither mean.
+    assert_eq!((dark.mae_shadowed, dark.darker_shadowed), (0.25, 0.25));
+    let equal = compare(&v_ref, &v_ref, &mask).unwrap();
+    assert_eq!(equal.darker_shadowed, 0.0);
 }
 
 fn rgb_from_gray(gray: &[u8]) -> Vec<u8> {
