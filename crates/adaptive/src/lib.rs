@@ -717,7 +717,9 @@ impl AdaptiveSampling {
         };
         // Step 1: the uniform subdivision to `min_depth` (the paper: depth 0, the 4 corners).
         let mut leaves = BTreeSet::from([Cell::ROOT]);
-        for _ in 0..s.min_depth.min(s.max_depth) {
+        // min_depth above max_depth subdivides only to max_depth; the error names the depth used.
+        let start_depth = s.min_depth.min(s.max_depth);
+        for _ in 0..start_depth {
             leaves = leaves.iter().flat_map(|c| layout.children(*c)).collect();
         }
         let initial: Vec<SampleKey> = leaves
@@ -730,8 +732,15 @@ impl AdaptiveSampling {
             return Err(TechniqueError::Other {
                 technique: ID.into(),
                 message: format!(
-                    "min_depth = {} starts with {} shadow maps, more than max_shadow_maps = {}: lower min_depth or raise max_shadow_maps",
-                    s.min_depth,
+                    "{} starts with {} shadow maps, more than max_shadow_maps = {}: lower min_depth or raise max_shadow_maps",
+                    if start_depth == s.min_depth {
+                        format!("min_depth = {}", s.min_depth)
+                    } else {
+                        format!(
+                            "min_depth = {} (limited to max_depth = {})",
+                            s.min_depth, s.max_depth
+                        )
+                    },
                     initial.len(),
                     budget
                 ),

@@ -456,3 +456,31 @@ fn a_camera_only_frame_keeps_the_maps_and_matches_a_fresh_frame() -> Result<()> 
     ensure!(max == 0.0, "kept maps give another image: max |dV| {max}");
     Ok(())
 }
+
+/// A start grid larger than `max_shadow_maps` is a clear error that names the depth actually used:
+/// `min_depth` 7 with `max_depth` 2 subdivides to depth 2 (25 corner maps), over a budget of 9.
+#[test]
+fn a_start_grid_over_the_map_budget_names_the_depth_it_used() -> Result<()> {
+    let gpu = gpu()?;
+    let scene = softshadow_scenes::load("atty-square")?.scene;
+    let mut technique = adaptive(
+        &gpu,
+        AdaptiveSettings {
+            min_depth: 7,
+            max_depth: 2,
+            max_shadow_maps: 9,
+            shadow_map_size: 64,
+            ..Default::default()
+        },
+    )?;
+    let Err(error) = render(&gpu, &scene, 32, &mut technique) else {
+        anyhow::bail!("25 start maps over a budget of 9 were accepted");
+    };
+    let message = format!("{error:#}");
+    ensure!(
+        message.contains("min_depth = 7 (limited to max_depth = 2) starts with 25 shadow maps")
+            && message.contains("max_shadow_maps = 9"),
+        "{message}"
+    );
+    Ok(())
+}
