@@ -14,6 +14,12 @@ use egui_kittest::{wgpu::WgpuTestRenderer, Harness};
 use softshadow_core::{wgpu, Gpu, ParamValue};
 use softshadow_viewer::{ViewerApp, ViewerOptions};
 
+/// Growth per switch, over the returns to the baseline's scene and technique, that fails the test.
+const MAX_MIB_PER_SWITCH: f64 = 0.5;
+
+/// The driver whose own per-frame leak the slope bound is not asserted on (docs/STABILITY.md).
+const KNOWN_LEAKY_DRIVER: &str = "Mesa 22.3";
+
 /// A value of this process's `/proc/self/status` in MiB (`VmRSS`: resident now; `VmHWM`: the
 /// peak resident so far).
 fn status_mib(field: &str) -> Result<f64> {
@@ -63,6 +69,7 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
     let gpu = Gpu::new_headless_with(softshadow_viewer::MEMORY_HINTS)
         .context("the memory test needs a GPU adapter")?;
     let device = gpu.device.clone();
+    let driver = gpu.summary().driver;
     // What wgpu's allocator holds: allocated by live resources / reserved in memory blocks.
     let gpu_memory = move || {
         device.generate_allocator_report().map_or_else(
@@ -170,5 +177,21 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
         end - baseline < 64.0,
         "resident memory grew from {baseline:.0} to {end:.0} MiB across {k} switches"
     );
+    // No growth per switch (issue 15). Mesa 22.3's lavapipe leaks about 1 MiB per frame inside
+    // the driver, 1.85 MiB per switch here (docs/STABILITY.md, "Viewer memory over 10
+    // minutes"); flat on Mesa 25 (about 0 per switch). 0.5 MiB per switch catches that leak.
+    if per_switch >= MAX_MIB_PER_SWITCH && driver.contains(KNOWN_LEAKY_DRIVER) {
+        println!(
+            "growth {per_switch:.2} MiB per switch on {driver}: the known lavapipe 22.3 leak, not \
+             asserted; install mesa-vulkan-drivers from bookworm-backports (docs/STABILITY.md)"
+        );
+    } else {
+        ensure!(
+            per_switch < MAX_MIB_PER_SWITCH,
+            "resident memory grows {per_switch:.2} MiB per switch (over {} returns to the \
+             baseline's scene and technique) on {driver}",
+            back.len()
+        );
+    }
     Ok(())
 }
