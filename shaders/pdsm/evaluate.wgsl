@@ -17,7 +17,7 @@ struct PdsmParams {
     // PDSM edge in texels, bias in texel footprints, slope extent of one PDSM texel,
     // PCF kernel radius in texels of the dynamic map.
     size_bias: vec4<f32>,
-    // 1 when the dynamic-caster map was drawn this frame.
+    // 1 when the dynamic-caster map was drawn this frame (the DYNAMIC permutation runs then).
     has_dynamic: vec4<f32>,
 }
 
@@ -75,6 +75,9 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     return mix(previous.y, next.y, (depth - previous.x) / (next.x - previous.x));
 }
 
+#ifdef DYNAMIC
+// Only in the DYNAMIC permutation (drawn when there are dynamic casters): llvmpipe paid for this
+// loop even when a uniform flag skipped it, which doubled the pass on static scenes.
 fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
     let uv = view_uv(dynamic_view, light_pos);
     if !in_map(uv) {
@@ -97,6 +100,7 @@ fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
     }
     return lit / total;
 }
+#endif
 
 @fragment
 fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
@@ -122,10 +126,11 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     if any(p < vec2<f32>(-0.5)) || any(p > vec2<f32>(n - 0.5)) {
         // Outside the window no static caster can shadow (the window is fitted to cover every
         // point they shadow): only dynamic casters remain.
-        if params.has_dynamic.x > 0.5 {
-            return vec4<f32>(dynamic_visibility(s.light, cosine));
-        }
+#ifdef DYNAMIC
+        return vec4<f32>(dynamic_visibility(s.light, cosine));
+#else
         return vec4<f32>(1.0);
+#endif
     }
     let base = floor(p);
     let f = p - base;
@@ -135,8 +140,8 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let v01 = texel_visibility(t + vec2<i32>(0, 1), depth);
     let v11 = texel_visibility(t + vec2<i32>(1, 1), depth);
     var v = mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
-    if params.has_dynamic.x > 0.5 {
-        v *= dynamic_visibility(s.light, cosine);
-    }
+#ifdef DYNAMIC
+    v *= dynamic_visibility(s.light, cosine);
+#endif
     return vec4<f32>(clamp(v, 0.0, 1.0));
 }

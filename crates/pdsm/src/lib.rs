@@ -37,7 +37,7 @@ use softshadow_core::{
     fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
     glam::{Vec2, Vec3},
     scene::{Aabb, Fnv1a},
-    shader::ShaderSpec,
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
     wgpu::{self, util::DeviceExt},
@@ -55,7 +55,7 @@ pub const ID: &str = "pdsm";
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "pdsm/evaluate.wgsl",
     source: shader_file!("pdsm/evaluate.wgsl").1,
-    permutations: &[&[]],
+    permutations: &[&[], &[("DYNAMIC", DefValue::Bool(true))]],
 }];
 
 softshadow_core::technique_settings! {
@@ -174,7 +174,11 @@ pub struct PdsmShadows {
     pub cache_dir: Option<PathBuf>,
     depth: DepthMapRenderer,
     dynamic_depth: DepthMapRenderer,
+    /// The evaluation without dynamic casters, and with them (`DYNAMIC`: the PCF lookup of the
+    /// dynamic map). Two pipelines because llvmpipe paid for the PCF loop even when a uniform
+    /// flag skipped it: it doubled the evaluation pass on scenes without dynamic casters.
     evaluate: FullscreenPipeline,
+    evaluate_dynamic: FullscreenPipeline,
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
     dynamic_view_buffer: wgpu::Buffer,
@@ -438,6 +442,14 @@ impl PdsmShadows {
                 "pdsm/evaluate",
                 &SHADERS[0],
                 &[],
+                &layout,
+                None,
+            )?,
+            evaluate_dynamic: FullscreenPipeline::new(
+                gpu,
+                "pdsm/evaluate dynamic",
+                &SHADERS[0],
+                &[("DYNAMIC", DefValue::Bool(true))],
                 &layout,
                 None,
             )?,
@@ -1207,7 +1219,12 @@ impl ShadowTechnique for PdsmShadows {
                 },
             ],
         });
-        self.evaluate.record(
+        let pipeline = if has_dynamic {
+            &self.evaluate_dynamic
+        } else {
+            &self.evaluate
+        };
+        pipeline.record(
             frame,
             "pdsm/evaluate",
             inputs.frame_bind_group,
