@@ -2,7 +2,10 @@
 // pixel's surface point into the PDSM (a view from the light centre), evaluate the attenuation
 // functions of the four nearest texels at the point's depth and filter them bilinearly. The
 // functions live in two storage buffers (Fig. 6): `offsets[i]..offsets[i + 1]` indexes texel i's
-// (depth, visibility) vertices in `vertices`. Dynamic casters, absent from the precompute, come
+// (depth, visibility) vertices in `vertices`. Beside them, a texture holds each texel's two end
+// vertices (not in the paper): a pixel behind every event of a texel's ray, or in front of all of
+// them, needs only that one fetch, and the buffers are read only where the pixel's depth falls
+// between a texel's first and last event (inside a penumbra volume). Dynamic casters, absent from the precompute, come
 // from a per-frame shadow map with percentage-closer filtering, multiplied in (section 5).
 #import softshadow::frame::{load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
@@ -14,7 +17,7 @@ struct PdsmParams {
     // PDSM edge in texels, bias in texel footprints, slope extent of one PDSM texel,
     // PCF kernel radius in texels of the dynamic map.
     size_bias: vec4<f32>,
-    // 1 when the dynamic-caster map was drawn this frame.
+    // 1 when the dynamic-caster map was drawn this frame (the DYNAMIC permutation runs then).
     has_dynamic: vec4<f32>,
 }
 
@@ -23,6 +26,9 @@ struct PdsmParams {
 @group(1) @binding(2) var<storage, read> vertices: array<vec2<f32>>;
 @group(1) @binding(3) var<uniform> dynamic_view: ShadowView;
 @group(1) @binding(4) var dynamic_map: texture_depth_2d;
+// Per texel: last vertex (depth, visibility), first vertex (depth, visibility); a texel without
+// vertices holds (-FLT_MAX, 1, -FLT_MAX, 1), lit at every depth.
+@group(1) @binding(5) var ends: texture_2d<f32>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
@@ -30,28 +36,30 @@ fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
 }
 
 // One texel's piecewise-linear function at `depth` (constant beyond its ends; no vertices = lit).
-// Most receivers lie behind every caster of their ray, so the last vertex is tested first; the
-// rest is a binary search for the first vertex deeper than `depth` (at a step's own depth the
-// value after the step, as in the CPU `function::evaluate`). A linear scan cost the frame two to
-// three times `hard`'s on lavapipe, whose SIMD lanes wait for the longest loop.
+// The ends texture answers the two constant parts in one fetch: most receivers lie behind every
+// caster of their ray (depth >= last vertex) and caster tops in front of all of them. Only in
+// between are the buffers read: a binary search for the first vertex deeper than `depth` (at a
+// step's own depth the value after the step, as in the CPU `function::evaluate`). The results
+// are those of reading the ends from the buffers; three storage-buffer reads per texel (two
+// offsets, the last vertex) cost the frame two to three times `hard`'s on lavapipe.
 fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let n = i32(params.size_bias.x);
     let c = clamp(texel, vec2<i32>(0), vec2<i32>(n - 1));
+    let e = textureLoad(ends, c, 0);
+    if depth >= e.x {
+        return e.y;
+    }
+    if depth < e.z {
+        return e.w;
+    }
     let index = u32(c.y * n + c.x);
     let start = offsets[index];
     let end = offsets[index + 1u];
-    if start == end {
-        return 1.0;
+    if end - start < 2u {
+        // Unreachable for finite depths (an empty texel returns above; one vertex is both ends).
+        return e.y;
     }
-    let last = vertices[end - 1u];
-    if depth >= last.x {
-        return last.y;
-    }
-    let first = vertices[start];
-    if depth < first.x {
-        return first.y;
-    }
-    // Invariant: vertices[lo].x <= depth < vertices[hi].x.
+    // Invariant: vertices[lo].x <= depth < vertices[hi].x (first <= depth < last from above).
     var lo = start;
     var hi = end - 1u;
     while hi - lo > 1u {
@@ -67,6 +75,9 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     return mix(previous.y, next.y, (depth - previous.x) / (next.x - previous.x));
 }
 
+#ifdef DYNAMIC
+// Only in the DYNAMIC permutation (drawn when there are dynamic casters): llvmpipe paid for this
+// loop even when a uniform flag skipped it, which doubled the pass on static scenes.
 fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
     let uv = view_uv(dynamic_view, light_pos);
     if !in_map(uv) {
@@ -89,6 +100,7 @@ fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
     }
     return lit / total;
 }
+#endif
 
 @fragment
 fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
@@ -114,10 +126,11 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     if any(p < vec2<f32>(-0.5)) || any(p > vec2<f32>(n - 0.5)) {
         // Outside the window no static caster can shadow (the window is fitted to cover every
         // point they shadow): only dynamic casters remain.
-        if params.has_dynamic.x > 0.5 {
-            return vec4<f32>(dynamic_visibility(s.light, cosine));
-        }
+#ifdef DYNAMIC
+        return vec4<f32>(dynamic_visibility(s.light, cosine));
+#else
         return vec4<f32>(1.0);
+#endif
     }
     let base = floor(p);
     let f = p - base;
@@ -127,8 +140,8 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let v01 = texel_visibility(t + vec2<i32>(0, 1), depth);
     let v11 = texel_visibility(t + vec2<i32>(1, 1), depth);
     var v = mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
-    if params.has_dynamic.x > 0.5 {
-        v *= dynamic_visibility(s.light, cosine);
-    }
+#ifdef DYNAMIC
+    v *= dynamic_visibility(s.light, cosine);
+#endif
     return vec4<f32>(clamp(v, 0.0, 1.0));
 }

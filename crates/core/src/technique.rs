@@ -249,6 +249,11 @@ pub trait ShadowTechnique {
     fn debug_views(&self) -> Vec<DebugView> {
         Vec::new()
     }
+    /// Which of [`ShadowTechnique::debug_views`] the caller will show after the next `render`
+    /// (by name), or `None` when it shows none (the benchmark never calls this). A technique may
+    /// draw an image that only a debug view reads (the PDSM's map from the light centre) only
+    /// while it is shown; it still lists it, so that it can be chosen. Default: ignored.
+    fn show_debug_view(&mut self, _name: Option<&str>) {}
 }
 
 /// A registry entry: what `workbench list` prints without a GPU, and how to build the technique.

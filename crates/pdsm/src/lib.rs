@@ -37,7 +37,7 @@ use softshadow_core::{
     fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
     glam::{Vec2, Vec3},
     scene::{Aabb, Fnv1a},
-    shader::ShaderSpec,
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
     wgpu::{self, util::DeviceExt},
@@ -55,7 +55,7 @@ pub const ID: &str = "pdsm";
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "pdsm/evaluate.wgsl",
     source: shader_file!("pdsm/evaluate.wgsl").1,
-    permutations: &[&[]],
+    permutations: &[&[], &[("DYNAMIC", DefValue::Bool(true))]],
 }];
 
 softshadow_core::technique_settings! {
@@ -84,8 +84,13 @@ softshadow_core::technique_settings! {
     }
 }
 
+/// Name of the debug view of the static casters seen from the light centre.
+const CENTRE_MAP_VIEW: &str = "shadow_map";
 /// Seed of the jitter inside the light strata (fixed: the same inputs build the same PDSM).
 const JITTER_SEED: u64 = 0x5d5_2005;
+/// Most sample-map texels a background build renders and reads back per frame (two 512² maps):
+/// the caller's thread waits for them, so a frame of the viewer stays well under 0.1 s.
+const MAP_TEXELS_PER_FRAME: u64 = 1 << 19;
 /// Most bytes of read-back maps per GPU round trip.
 const READBACK_BATCH_BYTES: u64 = 64 << 20;
 /// Compressed vertices per texel assumed by the memory estimate before building (the paper's
@@ -106,6 +111,8 @@ struct Kept {
     data: PdsmData,
     offsets: wgpu::Buffer,
     vertices: wgpu::Buffer,
+    /// Each texel's last and first vertex (`Rgba32Float`, see [`texel_ends`]).
+    ends: wgpu::TextureView,
     construction_ms: f64,
     from_cache: bool,
 }
@@ -123,12 +130,32 @@ struct Pending {
     cache_dir: Option<PathBuf>,
 }
 
+/// Background mode: the sample maps rendered so far (a few per frame) before the CPU build.
+struct MapsInProgress {
+    key: u64,
+    windows: Vec<SlopeFrustum>,
+    maps: Vec<build::SampleMap>,
+    /// The PDSM window.
+    frustum: SlopeFrustum,
+    /// When the first map was drawn, for `construction_ms`.
+    started: Instant,
+    cache_dir: Option<PathBuf>,
+}
+
 /// A PDSM set aside by `invalidate_cache` in background mode (see [`PdsmShadows::background`]).
 struct Shelved {
     key: u64,
     data: PdsmData,
     construction_ms: f64,
     from_cache: bool,
+}
+
+/// The debug view's map of the static casters from the light centre.
+struct CentreMap {
+    size: u32,
+    texture: wgpu::Texture,
+    /// Drawn for the kept PDSM (cleared by a rebuild and by `invalidate_cache`).
+    drawn: bool,
 }
 
 /// The per-frame map of the dynamic casters.
@@ -147,16 +174,23 @@ pub struct PdsmShadows {
     pub cache_dir: Option<PathBuf>,
     depth: DepthMapRenderer,
     dynamic_depth: DepthMapRenderer,
+    /// The evaluation without dynamic casters, and with them (`DYNAMIC`: the PCF lookup of the
+    /// dynamic map). Two pipelines because llvmpipe paid for the PCF loop even when a uniform
+    /// flag skipped it: it doubled the evaluation pass on scenes without dynamic casters.
     evaluate: FullscreenPipeline,
+    evaluate_dynamic: FullscreenPipeline,
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
     dynamic_view_buffer: wgpu::Buffer,
     /// Bound when there is no dynamic map (never read: `has_dynamic` is 0).
     placeholder_map: wgpu::TextureView,
     kept: Option<Kept>,
-    /// The static casters seen from the light centre (the `shadow_map` debug view), drawn once
-    /// per built or loaded PDSM.
-    centre_map: Option<wgpu::Texture>,
+    /// The static casters seen from the light centre (the `shadow_map` debug view): allocated
+    /// with the PDSM so the view can be chosen, drawn only while a caller shows it
+    /// ([`ShadowTechnique::show_debug_view`]), once per built or loaded PDSM.
+    centre_map: Option<CentreMap>,
+    /// The `shadow_map` debug view is shown: draw the centre map.
+    show_centre_map: bool,
     dynamic: Option<DynamicMap>,
     control: BuildControl,
     /// Builds run on a thread of their own ([`ShadowTechnique::set_background_build`]). Then
@@ -165,6 +199,8 @@ pub struct PdsmShadows {
     /// the next frame uploads it again, as a disk-cache load does.
     background: bool,
     pending: Option<Pending>,
+    /// Background mode: the sample maps of the build being prepared, before `pending`.
+    maps_in_progress: Option<MapsInProgress>,
     shelved: Option<Shelved>,
     warnings: Vec<String>,
     stats: TechniqueStats,
@@ -290,8 +326,9 @@ fn pdsm_window(
 enum BuildInput {
     /// No static caster in front of the light: lit everywhere.
     Empty(PdsmData),
-    Maps {
-        maps: build::SampleMaps,
+    /// The light samples' map windows, still to render.
+    Windows {
+        windows: Vec<SlopeFrustum>,
         frustum: SlopeFrustum,
     },
 }
@@ -328,6 +365,23 @@ pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
     (maps, pdsm)
 }
 
+/// Each texel's last and first vertex, `[last depth, last visibility, first depth, first
+/// visibility]` (row-major like the index), for the evaluation's one-fetch test of the constant
+/// ends of a function; a texel without vertices gets `[-f32::MAX, 1, -f32::MAX, 1]`, which every
+/// depth lies behind (lit, as an empty function evaluates).
+pub fn texel_ends(data: &PdsmData) -> Vec<[f32; 4]> {
+    data.offsets
+        .windows(2)
+        .map(|w| {
+            let texel = &data.vertices[w[0] as usize..w[1] as usize];
+            match (texel.first(), texel.last()) {
+                (Some(first), Some(last)) => [last[0], last[1], first[0], first[1]],
+                _ => [-f32::MAX, 1.0, -f32::MAX, 1.0],
+            }
+        })
+        .collect()
+}
+
 impl PdsmShadows {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PdsmSettings) -> Result<Self, TechniqueError> {
@@ -352,6 +406,16 @@ impl PdsmShadows {
                     storage(2),
                     softshadow_core::frame::uniform_entry(3, fragment, false),
                     depth_texture_entry(4, false),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 5,
+                        visibility: fragment,
+                        ty: wgpu::BindingType::Texture {
+                            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                            multisampled: false,
+                        },
+                        count: None,
+                    },
                 ],
             });
         let placeholder = gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -381,6 +445,14 @@ impl PdsmShadows {
                 &layout,
                 None,
             )?,
+            evaluate_dynamic: FullscreenPipeline::new(
+                gpu,
+                "pdsm/evaluate dynamic",
+                &SHADERS[0],
+                &[("DYNAMIC", DefValue::Bool(true))],
+                &layout,
+                None,
+            )?,
             layout,
             params_buffer: uniform_buffer(gpu, "pdsm/params", &PdsmParams::zeroed()),
             dynamic_view_buffer: uniform_buffer(
@@ -391,10 +463,12 @@ impl PdsmShadows {
             placeholder_map: placeholder.create_view(&Default::default()),
             kept: None,
             centre_map: None,
+            show_centre_map: false,
             dynamic: None,
             control: BuildControl::default(),
             background: false,
             pending: None,
+            maps_in_progress: None,
             shelved: None,
             warnings: Vec::new(),
             stats: TechniqueStats::new(),
@@ -478,6 +552,13 @@ impl PdsmShadows {
         if self.poll_pending(frame.gpu, key)? {
             return Ok(());
         }
+        if let Some(progress) = self.maps_in_progress.take() {
+            if progress.key == key {
+                return self.continue_sample_maps(frame, inputs, progress);
+            }
+            // Superseded by other inputs: its maps are dropped.
+            self.control.finish();
+        }
         let (maps_bytes, pdsm_bytes) = estimate_bytes(&self.settings);
         let budget = self.settings.memory_budget_mib as u64 * (1 << 20);
         if maps_bytes + pdsm_bytes > budget {
@@ -521,36 +602,29 @@ impl PdsmShadows {
         if self.control.is_cancelled() {
             return Err(cancelled());
         }
-        let (maps, frustum) = match self.build_input(frame, inputs)? {
+        let (windows, frustum) = match self.build_input(inputs) {
             BuildInput::Empty(data) => {
                 return self.keep(frame.gpu, key, data, started.elapsed(), false)
             }
-            BuildInput::Maps { maps, frustum } => (maps, frustum),
+            BuildInput::Windows { windows, frustum } => (windows, frustum),
         };
-        let size = self.settings.pdsm_size;
-        let max_error = self.settings.compression_error;
         if self.background {
-            // The thread counts rows in a control of its own (see `Pending`).
-            let control = BuildControl::default();
-            control.start(size);
-            self.control.start(size);
-            let thread_control = control.clone();
-            let handle = std::thread::Builder::new()
-                .name("pdsm build".into())
-                .spawn(move || build::build(&maps, &frustum, size, max_error, &thread_control))
-                .map_err(|e| {
-                    self.control.finish();
-                    technique_error(format!("cannot start the PDSM build thread: {e}"))
-                })?;
-            self.pending = Some(Pending {
+            // The sample maps over this and the next frames, a few per frame, then the CPU
+            // construction on a thread of its own.
+            self.control.start(windows.len() as u32);
+            let progress = MapsInProgress {
                 key,
-                control,
-                handle,
+                maps: Vec::with_capacity(windows.len()),
+                windows,
+                frustum,
                 started,
                 cache_dir,
-            });
-            return Err(building(0, size));
+            };
+            return self.continue_sample_maps(frame, inputs, progress);
         }
+        let maps = self.render_sample_maps(frame, inputs, &windows)?;
+        let size = self.settings.pdsm_size;
+        let max_error = self.settings.compression_error;
         self.control.start(size);
         let clock = frame.begin_cpu_pass();
         let built = build::build(&maps, &frustum, size, max_error, &self.control);
@@ -559,6 +633,80 @@ impl PdsmShadows {
         let data = built.map_err(|build::Cancelled| cancelled())?;
         self.store_in_cache(frame, cache_dir.as_deref(), key, &data);
         self.keep(frame.gpu, key, data, started.elapsed(), false)
+    }
+
+    /// Background mode: renders and reads back the next few sample maps of `progress` (at most
+    /// [`MAP_TEXELS_PER_FRAME`] texels, at least one map), so that no frame of the caller's
+    /// thread waits for all k of them; fails with [`TechniqueError::Building`] (unit "light
+    /// sample maps") while maps remain, and once all are read back starts the CPU construction
+    /// on a thread of its own (then [`TechniqueError::Building`] in PDSM rows).
+    fn continue_sample_maps(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        mut progress: MapsInProgress,
+    ) -> Result<(), TechniqueError> {
+        if self.control.is_cancelled() {
+            self.control.finish();
+            return Err(cancelled());
+        }
+        let m = self.settings.shadow_map_size as u64;
+        let per_frame = (MAP_TEXELS_PER_FRAME / (m * m)).max(1) as usize;
+        let next = progress.maps.len();
+        let end = (next + per_frame).min(progress.windows.len());
+        let rendered = match self.render_sample_maps(frame, inputs, &progress.windows[next..end]) {
+            Ok(rendered) => rendered,
+            Err(e) => {
+                self.control.finish();
+                return Err(e);
+            }
+        };
+        progress.maps.extend(rendered.maps);
+        let (done, total) = (progress.maps.len() as u32, progress.windows.len() as u32);
+        if done < total {
+            self.control.done.store(done, Ordering::Relaxed);
+            self.maps_in_progress = Some(progress);
+            return Err(TechniqueError::Building {
+                technique: ID.into(),
+                done,
+                total,
+                unit: "light sample maps",
+            });
+        }
+        let MapsInProgress {
+            key,
+            maps,
+            frustum,
+            started,
+            cache_dir,
+            ..
+        } = progress;
+        let maps = build::SampleMaps {
+            size: self.settings.shadow_map_size,
+            maps,
+        };
+        let size = self.settings.pdsm_size;
+        let max_error = self.settings.compression_error;
+        // The thread counts rows in a control of its own (see `Pending`).
+        let control = BuildControl::default();
+        control.start(size);
+        self.control.start(size);
+        let thread_control = control.clone();
+        let handle = std::thread::Builder::new()
+            .name("pdsm build".into())
+            .spawn(move || build::build(&maps, &frustum, size, max_error, &thread_control))
+            .map_err(|e| {
+                self.control.finish();
+                technique_error(format!("cannot start the PDSM build thread: {e}"))
+            })?;
+        self.pending = Some(Pending {
+            key,
+            control,
+            handle,
+            started,
+            cache_dir,
+        });
+        Err(building(0, size))
     }
 
     /// Background mode: looks at the build running for `key`. `Ok(true)`: it finished and the
@@ -623,14 +771,9 @@ impl PdsmShadows {
         }
     }
 
-    /// What the CPU construction starts from (Algorithm 1 steps 1-2): the PDSM window and the
-    /// sample maps rendered and read back, or an empty PDSM when no static caster is in front of
-    /// the light.
-    fn build_input(
-        &mut self,
-        frame: &mut Frame<'_>,
-        inputs: &ShadowInputs<'_>,
-    ) -> Result<BuildInput, TechniqueError> {
+    /// What the construction starts from (Algorithm 1 step 1): the PDSM window and the light
+    /// samples' map windows, or an empty PDSM when no static caster is in front of the light.
+    fn build_input(&self, inputs: &ShadowInputs<'_>) -> BuildInput {
         let light = inputs.light;
         let scene = inputs.scene;
         let crosses = scene.light_bounds(light).casters_cross_light_plane;
@@ -657,10 +800,10 @@ impl PdsmShadows {
         };
         // Without static casters in front of the light the PDSM is empty (lit everywhere).
         let Some(frustum) = pdsm_window(light, &casters, crosses, &everything) else {
-            return Ok(empty(unit));
+            return empty(unit);
         };
         if scene.static_casters.is_none() {
-            return Ok(empty(frustum));
+            return empty(frustum);
         }
         let eyes = stratified_samples(self.settings.samples, light.half_extent());
         let windows: Vec<SlopeFrustum> = eyes
@@ -668,10 +811,9 @@ impl PdsmShadows {
             .filter_map(|&eye| SlopeFrustum::fit_casters(eye, &casters, crosses, &everything))
             .collect();
         if windows.len() != eyes.len() {
-            return Ok(empty(frustum));
+            return empty(frustum);
         }
-        let maps = self.render_sample_maps(frame, inputs, &windows)?;
-        Ok(BuildInput::Maps { maps, frustum })
+        BuildInput::Windows { windows, frustum }
     }
 
     /// Algorithm 1 step 2 on the GPU: one depth map of the static casters per window, copied to
@@ -814,32 +956,79 @@ impl PdsmShadows {
         };
         let offsets = buffer("pdsm/index", bytemuck::cast_slice(&data.offsets));
         let vertices = buffer("pdsm/data", bytemuck::cast_slice(&data.vertices));
+        let ends = gpu
+            .device
+            .create_texture_with_data(
+                &gpu.queue,
+                &wgpu::TextureDescriptor {
+                    label: Some("pdsm/ends"),
+                    size: wgpu::Extent3d {
+                        width: data.size,
+                        height: data.size,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                },
+                wgpu::util::TextureDataOrder::LayerMajor,
+                bytemuck::cast_slice(&texel_ends(&data)),
+            )
+            .create_view(&Default::default());
         self.kept = Some(Kept {
             key,
             data,
             offsets,
             vertices,
+            ends,
             construction_ms: elapsed.as_secs_f64() * 1e3,
             from_cache,
         });
         Ok(())
     }
 
-    /// One map of the static casters from the light centre, for the `shadow_map` debug view.
-    fn render_centre_map(&mut self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>) {
+    /// One map of the static casters from the light centre, for the `shadow_map` debug view:
+    /// allocated whenever a PDSM is kept (so the view is listed), drawn when the view is shown
+    /// and not yet drawn for this PDSM. Returns whether `pdsm/centre_map` ran.
+    fn update_centre_map(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        rebuilt: bool,
+    ) -> bool {
+        let size = self.settings.shadow_map_size;
+        if self.centre_map.as_ref().is_some_and(|c| c.size != size) {
+            self.centre_map = None;
+        }
+        if let Some(c) = self.centre_map.as_mut().filter(|_| rebuilt) {
+            c.drawn = false;
+        }
+        let centre = self.centre_map.get_or_insert_with(|| CentreMap {
+            size,
+            texture: softshadow_core::shadow_map::create_depth_maps(
+                frame.gpu,
+                "pdsm/centre map",
+                size,
+                1,
+            ),
+            drawn: false,
+        });
+        if centre.drawn || !self.show_centre_map {
+            return false;
+        }
+        centre.drawn = true;
         let light = inputs.light;
         let crosses = inputs.scene.light_bounds(light).casters_cross_light_plane;
         let casters = light_corners(light, &inputs.scene.static_caster_bounds);
         let everything = light_corners(light, &inputs.scene.static_bounds);
         let Some(window) = SlopeFrustum::fit_casters(Vec2::ZERO, &casters, crosses, &everything)
         else {
-            self.centre_map = None;
-            return;
+            return false;
         };
-        let size = self.settings.shadow_map_size;
-        let texture =
-            softshadow_core::shadow_map::create_depth_maps(frame.gpu, "pdsm/centre map", size, 1);
-        let view = texture.create_view(&Default::default());
+        let view = centre.texture.create_view(&Default::default());
         self.depth
             .set_views(frame.gpu, &[ShadowViewUniform::new(light, &window, size)]);
         self.depth.record_list(
@@ -850,7 +1039,7 @@ impl PdsmShadows {
             0,
             &view,
         );
-        self.centre_map = Some(texture);
+        true
     }
 
     /// The per-frame PCF map of the dynamic casters (kept while nothing in light space moves).
@@ -975,9 +1164,7 @@ impl ShadowTechnique for PdsmShadows {
         let had = self.kept.as_ref().map(|k| k.key);
         self.prepare_pdsm(frame, inputs)?;
         let rebuilt = self.kept.as_ref().map(|k| k.key) != had;
-        if rebuilt || self.centre_map.is_none() {
-            self.render_centre_map(frame, inputs);
-        }
+        let centre_map_drawn = self.update_centre_map(frame, inputs, rebuilt);
         let has_dynamic = self.render_dynamic_map(frame, inputs);
         let gpu = frame.gpu;
         let kept = self.kept.as_ref().expect("prepared above");
@@ -1026,9 +1213,18 @@ impl ShadowTechnique for PdsmShadows {
                     binding: 4,
                     resource: wgpu::BindingResource::TextureView(dynamic_view),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&kept.ends),
+                },
             ],
         });
-        self.evaluate.record(
+        let pipeline = if has_dynamic {
+            &self.evaluate_dynamic
+        } else {
+            &self.evaluate
+        };
+        pipeline.record(
             frame,
             "pdsm/evaluate",
             inputs.frame_bind_group,
@@ -1039,7 +1235,8 @@ impl ShadowTechnique for PdsmShadows {
         );
         let kept = self.kept.as_ref().expect("prepared above");
         let s = &kept.data.stats;
-        let gpu_bytes = kept.offsets.size() + kept.vertices.size();
+        let ends_bytes = kept.data.size as u64 * kept.data.size as u64 * 16;
+        let gpu_bytes = kept.offsets.size() + kept.vertices.size() + ends_bytes;
         let dynamic_bytes = self
             .dynamic
             .as_ref()
@@ -1066,6 +1263,11 @@ impl ShadowTechnique for PdsmShadows {
                 (maps_estimate + pdsm_estimate) as f64,
             ),
             ("pcf_map_passes".into(), f64::from(u8::from(has_dynamic))),
+            // 1 when `pdsm/centre_map` ran: only while the `shadow_map` debug view is shown.
+            (
+                "centre_map_passes".into(),
+                f64::from(u8::from(centre_map_drawn)),
+            ),
         ]);
         if rebuilt || inputs.changes.params || self.debug.is_empty() {
             self.update_debug_views(gpu);
@@ -1082,7 +1284,9 @@ impl ShadowTechnique for PdsmShadows {
                 from_cache: kept.from_cache,
             });
         }
-        self.centre_map = None;
+        if let Some(c) = &mut self.centre_map {
+            c.drawn = false;
+        }
         if let Some(d) = &mut self.dynamic {
             d.drawn = false;
         }
@@ -1103,6 +1307,10 @@ impl ShadowTechnique for PdsmShadows {
         self.stats.clone()
     }
 
+    fn show_debug_view(&mut self, name: Option<&str>) {
+        self.show_centre_map = name == Some(CENTRE_MAP_VIEW);
+    }
+
     fn debug_views(&self) -> Vec<DebugView> {
         let mut views: Vec<DebugView> = self
             .debug
@@ -1112,10 +1320,10 @@ impl ShadowTechnique for PdsmShadows {
                 texture: d.texture.clone(),
             })
             .collect();
-        if let Some(texture) = &self.centre_map {
+        if let Some(c) = &self.centre_map {
             views.push(DebugView {
-                name: "shadow_map".into(),
-                texture: texture.clone(),
+                name: CENTRE_MAP_VIEW.into(),
+                texture: c.texture.clone(),
             });
         }
         if let Some(d) = &self.dynamic {

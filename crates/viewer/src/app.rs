@@ -780,6 +780,15 @@ impl ViewerApp {
         if measuring_cost {
             technique.invalidate_cache();
         }
+        // Images only a debug view reads (the PDSM's centre map) are drawn only while shown.
+        let shown = (self.view_mode == ViewMode::Debug).then(|| {
+            let views = technique.debug_views();
+            views
+                .get(self.debug_view)
+                .or(views.first())
+                .map(|v| v.name.clone())
+        });
+        technique.show_debug_view(shown.flatten().as_deref());
         match r.technique.render(
             &self.scene.gpu,
             &self.camera,

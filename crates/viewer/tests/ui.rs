@@ -551,8 +551,9 @@ fn an_exported_sweep_benchmarks_the_view_the_viewer_plotted() -> Result<()> {
     Ok(())
 }
 
-/// Issue 13: the PDSM's precompute builds off the UI thread. The first frame starts it and
-/// returns while it runs (the panel shows its progress and a Cancel button, no plot point);
+/// Issue 13: the PDSM's precompute builds off the UI thread. The first frames draw its light
+/// sample maps a few at a time, then start the CPU construction on a thread and return while it
+/// runs (the panel shows its progress and a Cancel button, no plot point);
 /// Cancel stops it and offers Build again. A 512² PDSM keeps it running for seconds, so the
 /// frames below see it running; the harness's drop stops the last build.
 #[test]
@@ -580,12 +581,30 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
         .renderer(WgpuTestRenderer::from_render_state(render_state))
         .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
     harness.run_steps(1);
+    // The first frame draws only a few of the 64 light sample maps (8 of 256²) and returns.
+    let progress = harness.state().build_progress();
+    ensure!(
+        progress.is_some_and(|(done, total)| total == 64 && done < total),
+        "the first frame returned before drawing every sample map: {progress:?}"
+    );
+    ensure!(harness.state().technique_error().is_none());
+    ensure!(harness.state().points().is_empty());
+    // Later frames draw the rest, then the 512 PDSM rows build on a thread of their own.
+    for _ in 0..64 {
+        if harness
+            .state()
+            .build_progress()
+            .is_some_and(|(_, total)| total == 512)
+        {
+            break;
+        }
+        harness.run_steps(1);
+    }
     let progress = harness.state().build_progress();
     ensure!(
         progress.is_some_and(|(_, total)| total == 512),
-        "the frame returned while the build runs: {progress:?}"
+        "the frame returned while the rows build: {progress:?}"
     );
-    ensure!(harness.state().technique_error().is_none());
     ensure!(harness.state().points().is_empty());
     harness.get_by_label("Cancel").click();
     for _ in 0..2_000 {

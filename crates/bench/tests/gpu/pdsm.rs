@@ -461,13 +461,32 @@ fn a_background_build_returns_at_once_draws_when_done_and_cancels() -> Result<()
     let mut pdsm = technique(&gpu, uncached, cache.path())?;
     pdsm.set_background_build(true);
     let control = pdsm.build_control();
+    // The sample maps take two frames (256² maps: 8 per frame), then the rows build on a thread.
     let first = render(&gpu, &scene, &mut pdsm).err().context("building")?;
     ensure!(
         matches!(
             technique_error(&first),
-            Some(TechniqueError::Building { total: 64, .. })
+            Some(TechniqueError::Building {
+                done: 8,
+                total: 16,
+                unit: "light sample maps",
+                ..
+            })
         ),
         "{first:#}"
+    );
+    ensure!(pdsm.data().is_none() && control.progress() == Some((8, 16)));
+    let second = render(&gpu, &scene, &mut pdsm).err().context("building")?;
+    ensure!(
+        matches!(
+            technique_error(&second),
+            Some(TechniqueError::Building {
+                total: 64,
+                unit: "PDSM rows",
+                ..
+            })
+        ),
+        "{second:#}"
     );
     ensure!(pdsm.data().is_none() && control.progress().is_some());
     let frame = poll_until_drawn(&gpu, &scene, &mut pdsm)?;
@@ -518,6 +537,45 @@ fn a_background_build_returns_at_once_draws_when_done_and_cancels() -> Result<()
     ensure!(render(&gpu, &scene, &mut pdsm).is_err(), "builds again");
     poll_until_drawn(&gpu, &scene, &mut pdsm)?;
     ensure!(pdsm.data().is_some_and(|d| d.size == 64));
+    Ok(())
+}
+
+/// The map of the static casters from the light centre feeds only the `shadow_map` debug view:
+/// it is always listed (so a viewer can choose it) but drawn only while shown, once per PDSM,
+/// and again by a full-cost frame (`invalidate_cache`) only while shown.
+#[test]
+fn the_centre_map_is_drawn_only_while_its_debug_view_is_shown() -> Result<()> {
+    let gpu = gpu()?;
+    let cache = tempfile::tempdir()?;
+    let scene = builtin("pdsm-quads")?;
+    let mut pdsm = technique(&gpu, settings(4, 32), cache.path())?;
+    let drawn = |frame: &Frame| frame.passes.iter().any(|p| p == "pdsm/centre_map");
+    let stat = |pdsm: &PdsmShadows| pdsm.stats().get("centre_map_passes").copied();
+    let first = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(!drawn(&first), "{:?}", first.passes);
+    ensure!(stat(&pdsm) == Some(0.0));
+    ensure!(pdsm.debug_views().iter().any(|v| v.name == "shadow_map"));
+
+    pdsm.show_debug_view(Some("shadow_map"));
+    let shown = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(drawn(&shown) && stat(&pdsm) == Some(1.0));
+    let kept = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(!drawn(&kept), "drawn once per PDSM");
+    pdsm.invalidate_cache();
+    let full_cost = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(
+        drawn(&full_cost),
+        "a full-cost frame redraws it while shown"
+    );
+
+    pdsm.show_debug_view(Some("vertices_per_texel"));
+    pdsm.invalidate_cache();
+    let other = render(&gpu, &scene, &mut pdsm)?;
+    ensure!(
+        !drawn(&other) && stat(&pdsm) == Some(0.0),
+        "{:?}",
+        other.passes
+    );
     Ok(())
 }
 
