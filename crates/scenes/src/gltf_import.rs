@@ -70,8 +70,27 @@ pub fn parse_gltf(
             )));
         }
     }
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(bytes).map_err(|e| malformed(e.to_string()))?;
+    // gltf-json 1.4's validation reads the POSITION accessor of every primitive by index
+    // without a bounds check (a panic on an index past the accessors: found by the `gltf` fuzz
+    // target), so those indices are checked here before gltf validates the rest.
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| malformed(e.to_string()))?;
+    let root = document.into_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(accessor) = primitive.attributes.get(&position) {
+                if accessor.value() >= root.accessors.len() {
+                    return Err(malformed(format!(
+                        "mesh {m} primitive {p}: its POSITION attribute names accessor {}, but the file has {} accessors",
+                        accessor.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(root).map_err(|e| malformed(e.to_string()))?;
     for buffer in document.buffers() {
         if buffer.length() as u64 > MAX_FILE_BYTES {
             return Err(limit(

@@ -139,6 +139,27 @@ mod tests {
         );
     }
 
+    /// Fuzz finding (`gltf` target, crash-0cb480e6 after 5,704 executions): a primitive whose
+    /// POSITION attribute names an accessor past the end panicked inside gltf-json's validation
+    /// (`mesh.rs:151`, index out of bounds).
+    #[test]
+    fn a_position_accessor_past_the_end_is_malformed_not_a_panic() {
+        let mut doc: serde_json::Value =
+            serde_json::from_slice(&gltf(json!([{"mesh": 0}]), 3)).unwrap();
+        doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(5);
+        let message = load_gltf(doc.to_string().as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("POSITION attribute names accessor 5, but the file has 1 accessors"),
+            "{message}"
+        );
+        assert_eq!(message.lines().count(), 1, "{message}");
+        // The fuzzer's input itself, as found.
+        let found = include_bytes!("../tests/data/fuzz-gltf-position-accessor-past-the-end.gltf");
+        assert!(load_gltf(found).is_err());
+    }
+
     #[test]
     fn a_cyclic_node_graph_stops_at_the_depth_limit() {
         let nodes = json!([{"mesh": 0, "children": [1]}, {"children": [0]}]);
