@@ -409,7 +409,7 @@ pub fn clamp(
     pixels: f64,
 ) -> Vec<String> {
     let mut halved = Vec::new();
-    while !estimate(technique, &params, pixels).fits() {
+    while !estimate(technique, params, pixels).fits() {
         // The knob farthest above its declared minimum, by ratio.
         let knob = cost_knobs(technique)
             .iter()
@@ -898,7 +898,7 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
 mod tests {
     use super::*;
 
-    fn int_spec<'a>(specs: &'a [ParamSpec], name: &str) -> Option<(i64, i64)> {
+    fn int_spec(specs: &[ParamSpec], name: &str) -> Option<(i64, i64)> {
         match specs.iter().find(|s| s.name == name)?.kind {
             ParamKind::Int { min, max, .. } => Some((min, max)),
             _ => None,

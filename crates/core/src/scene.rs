@@ -434,17 +434,16 @@ mod tests {
         assert_eq!(m.positions[17], Vec3::ZERO);
         // Normals were computed (the mesh had none): +z for the kept triangles in the z = 0 plane.
         assert_eq!(m.normals.len(), m.positions.len());
-        assert!((m.normals[0] - Vec3::Z).length() < 1e-6, "{:?}", m.normals[0]);
+        assert!(
+            (m.normals[0] - Vec3::Z).length() < 1e-6,
+            "{:?}",
+            m.normals[0]
+        );
     }
 
     #[test]
     fn repair_keeps_good_normals_and_recomputes_bad_ones() {
-        let triangle = || {
-            mesh(
-                vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-                vec![0, 1, 2],
-            )
-        };
+        let triangle = || mesh(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![0, 1, 2]);
         // Good normals (not the geometric ones) are kept as given.
         let given = vec![Vec3::X, Vec3::X, Vec3::new(0.0, 0.6, 0.8)];
         let mut m = triangle();
