@@ -361,7 +361,27 @@ impl AdaptiveSampling {
             });
         }
         self.store = None;
+        // The array holds max_shadow_maps maps whatever a frame uses; at the top of the ranges
+        // (512 maps of 2048²: 8 GiB) a device runs out of memory. Caught here, that is a clear
+        // error for these settings instead of an uncaptured device error (found by the stress).
+        let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let maps = create_depth_maps(gpu, "adaptive/shadow_maps", size, capacity);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            let gib = capacity as f64 * size as f64 * size as f64 * 4.0 / (1u64 << 30) as f64;
+            return Err(TechniqueError::Other {
+                technique: ID.into(),
+                message: format!(
+                    "the device could not allocate max_shadow_maps = {capacity} maps of {size}² \
+                     ({gib:.1} GiB: {}): lower max_shadow_maps or shadow_map_size",
+                    error
+                        .to_string()
+                        .lines()
+                        .next()
+                        .unwrap_or("out of memory")
+                        .trim()
+                ),
+            });
+        }
         let layer_views = (0..capacity).map(|l| layer_view(&maps, l)).collect();
         let buffer = |label, size: u64, usage| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {

@@ -194,5 +194,8 @@ mod tests {
         assert_eq!(percentile(&v, 1.0), 5.0);
         assert!((percentile(&v, 0.1) - 1.4).abs() < 1e-12);
         assert_eq!(percentile(&[2.0], 0.9), 2.0);
+        // Between two ranks above the lowest (pos = 3.6): only the fraction 0.6 of the step
+        // counts (cargo mutants: `pos - lo` made `pos + lo` survived the cases above).
+        assert!((percentile(&v, 0.9) - 4.6).abs() < 1e-12);
     }
 }

@@ -142,6 +142,301 @@ pub fn random_value(spec: &ParamSpec, rng: &mut Rng, ranges: Ranges) -> ParamVal
     }
 }
 
+/// Estimated seconds one case may cost before its parameters are redrawn or clamped (both frames,
+/// on lavapipe on the 2-core machine the figures in [`estimate`] were measured on). Without a
+/// cap, whole ranges give cases of half an hour (`reference` with 64 x 64 maps of 4096²:
+/// 2 x 4096 depth passes of 16.7 M texels), which stall a timed run on one case.
+pub const BUDGET_SECONDS: f64 = 20.0;
+
+/// Host memory one case may need (PDSM's read-back maps and attenuation functions), whatever its
+/// own `memory_budget_mib` allows (up to 64 GiB, more than the machines that run this have).
+pub const BUDGET_BYTES: f64 = 2.0 * (1u64 << 30) as f64;
+
+/// Fresh draws of a case's parameters before the cap clamps them instead.
+pub const REDRAWS: u32 = 8;
+
+/// What a case is estimated to cost, from its technique's declared parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cost {
+    /// Estimated wall time of both frames, seconds (see [`estimate`]).
+    pub seconds: f64,
+    /// Host memory of the precompute, bytes (PDSM only; 0 elsewhere).
+    pub bytes: f64,
+    /// The term that dominates, in the parameters' names (what the record says a cap was for).
+    pub dominant: &'static str,
+}
+
+impl Cost {
+    /// Whether the case fits [`BUDGET_SECONDS`] and [`BUDGET_BYTES`].
+    pub fn fits(&self) -> bool {
+        self.seconds <= BUDGET_SECONDS && self.bytes <= BUDGET_BYTES
+    }
+}
+
+impl std::fmt::Display for Cost {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "about {:.1} s, {:.0} MiB ({})",
+            self.seconds,
+            self.bytes / (1u64 << 20) as f64,
+            self.dominant
+        )
+    }
+}
+
+// Rates of lavapipe on the 2-core machine (release build, 2026-11-30, with two other sessions'
+// builds beside it), from one `workbench bench --size 48x48 --frames 1 --warmup 0 --no-error`
+// run per technique near the large ends of its ranges (docs/STABILITY.md, "Random parameter
+// stress"), rounded up: the cap needs the order of magnitude, not a prediction.
+/// Seconds per depth-map texel rendered (`hard` at 4096²: 11.6 ns; `reference` 8² maps of
+/// 2048²: 12.4 ns; `adaptive` 128 maps of 1024²: 7.9 ns).
+const DEPTH_TEXEL: f64 = 12e-9;
+/// Seconds per depth texel of `bitmask`'s peeled layers and the hierarchies' linearisation
+/// (`bitmask`, 4 layers of 4096²: 24 ns).
+const LAYER_TEXEL: f64 = 25e-9;
+/// Seconds per texel per MSSM level (`bitmask`, 4 layers of 4096², 12 levels: 44 ns).
+const HIERARCHY_TEXEL: f64 = 45e-9;
+/// Seconds per light sample and sample-map texel of PDSM's maps, readback and the part of its
+/// construction that walks them (16 samples of 1024² into a 128² PDSM: 0.75 s).
+const PDSM_MAP_TEXEL: f64 = 45e-9;
+/// Seconds per PDSM texel and squared sample count of the construction, which grows faster
+/// than the samples (64 samples into 512²: 27.5 s; 16 samples into 512²: 0.56 s).
+const PDSM_TEXEL_SAMPLE2: f64 = 25e-9;
+/// Seconds per pair of an occluder-map texel and an SSM texel: each micro-patch's penumbra
+/// quad covers part of the SSM (256² by 256²: 13 s, 3 ns, with the scene's default light;
+/// larger lights cover more).
+const SCATTER_PAIR: f64 = 4e-9;
+/// Seconds per iteration of a per-pixel loop (PCSS samples, gathers, filters).
+const PIXEL_ITERATION: f64 = 5e-9;
+/// Seconds a frame costs whatever the parameters (passes, submission, readback).
+const FRAME: f64 = 0.05;
+
+/// The value of an integer or float parameter of a drawn case, as f64.
+fn number(params: &[(String, ParamValue)], name: &str) -> Option<f64> {
+    params
+        .iter()
+        .find(|(n, _)| n == name)
+        .and_then(|(_, v)| match v {
+            ParamValue::Int(i) => Some(*i as f64),
+            ParamValue::Float(x) => Some(*x),
+            _ => None,
+        })
+}
+
+/// The integer parameters whose size drives each technique's cost, largest effect first: what
+/// [`estimate`] reads and what the cap halves when redrawing did not bring a case under budget.
+/// (`cost_model_reads_only_declared_integer_parameters` checks every name is declared.)
+pub fn cost_knobs(technique: &str) -> &'static [&'static str] {
+    match technique {
+        "hard" => &["shadow_map_size"],
+        "pcss" => &["shadow_map_size", "filter_samples", "blocker_samples"],
+        "ssm" => &["occluder_map_size", "ssm_size"],
+        "backprojection" => &["shadow_map_size", "max_patches"],
+        "bitmask" => &["shadow_map_size", "layers", "max_patches", "filter_passes"],
+        "adaptive" => &["shadow_map_size", "max_shadow_maps", "max_depth"],
+        "reference" => &["samples_per_axis", "shadow_map_size"],
+        "pdsm" => &[
+            "samples",
+            "shadow_map_size",
+            "pdsm_size",
+            "dynamic_map_size",
+        ],
+        _ => &[],
+    }
+}
+
+/// Estimated cost of running `technique` with `params` at `pixels` camera pixels: two frames
+/// (the second keeps light-space results, except `reference`'s, which redoes its maps).
+/// Parameters the model does not read (biases, seeds, choices of equal cost) do not change it.
+pub fn estimate(technique: &str, params: &[(String, ParamValue)], pixels: f64) -> Cost {
+    let n = |name: &str| number(params, name).unwrap_or(1.0);
+    let flag = |name: &str| {
+        params
+            .iter()
+            .any(|(p, v)| p == name && *v == ParamValue::Bool(true))
+    };
+    let choice = |name: &str, option: &str| {
+        params
+            .iter()
+            .any(|(p, v)| p == name && *v == ParamValue::Choice(option.into()))
+    };
+    let levels = |side: f64| side.max(2.0).log2().ceil();
+    let (seconds, bytes, dominant) = match technique {
+        "hard" => (
+            n("shadow_map_size").powi(2) * DEPTH_TEXEL,
+            0.0,
+            "shadow_map_size²",
+        ),
+        "pcss" => {
+            let map = n("shadow_map_size").powi(2) * DEPTH_TEXEL;
+            let filter =
+                2.0 * pixels * (n("blocker_samples") + n("filter_samples")) * PIXEL_ITERATION;
+            (map + filter, 0.0, "shadow_map_size²")
+        }
+        "ssm" => {
+            // Every occluder-map texel is a quad over its penumbra in the SSM: at worst (a light
+            // as large as the scene) a large part of the SSM.
+            let passes = if flag("two_pass") { 2.0 } else { 1.0 };
+            let batched = if choice("precision", "fp16-batched") {
+                2.0
+            } else {
+                1.0
+            };
+            let scatter = passes
+                * batched
+                * n("occluder_map_size").powi(2)
+                * n("ssm_size").powi(2)
+                * SCATTER_PAIR;
+            (scatter, 0.0, "occluder_map_size² x ssm_size²")
+        }
+        "backprojection" | "bitmask" => {
+            // The hierarchies pad the map to a power of two (2658² is built as 4096²: the
+            // 30-minute run's slowest case, 105 s against 8 s estimated without the padding).
+            let side = n("shadow_map_size").max(1.0).log2().ceil().exp2();
+            let layers = if technique == "bitmask" {
+                n("layers")
+            } else {
+                1.0
+            };
+            let maps = layers * side * side * (LAYER_TEXEL + levels(side) * HIERARCHY_TEXEL);
+            // The gather is bounded by lavapipe's loop budget per pixel (ARCHITECTURE.md).
+            let gather = 2.0 * pixels * layers * n("max_patches").powi(2).min(65_535.0);
+            let filter = 2.0 * pixels * n("filter_passes") * 64.0;
+            (
+                maps + (gather + filter) * PIXEL_ITERATION,
+                0.0,
+                "layers x padded shadow_map_size² x log2(shadow_map_size)",
+            )
+        }
+        "adaptive" => {
+            let depth = n("max_depth");
+            // Corners: (2^d + 1)² maps; centres: (2^(d+1))²; the cap stops at max_shadow_maps.
+            let most = (2f64.powf(depth + 1.0)).powi(2);
+            let maps = most.min(n("max_shadow_maps"));
+            let compare = 2.0 * maps * pixels * PIXEL_ITERATION;
+            (
+                maps * n("shadow_map_size").powi(2) * DEPTH_TEXEL + compare,
+                0.0,
+                "min(max_shadow_maps, maps at max_depth) x shadow_map_size²",
+            )
+        }
+        "reference" => (
+            2.0 * n("samples_per_axis").powi(2) * n("shadow_map_size").powi(2) * DEPTH_TEXEL,
+            0.0,
+            "2 frames x samples_per_axis² x shadow_map_size²",
+        ),
+        "pdsm" => {
+            let settings = softshadow_pdsm::PdsmSettings {
+                samples: n("samples") as u32,
+                pdsm_size: n("pdsm_size") as u32,
+                shadow_map_size: n("shadow_map_size") as u32,
+                ..Default::default()
+            };
+            let (maps_bytes, pdsm_bytes) = softshadow_pdsm::estimate_bytes(&settings);
+            let bytes = (maps_bytes + pdsm_bytes) as f64;
+            if bytes > n("memory_budget_mib") * (1u64 << 20) as f64 {
+                // Refused before building: a clear error that costs nothing.
+                (0.0, 0.0, "refused by memory_budget_mib")
+            } else {
+                let maps = n("samples") * n("shadow_map_size").powi(2) * PDSM_MAP_TEXEL;
+                let build = n("samples").powi(2) * n("pdsm_size").powi(2) * PDSM_TEXEL_SAMPLE2;
+                let dynamic = 2.0 * n("dynamic_map_size").powi(2) * DEPTH_TEXEL;
+                (
+                    maps + build + dynamic,
+                    bytes,
+                    "samples x shadow_map_size² + samples² x pdsm_size²",
+                )
+            }
+        }
+        _ => (0.0, 0.0, "not modelled"),
+    };
+    Cost {
+        seconds: seconds + 2.0 * FRAME,
+        bytes,
+        dominant,
+    }
+}
+
+/// What the cost cap did to a case's drawn parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Capped {
+    /// The first draw fitted.
+    No,
+    /// The first draw was over budget (its estimate); a later draw fitted.
+    Redrawn { draws: u32, first: Cost },
+    /// No draw fitted: the last one's knobs were halved (those named) until it did.
+    Clamped { first: Cost, halved: Vec<String> },
+}
+
+/// Draws a value for every parameter in `specs`; while the draw is over the cost cap, draws
+/// again (up to [`REDRAWS`] times), then halves the last draw's [`cost_knobs`] (the one farthest
+/// above its minimum first) until it fits. Each range still reaches both ends, only not every
+/// parameter at its expensive end in one case.
+pub fn draw_params(
+    technique: &str,
+    specs: &[ParamSpec],
+    rng: &mut Rng,
+    ranges: Ranges,
+    pixels: u32,
+) -> (Vec<(String, ParamValue)>, Capped) {
+    let pixels = pixels as f64;
+    let draw = |rng: &mut Rng| -> Vec<(String, ParamValue)> {
+        specs
+            .iter()
+            .map(|spec| (spec.name.to_string(), random_value(spec, rng, ranges)))
+            .collect()
+    };
+    let mut params = draw(rng);
+    let first = estimate(technique, &params, pixels);
+    if first.fits() {
+        return (params, Capped::No);
+    }
+    for draws in 2..=REDRAWS + 1 {
+        params = draw(rng);
+        if estimate(technique, &params, pixels).fits() {
+            return (params, Capped::Redrawn { draws, first });
+        }
+    }
+    let halved = clamp(technique, specs, &mut params, pixels);
+    (params, Capped::Clamped { first, halved })
+}
+
+/// Halves `params`' [`cost_knobs`] (the one farthest above its declared minimum, by ratio, each
+/// time) until the estimate fits or every knob is at its minimum; returns what it halved.
+pub fn clamp(
+    technique: &str,
+    specs: &[ParamSpec],
+    params: &mut [(String, ParamValue)],
+    pixels: f64,
+) -> Vec<String> {
+    let mut halved = Vec::new();
+    while !estimate(technique, params, pixels).fits() {
+        // The knob farthest above its declared minimum, by ratio.
+        let knob = cost_knobs(technique)
+            .iter()
+            .filter_map(|&name| {
+                let ParamKind::Int { min, .. } = specs.iter().find(|s| s.name == name)?.kind else {
+                    return None;
+                };
+                let (index, value) = params.iter().enumerate().find_map(|(i, (n, v))| match v {
+                    ParamValue::Int(v) if n == name && *v > min => Some((i, *v)),
+                    _ => None,
+                })?;
+                Some((value as f64 / min.max(1) as f64, index, value, min))
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((_, index, value, min)) = knob else {
+            // Every knob at its minimum: the case runs as it is.
+            break;
+        };
+        let lower = (value / 2).max(min);
+        halved.push(format!("{} {value} -> {lower}", params[index].0));
+        params[index].1 = ParamValue::Int(lower);
+    }
+    halved
+}
+
 /// How the light of a case was placed (so a count per kind can be reported).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum LightKind {
@@ -171,6 +466,10 @@ pub struct Case {
     pub light: AreaLight,
     pub width: u32,
     pub height: u32,
+    /// The estimated cost of `params` (after the cap).
+    pub cost: Cost,
+    /// What the cost cap did to the first draw.
+    pub capped: Capped,
 }
 
 impl std::fmt::Display for Case {
@@ -196,7 +495,21 @@ impl std::fmt::Display for Case {
             l.up.to_array(),
             l.width,
             l.height
-        )
+        )?;
+        match &self.capped {
+            Capped::No => Ok(()),
+            Capped::Redrawn { draws, first } => {
+                write!(
+                    f,
+                    " (parameters drawn {draws} times: the first was {first})"
+                )
+            }
+            Capped::Clamped { first, halved } => write!(
+                f,
+                " (clamped: {} halved; the first draw was {first})",
+                halved.join(", ")
+            ),
+        }
     }
 }
 
@@ -237,11 +550,55 @@ pub struct Counts {
     /// Distinct clear-error messages (numbers stripped) -> how often.
     pub error_messages: BTreeMap<String, u64>,
     pub findings: Vec<Finding>,
+    /// Cases whose first draw was over the cost cap and a later draw fitted.
+    pub redrawn: u64,
+    /// Cases where no draw fitted and the cap halved parameters.
+    pub clamped: u64,
+    /// Why cases were capped: "technique: dominant term" -> cases.
+    pub cap_reasons: BTreeMap<String, u64>,
+    /// The slowest case: seconds, its estimate, the case.
+    pub slowest: Option<(f64, f64, String)>,
+    /// The case that took longest relative to its estimate: seconds, estimate, the case.
+    pub most_underestimated: Option<(f64, f64, String)>,
 }
 
 impl Counts {
-    fn add(&mut self, case: &Case, result: &Result<Outcome, Finding>) {
+    fn add(&mut self, case: &Case, result: &Result<Outcome, Finding>, seconds: f64) {
         self.cases += 1;
+        let first = match &case.capped {
+            Capped::No => None,
+            Capped::Redrawn { first, .. } => {
+                self.redrawn += 1;
+                Some(first)
+            }
+            Capped::Clamped { first, .. } => {
+                self.clamped += 1;
+                Some(first)
+            }
+        };
+        if let Some(first) = first {
+            let why = if first.bytes > BUDGET_BYTES {
+                "host memory".to_string()
+            } else {
+                first.dominant.to_string()
+            };
+            *self
+                .cap_reasons
+                .entry(format!("{}: {why}", case.technique))
+                .or_default() += 1;
+        }
+        let estimate = case.cost.seconds;
+        if self.slowest.as_ref().is_none_or(|s| seconds > s.0) {
+            self.slowest = Some((seconds, estimate, case.to_string()));
+        }
+        let ratio = |s: f64, e: f64| s / e.max(1e-3);
+        if self
+            .most_underestimated
+            .as_ref()
+            .is_none_or(|m| ratio(seconds, estimate) > ratio(m.0, m.1))
+        {
+            self.most_underestimated = Some((seconds, estimate, case.to_string()));
+        }
         *self
             .per_light
             .entry(format!("{:?}", case.light_kind))
@@ -308,13 +665,12 @@ impl Stress {
         let techniques = registry::techniques();
         // In turn, so that every technique gets its share however few the cases.
         let info = techniques[(self.next_case % techniques.len() as u64) as usize];
-        let params = (info.params)()
-            .iter()
-            .map(|spec| (spec.name.to_string(), random_value(spec, rng, self.ranges)))
-            .collect();
         let scene = *rng.pick(SCENES);
         let (width, height) = *rng.pick(SIZES);
         let (light_kind, light) = random_light(&self.scenes[scene].0, rng);
+        let specs = (info.params)();
+        let (params, capped) = draw_params(info.id, &specs, rng, self.ranges, width * height);
+        let cost = estimate(info.id, &params, (width * height) as f64);
         let number = self.next_case;
         self.next_case += 1;
         Case {
@@ -326,12 +682,15 @@ impl Stress {
             light,
             width,
             height,
+            cost,
+            capped,
         }
     }
 
     /// Draws and runs one case, adds it to [`Stress::counts`] and returns it with its result.
     pub fn step(&mut self) -> (Case, Result<Outcome, Finding>) {
         let case = self.draw();
+        let start = std::time::Instant::now();
         let result = std::panic::catch_unwind(AssertUnwindSafe(|| self.run(&case)))
             .unwrap_or_else(|panic| {
                 let message = panic
@@ -347,7 +706,8 @@ impl Stress {
                 case: case.to_string(),
                 problem,
             });
-        self.counts.add(&case, &result);
+        self.counts
+            .add(&case, &result, start.elapsed().as_secs_f64());
         (case, result)
     }
 
@@ -534,4 +894,110 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
         intensity: 1.0,
     };
     (kind, light)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn int_spec(specs: &[ParamSpec], name: &str) -> Option<(i64, i64)> {
+        match specs.iter().find(|s| s.name == name)?.kind {
+            ParamKind::Int { min, max, .. } => Some((min, max)),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn cost_model_reads_only_declared_integer_parameters() {
+        for info in registry::techniques() {
+            let specs = (info.params)();
+            let knobs = cost_knobs(info.id);
+            assert!(!knobs.is_empty(), "{}: no cost knobs", info.id);
+            for knob in knobs {
+                assert!(
+                    int_spec(&specs, knob).is_some(),
+                    "{}: cost knob `{knob}` is not a declared integer parameter",
+                    info.id
+                );
+            }
+            let defaults: Vec<_> = specs
+                .iter()
+                .map(|s| (s.name.to_string(), s.default_value()))
+                .collect();
+            let cost = estimate(info.id, &defaults, 48.0 * 48.0);
+            assert_ne!(cost.dominant, "not modelled", "{}", info.id);
+            assert!(
+                cost.seconds.is_finite() && cost.seconds > 0.0,
+                "{}: {cost}",
+                info.id
+            );
+        }
+    }
+
+    /// The case that held the first 30-minute run for over 15 minutes is over the cap, and
+    /// clamping brings it under by halving its knobs, never below their minimum.
+    #[test]
+    fn the_reference_at_64_squared_samples_of_4096_maps_is_clamped_under_the_budget() {
+        let params = vec![
+            ("samples_per_axis".to_string(), ParamValue::Int(64)),
+            ("shadow_map_size".to_string(), ParamValue::Int(4096)),
+        ];
+        let cost = estimate("reference", &params, 48.0 * 48.0);
+        assert!(!cost.fits(), "{cost}");
+        let specs = (registry::find("reference").unwrap().params)();
+        let mut clamped = params.clone();
+        let halved = clamp("reference", &specs, &mut clamped, 48.0 * 48.0);
+        assert!(!halved.is_empty());
+        assert!(
+            estimate("reference", &clamped, 48.0 * 48.0).fits(),
+            "{clamped:?}"
+        );
+        for (name, value) in &clamped {
+            let (min, _) = int_spec(&specs, name).unwrap();
+            let ParamValue::Int(v) = value else {
+                panic!("{value:?}")
+            };
+            assert!(*v >= min && *v < 4096, "{name} = {v}");
+        }
+    }
+
+    /// Capped draws fit the budget, yet every integer range still reaches both of its ends over
+    /// a few thousand draws: the cap separates expensive ends, it does not remove them.
+    #[test]
+    fn capped_draws_fit_and_still_reach_both_ends_of_every_range() {
+        let mut rng = Rng::new(7);
+        for info in registry::techniques() {
+            let specs = (info.params)();
+            let mut seen: HashMap<String, (bool, bool)> = HashMap::new();
+            let mut capped = 0;
+            for _ in 0..3000 {
+                let (params, cap) = draw_params(info.id, &specs, &mut rng, Ranges::Full, 48 * 48);
+                let cost = estimate(info.id, &params, 48.0 * 48.0);
+                match &cap {
+                    Capped::No | Capped::Redrawn { .. } => {
+                        assert!(cost.fits(), "{}: {cost} after {cap:?}", info.id)
+                    }
+                    // Clamping stops when every knob is at its minimum.
+                    Capped::Clamped { .. } => capped += 1,
+                }
+                for (name, value) in &params {
+                    if let (Some((min, max)), ParamValue::Int(v)) = (int_spec(&specs, name), value)
+                    {
+                        assert!((min..=max).contains(v), "{}: {name} = {v}", info.id);
+                        let e = seen.entry(name.clone()).or_default();
+                        e.0 |= *v == min;
+                        e.1 |= *v == max;
+                    }
+                }
+            }
+            assert!(capped < 3000, "{}: every draw clamped", info.id);
+            for (name, (low, high)) in seen {
+                assert!(
+                    low && high,
+                    "{}: `{name}` never drawn at its minimum ({low}) or maximum ({high})",
+                    info.id
+                );
+            }
+        }
+    }
 }

@@ -356,3 +356,124 @@ impl Fnv1a {
         self.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mesh(positions: Vec<Vec3>, indices: Vec<u32>) -> Mesh {
+        Mesh {
+            name: "test".into(),
+            positions,
+            normals: Vec::new(),
+            indices,
+        }
+    }
+
+    /// Each triangle is one case of the repair's tests; the counts and the kept list pin every
+    /// comparison (written for the mutants `cargo mutants` left alive, docs/STABILITY.md).
+    #[test]
+    fn repair_drops_exactly_the_bad_triangles_and_counts_each_kind() {
+        let v = Vec3::new;
+        let nan = f32::NAN;
+        let inf = f32::INFINITY;
+        let positions = vec![
+            // 0..3: an ordinary triangle at the origin (a vertex with zero coordinates).
+            v(0.0, 0.0, 0.0),
+            v(1.0, 0.0, 0.0),
+            v(0.0, 1.0, 0.0),
+            // 3..6: thin but valid (height 1e-3, length 1) far from the origin.
+            v(100.0, 0.0, 0.0),
+            v(101.0, 0.0, 0.0),
+            v(100.5, 1e-3, 0.0),
+            // 6..9: thin but valid with a vertex near the origin (height 1e-3, length 1).
+            v(1e-3, 1e-3, 1e-3),
+            v(1.0 + 1e-3, 1e-3, 1e-3),
+            v(0.5, 2e-3, 1e-3),
+            // 9..12: tiny but valid (legs 1e-5).
+            v(5.0, 5.0, 5.0),
+            v(5.0 + 1e-5, 5.0, 5.0),
+            v(5.0, 5.0 + 1e-5, 5.0),
+            // 12..15: collinear, off the axes.
+            v(1.0, 0.0, 0.0),
+            v(1.0, 1.0, 0.0),
+            v(1.0, 2.0, 0.0),
+            // 15: one point (a triangle of three equal indices).
+            v(2.0, 3.0, 4.0),
+            // 16, 17: non-finite.
+            v(nan, 0.0, 0.0),
+            v(0.0, inf, 0.0),
+        ];
+        let indices = vec![
+            0, 1, 2, // kept
+            3, 4, 5, // kept
+            6, 7, 8, // kept
+            9, 10, 11, // kept
+            12, 13, 14, // degenerate
+            15, 15, 15, // degenerate
+            16, 1, 2, // non-finite (first vertex)
+            0, 1, 17, // non-finite (last vertex)
+            0, 18, 2, // out of range
+            99, 1, 2, // out of range
+        ];
+        let mut m = mesh(positions.clone(), indices);
+        let report = m.repair();
+        assert_eq!(
+            report,
+            MeshRepair {
+                non_finite_triangles: 2,
+                degenerate_triangles: 2,
+                out_of_range_triangles: 2,
+            }
+        );
+        assert_eq!(report.total(), 6);
+        assert_eq!(m.indices, vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11]);
+        // Finite positions are untouched; the non-finite ones are pinned to the origin.
+        assert_eq!(m.positions[..16], positions[..16]);
+        assert_eq!(m.positions[16], Vec3::ZERO);
+        assert_eq!(m.positions[17], Vec3::ZERO);
+        // Normals were computed (the mesh had none): +z for the kept triangles in the z = 0 plane.
+        assert_eq!(m.normals.len(), m.positions.len());
+        assert!(
+            (m.normals[0] - Vec3::Z).length() < 1e-6,
+            "{:?}",
+            m.normals[0]
+        );
+    }
+
+    #[test]
+    fn repair_keeps_good_normals_and_recomputes_bad_ones() {
+        let triangle = || mesh(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![0, 1, 2]);
+        // Good normals (not the geometric ones) are kept as given.
+        let given = vec![Vec3::X, Vec3::X, Vec3::new(0.0, 0.6, 0.8)];
+        let mut m = triangle();
+        m.normals = given.clone();
+        assert_eq!(m.repair().total(), 0);
+        assert_eq!(m.normals, given);
+        // A normal whose squared length is exactly the 1e-12 threshold is still good.
+        let at_threshold = (0..4000)
+            .map(|k| f32::from_bits(1e-6f32.to_bits() - 2000 + k))
+            .find(|x| x * x == 1e-12)
+            .expect("an f32 whose square is 1e-12");
+        let mut m = triangle();
+        m.normals = vec![Vec3::X, Vec3::new(at_threshold, 0.0, 0.0), Vec3::X];
+        m.repair();
+        assert_eq!(m.normals[1], Vec3::new(at_threshold, 0.0, 0.0));
+        // One NaN, one infinite or one zero normal: all are recomputed (+z here).
+        for bad in [
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            Vec3::ZERO,
+        ] {
+            let mut m = triangle();
+            m.normals = vec![Vec3::X, bad, Vec3::X];
+            m.repair();
+            assert_eq!(m.normals, vec![Vec3::Z; 3], "after {bad:?}");
+        }
+        // Normals of the wrong count are replaced too.
+        let mut m = triangle();
+        m.normals = vec![Vec3::X];
+        m.repair();
+        assert_eq!(m.normals, vec![Vec3::Z; 3]);
+    }
+}

@@ -70,8 +70,27 @@ pub fn parse_gltf(
             )));
         }
     }
+    // gltf-json 1.4's validation reads the POSITION accessor of every primitive by index
+    // without a bounds check (a panic on an index past the accessors: found by the `gltf` fuzz
+    // target), so those indices are checked here before gltf validates the rest.
     let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(bytes).map_err(|e| malformed(e.to_string()))?;
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| malformed(e.to_string()))?;
+    let root = document.into_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(accessor) = primitive.attributes.get(&position) {
+                if accessor.value() >= root.accessors.len() {
+                    return Err(malformed(format!(
+                        "mesh {m} primitive {p}: its POSITION attribute names accessor {}, but the file has {} accessors",
+                        accessor.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(root).map_err(|e| malformed(e.to_string()))?;
     for buffer in document.buffers() {
         if buffer.length() as u64 > MAX_FILE_BYTES {
             return Err(limit(
@@ -268,6 +287,46 @@ impl Walker<'_> {
 }
 
 /// Reads one primitive into a mesh, or says why it was skipped.
+/// Checks what gltf 1.4's readers assume of an accessor without checking it: its element type
+/// (a mismatch trips a debug assertion, or an `unreachable!` for index types), at least one
+/// element and one sparse value (they compute `count - 1`) and a byte stride no smaller than an
+/// element (an element would run past its slice). Found by the `gltf` fuzz target: a VEC2
+/// POSITION accessor.
+fn check_accessor(
+    accessor: &gltf::Accessor<'_>,
+    what: &str,
+    dimensions: gltf::accessor::Dimensions,
+    types: &[gltf::accessor::DataType],
+) -> Result<(), String> {
+    if accessor.dimensions() != dimensions || !types.contains(&accessor.data_type()) {
+        return Err(format!(
+            "its {what} accessor holds {:?} of {:?}, where glTF requires {dimensions:?} of {}",
+            accessor.dimensions(),
+            accessor.data_type(),
+            types
+                .iter()
+                .map(|t| format!("{t:?}"))
+                .collect::<Vec<_>>()
+                .join(" or ")
+        ));
+    }
+    if accessor.count() == 0 {
+        return Err(format!("its {what} accessor has no elements"));
+    }
+    if accessor.sparse().is_some_and(|sparse| sparse.count() == 0) {
+        return Err(format!("its {what} accessor is sparse with no values"));
+    }
+    let element = accessor.size();
+    if let Some(stride) = accessor.view().and_then(|view| view.stride()) {
+        if stride < element {
+            return Err(format!(
+                "its {what} accessor's byte stride ({stride}) is smaller than one element ({element} bytes)"
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn read_primitive(
     primitive: &gltf::Primitive<'_>,
     buffers: &[gltf::buffer::Data],
@@ -280,8 +339,17 @@ fn read_primitive(
         ));
     }
     let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|d| &d.0[..]));
-    if primitive.get(&gltf::Semantic::Positions).is_none() {
+    let Some(position) = primitive.get(&gltf::Semantic::Positions) else {
         return Err("it has no POSITION attribute".into());
+    };
+    use gltf::accessor::{DataType, Dimensions};
+    check_accessor(&position, "POSITION", Dimensions::Vec3, &[DataType::F32])?;
+    if let Some(normal) = primitive.get(&gltf::Semantic::Normals) {
+        check_accessor(&normal, "NORMAL", Dimensions::Vec3, &[DataType::F32])?;
+    }
+    if let Some(indices) = primitive.indices() {
+        let unsigned = [DataType::U8, DataType::U16, DataType::U32];
+        check_accessor(&indices, "index", Dimensions::Scalar, &unsigned)?;
     }
     let positions: Vec<Vec3> = reader
         .read_positions()

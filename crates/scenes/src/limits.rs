@@ -139,6 +139,106 @@ mod tests {
         );
     }
 
+    /// Fuzz finding (`gltf` target, crash-0cb480e6 after 5,704 executions): a primitive whose
+    /// POSITION attribute names an accessor past the end panicked inside gltf-json's validation
+    /// (`mesh.rs:151`, index out of bounds).
+    #[test]
+    fn a_position_accessor_past_the_end_is_malformed_not_a_panic() {
+        let mut doc: serde_json::Value =
+            serde_json::from_slice(&gltf(json!([{"mesh": 0}]), 3)).unwrap();
+        doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(5);
+        let message = load_gltf(doc.to_string().as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("POSITION attribute names accessor 5, but the file has 1 accessors"),
+            "{message}"
+        );
+        assert_eq!(message.lines().count(), 1, "{message}");
+        // The fuzzer's input itself, as found.
+        let found = include_bytes!("../tests/data/fuzz-gltf-position-accessor-past-the-end.gltf");
+        assert!(load_gltf(found).is_err());
+    }
+
+    /// Fuzz finding (`gltf` target, crash-98769d54 after 311,165 executions): a VEC2 POSITION
+    /// accessor tripped gltf's debug assertion that an element is 12 bytes. Every accessor the
+    /// loader reads is now checked first, and the primitive is skipped with a warning.
+    #[test]
+    fn accessors_of_the_wrong_type_or_shape_are_skipped_not_a_panic() {
+        let found = include_bytes!("../tests/data/fuzz-gltf-vec2-positions.glb");
+        assert!(load_gltf(found).is_err());
+        // A second, good primitive (own accessor and view) keeps the file loadable, so the
+        // skipped one's warning is what the test reads.
+        let mut base: serde_json::Value =
+            serde_json::from_slice(&gltf(json!([{"mesh": 0}]), 3)).unwrap();
+        let view = base["bufferViews"][0].clone();
+        base["bufferViews"].as_array_mut().unwrap().push(view);
+        let mut accessor = base["accessors"][0].clone();
+        accessor["bufferView"] = json!(1);
+        base["accessors"].as_array_mut().unwrap().push(accessor);
+        let primitive = json!({"attributes": {"POSITION": 1}});
+        base["meshes"][0]["primitives"]
+            .as_array_mut()
+            .unwrap()
+            .push(primitive);
+        let cases = [
+            (
+                "accessors",
+                "type",
+                json!("VEC2"),
+                "POSITION accessor holds Vec2 of F32",
+            ),
+            (
+                "accessors",
+                "componentType",
+                json!(5123),
+                "POSITION accessor holds Vec3 of U16",
+            ),
+            (
+                "accessors",
+                "count",
+                json!(0),
+                "POSITION accessor has no elements",
+            ),
+            (
+                "bufferViews",
+                "byteStride",
+                json!(4),
+                "byte stride (4) is smaller than one element (12 bytes)",
+            ),
+        ];
+        for (array, key, value, expected) in cases {
+            let mut doc = base.clone();
+            doc[array][0][key] = value;
+            let result = load_gltf(doc.to_string().as_bytes());
+            let message = match result {
+                Err(e) => e.to_string(),
+                Ok(loaded) => loaded.warnings.join("\n"),
+            };
+            assert!(message.contains(expected), "{array}/0/{key}: {message}");
+        }
+        // Indices that are floats, or vectors.
+        for (accessor, expected) in [
+            (
+                json!({"bufferView": 0, "componentType": 5126, "count": 3, "type": "SCALAR"}),
+                "index accessor holds Scalar of F32",
+            ),
+            (
+                json!({"bufferView": 0, "componentType": 5125, "count": 3, "type": "VEC2"}),
+                "index accessor holds Vec2 of U32",
+            ),
+        ] {
+            let mut doc = base.clone();
+            doc["accessors"].as_array_mut().unwrap().push(accessor);
+            doc["meshes"][0]["primitives"][0]["indices"] = json!(2);
+            let message = match load_gltf(doc.to_string().as_bytes()) {
+                Err(e) => e.to_string(),
+                Ok(loaded) => loaded.warnings.join("\n"),
+            };
+            assert!(message.contains(expected), "{message}");
+        }
+    }
+
     #[test]
     fn a_cyclic_node_graph_stops_at_the_depth_limit() {
         let nodes = json!([{"mesh": 0, "children": [1]}, {"children": [0]}]);

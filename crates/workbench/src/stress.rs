@@ -4,7 +4,7 @@
 use std::{path::Path, process::ExitCode, time::Instant};
 
 use anyhow::{Context, Result};
-use softshadow_bench::stress::{Outcome, Ranges, Stress};
+use softshadow_bench::stress::{self, Outcome, Ranges, Stress};
 use softshadow_core::Gpu;
 
 pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
@@ -21,16 +21,18 @@ pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
     while start.elapsed().as_secs() < seconds {
         let case_start = Instant::now();
         let (case, result) = stress.step();
-        log::debug!(
-            "{case}: {:?} after {:.1} s",
-            result.as_ref().map_err(|f| &f.problem),
-            case_start.elapsed().as_secs_f64()
+        // One line per case (estimate beside the time taken), so a run's log shows where the
+        // time went and how far off the cost model is.
+        eprintln!(
+            "{case}: {} after {:.1} s (estimated {:.1} s)",
+            match &result {
+                Ok(Outcome::Ok) => "ok".to_string(),
+                Ok(Outcome::ClearError(message)) => format!("clear error: {message}"),
+                Err(finding) => format!("FINDING: {}", finding.problem),
+            },
+            case_start.elapsed().as_secs_f64(),
+            case.cost.seconds
         );
-        match &result {
-            Ok(Outcome::Ok) => {}
-            Ok(Outcome::ClearError(message)) => log::info!("{case}: {message}"),
-            Err(finding) => eprintln!("finding: {finding}"),
-        }
         if last_report.elapsed().as_secs() >= 60 {
             last_report = Instant::now();
             let c = &stress.counts;
@@ -63,6 +65,16 @@ pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
     for (message, count) in &c.error_messages {
         println!("  clear error x{count}: {message}");
     }
+    println!(
+        "  cost cap ({} s, {} MiB a case): {} cases redrawn, {} clamped",
+        stress::BUDGET_SECONDS,
+        stress::BUDGET_BYTES / (1u64 << 20) as f64,
+        c.redrawn,
+        c.clamped
+    );
+    if let Some((seconds, estimate, case)) = &c.slowest {
+        println!("  slowest: {seconds:.1} s (estimated {estimate:.1} s): {case}");
+    }
     for finding in &c.findings {
         println!("  finding: {finding}");
     }
@@ -89,5 +101,18 @@ fn summary(stress: &Stress, seed: u64, seconds: u64) -> serde_json::Value {
         "per_light": c.per_light,
         "error_messages": c.error_messages,
         "findings": c.findings.iter().map(ToString::to_string).collect::<Vec<_>>(),
+        "cost_cap": {
+            "budget_seconds": stress::BUDGET_SECONDS,
+            "budget_bytes": stress::BUDGET_BYTES,
+            "redrawn": c.redrawn,
+            "clamped": c.clamped,
+            "why": c.cap_reasons,
+        },
+        "slowest_case": c.slowest.as_ref().map(|(seconds, estimate, case)| {
+            serde_json::json!({"seconds": seconds, "estimated_seconds": estimate, "case": case})
+        }),
+        "most_underestimated_case": c.most_underestimated.as_ref().map(|(seconds, estimate, case)| {
+            serde_json::json!({"seconds": seconds, "estimated_seconds": estimate, "case": case})
+        }),
     })
 }

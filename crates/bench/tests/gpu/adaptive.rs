@@ -484,3 +484,38 @@ fn a_start_grid_over_the_map_budget_names_the_depth_it_used() -> Result<()> {
     );
     Ok(())
 }
+
+/// Stress finding (`bench --stress 1800 --seed 30`, cases 133 and 197): `max_shadow_maps` maps of
+/// `shadow_map_size`² are allocated as one array, 512 maps of 2048² being 8 GiB; lavapipe ran out
+/// of memory and the device error reached the uncaptured-error handler (a panic under
+/// `SOFTSHADOW_GPU_ERRORS=panic`). Now the frame either renders or fails with one clear line
+/// that names the two parameters.
+#[test]
+fn a_map_array_too_large_for_the_device_is_a_clear_error() -> Result<()> {
+    let gpu = gpu()?;
+    let scene = softshadow_scenes::load("atty-square")?.scene;
+    let mut technique = adaptive(
+        &gpu,
+        AdaptiveSettings {
+            max_shadow_maps: 512,
+            shadow_map_size: 2048,
+            ..Default::default()
+        },
+    )?;
+    match render(&gpu, &scene, 32, &mut technique) {
+        Ok(_) => eprintln!("this device allocated 8 GiB of shadow maps"),
+        Err(e) => {
+            let message = format!("{e:#}");
+            ensure!(
+                message.contains("lower max_shadow_maps or shadow_map_size")
+                    && !message.contains('\n'),
+                "{message}"
+            );
+        }
+    }
+    // The technique recovers with settings that fit.
+    technique.set_param("max_shadow_maps", softshadow_core::ParamValue::Int(16))?;
+    technique.set_param("shadow_map_size", softshadow_core::ParamValue::Int(128))?;
+    render(&gpu, &scene, 32, &mut technique)?;
+    Ok(())
+}
