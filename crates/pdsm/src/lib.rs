@@ -546,7 +546,7 @@ impl PdsmShadows {
         if let Some(shelved) = self.shelved.take() {
             if shelved.key == key {
                 let elapsed = Duration::from_secs_f64(shelved.construction_ms / 1e3);
-                return self.keep(frame.gpu, key, shelved.data, elapsed, shelved.from_cache);
+                return self.keep_timed(frame, key, shelved.data, elapsed, shelved.from_cache);
             }
         }
         if self.poll_pending(frame.gpu, key)? {
@@ -592,7 +592,7 @@ impl PdsmShadows {
             frame.end_cpu_pass("pdsm/cache_load", clock);
             match loaded {
                 Ok(Some(data)) if data.size == self.settings.pdsm_size => {
-                    self.keep(frame.gpu, key, data, started.elapsed(), true)?;
+                    self.keep_timed(frame, key, data, started.elapsed(), true)?;
                     return Ok(());
                 }
                 Ok(_) => {}
@@ -604,7 +604,7 @@ impl PdsmShadows {
         }
         let (windows, frustum) = match self.build_input(inputs) {
             BuildInput::Empty(data) => {
-                return self.keep(frame.gpu, key, data, started.elapsed(), false)
+                return self.keep_timed(frame, key, data, started.elapsed(), false)
             }
             BuildInput::Windows { windows, frustum } => (windows, frustum),
         };
@@ -632,7 +632,7 @@ impl PdsmShadows {
         self.control.finish();
         let data = built.map_err(|build::Cancelled| cancelled())?;
         self.store_in_cache(frame, cache_dir.as_deref(), key, &data);
-        self.keep(frame.gpu, key, data, started.elapsed(), false)
+        self.keep_timed(frame, key, data, started.elapsed(), false)
     }
 
     /// Background mode: renders and reads back the next few sample maps of `progress` (at most
@@ -927,6 +927,22 @@ impl PdsmShadows {
             frame.end_cpu_pass("pdsm/readback", clock);
         }
         Ok(build::SampleMaps { size: m, maps })
+    }
+
+    /// [`Self::keep`] inside a frame, timed as the CPU pass `pdsm/upload` (buffer creation and
+    /// the ends texture are real work of the frame that builds or loads a PDSM).
+    fn keep_timed(
+        &mut self,
+        frame: &mut Frame<'_>,
+        key: u64,
+        data: PdsmData,
+        elapsed: Duration,
+        from_cache: bool,
+    ) -> Result<(), TechniqueError> {
+        let clock = frame.begin_cpu_pass();
+        let kept = self.keep(frame.gpu, key, data, elapsed, from_cache);
+        frame.end_cpu_pass("pdsm/upload", clock);
+        kept
     }
 
     /// Uploads `data` (Fig. 6: index and data buffers) and keeps it.
@@ -1270,7 +1286,10 @@ impl ShadowTechnique for PdsmShadows {
             ),
         ]);
         if rebuilt || inputs.changes.params || self.debug.is_empty() {
+            // CPU work of this frame (every texel evaluated at debug_depth): timed like a pass.
+            let clock = frame.begin_cpu_pass();
             self.update_debug_views(gpu);
+            frame.end_cpu_pass("pdsm/debug_views", clock);
         }
         Ok(())
     }
