@@ -9,6 +9,7 @@
 set -uo pipefail
 WB="${1:-target/debug/workbench}"
 WB="$(realpath "$WB")"
+REPO="$(cd "$(dirname "$0")/.." && pwd)"
 T="$(mktemp -d)"
 trap 'rm -rf "$T"' EXIT
 cd "$T"
@@ -73,6 +74,8 @@ glb = b"glTF" + struct.pack("<II", 2, 12 + 8 + len(doc)) + struct.pack("<I4s", l
 open("truncated.glb", "wb").write(glb[: len(glb) // 2])
 open("garbage.glb", "wb").write(b"glTF\x02\x00\x00\x00garbage")
 EOF
+# The glTF fuzz target's findings (regression tests in crates/scenes/tests).
+cp "$REPO"/crates/scenes/tests/data/fuzz-gltf-*.gl* .
 
 # Sweep files.
 printf 'scenes = []\n[[technique]]\nid = "hard"\n' > sweep-no-scenes.toml
@@ -148,6 +151,8 @@ row "glTF" "nodes reusing children: 2^40 paths in 3 kB" "${B[@]}" --scene expone
 row "glTF" "only a point primitive" "${B[@]}" --scene points.gltf
 row "glTF" "no meshes" "${B[@]}" --scene no-mesh.gltf
 row "glTF" "external buffer missing" "${B[@]}" --scene missing-buffer.gltf
+row "glTF" "POSITION accessor index past the accessors (fuzz finding)" "${B[@]}" --scene fuzz-gltf-position-accessor-past-the-end.gltf
+row "glTF" "VEC2 POSITION accessor in a GLB (fuzz finding)" "${B[@]}" --scene fuzz-gltf-vec2-positions.glb
 row "glTF" "buffer \`file:///dev/zero\`" "${B[@]}" --scene device-buffer.gltf
 row "path" "scene file that does not exist" "${B[@]}" --scene /nonexistent/scene.toml
 row "path" "unsupported extension (\`.stl\`)" "${B[@]}" --scene model.stl
