@@ -196,9 +196,20 @@ fn a_camera_only_frame_matches_a_full_frame_and_keeps_light_space_passes() -> Re
             &moved_light,
             technique.as_mut(),
         )?;
-        if !same_passes(&dynamic_passes, &full_passes) {
+        // PDSM keeps its static precompute when only a dynamic instance moves (St-Amour et al.
+        // 2005, section 5: the dynamic casters get a map of their own), so the CPU passes that
+        // upload the static PDSM and evaluate its debug views do not run again; every other
+        // technique redoes its full frame.
+        let expected_after_move: Vec<String> = full_passes
+            .iter()
+            .filter(|p| {
+                !(id == "pdsm" && ["pdsm/upload", "pdsm/debug_views"].contains(&p.as_str()))
+            })
+            .cloned()
+            .collect();
+        if !same_passes(&dynamic_passes, &expected_after_move) {
             failures.push(format!(
-                "{id}: after moving a dynamic instance ran {dynamic_passes:?}, expected {full_passes:?}"
+                "{id}: after moving a dynamic instance ran {dynamic_passes:?}, expected {expected_after_move:?}"
             ));
         }
         let mut fresh = create(&gpu, id)?;
