@@ -71,6 +71,7 @@ pub fn run(options: ViewOptions) -> Result<ViewSummary, ViewerError> {
         frame_times: Vec::new(),
         last_frame: None,
         summary: ViewSummary::default(),
+        driver_warning: None,
     };
     event_loop
         .run_app(&mut handler)
@@ -112,6 +113,9 @@ struct Handler {
     frame_times: Vec<(f64, bool)>,
     last_frame: Option<Instant>,
     summary: ViewSummary,
+    /// A known driver problem, logged once the first frame is shown (after the state file and
+    /// the rest of the user's input were accepted, so a bad input still fails in one line).
+    driver_warning: Option<String>,
 }
 
 impl ApplicationHandler for Handler {
@@ -221,10 +225,7 @@ impl Handler {
         };
         surface.configure(&gpu.device, &config);
         self.summary.adapter = gpu.summary().name;
-        if let Some(warning) = known_driver_leak(&gpu.adapter.get_info()) {
-            log::warn!("{warning}");
-            eprintln!("warning: {warning}");
-        }
+        self.driver_warning = known_driver_leak(&gpu.adapter.get_info());
 
         let context = egui::Context::default();
         let input = egui_winit::State::new(
@@ -371,6 +372,11 @@ impl Handler {
                 .push(((now - last).as_secs_f64() * 1e3, converged));
         }
         let stats = running.app.stats();
+        if stats.frames > 0 {
+            if let Some(warning) = self.driver_warning.take() {
+                log::warn!("{warning}");
+            }
+        }
         self.summary.frames = stats.frames;
         let progress = running.app.reference_progress();
         self.summary.reference_progress = (progress.done, progress.total);
