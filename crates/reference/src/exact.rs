@@ -221,12 +221,178 @@ mod tests {
         );
     }
 
+    /// Cases the first `cargo mutants` run found untested (docs/STABILITY.md, "Mutation
+    /// testing"): an occluder in the light plane, a scale other than 2, a light of area other
+    /// than 1, a line light, a shadow that misses the light in y only beside one that covers half.
+    #[test]
+    fn planes_scales_light_shapes_and_misses() {
+        let square = |z| ParallelRect {
+            min: Vec2::splat(-0.5),
+            max: Vec2::splat(0.5),
+            z,
+        };
+        let unit = Vec2::splat(0.5);
+        // In the light plane (z = 0) is not strictly between light and receiver: ignored.
+        assert_eq!(
+            visible_fraction(unit, &[square(0.0)], Vec3::new(0.0, 0.0, 2.0)),
+            1.0
+        );
+        // Receiver at (1, 0, 3), occluder at z = 1: scale 3 / (3 - 1) = 1.5, shadow x in
+        // [1 - 1.5 * 1.5, 1 - 0.5 * 1.5] = [-1.25, 0.25]: 0.75 of the light's width covered.
+        let v = visible_fraction(unit, &[square(1.0)], Vec3::new(1.0, 0.0, 3.0));
+        assert!((v - 0.25).abs() < 1e-12, "{v}");
+        // A 2 x 1 light (area 2): the shadow [-2, 0] x [-1, 1] covers [-1, 0] x [-0.5, 0.5].
+        let wide = Vec2::new(1.0, 0.5);
+        let v = visible_fraction(wide, &[square(1.0)], Vec3::new(1.0, 0.0, 2.0));
+        assert!((v - 0.5).abs() < 1e-12, "{v}");
+        // A line light (zero height) is sampled at its centre: covered, or not.
+        let line = Vec2::new(0.5, 0.0);
+        assert_eq!(
+            visible_fraction(line, &[square(1.0)], Vec3::new(0.0, 0.0, 2.0)),
+            0.0
+        );
+        assert_eq!(
+            visible_fraction(line, &[square(1.0)], Vec3::new(5.0, 0.0, 2.0)),
+            1.0
+        );
+        // Beside a shadow covering half the light (x in [-1, 0]), one that spans the light in x
+        // but lies beyond it in y (y in [5, 7]) covers nothing and must not subtract.
+        let half_cover = ParallelRect {
+            min: Vec2::new(-0.5, -0.5),
+            max: Vec2::new(0.0, 0.5),
+            z: 1.0,
+        };
+        let below = ParallelRect {
+            min: Vec2::new(-0.5, 2.5),
+            max: Vec2::new(0.5, 3.5),
+            z: 1.0,
+        };
+        let v = visible_fraction(unit, &[half_cover, below], Vec3::new(0.0, 0.0, 2.0));
+        assert!((v - 0.5).abs() < 1e-12, "{v}");
+    }
+
+    /// atty-square with its casters replaced by one two-triangle quad whose corners are the
+    /// given light-space points (the first four; a fifth vertex, if given, replaces the last
+    /// triangle's third corner).
+    fn scene_with_quad(corners: &[Vec3]) -> Scene {
+        let mut scene = softshadow_scenes::load("atty-square").unwrap().scene;
+        let (x, y, z) = scene.light.basis();
+        let centre = scene.light.center;
+        let world: Vec<Vec3> = corners
+            .iter()
+            .map(|p| centre + x * p.x + y * p.y + z * p.z)
+            .collect();
+        let mut indices = vec![0, 1, 2, 0, 2, 3];
+        if world.len() > 4 {
+            indices[5] = 4;
+        }
+        scene.meshes.push(softshadow_core::Mesh {
+            name: "quad".into(),
+            positions: world,
+            normals: Vec::new(),
+            indices,
+        });
+        let mesh = scene.meshes.len() - 1;
+        for instance in scene.instances.iter_mut().filter(|i| i.casts_shadow) {
+            instance.casts_shadow = false;
+        }
+        scene.instances.push(softshadow_core::Instance {
+            mesh,
+            transform: softshadow_core::glam::Mat4::IDENTITY,
+            albedo: Vec3::ONE,
+            casts_shadow: true,
+            receives_shadow: false,
+            dynamic: false,
+        });
+        scene
+    }
+
+    /// The tolerances of [`parallel_rects`] scale with the caster's size (found by `cargo
+    /// mutants`: at size 1 a tolerance `1e-5 * scale` and `1e-5 / scale` agree). A 1000-wide
+    /// quad tilted by 0.005 in depth is flat (tolerance 0.01); one with a corner 5 off its
+    /// rectangle, or 0.0005 wide, or with a vertex in the middle of an edge, is not a rectangle.
+    #[test]
+    fn rectangle_tolerances_scale_with_the_caster() {
+        let quad = |w: f32, h: f32| {
+            vec![
+                Vec3::new(-w, -h, 2.0),
+                Vec3::new(w, -h, 2.0),
+                Vec3::new(w, h, 2.0),
+                Vec3::new(-w, h, 2.0),
+            ]
+        };
+        let flat = parallel_rects(&scene_with_quad(&quad(500.0, 500.0))).unwrap();
+        assert_eq!(flat.len(), 1);
+        let close = |a: f32, b: f32| (a - b).abs() < 1e-2;
+        assert!(
+            close(flat[0].min.x, -500.0)
+                && close(flat[0].min.y, -500.0)
+                && close(flat[0].max.x, 500.0)
+                && close(flat[0].max.y, 500.0)
+                && close(flat[0].z, 2.0),
+            "{:?} {:?} {}",
+            flat[0].min,
+            flat[0].max,
+            flat[0].z
+        );
+        let mut tilted = quad(500.0, 500.0);
+        tilted[2].z += 0.005;
+        let tilted = parallel_rects(&scene_with_quad(&tilted)).unwrap();
+        // Its depth is the middle of its depth range.
+        assert!(
+            tilted.len() == 1 && (tilted[0].z - 2.0025).abs() < 5e-4,
+            "{}",
+            tilted[0].z
+        );
+        // One triangle covers half the rectangle; three equal corners cover none of it.
+        let mut half = quad(500.0, 500.0);
+        half.push(half[0]);
+        assert!(parallel_rects(&scene_with_quad(&half)).is_none());
+        let mut off_corner = quad(500.0, 500.0);
+        off_corner[2].x -= 5.0;
+        assert!(parallel_rects(&scene_with_quad(&off_corner)).is_none());
+        let sliver = quad(500.0, 0.00025);
+        assert!(parallel_rects(&scene_with_quad(&sliver)).is_none());
+        // The last triangle's third corner in the middle of the top edge: on an x edge's line
+        // only, not a corner.
+        let mut mid_edge = quad(500.0, 500.0);
+        mid_edge.push(Vec3::new(0.0, 500.0, 2.0));
+        assert!(parallel_rects(&scene_with_quad(&mid_edge)).is_none());
+    }
+
+    /// The per-pixel image: the closed form on receivers, 1.0 on pixels without a position or
+    /// outside the receiver mask.
+    #[test]
+    fn visibility_image_fills_receivers_only() {
+        let scene = softshadow_scenes::load("atty-square").unwrap().scene;
+        let rects = parallel_rects(&scene).unwrap();
+        let half = scene.light.half_extent();
+        let (x, y, z) = scene.light.basis();
+        let under = scene.light.center + z * 3.0 + x * 0.1 + y * 0.05;
+        let expected = visible_fraction(half, &rects, scene.light.to_light_space(under)) as f32;
+        assert!(
+            expected < 1.0,
+            "the test point must be shadowed: {expected}"
+        );
+        let image = visibility_image(
+            &scene,
+            &[Some(under), None, Some(under), Some(under)],
+            &[true, true, false],
+        )
+        .unwrap();
+        assert_eq!(image, vec![expected, 1.0, 1.0, 1.0]);
+    }
+
     #[test]
     fn union_counts_overlap_once() {
         let a = [0.0, 2.0, 0.0, 2.0];
         let b = [1.0, 3.0, 1.0, 3.0];
         assert!((union_area(&[a, b]) - 7.0).abs() < 1e-12);
         assert!((union_area(&[a, a]) - 4.0).abs() < 1e-12);
+        // Spans of one strip that do not touch stay apart: 1 + 1, not the 3 of their hull.
+        let low = [0.0, 1.0, 0.0, 1.0];
+        let high = [0.0, 1.0, 2.0, 3.0];
+        assert!((union_area(&[low, high]) - 2.0).abs() < 1e-12);
         assert_eq!(union_area(&[]), 0.0);
     }
 }
