@@ -3,7 +3,7 @@
 //! light-space caching and the extremes, with the bounds stated in docs/TECHNIQUES.md. Small images
 //! (64² and 96²) and small shadow maps (256²) keep this affordable on lavapipe.
 
-use crate::common::{gpu, run_checked};
+use crate::common::{exact_visibility, gpu, run_checked};
 use anyhow::{ensure, Context, Result};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
 use softshadow_bitmask::{Bitmask, BitmaskSettings, Pattern};
@@ -133,16 +133,7 @@ fn full_search_keeps_every_block_on_stiff_fusion_at_every_map_size() -> Result<(
 /// the exact answer or V puts in shadow. The exact answer is the closed form where the casters
 /// are parallel rectangles (stiff-fusion), else a 16 x 16 CPU ray cast (balls-3x3x3).
 fn over_darkening(scene: &Scene, out: &Output) -> Result<(f64, f64)> {
-    let exact =
-        match softshadow_reference::exact::visibility_image(scene, &out.positions, &out.receiver) {
-            Some(v) => v,
-            None => softshadow_reference::raycast::visibility_image(
-                scene,
-                &out.positions,
-                &out.receiver,
-                16,
-            ),
-        };
+    let exact = exact_visibility(scene, &out.positions, &out.receiver, 16);
     let (mut darker, mut abs, mut count) = (0.0, 0.0, 0usize);
     for ((v, e), receiver) in out.v.iter().zip(&exact).zip(&out.receiver) {
         if *receiver && (*e < 1.0 || *v < 1.0) {

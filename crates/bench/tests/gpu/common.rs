@@ -61,6 +61,25 @@ pub fn closed_form(
         .context("the casters are not rectangles parallel to the light: no closed form")
 }
 
+/// The exact visibility at `positions`: the closed form where the casters are rectangles parallel
+/// to the light, else the CPU ray cast with `samples_per_axis`² light samples (as the benchmark's
+/// `error.vs_exact`); 1.0 off the receivers.
+pub fn exact_visibility(
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    receiver: &[bool],
+    samples_per_axis: u32,
+) -> Vec<f32> {
+    softshadow_reference::exact::visibility_image(scene, positions, receiver).unwrap_or_else(|| {
+        softshadow_reference::raycast::visibility_image(
+            scene,
+            positions,
+            receiver,
+            samples_per_axis,
+        )
+    })
+}
+
 /// The error measures a bound is stated in (against the exact answer, over receiver pixels).
 /// Not `mae_all`: a mostly lit ground dilutes it until "no shadow at all" passes a bound on a
 /// small shadow, so `mae_shadowed` (pixels where V_exact < 1) and `max_abs` instead.

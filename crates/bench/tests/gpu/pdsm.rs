@@ -7,7 +7,7 @@
 
 use std::sync::atomic::Ordering;
 
-use crate::common::{closed_form, gpu};
+use crate::common::{exact_visibility, gpu};
 use anyhow::{ensure, Context, Result};
 use softshadow_core::{
     glam::{Mat4, Vec3},
@@ -62,14 +62,7 @@ fn render(gpu: &Gpu, scene: &Scene, pdsm: &mut PdsmShadows) -> Result<Frame> {
 /// Exact visibility: the closed form where the casters are rectangles parallel to the light,
 /// else the CPU ray cast with 32 x 32 light samples.
 fn exact(scene: &Scene, frame: &Frame) -> Result<Vec<f32>> {
-    closed_form(scene, &frame.positions, &frame.mask).or_else(|_| {
-        Ok(softshadow_reference::raycast::visibility_image(
-            scene,
-            &frame.positions,
-            &frame.mask,
-            32,
-        ))
-    })
+    Ok(exact_visibility(scene, &frame.positions, &frame.mask, 32))
 }
 
 fn mae_shadowed(scene: &Scene, frame: &Frame) -> Result<f64> {
