@@ -20,6 +20,10 @@ const MAX_MIB_PER_SWITCH: f64 = 0.5;
 /// The driver whose own per-frame leak the slope bound is not asserted on (docs/STABILITY.md).
 const KNOWN_LEAKY_DRIVER: &str = "Mesa 22.3";
 
+/// That driver's leak per switch in this test, rounded up: 1.83-1.85 MiB measured (the per-switch
+/// slope over the returns; docs/STABILITY.md, "Viewer memory over 10 minutes").
+const KNOWN_LEAK_MIB_PER_SWITCH: f64 = 2.0;
+
 /// A value of this process's `/proc/self/status` in MiB (`VmRSS`: resident now; `VmHWM`: the
 /// peak resident so far).
 fn status_mib(field: &str) -> Result<f64> {
@@ -172,15 +176,24 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
         gpu_memory()
     );
     // Back on the light scene, what the heavy one held is released: within 64 MiB of the
-    // baseline (measured: see docs/BENCHMARKS.md).
+    // baseline (measured: see docs/BENCHMARKS.md), plus, on Mesa 22.3, the driver's own leak
+    // over the run. Without that allowance the leak alone (about 37 MiB over 20 switches, more
+    // on a loaded machine) failed the bound in one CI run of three.
+    let leaky_driver = driver.contains(KNOWN_LEAKY_DRIVER);
+    let driver_leak = if leaky_driver {
+        KNOWN_LEAK_MIB_PER_SWITCH * k as f64
+    } else {
+        0.0
+    };
     ensure!(
-        end - baseline < 64.0,
-        "resident memory grew from {baseline:.0} to {end:.0} MiB across {k} switches"
+        end - baseline < 64.0 + driver_leak,
+        "resident memory grew from {baseline:.0} to {end:.0} MiB across {k} switches (bound 64 \
+         MiB plus {driver_leak:.0} MiB for the known leak of {driver})"
     );
     // No growth per switch (issue 15). Mesa 22.3's lavapipe leaks about 1 MiB per frame inside
     // the driver, 1.85 MiB per switch here (docs/STABILITY.md, "Viewer memory over 10
     // minutes"); flat on Mesa 25 (about 0 per switch). 0.5 MiB per switch catches that leak.
-    if per_switch >= MAX_MIB_PER_SWITCH && driver.contains(KNOWN_LEAKY_DRIVER) {
+    if per_switch >= MAX_MIB_PER_SWITCH && leaky_driver {
         println!(
             "growth {per_switch:.2} MiB per switch on {driver}: the known lavapipe 22.3 leak, not \
              asserted; install mesa-vulkan-drivers from bookworm-backports (docs/STABILITY.md)"
