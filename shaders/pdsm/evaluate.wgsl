@@ -7,6 +7,11 @@
 // them, needs only that one fetch, and the buffers are read only where the pixel's depth falls
 // between a texel's first and last event (inside a penumbra volume). Dynamic casters, absent from the precompute, come
 // from a per-frame shadow map with percentage-closer filtering, multiplied in (section 5).
+//
+// Two draws of this file (`Evaluation` in lib.rs): with ENDS_PASS, a pixel whose four texels the
+// ends answer is written and marked in the stencil, the others are discarded; without it, the
+// whole evaluation runs where the stencil is still clear. llvmpipe pays for a branch's masked-off
+// side, so the searches cost their code at every pixel unless the stencil test skips the block.
 #import softshadow::frame::{load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
@@ -52,6 +57,10 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     if depth < e.z {
         return e.w;
     }
+#ifdef ENDS_PASS
+    // Between the texel's first and last vertex: the second draw searches it.
+    return -1.0;
+#else
     let index = u32(c.y * n + c.x);
     let start = offsets[index];
     let end = offsets[index + 1u];
@@ -73,6 +82,7 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let previous = vertices[lo];
     let next = vertices[hi];
     return mix(previous.y, next.y, (depth - previous.x) / (next.x - previous.x));
+#endif
 }
 
 #ifdef DYNAMIC
@@ -139,6 +149,12 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let v10 = texel_visibility(t + vec2<i32>(1, 0), depth);
     let v01 = texel_visibility(t + vec2<i32>(0, 1), depth);
     let v11 = texel_visibility(t + vec2<i32>(1, 1), depth);
+#ifdef ENDS_PASS
+    if min(min(v00, v10), min(v01, v11)) < 0.0 {
+        // Inside a penumbra: left unmarked for the second draw.
+        discard;
+    }
+#endif
     var v = mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
 #ifdef DYNAMIC
     v *= dynamic_visibility(s.light, cosine);

@@ -14,6 +14,18 @@ pub(crate) fn render_pipeline(
     module: &wgpu::ShaderModule,
     targets: &[Option<wgpu::ColorTargetState>],
 ) -> wgpu::RenderPipeline {
+    render_pipeline_with(gpu, label, layout, module, targets, None)
+}
+
+/// [`render_pipeline`] with a depth-stencil state.
+fn render_pipeline_with(
+    gpu: &Gpu,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth_stencil: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
     gpu.device
         .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
@@ -25,7 +37,7 @@ pub(crate) fn render_pipeline(
                 buffers: &[],
             },
             primitive: Default::default(),
-            depth_stencil: None,
+            depth_stencil,
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module,
@@ -37,6 +49,9 @@ pub(crate) fn render_pipeline(
             cache: None,
         })
 }
+
+/// The stencil format of [`FullscreenPipeline::with_stencil`].
+pub const STENCIL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Stencil8;
 
 /// A fullscreen-triangle render pipeline: group 0 the frame, group 1 the pass's own.
 pub struct FullscreenPipeline {
@@ -67,6 +82,55 @@ impl FullscreenPipeline {
         format: wgpu::TextureFormat,
         blend: Option<wgpu::BlendState>,
     ) -> Result<Self, GpuError> {
+        Self::build(gpu, label, spec, defs, group1, format, blend, None)
+    }
+
+    /// As [`FullscreenPipeline::new`], with a `Stencil8` attachment tested and written by
+    /// `stencil` (both faces): a pass can mark pixels for a later draw that runs only on them.
+    pub fn with_stencil(
+        gpu: &Gpu,
+        label: &str,
+        spec: &ShaderSpec,
+        defs: &[(&str, DefValue)],
+        group1: &wgpu::BindGroupLayout,
+        stencil: wgpu::StencilFaceState,
+    ) -> Result<Self, GpuError> {
+        let depth_stencil = wgpu::DepthStencilState {
+            format: STENCIL_FORMAT,
+            depth_write_enabled: Some(false),
+            depth_compare: Some(wgpu::CompareFunction::Always),
+            stencil: wgpu::StencilState {
+                front: stencil,
+                back: stencil,
+                read_mask: 0xff,
+                write_mask: 0xff,
+            },
+            bias: Default::default(),
+        };
+        let format = VISIBILITY_FORMAT;
+        Self::build(
+            gpu,
+            label,
+            spec,
+            defs,
+            group1,
+            format,
+            None,
+            Some(depth_stencil),
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        gpu: &Gpu,
+        label: &str,
+        spec: &ShaderSpec,
+        defs: &[(&str, DefValue)],
+        group1: &wgpu::BindGroupLayout,
+        format: wgpu::TextureFormat,
+        blend: Option<wgpu::BlendState>,
+        depth_stencil: Option<wgpu::DepthStencilState>,
+    ) -> Result<Self, GpuError> {
         let module = crate::shader::create_module(gpu, spec, defs)?;
         let layout = gpu
             .device
@@ -80,7 +144,8 @@ impl FullscreenPipeline {
             blend,
             write_mask: wgpu::ColorWrites::ALL,
         };
-        let pipeline = render_pipeline(gpu, label, &layout, &module, &[Some(target)]);
+        let pipeline =
+            render_pipeline_with(gpu, label, &layout, &module, &[Some(target)], depth_stencil);
         Ok(Self { pipeline })
     }
 

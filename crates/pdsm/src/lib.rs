@@ -34,7 +34,7 @@ use std::{
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline, STENCIL_FORMAT},
     glam::{Vec2, Vec3},
     scene::{Aabb, Fnv1a},
     shader::{DefValue, ShaderSpec},
@@ -55,7 +55,15 @@ pub const ID: &str = "pdsm";
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "pdsm/evaluate.wgsl",
     source: shader_file!("pdsm/evaluate.wgsl").1,
-    permutations: &[&[], &[("DYNAMIC", DefValue::Bool(true))]],
+    permutations: &[
+        &[],
+        &[("DYNAMIC", DefValue::Bool(true))],
+        &[("ENDS_PASS", DefValue::Bool(true))],
+        &[
+            ("ENDS_PASS", DefValue::Bool(true)),
+            ("DYNAMIC", DefValue::Bool(true)),
+        ],
+    ],
 }];
 
 softshadow_core::technique_settings! {
@@ -177,8 +185,13 @@ pub struct PdsmShadows {
     /// The evaluation without dynamic casters, and with them (`DYNAMIC`: the PCF lookup of the
     /// dynamic map). Two pipelines because llvmpipe paid for the PCF loop even when a uniform
     /// flag skipped it: it doubled the evaluation pass on scenes without dynamic casters.
-    evaluate: FullscreenPipeline,
-    evaluate_dynamic: FullscreenPipeline,
+    evaluate: Evaluation,
+    evaluate_dynamic: Evaluation,
+    /// The stencil of the evaluation's two draws, at the size of the last visibility buffer.
+    stencil: Option<(u32, u32, wgpu::TextureView)>,
+    /// Draw the ends first and search only where they do not answer ([`Evaluation`]); off, the
+    /// whole evaluation runs at every pixel ([`Self::set_two_draw_evaluation`]).
+    two_draw: bool,
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
     dynamic_view_buffer: wgpu::Buffer,
@@ -382,6 +395,111 @@ pub fn texel_ends(data: &PdsmData) -> Vec<[f32; 4]> {
         .collect()
 }
 
+/// Section 4's evaluation as two draws into one pass, so the four texels' searches run only
+/// inside penumbrae. llvmpipe runs both sides of a branch under a lane mask, and the searches'
+/// storage-buffer reads loop over the lanes even when all are off, so one shader that skips them
+/// per pixel still paid for them everywhere. The first draw (`ENDS_PASS`) answers every pixel
+/// whose four texels are constant at its depth from the ends texture and marks it in the
+/// stencil; the rest it discards. The second draw, the whole evaluation, runs where the stencil
+/// is still clear, and llvmpipe's early stencil test skips every block without such a pixel.
+struct Evaluation {
+    ends: FullscreenPipeline,
+    penumbra: FullscreenPipeline,
+}
+
+impl Evaluation {
+    fn new(
+        gpu: &Gpu,
+        label: &str,
+        defs: &[(&str, DefValue)],
+        layout: &wgpu::BindGroupLayout,
+    ) -> Result<Self, GpuError> {
+        let mut ends_defs = defs.to_vec();
+        ends_defs.push(("ENDS_PASS", DefValue::Bool(true)));
+        let mark = wgpu::StencilFaceState {
+            compare: wgpu::CompareFunction::Always,
+            fail_op: wgpu::StencilOperation::Keep,
+            depth_fail_op: wgpu::StencilOperation::Keep,
+            pass_op: wgpu::StencilOperation::Replace,
+        };
+        let unmarked = wgpu::StencilFaceState {
+            compare: wgpu::CompareFunction::Equal,
+            fail_op: wgpu::StencilOperation::Keep,
+            depth_fail_op: wgpu::StencilOperation::Keep,
+            pass_op: wgpu::StencilOperation::Keep,
+        };
+        Ok(Self {
+            ends: FullscreenPipeline::with_stencil(
+                gpu,
+                &format!("{label} (ends)"),
+                &SHADERS[0],
+                &ends_defs,
+                layout,
+                mark,
+            )?,
+            penumbra: FullscreenPipeline::with_stencil(
+                gpu,
+                &format!("{label} (penumbrae)"),
+                &SHADERS[0],
+                defs,
+                layout,
+                unmarked,
+            )?,
+        })
+    }
+
+    /// Both draws as the pass `pdsm/evaluate` into `target`; without `two_draw`, only the
+    /// second, which then runs at every pixel (the stencil stays clear).
+    fn record(
+        &self,
+        frame: &mut Frame<'_>,
+        frame_bind_group: &wgpu::BindGroup,
+        bind_group: &wgpu::BindGroup,
+        target: &wgpu::TextureView,
+        stencil: &wgpu::TextureView,
+        two_draw: bool,
+    ) {
+        frame.render_pass(
+            "pdsm/evaluate",
+            wgpu::RenderPassDescriptor {
+                label: None,
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::WHITE),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: stencil,
+                    depth_ops: None,
+                    stencil_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            },
+            |pass| {
+                pass.set_bind_group(0, frame_bind_group, &[]);
+                pass.set_bind_group(1, bind_group, &[]);
+                if two_draw {
+                    pass.set_pipeline(&self.ends.pipeline);
+                    pass.set_stencil_reference(1);
+                    pass.draw(0..3, 0..1);
+                }
+                pass.set_pipeline(&self.penumbra.pipeline);
+                pass.set_stencil_reference(0);
+                pass.draw(0..3, 0..1);
+            },
+        );
+    }
+}
+
 impl PdsmShadows {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PdsmSettings) -> Result<Self, TechniqueError> {
@@ -437,22 +555,15 @@ impl PdsmShadows {
             cache_dir: None,
             depth: DepthMapRenderer::new(gpu)?,
             dynamic_depth: DepthMapRenderer::new(gpu)?,
-            evaluate: FullscreenPipeline::new(
-                gpu,
-                "pdsm/evaluate",
-                &SHADERS[0],
-                &[],
-                &layout,
-                None,
-            )?,
-            evaluate_dynamic: FullscreenPipeline::new(
+            evaluate: Evaluation::new(gpu, "pdsm/evaluate", &[], &layout)?,
+            evaluate_dynamic: Evaluation::new(
                 gpu,
                 "pdsm/evaluate dynamic",
-                &SHADERS[0],
                 &[("DYNAMIC", DefValue::Bool(true))],
                 &layout,
-                None,
             )?,
+            stencil: None,
+            two_draw: true,
             layout,
             params_buffer: uniform_buffer(gpu, "pdsm/params", &PdsmParams::zeroed()),
             dynamic_view_buffer: uniform_buffer(
@@ -489,6 +600,13 @@ impl PdsmShadows {
     /// write); also logged with `log::warn!`.
     pub fn warnings(&self) -> &[String] {
         &self.warnings
+    }
+
+    /// Whether the evaluation draws the ends first and searches only the pixels they leave
+    /// (on by default). Off, one draw evaluates every pixel in full: the same
+    /// image bit for bit (tested), for measuring what the split saves.
+    pub fn set_two_draw_evaluation(&mut self, on: bool) {
+        self.two_draw = on;
     }
 
     /// The PDSM in use (after a frame), for inspection and tests.
@@ -1235,19 +1353,37 @@ impl ShadowTechnique for PdsmShadows {
                 },
             ],
         });
-        let pipeline = if has_dynamic {
+        let evaluation = if has_dynamic {
             &self.evaluate_dynamic
         } else {
             &self.evaluate
         };
-        pipeline.record(
+        if !matches!(&self.stencil, Some((w, h, _)) if (*w, *h) == (out.width, out.height)) {
+            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("pdsm/penumbra stencil"),
+                size: wgpu::Extent3d {
+                    width: out.width,
+                    height: out.height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: STENCIL_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            self.stencil = Some((out.width, out.height, view));
+        }
+        let (_, _, stencil) = self.stencil.as_ref().expect("created above");
+        evaluation.record(
             frame,
-            "pdsm/evaluate",
             inputs.frame_bind_group,
             &bind_group,
-            &[],
             &out.view,
-            Some(1.0),
+            stencil,
+            self.two_draw,
         );
         let kept = self.kept.as_ref().expect("prepared above");
         let s = &kept.data.stats;
