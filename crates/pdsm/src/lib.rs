@@ -346,12 +346,13 @@ enum BuildInput {
     },
 }
 
-fn building(done: u32, total: u32) -> TechniqueError {
+/// A background build's progress in `unit` ("PDSM rows", "light sample maps").
+fn building(done: u32, total: u32, unit: &'static str) -> TechniqueError {
     TechniqueError::Building {
         technique: ID.into(),
         done,
         total,
-        unit: "PDSM rows",
+        unit,
     }
 }
 
@@ -784,12 +785,7 @@ impl PdsmShadows {
         if done < total {
             self.control.done.store(done, Ordering::Relaxed);
             self.maps_in_progress = Some(progress);
-            return Err(TechniqueError::Building {
-                technique: ID.into(),
-                done,
-                total,
-                unit: "light sample maps",
-            });
+            return Err(building(done, total, "light sample maps"));
         }
         let MapsInProgress {
             key,
@@ -824,7 +820,7 @@ impl PdsmShadows {
             started,
             cache_dir,
         });
-        Err(building(0, size))
+        Err(building(0, size, "PDSM rows"))
     }
 
     /// Background mode: looks at the build running for `key`. `Ok(true)`: it finished and the
@@ -849,7 +845,7 @@ impl PdsmShadows {
             let done = pending.control.done.load(Ordering::Relaxed);
             let total = pending.control.total.load(Ordering::Relaxed);
             self.control.done.store(done, Ordering::Relaxed);
-            return Err(building(done, total));
+            return Err(building(done, total, "PDSM rows"));
         }
         let pending = self.pending.take().expect("looked at above");
         let done = pending.control.done.load(Ordering::Relaxed);
