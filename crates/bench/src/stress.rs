@@ -200,9 +200,18 @@ const HIERARCHY_TEXEL: f64 = 45e-9;
 /// Seconds per light sample and sample-map texel of PDSM's maps, readback and the part of its
 /// construction that walks them (16 samples of 1024² into a 128² PDSM: 0.75 s).
 const PDSM_MAP_TEXEL: f64 = 45e-9;
-/// Seconds per PDSM texel and squared sample count of the construction, which grows faster
-/// than the samples (64 samples into 512²: 27.5 s; 16 samples into 512²: 0.56 s).
-const PDSM_TEXEL_SAMPLE2: f64 = 25e-9;
+/// Seconds per step of a PDSM texel's ray through one sample map (section 3.1: the construction
+/// is O(k m n²), k samples, m the map edge, n² texels), for maps up to 1024² (4 MiB, in cache);
+/// larger maps miss the cache on most steps, so the rate grows with the map's area beyond
+/// 1024². Fitted to the table's 64 samples of 1024² into 512² (27.5 s: this gives 24 s with the
+/// maps) and to the 30-minute stress run's slowest case, which the earlier samples² x n² model
+/// missed: 1 sample, a 4096² map, a 1752² PDSM took 137 s against 1.3 s estimated (this gives
+/// 241 s). The paper's 64 samples with 512² maps and PDSM get 11 s (3.7 s measured on the idle
+/// machine, linear in the samples: docs/BENCHMARKS.md).
+const PDSM_RAY_STEP: f64 = 1.2e-9;
+/// Seconds per PDSM texel and light sample to merge that sample's events into the texel's
+/// function (section 3.2).
+const PDSM_EVENT_MERGE: f64 = 2e-8;
 /// Seconds per pair of an occluder-map texel and an SSM texel: each micro-patch's penumbra
 /// quad covers part of the SSM (256² by 256²: 13 s, 3 ns, with the scene's default light;
 /// larger lights cover more).
@@ -340,12 +349,15 @@ pub fn estimate(technique: &str, params: &[(String, ParamValue)], pixels: f64) -
                 (0.0, 0.0, "refused by memory_budget_mib")
             } else {
                 let maps = n("samples") * n("shadow_map_size").powi(2) * PDSM_MAP_TEXEL;
-                let build = n("samples").powi(2) * n("pdsm_size").powi(2) * PDSM_TEXEL_SAMPLE2;
+                let edge = n("shadow_map_size");
+                let step = PDSM_RAY_STEP * (edge / 1024.0).powi(2).max(1.0);
+                let build =
+                    n("samples") * n("pdsm_size").powi(2) * (edge * step + PDSM_EVENT_MERGE);
                 let dynamic = 2.0 * n("dynamic_map_size").powi(2) * DEPTH_TEXEL;
                 (
                     maps + build + dynamic,
                     bytes,
-                    "samples x shadow_map_size² + samples² x pdsm_size²",
+                    "samples x (shadow_map_size² + pdsm_size² x shadow_map_size)",
                 )
             }
         }
@@ -959,6 +971,33 @@ mod tests {
             };
             assert!(*v >= min && *v < 4096, "{name} = {v}");
         }
+    }
+
+    /// The PDSM case that took 137 s in the 30-minute rerun (1 sample, a 4096² map, a 1752²
+    /// PDSM: the map edge, not the samples, made it slow) is over the cap; the paper's settings
+    /// (64 samples, 512² maps and PDSM, 3.7 s measured) are under it.
+    #[test]
+    fn pdsm_cost_grows_with_the_map_edge() {
+        let specs = (registry::find("pdsm").unwrap().params)();
+        let with = |samples: i64, map: i64, pdsm: i64| -> Vec<(String, ParamValue)> {
+            specs
+                .iter()
+                .map(|s| {
+                    let value = match s.name {
+                        "samples" => ParamValue::Int(samples),
+                        "shadow_map_size" => ParamValue::Int(map),
+                        "pdsm_size" => ParamValue::Int(pdsm),
+                        "memory_budget_mib" => ParamValue::Int(1 << 14),
+                        _ => s.default_value(),
+                    };
+                    (s.name.to_string(), value)
+                })
+                .collect()
+        };
+        let slow = estimate("pdsm", &with(1, 4096, 1752), 48.0 * 48.0);
+        assert!(!slow.fits() && slow.seconds > 100.0, "{slow}");
+        let paper = estimate("pdsm", &with(64, 512, 512), 48.0 * 48.0);
+        assert!(paper.seconds > 3.7 && paper.fits(), "{paper}");
     }
 
     /// Capped draws fit the budget, yet every integer range still reaches both of its ends over
