@@ -512,22 +512,13 @@ impl Bench {
                     puffin::profile_scope!("exact ground truth");
                     let positions = renderer.read_world_positions()?;
                     let mask = renderer.read_receiver_mask()?;
-                    let (exact, label) = match softshadow_reference::exact::visibility_image(
+                    let (exact, truth) = softshadow_reference::exact_visibility(
                         &scene.scene,
                         &positions,
                         &mask,
-                    ) {
-                        Some(v) => (v, "closed-form".to_string()),
-                        None => (
-                            softshadow_reference::raycast::visibility_image(
-                                &scene.scene,
-                                &positions,
-                                &mask,
-                                samples,
-                            ),
-                            format!("raycast(samples_per_axis={samples})"),
-                        ),
-                    };
+                        samples,
+                    );
+                    let label = truth.to_string();
                     let reference_vs_exact =
                         softshadow_metrics::compare(&visibility, &exact, &mask)?;
                     let all_lit = vec![1.0; exact.len()];

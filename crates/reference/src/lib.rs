@@ -7,6 +7,7 @@
 //! - [`exact`]: closed-form visibility for rectangles parallel to the light.
 //! - [`raycast`]: CPU ray-cast visibility (BVH over the casters, N x N stratified light samples)
 //!   for any scene.
+//! - [`exact_visibility`]: the closed form where it applies, else the ray cast, and which one.
 //!
 //! Reads: the casters and the G-buffer. Writes: the visibility buffer.
 
@@ -66,6 +67,47 @@ softshadow_core::technique_settings! {
         jitter: bool = true;
         /// Seed of the jitter
         seed: u32 = 1, in 0..=2147483647;
+    }
+}
+
+/// Which answer [`exact_visibility`] gave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroundTruth {
+    /// [`exact::visibility_image`]: every caster a rectangle parallel to the light.
+    ClosedForm,
+    /// [`raycast::visibility_image`] with this many light samples per axis.
+    RayCast {
+        /// Light samples per axis.
+        samples_per_axis: u32,
+    },
+}
+
+impl std::fmt::Display for GroundTruth {
+    /// `closed-form` or `raycast(samples_per_axis=N)`, as results.json records it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::ClosedForm => write!(f, "closed-form"),
+            Self::RayCast { samples_per_axis } => {
+                write!(f, "raycast(samples_per_axis={samples_per_axis})")
+            }
+        }
+    }
+}
+
+/// The exact visibility of each receiver pixel: the closed form where the scene has one, else the
+/// CPU ray cast with `samples_per_axis`² light samples (1 at non-receivers, as both give).
+pub fn exact_visibility(
+    scene: &softshadow_core::Scene,
+    positions: &[Option<softshadow_core::glam::Vec3>],
+    receiver: &[bool],
+    samples_per_axis: u32,
+) -> (Vec<f32>, GroundTruth) {
+    match exact::visibility_image(scene, positions, receiver) {
+        Some(v) => (v, GroundTruth::ClosedForm),
+        None => (
+            raycast::visibility_image(scene, positions, receiver, samples_per_axis),
+            GroundTruth::RayCast { samples_per_axis },
+        ),
     }
 }
 
@@ -670,5 +712,44 @@ mod progressive_tests {
         let quadrants: std::collections::BTreeSet<(bool, bool)> =
             first.iter().map(|&(i, j)| (i < 8, j < 8)).collect();
         assert_eq!(quadrants.len(), 4, "{first:?}");
+    }
+}
+
+#[cfg(test)]
+mod ground_truth_tests {
+    use super::*;
+    use softshadow_core::glam::Vec3;
+
+    /// The labels results.json records, and the choice between the two answers.
+    #[test]
+    fn exact_visibility_names_the_answer_it_gave() {
+        assert_eq!(GroundTruth::ClosedForm.to_string(), "closed-form");
+        assert_eq!(
+            GroundTruth::RayCast {
+                samples_per_axis: 16
+            }
+            .to_string(),
+            "raycast(samples_per_axis=16)"
+        );
+        // atty-square's caster is a square parallel to the light: closed form. The balls are
+        // not: ray cast. Both at one ground point under the scene's caster and one far outside.
+        for (id, expected) in [
+            ("atty-square", GroundTruth::ClosedForm),
+            (
+                "balls-3x3x3",
+                GroundTruth::RayCast {
+                    samples_per_axis: 4,
+                },
+            ),
+        ] {
+            let scene = softshadow_scenes::builtin(id, &[]).unwrap();
+            let positions = [
+                Some(Vec3::new(0.0, 0.0, 0.0)),
+                Some(Vec3::new(1e4, 0.0, 1e4)),
+            ];
+            let (v, truth) = exact_visibility(&scene, &positions, &[true, true], 4);
+            assert_eq!(truth, expected, "{id}");
+            assert!(v[0] < 1.0 && v[1] == 1.0, "{id}: {v:?}");
+        }
     }
 }

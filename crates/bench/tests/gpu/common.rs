@@ -70,14 +70,7 @@ pub fn exact_visibility(
     receiver: &[bool],
     samples_per_axis: u32,
 ) -> Vec<f32> {
-    softshadow_reference::exact::visibility_image(scene, positions, receiver).unwrap_or_else(|| {
-        softshadow_reference::raycast::visibility_image(
-            scene,
-            positions,
-            receiver,
-            samples_per_axis,
-        )
-    })
+    softshadow_reference::exact_visibility(scene, positions, receiver, samples_per_axis).0
 }
 
 /// The error measures a bound is stated in (against the exact answer, over receiver pixels).
