@@ -380,6 +380,24 @@ impl<'a> Frame<'a> {
         self.serial.take()
     }
 
+    /// Whether this frame times its passes serially ([`TimingSource::Serial`]).
+    pub fn is_timed_serially(&self) -> bool {
+        self.serial.is_some()
+    }
+
+    /// With serial timing, the wall time of the passes named `label` so far in this frame, in ms
+    /// (0 before the first); `None` when timing with timestamps.
+    pub fn serial_pass_ms(&self, label: &str) -> Option<f64> {
+        let serial = self.serial.as_ref()?;
+        Some(
+            serial
+                .passes
+                .iter()
+                .find(|(n, _)| n == label)
+                .map_or(0.0, |(_, ms)| *ms),
+        )
+    }
+
     /// Serial timing: drains the work recorded before the pass, so it is not counted in it, and
     /// starts the pass's clock.
     fn begin_serial(&mut self) -> Option<std::time::Instant> {

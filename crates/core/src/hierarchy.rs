@@ -134,6 +134,9 @@ pub struct DepthHierarchy {
     empty_mssm: wgpu::TextureView,
     built: Built,
     timer: Option<BuildTimer>,
+    /// The last build's level passes timed serially (frames timed with
+    /// `TimingSource::Serial`), where the encoder timestamps would span submissions.
+    serial_build_ms: Option<f64>,
 }
 
 struct Hsm {
@@ -293,6 +296,7 @@ impl DepthHierarchy {
                 map_size: 0,
             },
             timer,
+            serial_build_ms: None,
         })
     }
 
@@ -414,8 +418,12 @@ impl DepthHierarchy {
             }
         }
         // Timestamps after a dependent dispatch (see `fence` in hierarchy.wgsl): on lavapipe a
-        // timestamp does not wait for earlier compute work without a barrier.
-        let timed = self.timer.is_some();
+        // timestamp does not wait for earlier compute work without a barrier. With serial timing
+        // the level pass is submitted and waited for on its own: its wall time is the build
+        // time, and the two timestamps would lie in different submissions, so the interval
+        // between them would include the round trips (2,150 ms read against 57 ms of passes).
+        let serial = frame.is_timed_serially();
+        let timed = self.timer.is_some() && !serial;
         let first_source = &hsm.mips[0];
         let last_target = match (kind, levels) {
             (_, 0) => &hsm.mips[0],
@@ -438,16 +446,19 @@ impl DepthHierarchy {
         if timed {
             fence(frame, &fences[0]);
         }
-        if let Some(timer) = &self.timer {
+        if let Some(timer) = self.timer.as_ref().filter(|_| timed) {
             frame.encoder.write_timestamp(&timer.queries, 0);
         }
+        self.serial_build_ms = serial.then_some(0.0);
         if !dispatches.is_empty() {
             let name = if kind == HierarchyKind::Mssm {
                 "mssm"
             } else {
                 "hsm"
             };
-            frame.compute_pass(&format!("{label}/{name}"), |pass| {
+            let pass = format!("{label}/{name}");
+            let before = frame.serial_pass_ms(&pass);
+            frame.compute_pass(&pass, |pass| {
                 for (pipeline, bind_group, edge) in &dispatches {
                     pass.set_pipeline(pipeline);
                     pass.set_bind_group(0, bind_group, &[]);
@@ -455,11 +466,14 @@ impl DepthHierarchy {
                     pass.dispatch_workgroups(groups, groups, 1);
                 }
             });
+            if let (Some(before), Some(after)) = (before, frame.serial_pass_ms(&pass)) {
+                self.serial_build_ms = Some(after - before);
+            }
         }
         if timed {
             fence(frame, &fences[1]);
         }
-        if let Some(timer) = &mut self.timer {
+        if let Some(timer) = self.timer.as_mut().filter(|_| timed) {
             frame.encoder.write_timestamp(&timer.queries, 1);
             frame
                 .encoder
@@ -563,9 +577,13 @@ impl DepthHierarchy {
     }
 
     /// GPU time of the level passes of the last build, in ms, from the build's own timestamp
-    /// queries. `None` without `TIMESTAMP_QUERY_INSIDE_ENCODERS`, or before the first build.
+    /// queries, or in a serially timed frame the level pass's wall time. `None` without
+    /// `TIMESTAMP_QUERY_INSIDE_ENCODERS` (and not serial), or before the first build.
     /// Call after the frame was submitted and finished (it maps a buffer and waits).
     pub fn last_build_ms(&self, gpu: &Gpu) -> Option<f64> {
+        if self.serial_build_ms.is_some() {
+            return self.serial_build_ms;
+        }
         let timer = self.timer.as_ref().filter(|t| t.pending)?;
         let slice = timer.readback.slice(..);
         let (sender, receiver) = std::sync::mpsc::channel();

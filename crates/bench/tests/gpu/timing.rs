@@ -74,6 +74,48 @@ fn serial_pass_times_add_up_to_the_frame_wall_time_for_every_technique() -> Resu
     Ok(())
 }
 
+/// With serial timing the hierarchy's build time is its level passes' wall time: the encoder
+/// timestamps it uses otherwise would span submissions (bitmask read 2,150 ms against 57 ms of
+/// level passes).
+#[test]
+fn hierarchy_build_time_is_the_level_passes_time_with_serial_timing() -> Result<()> {
+    let gpu = gpu()?;
+    let loaded = softshadow_scenes::load("balls-3x3x3")?;
+    let scene = SceneGpu::upload(&gpu, &loaded.scene);
+    let (camera, light) = (loaded.scene.camera, loaded.scene.light);
+    let mut renderer = Renderer::new(&gpu, 64, 64)?;
+    ensure!(renderer.timing == TimingSource::Serial);
+    for (id, params) in [
+        ("backprojection", &["hierarchy=hsm"][..]),
+        ("backprojection", &["hierarchy=mssm"]),
+        ("bitmask", &["hierarchy=mssm", "layers=2"]),
+    ] {
+        let info = registry::find(id)?;
+        let texts: Vec<String> = params.iter().map(|p| p.to_string()).collect();
+        let mut technique = info.create_with(&gpu, &parse_params(id, &texts)?)?;
+        technique.prepare(&gpu, &renderer.inputs(&scene, &camera, &light))?;
+        let output = renderer.render(&scene, &camera, &light, technique.as_mut(), None)?;
+        let timing = output.gpu.context("serial timing always has pass times")?;
+        let levels: f64 = timing
+            .passes
+            .iter()
+            .filter(|(name, _)| name.ends_with("/hsm") || name.ends_with("/mssm"))
+            .map(|(_, ms)| ms)
+            .sum();
+        let stat = technique
+            .stats()
+            .get("hierarchy_build_ms")
+            .copied()
+            .with_context(|| format!("{id} {params:?}: no hierarchy_build_ms"))?;
+        ensure!(
+            levels > 0.0 && (stat - levels).abs() <= 1e-6 * levels.max(1.0),
+            "{id} {params:?}: hierarchy_build_ms {stat} against level passes {levels} ms ({:?})",
+            timing.passes
+        );
+    }
+    Ok(())
+}
+
 fn backprojection_full_search(bench: &mut Bench) -> Result<softshadow_bench::Run> {
     let spec = RunSpec {
         scene: "balls-3x3x3".into(),
