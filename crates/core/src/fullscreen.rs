@@ -6,8 +6,9 @@ use crate::{
 };
 
 /// The fullscreen triangle of `module` (`vs_main`, `fs_main`; no vertex buffers, no depth) drawn
-/// into `targets` with `layout`: every fullscreen pass of the core builds its pipeline here.
-pub(crate) fn render_pipeline(
+/// into `targets` with `layout`: every fullscreen pass of the core, and the viewer's display
+/// passes (their own bind groups, no frame group), build their pipeline here.
+pub fn render_pipeline(
     gpu: &Gpu,
     label: &str,
     layout: &wgpu::PipelineLayout,

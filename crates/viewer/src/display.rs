@@ -557,33 +557,18 @@ fn pipeline(
             bind_group_layouts: &[Some(layout)],
             immediate_size: 0,
         });
-    Ok(gpu
-        .device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: DISPLAY_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        }))
+    let target = wgpu::ColorTargetState {
+        format: DISPLAY_FORMAT,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
+    };
+    Ok(softshadow_core::fullscreen::render_pipeline(
+        gpu,
+        label,
+        &pipeline_layout,
+        &module,
+        &[Some(target)],
+    ))
 }
 
 fn draw(
