@@ -77,8 +77,8 @@ softshadow_core::technique_settings! {
         shadow_map_size: u32 = 512, in 64..=4096 log;
         /// Largest visibility error the piecewise-linear compression may add
         compression_error: f32 = 0.02, in 0.0..=0.5;
-        /// Depth bias in PDSM texel footprints (scaled by 1/cos on slopes)
-        bias_texels: f32 = 0.0, in 0.0..=16.0;
+        /// Depth bias in light-sample map texel footprints, scaled by the receiver's slope (tan of its angle to the light), at most 2 % of the depth
+        bias_texels: f32 = 0.5, in 0.0..=16.0;
         /// Edge in texels of the per-frame shadow map of the dynamic casters
         dynamic_map_size: u32 = 1024, in 64..=4096 log;
         /// PCF kernel radius in texels for the dynamic casters (kernel (2r+1)²)
@@ -110,7 +110,7 @@ const ESTIMATED_VERTICES_PER_TEXEL: u64 = 16;
 struct PdsmParams {
     window: [f32; 4],
     size_bias: [f32; 4],
-    has_dynamic: [f32; 4],
+    dynamic_map_texel: [f32; 4],
 }
 
 /// A built (or loaded) PDSM on the GPU.
@@ -195,7 +195,7 @@ pub struct PdsmShadows {
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
     dynamic_view_buffer: wgpu::Buffer,
-    /// Bound when there is no dynamic map (never read: `has_dynamic` is 0).
+    /// Bound when there is no dynamic map (never read: the permutation without `DYNAMIC` runs).
     placeholder_map: wgpu::TextureView,
     kept: Option<Kept>,
     /// The static casters seen from the light centre (the `shadow_map` debug view): allocated
@@ -1307,12 +1307,18 @@ impl ShadowTechnique for PdsmShadows {
                 size_bias: [
                     kept.data.size as f32,
                     self.settings.bias_texels,
-                    // Bias in PDSM texels: the bilinear filter mixes rays one texel apart, whose
-                    // events at a caster's own surface differ by about that footprint.
+                    // How far a tap's tangent-plane depth may reach along its ray.
                     (f.s_max - f.s_min) / kept.data.size as f32,
                     self.settings.pcf_radius as f32,
                 ],
-                has_dynamic: [f32::from(u8::from(has_dynamic)), 0.0, 0.0, 0.0],
+                dynamic_map_texel: [
+                    f32::from(u8::from(has_dynamic)),
+                    // Each sample map's window is fitted to the casters, inside the PDSM's
+                    // window (fitted to all they shadow): this bounds a map texel's extent.
+                    (f.s_max - f.s_min) / self.settings.shadow_map_size as f32,
+                    0.0,
+                    0.0,
+                ],
             }),
         );
         let dynamic_view = match (&self.dynamic, has_dynamic) {

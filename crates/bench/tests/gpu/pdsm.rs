@@ -72,6 +72,18 @@ fn mae_shadowed(scene: &Scene, frame: &Frame) -> Result<f64> {
     Ok(report.mae_shadowed)
 }
 
+/// Mean error over the receiver pixels the exact answer has fully lit.
+fn mae_lit(scene: &Scene, frame: &Frame) -> Result<f64> {
+    let truth = exact(scene, frame)?;
+    let (count, sum) = (0..truth.len())
+        .filter(|&i| frame.mask[i] && truth[i] >= 1.0)
+        .fold((0usize, 0.0f64), |(n, s), i| {
+            (n + 1, s + (frame.v[i] - truth[i]).abs() as f64)
+        });
+    ensure!(count > 100, "only {count} lit pixels");
+    Ok(sum / count as f64)
+}
+
 fn builtin(id: &str) -> Result<Scene> {
     softshadow_scenes::builtin(id, &[]).with_context(|| format!("scene {id}"))
 }
@@ -81,21 +93,30 @@ fn static_scenes_match_the_exact_answer() -> Result<()> {
     let gpu = gpu()?;
     let cache = tempfile::tempdir()?;
     // Bounds at 2-3x the values measured with 64 samples, a 128² PDSM, 256² maps, 64² images.
-    for (id, bound) in [
-        // measured 0.0108
-        ("atty-square", 0.03),
-        // measured 0.0120
-        ("pdsm-quads", 0.03),
-        // measured 0.0301 (curved caster: its outline is snapped to 256² maps, 128² PDSM)
-        ("pdsm-cylinder", 0.08),
+    // The second bound is on the pixels the exact answer has lit (V = 1): the casters' own lit
+    // surfaces, where self-shadowing acne shows. Before the tangent-plane taps and the
+    // slope-scaled bias the cylinder's lit side read 0.0211 there (and mae_shadowed 0.0301).
+    for (id, bound, lit_bound) in [
+        // measured 0.0109; lit 0.0000
+        ("atty-square", 0.03, 0.001),
+        // measured 0.0117; lit 0.0003
+        ("pdsm-quads", 0.03, 0.001),
+        // measured 0.0376 (curved caster: its outline is snapped to 256² maps, 128² PDSM); lit
+        // 0.0002
+        ("pdsm-cylinder", 0.08, 0.001),
     ] {
         let scene = builtin(id)?;
         let mut pdsm = technique(&gpu, settings(64, 128), cache.path())?;
         let frame = render(&gpu, &scene, &mut pdsm)?;
         let error = mae_shadowed(&scene, &frame)?;
+        let lit = mae_lit(&scene, &frame)?;
         let stats = pdsm.stats();
-        eprintln!("{id}: mae_shadowed {error:.4}, stats {stats:?}");
+        eprintln!("{id}: mae_shadowed {error:.4}, mae over lit pixels {lit:.4}, stats {stats:?}");
         ensure!(error < bound, "{id}: mae_shadowed {error} >= {bound}");
+        ensure!(
+            lit < lit_bound,
+            "{id}: mae over lit pixels {lit} >= {lit_bound}"
+        );
         ensure!(stats["from_cache"] == 0.0 && stats["events_per_texel_max"] > 0.0);
         ensure!(frame.passes.iter().any(|p| p == "pdsm/sample_maps"));
     }
