@@ -32,8 +32,10 @@ struct PdsmParams {
 @group(1) @binding(2) var<storage, read> vertices: array<vec2<f32>>;
 @group(1) @binding(3) var<uniform> dynamic_view: ShadowView;
 @group(1) @binding(4) var dynamic_map: texture_depth_2d;
-// Per texel: last vertex (depth, visibility), first vertex (depth, visibility); a texel without
-// vertices holds (-FLT_MAX, 1, -FLT_MAX, 1), lit at every depth.
+// Two texels per PDSM texel (x = 2i, 2i + 1): its last vertex (depth, visibility) and first
+// vertex (depth, visibility), a texel without vertices holding (-FLT_MAX, 1, -FLT_MAX, 1), lit at
+// every depth; then its longest segment (start depth, visibility, end depth, visibility), or
+// (1, 1, 0, 1), matching no depth, for fewer than two vertices.
 @group(1) @binding(5) var ends: texture_2d<f32>;
 
 @vertex
@@ -51,12 +53,18 @@ fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
 fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let n = i32(params.size_bias.x);
     let c = clamp(texel, vec2<i32>(0), vec2<i32>(n - 1));
-    let e = textureLoad(ends, c, 0);
+    let e = textureLoad(ends, vec2<i32>(2 * c.x, c.y), 0);
     if depth >= e.x {
         return e.y;
     }
     if depth < e.z {
         return e.w;
+    }
+    // Inside the longest segment: the search's own result (it brackets such a depth by the
+    // segment's two vertices). A receiver's point usually lies in the gap before its own events.
+    let g = textureLoad(ends, vec2<i32>(2 * c.x + 1, c.y), 0);
+    if depth >= g.x && depth < g.z {
+        return mix(g.y, g.w, (depth - g.x) / (g.z - g.x));
     }
 #ifdef ENDS_PASS
     // Between the texel's first and last vertex: the second draw searches it.

@@ -119,7 +119,8 @@ struct Kept {
     data: PdsmData,
     offsets: wgpu::Buffer,
     vertices: wgpu::Buffer,
-    /// Each texel's last and first vertex (`Rgba32Float`, see [`texel_ends`]).
+    /// Each texel's last and first vertex, and its longest segment (`Rgba32Float`, `2n x n`, see
+    /// [`texel_ends`]).
     ends: wgpu::TextureView,
     construction_ms: f64,
     from_cache: bool,
@@ -379,19 +380,31 @@ pub fn estimate_bytes(settings: &PdsmSettings) -> (u64, u64) {
     (maps, pdsm)
 }
 
-/// Each texel's last and first vertex, `[last depth, last visibility, first depth, first
-/// visibility]` (row-major like the index), for the evaluation's one-fetch test of the constant
-/// ends of a function; a texel without vertices gets `[-f32::MAX, 1, -f32::MAX, 1]`, which every
-/// depth lies behind (lit, as an empty function evaluates).
+/// Two texels of the `pdsm/ends` texture (`2n x n`) per PDSM texel, for the evaluation's fetches
+/// that answer most depths without the buffers:
+/// - its last and first vertex, `[last depth, last visibility, first depth, first visibility]`:
+///   the constant ends of the function; a texel without vertices gets `[-f32::MAX, 1, -f32::MAX,
+///   1]`, which every depth lies behind (lit, as an empty function evaluates);
+/// - its longest segment, `[start depth, start visibility, end depth, end visibility]`: on a
+///   receiver's ray usually the gap between the casters' events and the receiver's own, where the
+///   receiver's point lies; `[1, 1, 0, 1]` (matching no depth) for fewer than two vertices.
 pub fn texel_ends(data: &PdsmData) -> Vec<[f32; 4]> {
     data.offsets
         .windows(2)
-        .map(|w| {
+        .flat_map(|w| {
             let texel = &data.vertices[w[0] as usize..w[1] as usize];
-            match (texel.first(), texel.last()) {
+            let ends = match (texel.first(), texel.last()) {
                 (Some(first), Some(last)) => [last[0], last[1], first[0], first[1]],
                 _ => [-f32::MAX, 1.0, -f32::MAX, 1.0],
-            }
+            };
+            let longest = texel
+                .windows(2)
+                .filter(|pair| pair[1][0] > pair[0][0])
+                .max_by(|a, b| (a[1][0] - a[0][0]).total_cmp(&(b[1][0] - b[0][0])))
+                .map_or([1.0, 1.0, 0.0, 1.0], |pair| {
+                    [pair[0][0], pair[0][1], pair[1][0], pair[1][1]]
+                });
+            [ends, longest]
         })
         .collect()
 }
@@ -1093,7 +1106,7 @@ impl PdsmShadows {
                 &wgpu::TextureDescriptor {
                     label: Some("pdsm/ends"),
                     size: wgpu::Extent3d {
-                        width: data.size,
+                        width: 2 * data.size,
                         height: data.size,
                         depth_or_array_layers: 1,
                     },
@@ -1389,7 +1402,7 @@ impl ShadowTechnique for PdsmShadows {
         );
         let kept = self.kept.as_ref().expect("prepared above");
         let s = &kept.data.stats;
-        let ends_bytes = kept.data.size as u64 * kept.data.size as u64 * 16;
+        let ends_bytes = kept.data.size as u64 * kept.data.size as u64 * 32;
         let gpu_bytes = kept.offsets.size() + kept.vertices.size() + ends_bytes;
         let dynamic_bytes = self
             .dynamic
