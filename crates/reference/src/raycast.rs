@@ -575,6 +575,13 @@ mod tests {
         let bvh = CasterBvh::from_triangles(tris);
         assert_eq!(root_split(&bvh), (12, 4));
         checked_leaves(&bvh);
+        // The same far from the origin (bins count from the lowest centroid, not from 0).
+        let mut tris = cluster(1048.0, 4);
+        for k in 0..3 {
+            tris.extend(cluster(1000.0 + k as f32 * 0.25, 4));
+        }
+        let bvh = CasterBvh::from_triangles(tris);
+        assert_eq!(root_split(&bvh), (12, 4));
         // Three clusters at 0, 16, 32: the cuts 4 | 8 and 8 | 4 cost the same; the first (lowest
         // bin) is kept.
         let tris: Vec<_> = [32.0, 0.0, 16.0]
@@ -585,6 +592,32 @@ mod tests {
         assert_eq!(root_split(&bvh), (4, 8));
         let leaves = checked_leaves(&bvh);
         assert_eq!(leaves.len(), 3, "{leaves:?}");
+    }
+
+    /// The split axis is the one along which the centroids spread most: four clusters 16 apart
+    /// along y (each spread over z in 0..6) or along z (each spread over x in 0..6) end in four
+    /// leaves of one cluster each, whatever the axis.
+    #[test]
+    fn splits_follow_the_widest_centroid_axis() {
+        for (along, spread) in [(Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
+            let tris: Vec<_> = (0..4)
+                .flat_map(|i| {
+                    (0..4)
+                        .map(move |k| tri_at(along * (16.0 * i as f32) + spread * (2.0 * k as f32)))
+                })
+                .collect();
+            let bvh = CasterBvh::from_triangles(tris);
+            assert_eq!(root_split(&bvh), (8, 8), "{along}");
+            let leaves = checked_leaves(&bvh);
+            assert_eq!(leaves.len(), 4, "{along}: {leaves:?}");
+            for (first, count) in leaves {
+                let keys: Vec<f32> = bvh.triangles()[first..first + count]
+                    .iter()
+                    .map(|t| t[0].dot(along))
+                    .collect();
+                assert!(keys.iter().all(|&k| k == keys[0]), "{along}: {keys:?}");
+            }
+        }
     }
 
     /// Triangles with one bounding box (the unit square at z = 0) but two different centroids:
@@ -689,6 +722,10 @@ mod tests {
         assert_eq!(ray_triangle(from(0.25, 0.25), Vec3::X, &tri), None);
         let line = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
         assert_eq!(ray_triangle(from(0.5, 0.0), down, &line), None);
+        // Legs of 1e20: the determinant overflows to infinity (1e40), which is refused rather
+        // than turned into u = v = 0 and t = inf * 0 = NaN.
+        let huge = [Vec3::ZERO, Vec3::X * 1e20, Vec3::Y * 1e20];
+        assert_eq!(ray_triangle(from(0.25, 0.25), down, &huge), None);
     }
 
     /// any_hit counts hits with t strictly inside (t_min, t_max), as brute force does, and
@@ -706,8 +743,9 @@ mod tests {
         for (t_min, t_max, hit) in [
             (0.0, 100.0, true),
             (3.9, 4.1, true),
-            (4.0, 100.0, true), // the triangle at z = 4 (t = 6) is still ahead
-            (0.0, 4.0, false),  // t = 4 itself is excluded
+            (4.0, 100.0, true),  // the triangle at z = 4 (t = 6) is still ahead
+            (0.0, 4.0, false),   // t = 4 itself is excluded
+            (10.0, 20.0, false), // and t = 10 (the last triangle, z = 0) at the near end
             (4.1, 5.9, false),
             (5.0, 5.0, false),
             (6.0, 3.0, false),
@@ -782,6 +820,16 @@ mod tests {
             visibility(&bvh, &light(0.0, 0.0), 4, Vec3::new(-1.0, 0.0, 0.0), 1),
             0.0
         );
+        // A line light along the light's y axis (world y), above an occluder covering y < 0:
+        // 1/2 as well (sampled along its line, not at its centre only).
+        let (a, b, c, d) = (
+            Vec3::new(-50.0, -50.0, 2.0),
+            Vec3::new(50.0, -50.0, 2.0),
+            Vec3::new(50.0, 0.0, 2.0),
+            Vec3::new(-50.0, 0.0, 2.0),
+        );
+        let below = CasterBvh::from_triangles(vec![[a, b, c], [a, c, d]]);
+        assert_eq!(visibility(&below, &light(0.0, 1.0), 4, Vec3::ZERO, 1), 0.5);
         // 0 samples per axis means 1.
         let one = visibility(&bvh, &square, 0, Vec3::ZERO, 1);
         assert!(one == 0.0 || one == 1.0, "{one}");
@@ -802,6 +850,8 @@ mod tests {
             Vec3::new(0.0, 0.0, 5.0),
             Vec3::new(f32::NAN, 0.0, 0.0),
             Vec3::new(0.0, f32::INFINITY, 0.0),
+            // Infinitely far below: its depth is +inf, not NaN, so only `is_finite` refuses it.
+            Vec3::new(0.0, 0.0, f32::NEG_INFINITY),
         ] {
             assert_eq!(visibility(&empty, &square, 4, p, 1), 0.0, "{p}");
         }
