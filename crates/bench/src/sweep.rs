@@ -351,6 +351,52 @@ mod tests {
         assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
     }
 
+    /// Exactly `MAX_SWEEP_RUNS` runs are allowed, by the grid check and the total check alike
+    /// (found by `cargo mutants`: `>` made `>=` or `==` went unnoticed, every case was far
+    /// over): 250 x 40 settings on 10 scenes.
+    #[test]
+    fn a_sweep_of_exactly_the_run_limit_is_accepted() {
+        let list = |range: std::ops::RangeInclusive<u32>| {
+            range.map(|v| v.to_string()).collect::<Vec<_>>().join(",")
+        };
+        let scenes = (0..10)
+            .map(|k| format!("\"s{k}\""))
+            .collect::<Vec<_>>()
+            .join(",");
+        let text = format!(
+            "scenes = [{scenes}]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [{}]\nblocker_samples = [{}]\n",
+            list(1..=250),
+            list(1..=40)
+        );
+        assert_eq!(Sweep::parse(&text).unwrap().runs.len(), MAX_SWEEP_RUNS);
+        // One scene more is over it.
+        let text = text.replacen("scenes = [", "scenes = [\"extra\",", 1);
+        let message = Sweep::parse(&text).unwrap_err().to_string();
+        assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
+        // Two tables of 250 x 20 settings: 50,000 runs each on 10 scenes, 100,000 in all, are
+        // allowed; on 11 scenes each table (55,000) is under the limit but the two (110,000) are
+        // not (the total counts runs so far plus settings times scenes).
+        let table = format!(
+            "[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [{}]\nblocker_samples = [{}]\n",
+            list(1..=250),
+            list(1..=20)
+        );
+        let text = format!("scenes = [{scenes}]\n{table}{table}");
+        assert_eq!(Sweep::parse(&text).unwrap().runs.len(), MAX_SWEEP_RUNS);
+        let text = text.replacen("scenes = [", "scenes = [\"extra\",", 1);
+        let message = Sweep::parse(&text).unwrap_err().to_string();
+        assert!(message.contains("the sweep has more than"), "{message}");
+    }
+
+    /// The sweep hash is FNV-1a (64 bits) as published: the empty input gives the offset basis,
+    /// "a" and "foobar" the reference vectors.
+    #[test]
+    fn fnv1a_matches_the_published_vectors() {
+        assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
     #[test]
     fn the_stiff_suite_runs_every_technique_on_every_stiff_case() {
         let sweep = Sweep::suite("stiff").unwrap();

@@ -275,6 +275,16 @@ mod tests {
     /// given light-space points (the first four; a fifth vertex, if given, replaces the last
     /// triangle's third corner).
     fn scene_with_quad(corners: &[Vec3]) -> Scene {
+        let mut indices = vec![0, 1, 2, 0, 2, 3];
+        if corners.len() > 4 {
+            indices[5] = 4;
+        }
+        scene_with_caster(corners, indices)
+    }
+
+    /// atty-square with its casters replaced by one mesh of the given light-space vertices and
+    /// triangles.
+    fn scene_with_caster(corners: &[Vec3], indices: Vec<u32>) -> Scene {
         let mut scene = softshadow_scenes::load("atty-square").unwrap().scene;
         let (x, y, z) = scene.light.basis();
         let centre = scene.light.center;
@@ -282,10 +292,6 @@ mod tests {
             .iter()
             .map(|p| centre + x * p.x + y * p.y + z * p.z)
             .collect();
-        let mut indices = vec![0, 1, 2, 0, 2, 3];
-        if world.len() > 4 {
-            indices[5] = 4;
-        }
         scene.meshes.push(softshadow_core::Mesh {
             name: "quad".into(),
             positions: world,
@@ -360,6 +366,48 @@ mod tests {
         assert!(parallel_rects(&scene_with_quad(&mid_edge)).is_none());
     }
 
+    /// The corner test itself, where the triangles' coverage cannot decide (the second `cargo
+    /// mutants` pass: a tolerance of `1e-5 + scale` or `1e-5 / scale`, or "on an x edge *or* a y
+    /// edge", went unnoticed because every off-corner case above also covers the rectangle a
+    /// fractional number of times).
+    #[test]
+    fn corners_are_checked_within_the_size_relative_tolerance() {
+        let (w, h) = (500.0, 500.0);
+        // A corner 0.005 inside its rectangle at size 1000 is within the tolerance 1e-5 * 1000 =
+        // 0.01 (1e-5 / 1000 would reject it); the coverage moves by about 2.5e-6 only.
+        let near = vec![
+            Vec3::new(-w, -h, 2.0),
+            Vec3::new(w, -h, 2.0),
+            Vec3::new(w - 0.005, h, 2.0),
+            Vec3::new(-w, h, 2.0),
+        ];
+        let rects = parallel_rects(&scene_with_quad(&near)).unwrap();
+        assert_eq!(rects.len(), 1);
+        // Three triangles fanned around the middle of the top edge, m = (0, h): (m, bl, br) is
+        // half the rectangle, (m, br, tr) and (m, tl, bl) a quarter each, so they cover it exactly
+        // once; only the corner test rejects m, which lies on a y edge but on no x edge.
+        let fan = vec![
+            Vec3::new(-w, -h, 2.0), // bl
+            Vec3::new(w, -h, 2.0),  // br
+            Vec3::new(w, h, 2.0),   // tr
+            Vec3::new(-w, h, 2.0),  // tl
+            Vec3::new(0.0, h, 2.0), // m
+        ];
+        assert!(
+            parallel_rects(&scene_with_caster(&fan, vec![4, 0, 1, 4, 1, 2, 4, 3, 0])).is_none()
+        );
+        // The same fan with m moved to the corner tr is a rectangle covered once (the third
+        // triangle is then the quad's second half, the second one degenerate).
+        let mut fan_on_corner = fan.clone();
+        fan_on_corner[4] = fan[2];
+        let rects = parallel_rects(&scene_with_caster(
+            &fan_on_corner,
+            vec![4, 0, 1, 4, 1, 2, 4, 3, 0],
+        ))
+        .unwrap();
+        assert_eq!(rects.len(), 1);
+    }
+
     /// The per-pixel image: the closed form on receivers, 1.0 on pixels without a position or
     /// outside the receiver mask.
     #[test]
@@ -392,6 +440,10 @@ mod tests {
         // Spans of one strip that do not touch stay apart: 1 + 1, not the 3 of their hull.
         let low = [0.0, 1.0, 0.0, 1.0];
         let high = [0.0, 1.0, 2.0, 3.0];
+        assert!((union_area(&[low, high]) - 2.0).abs() < 1e-12);
+        // The same away from y = 0 (a span's length is y1 - y0, not y1 + y0): 1 + 1 again.
+        let low = [0.0, 1.0, 1.0, 2.0];
+        let high = [0.0, 1.0, 3.0, 4.0];
         assert!((union_area(&[low, high]) - 2.0).abs() < 1e-12);
         assert_eq!(union_area(&[]), 0.0);
     }

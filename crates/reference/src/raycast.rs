@@ -444,3 +444,459 @@ fn hash_point(p: Vec3) -> u64 {
     }
     h
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use softshadow_core::{glam::Mat4, Camera, Instance, Mesh};
+
+    /// A small right triangle with its corner at `c`, legs 1 along +x and +y.
+    fn tri_at(c: Vec3) -> [Vec3; 3] {
+        [c, c + Vec3::X, c + Vec3::Y]
+    }
+
+    /// `count` triangles of [`tri_at`] at x = `x`, z = 0, 2, 4, ...
+    fn cluster(x: f32, count: usize) -> Vec<[Vec3; 3]> {
+        (0..count)
+            .map(|k| tri_at(Vec3::new(x, 0.0, 2.0 * k as f32)))
+            .collect()
+    }
+
+    /// Walks the tree from `node`, checking that every node's bounds are exactly those of the
+    /// triangles below it and that children come after their parent; returns those bounds and
+    /// pushes the leaves' `(first, count)`.
+    fn walk(bvh: &CasterBvh, node: usize, leaves: &mut Vec<(usize, usize)>) -> (Vec3, Vec3) {
+        let n = &bvh.nodes[node];
+        let (lo, hi) = if n.count > 0 {
+            let (first, count) = (n.first as usize, n.count as usize);
+            leaves.push((first, count));
+            bvh.triangles[first..first + count].iter().flatten().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            )
+        } else {
+            let left = n.first as usize;
+            assert!(left > node && left + 1 < bvh.nodes.len(), "node {node}");
+            let (l0, l1) = walk(bvh, left, leaves);
+            let (r0, r1) = walk(bvh, left + 1, leaves);
+            (l0.min(r0), l1.max(r1))
+        };
+        assert_eq!((n.bounds.min, n.bounds.max), (lo, hi), "node {node}");
+        (lo, hi)
+    }
+
+    /// The leaves' `(first, count)` in depth-first order, after checking the bounds (as in
+    /// [`walk`]), that the leaves hold every triangle exactly once and that every node is
+    /// reached.
+    fn checked_leaves(bvh: &CasterBvh) -> Vec<(usize, usize)> {
+        let mut leaves = Vec::new();
+        walk(bvh, 0, &mut leaves);
+        let mut sorted = leaves.clone();
+        sorted.sort();
+        let mut next = 0;
+        for (first, count) in sorted {
+            assert_eq!(first, next, "{leaves:?}");
+            next += count;
+        }
+        assert_eq!(next, bvh.triangle_count(), "{leaves:?}");
+        // A binary tree with L leaves has 2 L - 1 nodes.
+        assert_eq!(bvh.node_count(), 2 * leaves.len() - 1);
+        leaves
+    }
+
+    /// The triangle counts of the root's two children.
+    fn root_split(bvh: &CasterBvh) -> (usize, usize) {
+        let root = bvh.nodes[0];
+        assert_eq!(root.count, 0, "the root must be split");
+        let below = |node: usize| {
+            let mut leaves = Vec::new();
+            walk(bvh, node, &mut leaves);
+            leaves.iter().map(|l| l.1).sum::<usize>()
+        };
+        (below(root.first as usize), below(root.first as usize + 1))
+    }
+
+    #[test]
+    fn bounds_grow_union_and_half_area() {
+        let mut b = Bounds::EMPTY;
+        // The empty box has no area (its extent is negative).
+        assert_eq!(b.half_area(), 0.0);
+        b.grow(Vec3::new(1.0, 3.0, 1.0));
+        b.grow(Vec3::new(2.0, 1.0, 4.0));
+        assert_eq!((b.min, b.max), (Vec3::ONE, Vec3::new(2.0, 3.0, 4.0)));
+        // Extent (1, 2, 3): 1 * 2 + 2 * 3 + 3 * 1 = 11.
+        assert_eq!(b.half_area(), 11.0);
+        // Flat in x (extent (0, 2, 3)): only the y-z face counts, 2 * 3.
+        let flat = Bounds {
+            min: Vec3::ONE,
+            max: Vec3::new(1.0, 3.0, 4.0),
+        };
+        assert_eq!(flat.half_area(), 6.0);
+        let mut u = Bounds::EMPTY;
+        u.union(&b);
+        u.union(&Bounds {
+            min: Vec3::new(-1.0, 2.0, 2.0),
+            max: Vec3::new(0.0, 5.0, 3.0),
+        });
+        assert_eq!(
+            (u.min, u.max),
+            (Vec3::new(-1.0, 1.0, 1.0), Vec3::new(2.0, 5.0, 4.0))
+        );
+    }
+
+    /// The binned SAH on clusters of unit triangles 16 apart along x (extent of a group of
+    /// clusters spanning w in x: (w, 1, 6) for 4 triangles at z = 0, 2, 4, 6, half area 7 w + 6).
+    #[test]
+    fn sah_cuts_between_clusters_at_the_cheapest_place() {
+        // Four clusters of 4: cutting in the middle costs 2 * 8 * (7 * 17 + 6) = 2000, cutting
+        // off one cluster 4 * 13 + 12 * (7 * 33 + 6) = 2896. Each half then splits into its two
+        // clusters: 4 leaves of one cluster each, 7 nodes.
+        let tris: Vec<_> = [0.0, 16.0, 32.0, 48.0]
+            .into_iter()
+            .flat_map(|x| cluster(x, 4))
+            .collect();
+        let bvh = CasterBvh::from_triangles(tris);
+        assert_eq!(root_split(&bvh), (8, 8));
+        let leaves = checked_leaves(&bvh);
+        assert_eq!(leaves.len(), 4, "{leaves:?}");
+        for (first, count) in leaves {
+            let xs: Vec<f32> = bvh.triangles()[first..first + count]
+                .iter()
+                .map(|t| t[0].x)
+                .collect();
+            assert!(xs.iter().all(|&x| x == xs[0]) && count == 4, "{xs:?}");
+        }
+        // 12 triangles near x = 0 and 4 at x = 48: the only cut between them is 12 | 4 (a median
+        // split would give 8 | 8).
+        let mut tris = cluster(48.0, 4);
+        for k in 0..3 {
+            tris.extend(cluster(k as f32 * 0.25, 4));
+        }
+        let bvh = CasterBvh::from_triangles(tris);
+        assert_eq!(root_split(&bvh), (12, 4));
+        checked_leaves(&bvh);
+        // The same far from the origin (bins count from the lowest centroid, not from 0).
+        let mut tris = cluster(1048.0, 4);
+        for k in 0..3 {
+            tris.extend(cluster(1000.0 + k as f32 * 0.25, 4));
+        }
+        let bvh = CasterBvh::from_triangles(tris);
+        assert_eq!(root_split(&bvh), (12, 4));
+        // Three clusters at 0, 16, 32: the cuts 4 | 8 and 8 | 4 cost the same; the first (lowest
+        // bin) is kept.
+        let tris: Vec<_> = [32.0, 0.0, 16.0]
+            .into_iter()
+            .flat_map(|x| cluster(x, 4))
+            .collect();
+        let bvh = CasterBvh::from_triangles(tris);
+        assert_eq!(root_split(&bvh), (4, 8));
+        let leaves = checked_leaves(&bvh);
+        assert_eq!(leaves.len(), 3, "{leaves:?}");
+    }
+
+    /// The split axis is the one along which the centroids spread most: four clusters 16 apart
+    /// along y (each spread over z in 0..6) or along z (each spread over x in 0..6) end in four
+    /// leaves of one cluster each, whatever the axis.
+    #[test]
+    fn splits_follow_the_widest_centroid_axis() {
+        for (along, spread) in [(Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
+            let tris: Vec<_> = (0..4)
+                .flat_map(|i| {
+                    (0..4)
+                        .map(move |k| tri_at(along * (16.0 * i as f32) + spread * (2.0 * k as f32)))
+                })
+                .collect();
+            let bvh = CasterBvh::from_triangles(tris);
+            assert_eq!(root_split(&bvh), (8, 8), "{along}");
+            let leaves = checked_leaves(&bvh);
+            assert_eq!(leaves.len(), 4, "{along}: {leaves:?}");
+            for (first, count) in leaves {
+                let keys: Vec<f32> = bvh.triangles()[first..first + count]
+                    .iter()
+                    .map(|t| t[0].dot(along))
+                    .collect();
+                assert!(keys.iter().all(|&k| k == keys[0]), "{along}: {keys:?}");
+            }
+        }
+    }
+
+    /// Triangles with one bounding box (the unit square at z = 0) but two different centroids:
+    /// every cut costs as much as the leaf, so the median split is used (4 | 4, not the 6 | 2
+    /// the centroids would suggest); coinciding centroids stay one leaf of any size.
+    #[test]
+    fn median_split_and_coincident_centroids() {
+        let a = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let b = [Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::X];
+        let tris = vec![a, b, a, a, b, a, a, a];
+        let bvh = CasterBvh::from_triangles(tris);
+        assert_eq!(root_split(&bvh), (4, 4));
+        assert_eq!(bvh.node_count(), 3);
+        // The median puts the four smallest centroids (all `a`) on the left.
+        assert!(bvh.triangles()[..4].iter().all(|t| *t == a));
+        checked_leaves(&bvh);
+        let same = CasterBvh::from_triangles(vec![a; 9]);
+        assert_eq!(same.node_count(), 1);
+        assert_eq!(checked_leaves(&same), vec![(0, 9)]);
+        // Four or fewer triangles make one leaf; none make no node at all.
+        let few =
+            CasterBvh::from_triangles(cluster(0.0, 2).into_iter().chain(cluster(9.0, 2)).collect());
+        assert_eq!(checked_leaves(&few), vec![(0, 4)]);
+        let none = CasterBvh::from_triangles(Vec::new());
+        assert_eq!((none.node_count(), none.triangle_count()), (0, 0));
+        assert!(!none.any_hit(Vec3::ZERO, Vec3::X, 0.0, 1.0));
+    }
+
+    /// Casters only, transformed to world space; triangles with an out-of-range index or a
+    /// non-finite vertex, instances of a missing mesh and non-casters contribute nothing.
+    #[test]
+    fn from_scene_collects_world_space_caster_triangles() {
+        let mesh = Mesh {
+            name: "m".into(),
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(f32::NAN, 0.0, 0.0)],
+            normals: Vec::new(),
+            // good, non-finite, out of range
+            indices: vec![0, 1, 2, 0, 1, 3, 0, 1, 9],
+        };
+        let shift = Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0));
+        let scene = Scene {
+            name: "t".into(),
+            meshes: vec![mesh],
+            instances: vec![
+                Instance::new(0, shift),
+                Instance {
+                    casts_shadow: false,
+                    ..Instance::new(0, Mat4::IDENTITY)
+                },
+                Instance::new(7, Mat4::IDENTITY),
+            ],
+            light: AreaLight::default(),
+            camera: Camera::default(),
+        };
+        let bvh = CasterBvh::from_scene(&scene);
+        let z = Vec3::new(0.0, 0.0, 5.0);
+        assert_eq!(bvh.triangles(), &[[z, z + Vec3::X, z + Vec3::Y]]);
+        // from_triangles drops the non-finite one too.
+        let bvh = CasterBvh::from_triangles(vec![
+            tri_at(Vec3::ZERO),
+            [Vec3::ZERO, Vec3::X, Vec3::splat(f32::INFINITY)],
+        ]);
+        assert_eq!(bvh.triangles(), &[tri_at(Vec3::ZERO)]);
+    }
+
+    /// Moller-Trumbore on the triangle (0,0,0), (1,0,0), (0,1,0) from z = 2 straight down:
+    /// t = 2 inside (t in units of `dir`), None outside each edge, parallel, degenerate.
+    #[test]
+    fn ray_triangle_hits_inside_and_misses_outside() {
+        let tri = tri_at(Vec3::ZERO);
+        let down = Vec3::new(0.0, 0.0, -1.0);
+        let from = |x, y| Vec3::new(x, y, 2.0);
+        assert_eq!(ray_triangle(from(0.25, 0.25), down, &tri), Some(2.0));
+        assert_eq!(ray_triangle(from(0.25, 0.25), down * 4.0, &tri), Some(0.5));
+        // From below, the hit is behind the origin: negative t.
+        assert_eq!(
+            ray_triangle(Vec3::new(0.25, 0.25, -1.0), down, &tri),
+            Some(-1.0)
+        );
+        // On the edges and corners (u = 0, v = 0, u + v = 1): hits.
+        for (x, y) in [
+            (0.0, 0.5),
+            (0.5, 0.0),
+            (0.5, 0.5),
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 1.0),
+        ] {
+            assert_eq!(ray_triangle(from(x, y), down, &tri), Some(2.0), "{x} {y}");
+        }
+        // Just outside each edge: misses.
+        for (x, y) in [
+            (-0.01, 0.5),
+            (0.5, -0.01),
+            (0.51, 0.5),
+            (1.01, 0.0),
+            (0.0, 1.01),
+        ] {
+            assert_eq!(ray_triangle(from(x, y), down, &tri), None, "{x} {y}");
+        }
+        // Parallel to the plane, and a degenerate (collinear) triangle.
+        assert_eq!(ray_triangle(from(0.25, 0.25), Vec3::X, &tri), None);
+        let line = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert_eq!(ray_triangle(from(0.5, 0.0), down, &line), None);
+        // Legs of 1e20: the determinant overflows to infinity (1e40), which is refused rather
+        // than turned into u = v = 0 and t = inf * 0 = NaN.
+        let huge = [Vec3::ZERO, Vec3::X * 1e20, Vec3::Y * 1e20];
+        assert_eq!(ray_triangle(from(0.25, 0.25), down, &huge), None);
+    }
+
+    /// any_hit counts hits with t strictly inside (t_min, t_max), as brute force does, and
+    /// refuses empty or NaN intervals.
+    #[test]
+    fn any_hit_respects_the_open_interval() {
+        let tris: Vec<_> = [0.0, 16.0, 32.0, 48.0]
+            .into_iter()
+            .flat_map(|x| cluster(x, 4))
+            .collect();
+        let bvh = CasterBvh::from_triangles(tris);
+        // Straight down (-z) onto the cluster at x = 32, triangle at z = 6: t = 4 from z = 10.
+        let origin = Vec3::new(32.25, 0.25, 10.0);
+        let down = Vec3::new(0.0, 0.0, -1.0);
+        for (t_min, t_max, hit) in [
+            (0.0, 100.0, true),
+            (3.9, 4.1, true),
+            (4.0, 100.0, true),  // the triangle at z = 4 (t = 6) is still ahead
+            (0.0, 4.0, false),   // t = 4 itself is excluded
+            (10.0, 20.0, false), // and t = 10 (the last triangle, z = 0) at the near end
+            (4.1, 5.9, false),
+            (5.0, 5.0, false),
+            (6.0, 3.0, false),
+            (f32::NAN, 100.0, false),
+            (0.0, f32::NAN, false),
+        ] {
+            assert_eq!(
+                bvh.any_hit(origin, down, t_min, t_max),
+                hit,
+                "{t_min} {t_max}"
+            );
+            assert_eq!(
+                bvh.any_hit_brute_force(origin, down, t_min, t_max),
+                hit && !t_min.is_nan() && !t_max.is_nan(),
+                "{t_min} {t_max}"
+            );
+        }
+        // Rays between the clusters (along an axis: zero direction components, infinite
+        // inverses in the slab test).
+        assert!(!bvh.any_hit(Vec3::new(8.0, 0.25, 10.0), down, 0.0, 100.0));
+        assert!(!bvh.any_hit(Vec3::new(8.0, 5.25, 10.0), down, 0.0, 100.0));
+        // Every cluster is reached: one ray per triangle, straight down onto it.
+        for tri in bvh.triangles() {
+            let o = tri[0] + Vec3::new(0.25, 0.25, 0.5);
+            assert!(bvh.any_hit(o, down, 0.0, 0.75), "{tri:?}");
+        }
+    }
+
+    /// A light `width` x `width` at z = 4 facing -z, centred above the origin.
+    fn light(width: f32, height: f32) -> AreaLight {
+        AreaLight {
+            center: Vec3::new(0.0, 0.0, 4.0),
+            direction: Vec3::NEG_Z,
+            up: Vec3::Y,
+            width,
+            height,
+            intensity: 1.0,
+        }
+    }
+
+    /// A square occluder at z = 2 covering x < 0 (two triangles, [-50, 0] x [-50, 50]).
+    fn half_plane() -> CasterBvh {
+        let (a, b, c, d) = (
+            Vec3::new(-50.0, -50.0, 2.0),
+            Vec3::new(0.0, -50.0, 2.0),
+            Vec3::new(0.0, 50.0, 2.0),
+            Vec3::new(-50.0, 50.0, 2.0),
+        );
+        CasterBvh::from_triangles(vec![[a, b, c], [a, c, d]])
+    }
+
+    /// Seen from the origin, the occluder's edge x = 0 at half the light's height lines up with
+    /// the light's centre line: the strata of one half of the light are hidden, whatever the
+    /// jitter, so the estimate is exactly 1/2 for an even sample count; no occluder, all lit.
+    #[test]
+    fn visibility_counts_hidden_strata_exactly() {
+        let bvh = half_plane();
+        let square = light(1.0, 1.0);
+        for n in [2, 4, 6] {
+            for seed in 0..4 {
+                assert_eq!(visibility(&bvh, &square, n, Vec3::ZERO, seed), 0.5, "{n}");
+            }
+        }
+        // A line light along the light's x axis is sampled along that line: 1/2 again; a point
+        // light is one sample at the centre, seen past the edge from x = 1, not from x = -1.
+        assert_eq!(visibility(&bvh, &light(1.0, 0.0), 4, Vec3::ZERO, 1), 0.5);
+        assert_eq!(
+            visibility(&bvh, &light(0.0, 0.0), 4, Vec3::new(1.0, 0.0, 0.0), 1),
+            1.0
+        );
+        assert_eq!(
+            visibility(&bvh, &light(0.0, 0.0), 4, Vec3::new(-1.0, 0.0, 0.0), 1),
+            0.0
+        );
+        // A line light along the light's y axis (world y), above an occluder covering y < 0:
+        // 1/2 as well (sampled along its line, not at its centre only).
+        let (a, b, c, d) = (
+            Vec3::new(-50.0, -50.0, 2.0),
+            Vec3::new(50.0, -50.0, 2.0),
+            Vec3::new(50.0, 0.0, 2.0),
+            Vec3::new(-50.0, 0.0, 2.0),
+        );
+        let below = CasterBvh::from_triangles(vec![[a, b, c], [a, c, d]]);
+        assert_eq!(visibility(&below, &light(0.0, 1.0), 4, Vec3::ZERO, 1), 0.5);
+        // 0 samples per axis means 1.
+        let one = visibility(&bvh, &square, 0, Vec3::ZERO, 1);
+        assert!(one == 0.0 || one == 1.0, "{one}");
+        // Receivers well to either side: lit, or in the umbra.
+        assert_eq!(
+            visibility(&bvh, &square, 4, Vec3::new(3.0, 0.0, 0.0), 1),
+            1.0
+        );
+        assert_eq!(
+            visibility(&bvh, &square, 4, Vec3::new(-3.0, 0.0, 0.0), 1),
+            0.0
+        );
+        let empty = CasterBvh::from_triangles(Vec::new());
+        assert_eq!(visibility(&empty, &square, 4, Vec3::ZERO, 1), 1.0);
+        // At, behind, or not finite: 0.
+        for p in [
+            Vec3::new(0.0, 0.0, 4.0),
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            // Infinitely far below: its depth is +inf, not NaN, so only `is_finite` refuses it.
+            Vec3::new(0.0, 0.0, f32::NEG_INFINITY),
+        ] {
+            assert_eq!(visibility(&empty, &square, 4, p, 1), 0.0, "{p}");
+        }
+    }
+
+    /// The segment ends: an occluder within `SEGMENT_EPSILON` of the receiver (in units of the
+    /// segment) or `LIGHT_END_EPSILON` of the light is ignored; one just past either is not.
+    #[test]
+    fn segment_epsilons_at_both_ends() {
+        let light = light(0.0, 0.0);
+        // The segment from the origin to the light's centre is 4 long: t = z / 4.
+        let plane_at = |z: f32| {
+            let (a, b, c, d) = (
+                Vec3::new(-1.0, -1.0, z),
+                Vec3::new(1.0, -1.0, z),
+                Vec3::new(1.0, 1.0, z),
+                Vec3::new(-1.0, 1.0, z),
+            );
+            CasterBvh::from_triangles(vec![[a, b, c], [a, c, d]])
+        };
+        let at = |t: f32| visibility(&plane_at(4.0 * t), &light, 1, Vec3::ZERO, 1);
+        assert_eq!(at(0.5 * SEGMENT_EPSILON), 1.0);
+        assert_eq!(at(2.0 * SEGMENT_EPSILON), 0.0);
+        assert_eq!(at(0.5), 0.0);
+        assert_eq!(at(1.0 - 0.25 * LIGHT_END_EPSILON), 1.0);
+        assert_eq!(at(1.0 - 8.0 * LIGHT_END_EPSILON), 0.0);
+    }
+
+    /// The jitter seed differs between points (the hash is not constant) and is a pure
+    /// function of the point.
+    #[test]
+    fn point_hashes_differ() {
+        let points = [
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(0.5, 0.25, 0.125),
+        ];
+        let hashes: Vec<u64> = points.iter().map(|p| hash_point(*p)).collect();
+        for i in 0..hashes.len() {
+            assert_eq!(hash_point(points[i]), hashes[i]);
+            for j in 0..i {
+                assert_ne!(hashes[i], hashes[j], "{} {}", points[i], points[j]);
+            }
+        }
+    }
+}

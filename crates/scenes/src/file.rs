@@ -501,3 +501,41 @@ pub fn object_transform(object: &ObjectDef) -> Mat4 {
         object.scale.map_or(Vec3::ONE, ScaleDef::to_vec3),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The triangle count checked before building is the built mesh's (found by `cargo
+    /// mutants`: the limit test's spheres are refused either way, by `finalize` if not before
+    /// building). Spheres of 8 and 7 segments have 4 and 3 rings (2 * 8 * 3 = 48, 2 * 7 * 2 =
+    /// 28 triangles), a cylinder 4 per segment; a blob counts what was asked for.
+    #[test]
+    fn expected_triangles_match_the_built_meshes() {
+        let text = r#"
+[[object]]
+plane = { size = [1, 2] }
+[[object]]
+box = { size = [1, 2, 3] }
+[[object]]
+sphere = { radius = 1, segments = 8 }
+[[object]]
+sphere = { radius = 1, segments = 7 }
+[[object]]
+cylinder = { radius = 1, height = 2, segments = 5 }
+[[object]]
+blob = { radius = 1, triangles = 500 }
+[[object]]
+gltf = "model.glb"
+"#;
+        let file = parse(text, Path::new("t.toml")).unwrap();
+        let expected: Vec<usize> = file.objects.iter().map(expected_triangles).collect();
+        assert_eq!(expected, [2, 12, 48, 28, 20, 500, 0]);
+        for (object, &count) in file.objects[..5].iter().zip(&expected) {
+            match mesh_source(object).unwrap() {
+                Source::Procedural(mesh) => assert_eq!(mesh.triangle_count(), count),
+                Source::Gltf(_) => unreachable!(),
+            }
+        }
+    }
+}

@@ -310,3 +310,112 @@ pub(crate) fn read_file(path: &Path, kind: &'static str) -> Result<Vec<u8>, Scen
         },
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The wrapper's set-up in exact numbers (found by `cargo mutants`: the glTF tests only
+    /// checked that ground, light and camera are on the right sides). A model spanning
+    /// (1, 2, 3) to (3, 3, 7): extent 4 (its largest side, z), centre (2, 2.5, 5).
+    #[test]
+    fn wrap_gltf_sizes_ground_light_and_camera_from_the_model_bounds() {
+        let mesh = Mesh {
+            name: "model".into(),
+            positions: vec![
+                Vec3::new(1.0, 2.0, 3.0),
+                Vec3::new(3.0, 3.0, 7.0),
+                Vec3::new(1.0, 3.0, 3.0),
+            ],
+            normals: Vec::new(),
+            indices: vec![0, 1, 2],
+        };
+        let shift = Mat4::from_translation(Vec3::new(0.0, 0.0, -1.0));
+        // The second use of the mesh, moved 1 back, spans z in [2, 6]: within the first's x and
+        // y, so the bounds become (1, 2, 2) to (3, 3, 7): extent 5, centre (2, 2.5, 4.5).
+        let scene = wrap_gltf(
+            Path::new("dir/model.glb"),
+            vec![mesh],
+            &[(0, Mat4::IDENTITY), (0, shift)],
+        );
+        assert_eq!(scene.name, "model");
+        assert_eq!(scene.meshes.len(), 2);
+        assert_eq!(scene.instances.len(), 3);
+        for (instance, transform) in scene.instances[..2].iter().zip([Mat4::IDENTITY, shift]) {
+            assert_eq!(instance.mesh, 0);
+            assert_eq!(instance.transform, transform);
+            assert!(instance.casts_shadow && instance.receives_shadow);
+        }
+        // Ground: a 20 x 20 plane (4 extents) named "ground", receiver only, its centre under the
+        // bounds' centre at their lowest y.
+        let ground = &scene.instances[2];
+        assert_eq!(ground.mesh, 1);
+        assert_eq!(scene.meshes[1].name, "ground");
+        assert!(!ground.casts_shadow && ground.receives_shadow);
+        let floor = scene.bounds(|i| !i.casts_shadow);
+        assert_eq!(floor.min, Vec3::new(-8.0, 2.0, -5.5));
+        assert_eq!(floor.max, Vec3::new(12.0, 2.0, 14.5));
+        // Light: 0.3 extents square, 2 extents above the top, facing down.
+        let light = &scene.light;
+        assert_eq!(light.center, Vec3::new(2.0, 13.0, 4.5));
+        assert_eq!((light.direction, light.up), (Vec3::NEG_Y, Vec3::Z));
+        assert_eq!(
+            (light.width, light.height, light.intensity),
+            (0.3 * 5.0, 0.3 * 5.0, 1.0)
+        );
+        // Camera: from centre + (0, 1.2, 2) extents, looking at the centre.
+        let camera = &scene.camera;
+        assert_eq!(camera.eye, Vec3::new(2.0, 2.5 + 1.2 * 5.0, 14.5));
+        assert_eq!(camera.target, Vec3::new(2.0, 2.5, 4.5));
+        assert_eq!(camera.up, Vec3::Y);
+        assert_eq!(camera.fov_y_degrees, 45.0);
+        assert_eq!((camera.near, camera.far), (0.01 * 5.0, 250.0));
+        // Without geometry: the bounds are the origin and the extent its 1e-3 floor.
+        let empty = wrap_gltf(Path::new(""), Vec::new(), &[]);
+        assert_eq!(empty.name, "gltf");
+        assert_eq!(empty.instances.len(), 1);
+        assert_eq!(empty.light.center, Vec3::new(0.0, 2e-3, 0.0));
+        assert_eq!(empty.light.width, 0.3 * 1e-3);
+        assert_eq!(empty.camera.far, 50.0 * 1e-3);
+    }
+
+    /// The count limits at their boundary: equal is allowed, one more refused with the limit
+    /// named (the loaders' tests only reach them through glTF node graphs and huge spheres).
+    #[test]
+    fn count_limits_allow_the_limit_and_refuse_one_more() {
+        assert!(check_instances(limits::MAX_INSTANCES, "here").is_ok());
+        let message = check_instances(limits::MAX_INSTANCES + 1, "here")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("here") && message.contains("(100001)"),
+            "{message}"
+        );
+        assert!(message.contains("limits::MAX_INSTANCES"), "{message}");
+        assert!(check_triangles(limits::MAX_TRIANGLES, "here").is_ok());
+        let message = check_triangles(limits::MAX_TRIANGLES + 1, "here")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("here") && message.contains("(32000001, every instance counted)"),
+            "{message}"
+        );
+    }
+
+    /// The file-size limit at its boundary, on sparse files (no disk space used): exactly
+    /// `MAX_FILE_BYTES` is read, one byte more is refused before reading.
+    #[test]
+    fn file_size_limit_allows_the_limit_and_refuses_one_byte_more() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.glb");
+        let file = std::fs::File::create(&path).unwrap();
+        file.set_len(limits::MAX_FILE_BYTES).unwrap();
+        assert!(check_file(&path, "glTF file").is_ok());
+        file.set_len(limits::MAX_FILE_BYTES + 1).unwrap();
+        let message = check_file(&path, "glTF file").unwrap_err().to_string();
+        assert!(
+            message.contains("(1073741825 bytes)") && message.contains("limits::MAX_FILE_BYTES"),
+            "{message}"
+        );
+    }
+}

@@ -257,3 +257,147 @@ fn documented_example_loads() {
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
     assert_eq!(loaded.scene.instances.len(), 5);
 }
+
+/// The per-field defaults that `serde` fills in when a table is present but the field is not
+/// (found by `cargo mutants`: `defaults_scale_and_integers` leaves `[light]` out altogether, so
+/// `LightDef::default` was used instead): width 1, height = width, intensity 1, albedo 0.8,
+/// blob triangles 20000 and seed 1, segments 32; a given albedo is kept.
+#[test]
+fn field_defaults_inside_given_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "defaults.toml",
+        r#"
+[light]
+center = [0, 5, 0]
+[[object]]
+plane = { size = [4, 4] }
+[[object]]
+blob = { radius = 0.5 }
+[[object]]
+sphere = { radius = 0.5 }
+[[object]]
+box = { size = [1, 1, 1] }
+albedo = [0.25, 0.5, 1]
+"#,
+    );
+    let scene = load_scene_file(&path).unwrap().scene;
+    let light = &scene.light;
+    assert_eq!(light.center, Vec3::new(0.0, 5.0, 0.0));
+    assert_eq!(
+        (light.width, light.height, light.intensity),
+        (1.0, 1.0, 1.0)
+    );
+    assert!(scene.instances[..3]
+        .iter()
+        .all(|i| i.albedo == Vec3::splat(0.8)));
+    assert_eq!(scene.instances[3].albedo, Vec3::new(0.25, 0.5, 1.0));
+    let blob = softshadow_scenes::primitives::blob(0.5, 20_000, 1);
+    assert_eq!(scene.meshes[1].positions, blob.positions);
+    assert_eq!(scene.meshes[1].indices, blob.indices);
+    let sphere = softshadow_scenes::primitives::uv_sphere(0.5, 32);
+    assert_eq!(scene.meshes[2].triangle_count(), sphere.triangle_count());
+}
+
+/// A glTF object after another object: its meshes are appended (instance mesh indices offset
+/// by the meshes before them) and each node use is placed by the object's transform times the
+/// node's (found by `cargo mutants`: the shipped example's model has one mesh and identity
+/// nodes). The sample model: `quad` under translate (1, 2, 3) scale 2, `tri` at (0, 0, -5).
+#[test]
+fn gltf_objects_offset_mesh_indices_and_compose_transforms() {
+    use common::sample_model;
+    let dir = tempfile::tempdir().unwrap();
+    let (json, buffer) = sample_model();
+    write_gltf(dir.path(), "sample", GltfKind::Binary, json, &buffer);
+    let path = write(
+        dir.path(),
+        "placed.toml",
+        "[[object]]\nplane = { size = [4, 4] }\n[[object]]\ngltf = \"sample.glb\"\ntranslation = [0, 1, 0]\nalbedo = [0.5, 0.5, 0.5]\n",
+    );
+    let scene = load_scene_file(&path).unwrap().scene;
+    let names: Vec<&str> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names[1..], ["quad", "tri/0"]);
+    let uses: Vec<usize> = scene.instances.iter().map(|i| i.mesh).collect();
+    assert_eq!(uses, [0, 1, 2]);
+    let shift = glam::Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+    let quad_node = glam::Mat4::from_scale_rotation_translation(
+        Vec3::splat(2.0),
+        glam::Quat::IDENTITY,
+        Vec3::new(1.0, 2.0, 3.0),
+    );
+    let tri_node = glam::Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0));
+    assert!(scene.instances[1]
+        .transform
+        .abs_diff_eq(shift * quad_node, 1e-6));
+    assert!(scene.instances[2]
+        .transform
+        .abs_diff_eq(shift * tri_node, 1e-6));
+    // The object's other settings reach every node use.
+    assert!(scene.instances[1..]
+        .iter()
+        .all(|i| i.albedo == Vec3::splat(0.5) && i.casts_shadow));
+}
+
+/// The light's default `up`: +z when it faces (nearly) straight up or down, |y| of the unit
+/// direction above 0.9, +y otherwise (found by `cargo mutants`: no test read `up`). The
+/// direction (0.43588993, -0.9, 0) normalises to y = -0.9 exactly in f32: not above 0.9.
+#[test]
+fn light_up_defaults_by_how_steep_the_light_is() {
+    let up = |direction: &str| {
+        let text = format!("[light]\n{direction}\n[[object]]\nplane = {{ size = [4, 4] }}\n");
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(dir.path(), "up.toml", &text);
+        let light = load_scene_file(&path).unwrap().scene.light;
+        (light.direction, light.up)
+    };
+    assert_eq!(up(""), (Vec3::NEG_Y, Vec3::Z));
+    assert_eq!(up("direction = [0, 2, 0]"), (Vec3::Y, Vec3::Z));
+    assert_eq!(up("direction = [0.1, -1, 0]").1, Vec3::Z);
+    assert_eq!(up("direction = [1, -1, 0]").1, Vec3::Y);
+    assert_eq!(up("direction = [1, 0, 0]"), (Vec3::X, Vec3::Y));
+    let (d, u) = up("direction = [0.43588993, -0.9, 0]");
+    assert_eq!((d.y, u), (-0.9, Vec3::Y));
+    // A given `up` is kept.
+    assert_eq!(up("up = [1, 0, 0]").1, Vec3::X);
+}
+
+/// Sizes must be strictly positive: zero is refused like a negative size.
+#[test]
+fn zero_sizes_are_refused() {
+    for source in [
+        "plane = { size = [0, 1] }",
+        "box = { size = [1, 0, 1] }",
+        "sphere = { radius = 0 }",
+        "cylinder = { radius = 1, height = 0 }",
+    ] {
+        let message = file_error(&format!(
+            "[[object]]\nplane = {{ size = [1, 1] }}\n[[object]]\n{source}\n"
+        ));
+        assert!(
+            message.contains("object 2") && message.contains("must be finite and > 0"),
+            "{source}: {message}"
+        );
+    }
+}
+
+/// A `[camera]` table is used field by field (found by `cargo mutants`: no test gave one, and
+/// the default camera has the same field of view as `CameraDef`'s).
+#[test]
+fn camera_fields_are_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "camera.toml",
+        "[camera]\neye = [1, 2, 3]\ntarget = [0, 1, 0]\nup = [0, 0, 1]\nfov_y_degrees = 30\nnear = 0.5\nfar = 20\n[[object]]\nplane = { size = [4, 4] }\n",
+    );
+    let camera = load_scene_file(&path).unwrap().scene.camera;
+    assert_eq!(
+        (camera.eye, camera.target, camera.up),
+        (Vec3::new(1.0, 2.0, 3.0), Vec3::Y, Vec3::Z)
+    );
+    assert_eq!(
+        (camera.fov_y_degrees, camera.near, camera.far),
+        (30.0, 0.5, 20.0)
+    );
+}
