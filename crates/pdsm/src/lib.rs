@@ -77,7 +77,7 @@ softshadow_core::technique_settings! {
         shadow_map_size: u32 = 512, in 64..=4096 log;
         /// Largest visibility error the piecewise-linear compression may add
         compression_error: f32 = 0.02, in 0.0..=0.5;
-        /// Depth bias in light-sample map texel footprints, scaled by the receiver's slope (tan of its angle to the light), at most 2 % of the depth
+        /// Depth bias in light-sample map texel footprints, times 1 + the receiver's slope (tan of its angle to the light), at most 2 % of the depth
         bias_texels: f32 = 0.5, in 0.0..=16.0;
         /// Edge in texels of the per-frame shadow map of the dynamic casters
         dynamic_map_size: u32 = 1024, in 64..=4096 log;
