@@ -1,12 +1,13 @@
 // Penumbra deep shadow map evaluation (St-Amour et al. 2005, section 4, Algorithm 2): project the
 // pixel's surface point into the PDSM (a view from the light centre), evaluate the attenuation
-// functions of the four nearest texels at the point's depth and filter them bilinearly. The
-// functions live in two storage buffers (Fig. 6): `offsets[i]..offsets[i + 1]` indexes texel i's
-// (depth, visibility) vertices in `vertices`. Beside them, a texture holds each texel's two end
-// vertices (not in the paper): a pixel behind every event of a texel's ray, or in front of all of
-// them, needs only that one fetch, and the buffers are read only where the pixel's depth falls
-// between a texel's first and last event (inside a penumbra volume). Dynamic casters, absent from the precompute, come
-// from a per-frame shadow map with percentage-closer filtering, multiplied in (section 5).
+// functions of the four nearest texels and filter them bilinearly. Each texel's function is read
+// where the pixel's tangent plane crosses that texel's ray, less a slope-scaled bias (neither is in
+// the paper). The functions live in two storage buffers (Fig. 6): `offsets[i]..offsets[i + 1]`
+// indexes texel i's (depth, visibility) vertices in `vertices`. Beside them, a texture holds each
+// texel's two end vertices and its longest segment (not in the paper): a depth behind every event
+// of a texel's ray, in front of all of them, or inside that segment needs only those fetches, and
+// the buffers are read only elsewhere. Dynamic casters, absent from the precompute, come from a
+// per-frame shadow map with percentage-closer filtering, multiplied in (section 5).
 //
 // Two draws of this file (`Evaluation` in lib.rs): with ENDS_PASS, a pixel whose four texels the
 // ends answer is written and marked in the stencil, the others are discarded; without it, the
@@ -45,11 +46,11 @@ fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
 
 // One texel's piecewise-linear function at `depth` (constant beyond its ends; no vertices = lit).
 // The ends texture answers the two constant parts in one fetch: most receivers lie behind every
-// caster of their ray (depth >= last vertex) and caster tops in front of all of them. Only in
-// between are the buffers read: a binary search for the first vertex deeper than `depth` (at a
-// step's own depth the value after the step, as in the CPU `function::evaluate`). The results
-// are those of reading the ends from the buffers; three storage-buffer reads per texel (two
-// offsets, the last vertex) cost the frame two to three times `hard`'s on lavapipe.
+// caster of their ray (depth >= last vertex) and caster tops in front of all of them; a second
+// fetch answers the longest segment. Elsewhere the buffers are read: a binary search for the
+// first vertex deeper than `depth` (at a step's own depth the value after the step, as in the CPU
+// `function::evaluate`). Every answer is the one the search would give, bit for bit. In the
+// ENDS_PASS draw a depth the fetches do not answer returns -1 instead of searching.
 fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let n = i32(params.size_bias.x);
     let c = clamp(texel, vec2<i32>(0), vec2<i32>(n - 1));
@@ -137,6 +138,11 @@ fn tap_depth(texel: vec2<i32>, normal: vec3<f32>, plane: f32, depth: f32) -> f32
     return clamp(plane / facing, depth - reach, depth + reach);
 }
 
+// Texel `texel`'s function at its tangent-plane depth (`tap_depth`), scaled by `bias`.
+fn tap(texel: vec2<i32>, normal: vec3<f32>, plane: f32, depth: f32, bias: f32) -> f32 {
+    return texel_visibility(texel, tap_depth(texel, normal, plane, depth) * bias);
+}
+
 @fragment
 fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let s = load_surface(vec2<i32>(in.position.xy));
@@ -181,10 +187,10 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     // `stiff-near-light`'s ground in front of its caster (mae 0.17 against 0.007).
     let tangent = sqrt(max(1.0 - cosine * cosine, 0.0)) / cosine;
     let bias = 1.0 - min(params.size_bias.y * params.dynamic_map_texel.y * (1.0 + tangent), 0.02);
-    let v00 = texel_visibility(t, tap_depth(t, normal, plane, s.light.z) * bias);
-    let v10 = texel_visibility(t + vec2<i32>(1, 0), tap_depth(t + vec2<i32>(1, 0), normal, plane, s.light.z) * bias);
-    let v01 = texel_visibility(t + vec2<i32>(0, 1), tap_depth(t + vec2<i32>(0, 1), normal, plane, s.light.z) * bias);
-    let v11 = texel_visibility(t + vec2<i32>(1, 1), tap_depth(t + vec2<i32>(1, 1), normal, plane, s.light.z) * bias);
+    let v00 = tap(t, normal, plane, s.light.z, bias);
+    let v10 = tap(t + vec2<i32>(1, 0), normal, plane, s.light.z, bias);
+    let v01 = tap(t + vec2<i32>(0, 1), normal, plane, s.light.z, bias);
+    let v11 = tap(t + vec2<i32>(1, 1), normal, plane, s.light.z, bias);
 #ifdef ENDS_PASS
     if min(min(v00, v10), min(v01, v11)) < 0.0 {
         // Inside a penumbra: left unmarked for the second draw.
