@@ -6,6 +6,8 @@
 //      in slopes, i.e. w_p = (z_r - d_b) w_light / d_b on the receiver.
 //   3. Percentage-closer filtering over that extent (at least `min_filter_texels`).
 // Both kernels are rotated (Vogel) or jittered (grid) per pixel by interleaved gradient noise.
+// The grid is the KERNEL_GRID permutation, not a uniform flag: llvmpipe computes both sides of a
+// branch, so every sample paid for both kernels' points.
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, linear_depth, texel_slope, in_map}
@@ -13,18 +15,16 @@
 
 const MAX_BLOCKER_SAMPLES: u32 = 64u;
 const MAX_FILTER_SAMPLES: u32 = 256u;
-const KERNEL_VOGEL: u32 = 0u;
 
 struct PcssParams {
     blocker_samples: u32,
     filter_samples: u32,
-    // 0 = Vogel disk (rotated), 1 = jittered grid matching the rectangular light.
-    kernel: u32,
     _pad0: u32,
+    _pad1: u32,
     bias_texels: f32,
     min_filter_texels: f32,
-    _pad1: f32,
     _pad2: f32,
+    _pad3: f32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;
@@ -38,18 +38,24 @@ fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
 
 // Kernel point i of n in [-1, 1]^2 (grid) or the unit disk (Vogel).
 fn kernel_point(i: u32, n: u32, noise: f32) -> vec2<f32> {
-    if params.kernel == KERNEL_VOGEL {
-        return vogel_disk(i, n, noise * 2.0 * PI);
-    }
+#ifdef KERNEL_GRID
     let k = max(u32(round(sqrt(f32(n)))), 1u);
     let cell = vec2<f32>(f32(i % k), f32(i / k));
     let jitter = fract(vec2<f32>(noise, noise * 7.31)) - 0.5;
     return ((cell + 0.5 + jitter) / f32(k)) * 2.0 - 1.0;
+#else
+    return vogel_disk(i, n, noise * 2.0 * PI);
+#endif
 }
 
-fn grid_count(n: u32) -> u32 {
+// The number of kernel points for `n` requested: a whole square for the grid.
+fn kernel_count(n: u32) -> u32 {
+#ifdef KERNEL_GRID
     let k = max(u32(round(sqrt(f32(n)))), 1u);
     return k * k;
+#else
+    return n;
+#endif
 }
 
 // Light-space depth of the nearest caster at `slope`, or -1 outside the map / where the map is empty.
@@ -83,10 +89,7 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
 
     // 1. Blocker search.
     let search = half_light * max(z_r - near, 0.0) / (z_r * near);
-    var n = clamp(params.blocker_samples, 1u, MAX_BLOCKER_SAMPLES);
-    if params.kernel != KERNEL_VOGEL {
-        n = grid_count(n);
-    }
+    let n = kernel_count(clamp(params.blocker_samples, 1u, MAX_BLOCKER_SAMPLES));
     var blocker_sum = 0.0;
     var blockers = 0u;
     for (var i = 0u; i < n; i = i + 1u) {
@@ -106,10 +109,7 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let extent = max(half_light * (z_r - d_b) / (d_b * z_r), vec2<f32>(min_extent));
 
     // 3. Percentage-closer filtering.
-    var m = clamp(params.filter_samples, 1u, MAX_FILTER_SAMPLES);
-    if params.kernel != KERNEL_VOGEL {
-        m = grid_count(m);
-    }
+    let m = kernel_count(clamp(params.filter_samples, 1u, MAX_FILTER_SAMPLES));
     var lit = 0.0;
     for (var i = 0u; i < m; i = i + 1u) {
         let z = caster_depth(center + kernel_point(i, m, fract(noise + 0.5)) * extent);

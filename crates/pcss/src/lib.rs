@@ -9,7 +9,7 @@
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     fullscreen::{uniform_buffer, FullscreenPipeline},
-    shader::ShaderSpec,
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
     wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
@@ -23,7 +23,7 @@ pub const ID: &str = "pcss";
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "pcss/pcss.wgsl",
     source: shader_file!("pcss/pcss.wgsl").1,
-    permutations: &[&[]],
+    permutations: &[&[], &[("KERNEL_GRID", DefValue::Bool(true))]],
 }];
 
 softshadow_core::param_choice! {
@@ -62,8 +62,7 @@ softshadow_core::technique_settings! {
 struct PcssUniform {
     blocker_samples: u32,
     filter_samples: u32,
-    kernel: u32,
-    _pad0: u32,
+    _pad0: [u32; 2],
     bias_texels: f32,
     min_filter_texels: f32,
     _pad1: [f32; 2],
@@ -74,7 +73,11 @@ pub struct Pcss {
     /// Its settings; changes take effect on the next frame.
     pub settings: PcssSettings,
     shadow_map: CentreShadowMap,
-    filter: FullscreenPipeline,
+    /// The lookup with the Vogel kernel, and with the grid (`KERNEL_GRID`): one pipeline per
+    /// kernel, because llvmpipe computed both kernels' points for every sample when a uniform
+    /// chose between them.
+    filter_vogel: FullscreenPipeline,
+    filter_grid: FullscreenPipeline,
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
     stats: TechniqueStats,
@@ -98,7 +101,22 @@ impl Pcss {
         let layout = CentreShadowMap::lookup_layout(gpu, "pcss/filter");
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
-            filter: FullscreenPipeline::new(gpu, "pcss/filter", &SHADERS[0], &[], &layout, None)?,
+            filter_vogel: FullscreenPipeline::new(
+                gpu,
+                "pcss/filter",
+                &SHADERS[0],
+                &[],
+                &layout,
+                None,
+            )?,
+            filter_grid: FullscreenPipeline::new(
+                gpu,
+                "pcss/filter grid",
+                &SHADERS[0],
+                &[("KERNEL_GRID", DefValue::Bool(true))],
+                &layout,
+                None,
+            )?,
             params_buffer: uniform_buffer(gpu, "pcss/params", &PcssUniform::zeroed()),
             layout,
             settings,
@@ -140,11 +158,7 @@ impl ShadowTechnique for Pcss {
         let uniform = PcssUniform {
             blocker_samples: s.blocker_samples,
             filter_samples: s.filter_samples,
-            kernel: match s.kernel {
-                Kernel::Vogel => 0,
-                Kernel::Grid => 1,
-            },
-            _pad0: 0,
+            _pad0: [0; 2],
             bias_texels: s.bias_texels,
             min_filter_texels: s.min_filter_texels,
             _pad1: [0.0; 2],
@@ -155,7 +169,11 @@ impl ShadowTechnique for Pcss {
             .shadow_map
             .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
             .expect("rendered above");
-        self.filter.record(
+        let filter = match s.kernel {
+            Kernel::Vogel => &self.filter_vogel,
+            Kernel::Grid => &self.filter_grid,
+        };
+        filter.record(
             frame,
             "pcss/filter",
             inputs.frame_bind_group,
