@@ -2,12 +2,14 @@
 // pass over the texture array of all maps, V = sum of weight_i * lit_i (section 3.4.2). With
 // ACCUMULATE: one instance (one pass) per map, each adding its lit fraction to an accumulation
 // buffer by additive blending; `resolve.wgsl` divides by the number of maps (section 3.4.1, equal
-// weights, as the paper's deferred variant must).
+// weights, as the paper's deferred variant must). With PCF: the bilinear mix of the four nearest
+// texels' tests (section 3.4.3), a permutation rather than a uniform flag because llvmpipe runs
+// both sides of a branch: every lookup without PCF paid for the four extra texel reads.
 #import softshadow::frame::{load_surface, light_cosine}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
 
 struct Params {
-    // x: unused; y: unused; z: bias in texel footprints; w: 1 = 2x2 PCF (section 3.4.3).
+    // x: unused; y: unused; z: bias in texel footprints; w: unused.
     values: vec4<f32>,
     // x: number of items (maps evaluated).
     counts: vec4<u32>,
@@ -53,27 +55,28 @@ fn lit(layer: u32, p: vec3<f32>, slope_factor: f32) -> f32 {
     let view = views[layer];
     let reference = p.z - params.values.z * texel_slope(view) * slope_factor;
     let uv = view_uv(view, p);
-    if params.values.w > 0.5 {
-        let f = uv * view.size.xy - 0.5;
-        let base = floor(f);
-        let t = f - base;
-        let b = vec2<i32>(base);
-        let top = mix(
-            lit_texel(view, layer, b, reference),
-            lit_texel(view, layer, b + vec2<i32>(1, 0), reference),
-            t.x,
-        );
-        let bottom = mix(
-            lit_texel(view, layer, b + vec2<i32>(0, 1), reference),
-            lit_texel(view, layer, b + vec2<i32>(1, 1), reference),
-            t.x,
-        );
-        return mix(top, bottom, t.y);
-    }
+#ifdef PCF
+    let f = uv * view.size.xy - 0.5;
+    let base = floor(f);
+    let t = f - base;
+    let b = vec2<i32>(base);
+    let top = mix(
+        lit_texel(view, layer, b, reference),
+        lit_texel(view, layer, b + vec2<i32>(1, 0), reference),
+        t.x,
+    );
+    let bottom = mix(
+        lit_texel(view, layer, b + vec2<i32>(0, 1), reference),
+        lit_texel(view, layer, b + vec2<i32>(1, 1), reference),
+        t.x,
+    );
+    return mix(top, bottom, t.y);
+#else
     if !in_map(uv) {
         return 1.0;
     }
     return lit_texel(view, layer, vec2<i32>(uv * view.size.xy), reference);
+#endif
 }
 
 @fragment

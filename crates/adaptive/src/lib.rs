@@ -58,7 +58,15 @@ pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "adaptive/evaluate.wgsl",
         source: shader_file!("adaptive/evaluate.wgsl").1,
-        permutations: &[&[], &[("ACCUMULATE", DefValue::Bool(true))]],
+        permutations: &[
+            &[],
+            &[("PCF", DefValue::Bool(true))],
+            &[("ACCUMULATE", DefValue::Bool(true))],
+            &[
+                ("ACCUMULATE", DefValue::Bool(true)),
+                ("PCF", DefValue::Bool(true)),
+            ],
+        ],
     },
     ShaderSpec {
         path: "adaptive/resolve.wgsl",
@@ -215,8 +223,11 @@ pub struct AdaptiveSampling {
     layout: wgpu::BindGroupLayout,
     resolve_layout: wgpu::BindGroupLayout,
     compare: FullscreenPipeline,
-    evaluate: FullscreenPipeline,
-    accumulate: FullscreenPipeline,
+    /// The evaluation and the accumulation, each without and with PCF (`[off, on]`): a
+    /// permutation per setting, because llvmpipe paid for the PCF lookup's four texel reads
+    /// when a uniform flag turned it off.
+    evaluate: [FullscreenPipeline; 2],
+    accumulate: [FullscreenPipeline; 2],
     resolve: FullscreenPipeline,
     params: wgpu::Buffer,
     store: Option<Store>,
@@ -224,6 +235,20 @@ pub struct AdaptiveSampling {
     differing: Option<VisibilityBuffer>,
     accumulation: Option<VisibilityBuffer>,
     report: FrameReport,
+}
+
+const PCF: (&str, DefValue) = ("PCF", DefValue::Bool(true));
+const ACCUMULATE: (&str, DefValue) = ("ACCUMULATE", DefValue::Bool(true));
+
+/// One permutation of `adaptive/evaluate.wgsl`.
+fn evaluation(
+    gpu: &Gpu,
+    label: &str,
+    defs: &[(&str, DefValue)],
+    layout: &wgpu::BindGroupLayout,
+    blend: Option<wgpu::BlendState>,
+) -> Result<FullscreenPipeline, GpuError> {
+    FullscreenPipeline::new(gpu, label, &SHADERS[1], defs, layout, blend)
 }
 
 impl AdaptiveSampling {
@@ -274,22 +299,20 @@ impl AdaptiveSampling {
                 &layout,
                 additive,
             )?,
-            evaluate: FullscreenPipeline::new(
-                gpu,
-                "adaptive/evaluate",
-                &SHADERS[1],
-                &[],
-                &layout,
-                None,
-            )?,
-            accumulate: FullscreenPipeline::new(
-                gpu,
-                "adaptive/accumulate",
-                &SHADERS[1],
-                &[("ACCUMULATE", DefValue::Bool(true))],
-                &layout,
-                additive,
-            )?,
+            evaluate: [
+                evaluation(gpu, "adaptive/evaluate", &[], &layout, None)?,
+                evaluation(gpu, "adaptive/evaluate pcf", &[PCF], &layout, None)?,
+            ],
+            accumulate: [
+                evaluation(gpu, "adaptive/accumulate", &[ACCUMULATE], &layout, additive)?,
+                evaluation(
+                    gpu,
+                    "adaptive/accumulate pcf",
+                    &[ACCUMULATE, PCF],
+                    &layout,
+                    additive,
+                )?,
+            ],
             resolve: FullscreenPipeline::new(
                 gpu,
                 "adaptive/resolve",
@@ -491,7 +514,8 @@ impl AdaptiveSampling {
                 s.gamma,
                 if relative { 1.0 } else { 0.0 },
                 s.bias_texels,
-                if s.pcf { 1.0 } else { 0.0 },
+                // PCF is a shader permutation (`evaluate`, `accumulate`).
+                0.0,
             ],
             counts: [count, 0, 0, 0],
         };
@@ -909,7 +933,7 @@ impl AdaptiveSampling {
         self.write_params(gpu, count);
         match self.settings.evaluation {
             Evaluation::Array => {
-                self.evaluate.record(
+                self.evaluate[usize::from(self.settings.pcf)].record(
                     frame,
                     "adaptive/evaluate",
                     inputs.frame_bind_group,
@@ -947,7 +971,9 @@ impl AdaptiveSampling {
                             multiview_mask: None,
                         },
                         |pass| {
-                            pass.set_pipeline(&self.accumulate.pipeline);
+                            pass.set_pipeline(
+                                &self.accumulate[usize::from(self.settings.pcf)].pipeline,
+                            );
                             pass.set_bind_group(0, inputs.frame_bind_group, &[]);
                             pass.set_bind_group(1, &store.evaluate_group, &[]);
                             pass.draw(0..3, k..k + 1);
