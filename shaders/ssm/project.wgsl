@@ -44,12 +44,16 @@ fn in_map(uv: vec2<f32>) -> bool {
     return all(uv >= vec2<f32>(0.0)) && all(uv < vec2<f32>(1.0));
 }
 
+// With TWO_PASS (section 3.5) the larger of the two maps' occlusion. A permutation, not the
+// uniform `light.w`: llvmpipe runs both sides of a branch, so a single-map frame paid for the back
+// map's four reads.
 fn occlusion_at(texel: vec2<i32>) -> f32 {
     let front = textureLoad(ssm_front, texel, 0).r;
-    if params.light.w > 0.5 {
-        return max(front, textureLoad(ssm_back, texel, 0).r);
-    }
+#ifdef TWO_PASS
+    return max(front, textureLoad(ssm_back, texel, 0).r);
+#else
     return front;
+#endif
 }
 
 @fragment

@@ -26,7 +26,7 @@ use softshadow_core::{
     fullscreen::{uniform_buffer, FullscreenPipeline},
     glam::Vec3,
     scene_gpu::Vertex,
-    shader::{create_module, ShaderSpec},
+    shader::{create_module, DefValue, ShaderSpec},
     shader_file,
     shadow_map::ShadowViewUniform,
     wgpu, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, SlopeFrustum,
@@ -51,7 +51,7 @@ pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "ssm/project.wgsl",
         source: shader_file!("ssm/project.wgsl").1,
-        permutations: &[&[]],
+        permutations: &[&[], &[("TWO_PASS", DefValue::Bool(true))]],
     },
     ShaderSpec {
         path: "ssm/batch_add.wgsl",
@@ -259,7 +259,9 @@ pub struct SoftShadowMaps {
     scatter_layout: wgpu::BindGroupLayout,
     scatter_fp32: wgpu::RenderPipeline,
     scatter_fp16: wgpu::RenderPipeline,
-    project: FullscreenPipeline,
+    /// The projection with one soft shadow map and with two (`TWO_PASS`, section 3.5): one
+    /// pipeline each, because llvmpipe read the unused back map when a uniform chose.
+    project: [FullscreenPipeline; 2],
     project_layout: wgpu::BindGroupLayout,
     batch_add: FullscreenPipeline,
     batch_layout: wgpu::BindGroupLayout,
@@ -480,8 +482,17 @@ impl SoftShadowMaps {
                 float_entry(4, fragment),
             ],
         );
-        let project =
-            FullscreenPipeline::new(gpu, "ssm/project", &SHADERS[2], &[], &project_layout, None)?;
+        let project = [
+            FullscreenPipeline::new(gpu, "ssm/project", &SHADERS[2], &[], &project_layout, None)?,
+            FullscreenPipeline::new(
+                gpu,
+                "ssm/project two_pass",
+                &SHADERS[2],
+                &[("TWO_PASS", DefValue::Bool(true))],
+                &project_layout,
+                None,
+            )?,
+        ];
         let batch_layout = layout(gpu, "ssm/batch_add", &[float_entry(0, fragment)]);
         let batch_add = FullscreenPipeline::with_format(
             gpu,
@@ -900,7 +911,7 @@ impl ShadowTechnique for SoftShadowMaps {
                 view_entry(4, &final_back.view),
             ],
         });
-        self.project.record(
+        self.project[usize::from(self.settings.two_pass)].record(
             frame,
             "ssm/project",
             inputs.frame_bind_group,
