@@ -55,44 +55,46 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let n = i32(params.size_bias.x);
     let c = clamp(texel, vec2<i32>(0), vec2<i32>(n - 1));
     let e = textureLoad(ends, vec2<i32>(2 * c.x, c.y), 0);
-    if depth >= e.x {
-        return e.y;
-    }
-    if depth < e.z {
-        return e.w;
-    }
+    let g = textureLoad(ends, vec2<i32>(2 * c.x + 1, c.y), 0);
+    // Chosen with `select`, in the order the cases take precedence, not by early returns:
+    // llvmpipe turns each return of this function (inlined four times) into lane-mask work on
+    // every path (`ssm/project` halved when its early return went; here the gain was within
+    // the noise, BENCHMARKS.md).
     // Inside the longest segment: the search's own result (it brackets such a depth by the
     // segment's two vertices). A receiver's point usually lies in the gap before its own events.
-    let g = textureLoad(ends, vec2<i32>(2 * c.x + 1, c.y), 0);
-    if depth >= g.x && depth < g.z {
-        return mix(g.y, g.w, (depth - g.x) / (g.z - g.x));
-    }
-#ifdef ENDS_PASS
-    // Between the texel's first and last vertex: the second draw searches it.
-    return -1.0;
-#else
-    let index = u32(c.y * n + c.x);
-    let start = offsets[index];
-    let end = offsets[index + 1u];
-    if end - start < 2u {
-        // Unreachable for finite depths (an empty texel returns above; one vertex is both ends).
-        return e.y;
-    }
-    // Invariant: vertices[lo].x <= depth < vertices[hi].x (first <= depth < last from above).
-    var lo = start;
-    var hi = end - 1u;
-    while hi - lo > 1u {
-        let mid = (lo + hi) / 2u;
-        if depth < vertices[mid].x {
-            hi = mid;
-        } else {
-            lo = mid;
+    let in_segment = depth >= g.x && depth < g.z;
+    var v = select(-1.0, mix(g.y, g.w, (depth - g.x) / (g.z - g.x)), in_segment);
+    v = select(v, e.w, depth < e.z);
+    v = select(v, e.y, depth >= e.x);
+#ifndef ENDS_PASS
+    if !(depth >= e.x || depth < e.z || in_segment) {
+        // Between the texel's first and last vertex, outside the segment: the binary search.
+        let index = u32(c.y * n + c.x);
+        let start = offsets[index];
+        let end = offsets[index + 1u];
+        // Fewer than two vertices is unreachable for finite depths (an empty texel and a single
+        // vertex are answered above).
+        v = e.y;
+        if end - start >= 2u {
+            // Invariant: vertices[lo].x <= depth < vertices[hi].x.
+            var lo = start;
+            var hi = end - 1u;
+            while hi - lo > 1u {
+                let mid = (lo + hi) / 2u;
+                if depth < vertices[mid].x {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            let previous = vertices[lo];
+            let next = vertices[hi];
+            v = mix(previous.y, next.y, (depth - previous.x) / (next.x - previous.x));
         }
     }
-    let previous = vertices[lo];
-    let next = vertices[hi];
-    return mix(previous.y, next.y, (depth - previous.x) / (next.x - previous.x));
 #endif
+    // With ENDS_PASS, -1 where the ends do not answer: the second draw searches that pixel.
+    return v;
 }
 
 #ifdef DYNAMIC
