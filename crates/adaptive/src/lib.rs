@@ -58,15 +58,7 @@ pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "adaptive/evaluate.wgsl",
         source: shader_file!("adaptive/evaluate.wgsl").1,
-        permutations: &[
-            &[],
-            &[("PCF", DefValue::Bool(true))],
-            &[("ACCUMULATE", DefValue::Bool(true))],
-            &[
-                ("ACCUMULATE", DefValue::Bool(true)),
-                ("PCF", DefValue::Bool(true)),
-            ],
-        ],
+        permutations: &[&[], &[PCF], &[ACCUMULATE], &[ACCUMULATE, PCF]],
     },
     ShaderSpec {
         path: "adaptive/resolve.wgsl",
@@ -237,19 +229,9 @@ pub struct AdaptiveSampling {
     report: FrameReport,
 }
 
-const PCF: (&str, DefValue) = ("PCF", DefValue::Bool(true));
+/// The defs of `adaptive/evaluate.wgsl`: one pass per map with additive blending, and 2x2 PCF.
 const ACCUMULATE: (&str, DefValue) = ("ACCUMULATE", DefValue::Bool(true));
-
-/// One permutation of `adaptive/evaluate.wgsl`.
-fn evaluation(
-    gpu: &Gpu,
-    label: &str,
-    defs: &[(&str, DefValue)],
-    layout: &wgpu::BindGroupLayout,
-    blend: Option<wgpu::BlendState>,
-) -> Result<FullscreenPipeline, GpuError> {
-    FullscreenPipeline::new(gpu, label, &SHADERS[1], defs, layout, blend)
-}
+const PCF: (&str, DefValue) = ("PCF", DefValue::Bool(true));
 
 impl AdaptiveSampling {
     /// Builds the technique's pipelines on `gpu` with `settings`.
@@ -289,6 +271,7 @@ impl AdaptiveSampling {
             color: add,
             alpha: add,
         });
+        let evaluate = &SHADERS[1];
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
             compare: FullscreenPipeline::new(
@@ -300,14 +283,29 @@ impl AdaptiveSampling {
                 additive,
             )?,
             evaluate: [
-                evaluation(gpu, "adaptive/evaluate", &[], &layout, None)?,
-                evaluation(gpu, "adaptive/evaluate pcf", &[PCF], &layout, None)?,
+                FullscreenPipeline::new(gpu, "adaptive/evaluate", evaluate, &[], &layout, None)?,
+                FullscreenPipeline::new(
+                    gpu,
+                    "adaptive/evaluate pcf",
+                    evaluate,
+                    &[PCF],
+                    &layout,
+                    None,
+                )?,
             ],
             accumulate: [
-                evaluation(gpu, "adaptive/accumulate", &[ACCUMULATE], &layout, additive)?,
-                evaluation(
+                FullscreenPipeline::new(
+                    gpu,
+                    "adaptive/accumulate",
+                    evaluate,
+                    &[ACCUMULATE],
+                    &layout,
+                    additive,
+                )?,
+                FullscreenPipeline::new(
                     gpu,
                     "adaptive/accumulate pcf",
+                    evaluate,
                     &[ACCUMULATE, PCF],
                     &layout,
                     additive,
