@@ -36,3 +36,34 @@ pub use softshadow_pdsm as pdsm;
 pub use softshadow_reference as reference;
 #[cfg(feature = "ssm")]
 pub use softshadow_ssm as ssm;
+
+use softshadow_core::{Registry, TechniqueInfo};
+
+/// The built-in techniques of the enabled features, in the order `workbench list` prints them:
+/// the cost floor first, the yardstick last. Adding a built-in technique is one line here.
+pub fn builtin_techniques() -> Vec<TechniqueInfo> {
+    vec![
+        #[cfg(feature = "hard")]
+        softshadow_hard::info(),
+        #[cfg(feature = "pcss")]
+        softshadow_pcss::info(),
+        #[cfg(feature = "ssm")]
+        softshadow_ssm::info(),
+        #[cfg(feature = "backprojection")]
+        softshadow_backprojection::info(),
+        #[cfg(feature = "bitmask")]
+        softshadow_bitmask::info(),
+        #[cfg(feature = "adaptive")]
+        softshadow_adaptive::info(),
+        #[cfg(feature = "pdsm")]
+        softshadow_pdsm::info(),
+        #[cfg(feature = "reference")]
+        softshadow_reference::info(),
+    ]
+}
+
+/// The built-in techniques as a [`Registry`], to which a user's own can be added
+/// ([`Registry::add`]).
+pub fn registry() -> Registry {
+    Registry::new(builtin_techniques()).expect("the built-in techniques have distinct ids")
+}

@@ -36,7 +36,7 @@ fn every_shader_and_permutation_validates() -> Result<()> {
         root.display()
     );
 
-    let mut specs = softshadow_bench::registry::all_shaders();
+    let mut specs = softshadow::registry().all_shaders();
     // The viewer depends on the bench, so its shaders are added here rather than in the registry.
     specs.extend_from_slice(softshadow_viewer::SHADERS);
     let validated = softshadow_core::shader::validate_all(&specs)?;

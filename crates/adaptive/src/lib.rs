@@ -39,11 +39,14 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
-    wgpu, DebugView, Frame, Gpu, GpuError, Requirements, ShadowInputs, ShadowTechnique,
-    TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, GpuError, Requirements, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 pub use refine::{Start, Weighting};
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "adaptive";
@@ -120,23 +123,6 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (occlusion queries)",
-        source: "Schwärzler 2009, Real-Time Soft Shadows with Adaptive Light Source Sampling",
-        params: AdaptiveSettings::param_specs,
-        requirements: AdaptiveSampling::requirements_static,
-        create: |gpu| {
-            Ok(Box::new(AdaptiveSampling::new(
-                gpu,
-                AdaptiveSettings::default(),
-            )?))
-        },
-    }
-}
-
 /// Mirrors `Params` in `shaders/adaptive/*.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -208,7 +194,7 @@ struct Store {
 }
 
 /// The `adaptive` technique: a [`ShadowTechnique`] with its settings.
-pub struct AdaptiveSampling {
+pub struct Adaptive {
     /// Its settings; changes take effect on the next frame.
     pub settings: AdaptiveSettings,
     depth: DepthMapRenderer,
@@ -233,7 +219,7 @@ pub struct AdaptiveSampling {
 const ACCUMULATE: (&str, DefValue) = ("ACCUMULATE", DefValue::Bool(true));
 const PCF: (&str, DefValue) = ("PCF", DefValue::Bool(true));
 
-impl AdaptiveSampling {
+impl Adaptive {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: AdaptiveSettings) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
@@ -646,8 +632,8 @@ fn read_counts(gpu: &Gpu, readback: &wgpu::Buffer, count: u32) -> Result<Vec<u64
     Ok(counts)
 }
 
-impl ShadowTechnique for AdaptiveSampling {
-    fn id(&self) -> &'static str {
+impl ShadowTechnique for Adaptive {
+    fn id(&self) -> &str {
         ID
     }
 
@@ -730,16 +716,21 @@ impl ShadowTechnique for AdaptiveSampling {
     fn debug_views(&self) -> Vec<DebugView> {
         self.differing
             .as_ref()
-            .map(|d| DebugView {
-                name: "differing_pairs".into(),
-                texture: d.texture.clone(),
+            .map(|d| {
+                DebugView::new(
+                    "differing_pairs",
+                    &d.texture,
+                    DebugLegend::value(
+                        "pairs of neighbouring shadow maps that differ at the pixel (eq. 3 / eq. 7)",
+                    ),
+                )
             })
             .into_iter()
             .collect()
     }
 }
 
-impl AdaptiveSampling {
+impl Adaptive {
     /// Steps 1-3: initial maps, then compare / read back / split per level. Returns the leaves.
     fn refine(
         &mut self,

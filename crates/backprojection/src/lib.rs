@@ -22,9 +22,12 @@ use softshadow_core::{
     shader::{self, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "backprojection";
@@ -130,25 +133,6 @@ pub struct Backprojection {
     gathered: bool,
     /// The last frame rebuilt the hierarchy (rather than keeping it from an earlier frame).
     hierarchy_built: bool,
-}
-
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Gather backprojection of shadow-map micro-patches or micro-quads, HSM or MSSM search-area refinement",
-        source: "Guennebaud, Barthe & Paulin 2006; Schwarz & Stamminger 2007 (sections 4-5)",
-        params: BackprojectionSettings::param_specs,
-        requirements: || softshadow_core::Requirements {
-            // The gather pass writes three storage textures (within WebGPU's default of 4).
-            limits: softshadow_core::MinLimits {
-                max_storage_textures_per_shader_stage: 3,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        create: |gpu| Ok(Box::new(Backprojection::new(gpu, BackprojectionSettings::default())?)),
-    }
 }
 
 impl Backprojection {
@@ -300,10 +284,10 @@ impl Backprojection {
 
 impl ShadowTechnique for Backprojection {
     fn requirements(&self) -> softshadow_core::Requirements {
-        (info().requirements)()
+        info::requirements()
     }
 
-    fn id(&self) -> &'static str {
+    fn id(&self) -> &str {
         ID
     }
 
@@ -487,15 +471,34 @@ impl ShadowTechnique for Backprojection {
     fn debug_views(&self) -> Vec<DebugView> {
         let mut views = self.shadow_map.debug_views();
         if let Some(debug) = &self.debug {
-            views.push(DebugView {
-                name: "classification".into(),
-                texture: debug.classification.clone(),
-            });
-            views.push(DebugView {
-                name: "level".into(),
-                texture: debug.level.clone(),
-            });
+            views.push(DebugView::new(
+                "classification",
+                &debug.classification,
+                classification_legend(),
+            ));
+            views.push(DebugView::new(
+                "level",
+                &debug.level,
+                softshadow_core::hierarchy::level_legend("gather level"),
+            ));
         }
         views
     }
+}
+
+/// The colours `class_colour` in `shaders/backprojection/gather.wgsl` writes.
+fn classification_legend() -> DebugLegend {
+    DebugLegend::Palette(vec![
+        ([230, 230, 217], "lit: no blocker found".into()),
+        ([26, 26, 89], "umbra".into()),
+        (
+            [255, 38, 0],
+            "backprojected, few primitives (red) ...".into(),
+        ),
+        (
+            [0, 38, 255],
+            "... up to max_patches² primitives (blue)".into(),
+        ),
+        ([0, 0, 0], "off-receiver".into()),
+    ])
 }

@@ -4,9 +4,9 @@
 //! A run that fails (bad parameter, technique error, device error) is recorded with its message
 //! and the rest of the runs go on.
 
+pub mod expectations;
 pub mod merge;
 pub mod output;
-pub mod registry;
 pub mod report;
 pub mod results;
 pub mod stress;
@@ -18,8 +18,9 @@ use std::{
 };
 
 use softshadow_core::{
-    AreaLight, BuildControl, Camera, FrameOutput, Gpu, ParamError, ParamValue, RenderError,
-    Renderer, Scene, SceneGpu, ShadingMode, ShadowTechnique, TechniqueError, TimingSource,
+    AreaLight, BuildControl, Camera, FrameOutput, Gpu, ParamError, ParamValue, Registry,
+    RegistryError, RenderError, Renderer, Scene, SceneGpu, ShadingMode, ShadowTechnique,
+    TechniqueError, TechniqueInfo, TimingSource, YARDSTICK_TECHNIQUE,
 };
 use softshadow_metrics::ErrorReport;
 use thiserror::Error;
@@ -29,8 +30,8 @@ pub use sweep::Sweep;
 
 #[derive(Debug, Error)]
 pub enum BenchError {
-    #[error("unknown technique `{id}`: known techniques are {known} (see `workbench list`)")]
-    UnknownTechnique { id: String, known: String },
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
     #[error(transparent)]
     Scene(#[from] softshadow_scenes::SceneError),
     #[error(transparent)]
@@ -140,12 +141,18 @@ pub fn check_size(width: u32, height: u32) -> Result<(), BenchError> {
     Ok(())
 }
 
+/// The technique `name` names: a registered id.
+pub fn resolve_technique(registry: &Registry, name: &str) -> Result<TechniqueInfo, BenchError> {
+    Ok(registry.find(name)?.clone())
+}
+
 /// Parses `name=value` texts for technique `technique`.
 pub fn parse_params(
+    registry: &Registry,
     technique: &str,
     texts: &[String],
 ) -> Result<Vec<(String, ParamValue)>, BenchError> {
-    let info = registry::find(technique)?;
+    let info = resolve_technique(registry, technique)?;
     texts
         .iter()
         .map(|t| info.parse_param(t).map_err(BenchError::from))
@@ -153,13 +160,9 @@ pub fn parse_params(
 }
 
 /// Checks a run before any GPU work: scene loads, technique exists, parameters are valid.
-pub fn validate(spec: &RunSpec) -> Result<(), BenchError> {
+pub fn validate(registry: &Registry, spec: &RunSpec) -> Result<(), BenchError> {
     check_size(spec.width, spec.height)?;
-    let info = registry::find(&spec.technique)?;
-    let specs = (info.params)();
-    for (name, value) in &spec.params {
-        softshadow_core::params::find_spec(info.id, &specs, name)?.check(value.clone())?;
-    }
+    resolve_technique(registry, &spec.technique)?.check_params(&spec.params)?;
     softshadow_scenes::load(&spec.scene)?;
     Ok(())
 }
@@ -191,6 +194,7 @@ struct ExactResult {
 /// Runs benchmark runs on one GPU, caching scenes, renderers and reference images between runs.
 pub struct Bench {
     gpu: Gpu,
+    registry: Registry,
     options: BenchOptions,
     timing: TimingSource,
     scenes: HashMap<String, LoadedScene>,
@@ -205,15 +209,22 @@ pub struct Bench {
 }
 
 impl Bench {
-    pub fn new(gpu: Gpu, options: BenchOptions) -> Result<Self, BenchError> {
+    /// A benchmark of `registry`'s techniques on `gpu`. Its yardstick
+    /// ([`YARDSTICK_TECHNIQUE`]) must be registered when `options.error` asks for error metrics.
+    pub fn new(gpu: Gpu, registry: Registry, options: BenchOptions) -> Result<Self, BenchError> {
         if options.frames == 0 {
             return Err(BenchError::NoFrames);
         }
         // Check reference settings up front so a typo fails before any run.
-        parse_check_reference(&options.reference_params)?;
+        if options.error || !options.reference_params.is_empty() {
+            registry
+                .yardstick()?
+                .check_params(&options.reference_params)?;
+        }
         let timing = TimingSource::default_for(&gpu);
         Ok(Self {
             gpu,
+            registry,
             options,
             timing,
             scenes: HashMap::new(),
@@ -244,6 +255,11 @@ impl Bench {
     /// timestamps miss their work.
     pub fn set_timing(&mut self, source: Option<TimingSource>) {
         self.timing = source.unwrap_or_else(|| TimingSource::default_for(&self.gpu));
+    }
+
+    /// The techniques this benchmark knows.
+    pub fn registry(&self) -> &Registry {
+        &self.registry
     }
 
     pub fn adapter(&self) -> results::Adapter {
@@ -284,6 +300,7 @@ impl Bench {
             passes_run: Vec::new(),
             images: BTreeMap::new(),
             warnings: Vec::new(),
+            expectation: None,
         };
         if let Err(e) = self.run_inner(index, spec, out_dir, &mut run) {
             run.status = Status::Error;
@@ -302,7 +319,7 @@ impl Bench {
         run: &mut Run,
     ) -> Result<(), BenchError> {
         check_size(spec.width, spec.height)?;
-        let info = registry::find(&spec.technique)?;
+        let info = resolve_technique(&self.registry, &spec.technique)?;
         let mut technique = info.create_with(&self.gpu, &spec.params)?;
         if let Some(control) = &self.build_control {
             technique.set_build_control(control.clone());
@@ -480,7 +497,7 @@ impl Bench {
         let key = (spec.scene.clone(), spec.width, spec.height);
         if !self.references.contains_key(&key) {
             if self.reference.is_none() {
-                let info = softshadow_reference::info();
+                let info = self.registry.yardstick()?;
                 self.reference = Some(info.create_with(&self.gpu, &self.options.reference_params)?);
             }
             let reference = self.reference.as_mut().expect("created above");
@@ -506,7 +523,7 @@ impl Bench {
                 .iter()
                 .map(|(s, v)| format!("{}={v}", s.name))
                 .collect();
-            let label = format!("reference({})", settings.join(","));
+            let label = format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","));
             let exact = match self.options.exact_samples_per_axis {
                 Some(samples) => {
                     puffin::profile_scope!("exact ground truth");
@@ -542,7 +559,7 @@ impl Bench {
                 );
                 let name = format!("{stem}.exr");
                 output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
-                images.insert("reference".into(), name);
+                images.insert(YARDSTICK_TECHNIQUE.into(), name);
                 let name = format!("{stem}_shaded.png");
                 output::write_png(
                     &out_dir.join(&name),
@@ -551,7 +568,7 @@ impl Bench {
                     3,
                     &shaded_rgb,
                 )?;
-                images.insert("reference_shaded".into(), name);
+                images.insert(format!("{YARDSTICK_TECHNIQUE}_shaded"), name);
                 if let Some(exact) = &exact {
                     let name = format!("{stem}_exact.exr");
                     output::write_exr_gray(
@@ -576,15 +593,6 @@ impl Bench {
         }
         Ok(&self.references[&key])
     }
-}
-
-fn parse_check_reference(params: &[(String, ParamValue)]) -> Result<(), BenchError> {
-    let specs = softshadow_reference::ReferenceSettings::param_specs();
-    for (name, value) in params {
-        softshadow_core::params::find_spec(softshadow_reference::ID, &specs, name)?
-            .check(value.clone())?;
-    }
-    Ok(())
 }
 
 /// File-name-safe form of a scene spec (ids may carry `:key=value,...`; paths have slashes).
@@ -702,6 +710,7 @@ pub fn sanitize(text: &str) -> String {
 /// `progress` is called after each run.
 pub fn run_all(
     gpu: Gpu,
+    registry: &Registry,
     specs: &[RunSpec],
     options: BenchOptions,
     out_dir: &Path,
@@ -711,18 +720,23 @@ pub fn run_all(
     run_indexed(
         gpu,
         &indexed,
-        RunSetup::default(),
+        RunSetup {
+            registry: registry.clone(),
+            ..RunSetup::default()
+        },
         options,
         out_dir,
         progress,
     )
 }
 
-/// How a set of runs is made beyond [`BenchOptions`]: which sweep (and shard) they belong to,
-/// the timing source ([`Bench::set_timing`]) and a camera and light that replace every scene's
-/// own ([`Bench::set_view`]; a sweep's `[camera]` and `[light]`).
+/// How a set of runs is made beyond [`BenchOptions`]: the techniques it may run, which sweep
+/// (and shard) they belong to, the timing source ([`Bench::set_timing`]) and a camera and light
+/// that replace every scene's own ([`Bench::set_view`]; a sweep's `[camera]` and `[light]`).
 #[derive(Clone, Debug, Default)]
 pub struct RunSetup {
+    /// The techniques the runs name (the built-ins and any a user adds).
+    pub registry: Registry,
     pub sweep: Option<SweepInfo>,
     pub timing: Option<TimingSource>,
     pub camera: Option<Camera>,
@@ -763,7 +777,7 @@ pub fn run_resumed(
         path: out_dir.display().to_string(),
         message: e.to_string(),
     })?;
-    let mut bench = Bench::new(gpu, options)?;
+    let mut bench = Bench::new(gpu, setup.registry.clone(), options)?;
     bench.set_timing(setup.timing);
     bench.set_view(setup.camera, setup.light);
     bench.set_build_control(setup.build_control.clone());
@@ -788,6 +802,7 @@ pub fn run_resumed(
         progress(k, &run);
         results.runs.push(run);
         results.runs.sort_by_key(|r| r.index);
+        expectations::judge(&setup.registry, &mut results.runs);
         write_results(&results, out_dir)?;
         if cancelled {
             break;

@@ -12,6 +12,8 @@ use std::{collections::BTreeMap, fmt::Write as _, path::Path};
 use base64::Engine as _;
 use plotters::prelude::*;
 
+use softshadow_core::{Registry, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE};
+
 use crate::{
     merge::Merged,
     results::{Run, Status},
@@ -74,7 +76,7 @@ pub fn darker_shadowed(run: &Run) -> Option<f64> {
 pub fn mae_against(run: &Run) -> &'static str {
     match run.error.as_ref().and_then(|e| e.vs_exact.as_ref()) {
         Some(_) => "exact",
-        None => "reference",
+        None => YARDSTICK_TECHNIQUE,
     }
 }
 
@@ -117,12 +119,9 @@ fn plot_error(e: impl std::fmt::Display) -> BenchError {
 }
 
 /// Colour and marker of each technique: registry order first, so a technique looks the same in
-/// every report.
-fn technique_styles(runs: &[Run]) -> BTreeMap<String, usize> {
-    let mut ids: Vec<String> = crate::registry::techniques()
-        .iter()
-        .map(|t| t.id.to_string())
-        .collect();
+/// every report, then techniques the registry lacks in the order their runs come.
+fn technique_styles(runs: &[Run], registry: &Registry) -> BTreeMap<String, usize> {
+    let mut ids: Vec<String> = registry.ids().into_iter().map(String::from).collect();
     for run in runs {
         if !ids.contains(&run.technique) {
             ids.push(run.technique.clone());
@@ -361,10 +360,11 @@ tr.front td{background:#eef6ee}";
 /// Writes the report of `merged` to `out` (and the runs as CSV to `csv`).
 pub fn write_report(
     merged: &Merged,
+    registry: &Registry,
     out: &Path,
     csv: Option<&Path>,
 ) -> Result<ReportSummary, BenchError> {
-    let (html, summary) = render_html(merged)?;
+    let (html, summary) = render_html(merged, registry)?;
     crate::output::write_atomic(out, html.as_bytes())?;
     if let Some(csv) = csv {
         crate::output::write_atomic(csv, runs_csv(merged).as_bytes())?;
@@ -382,10 +382,13 @@ fn ms(v: f64) -> String {
     }
 }
 
-/// The report as one HTML string.
-pub fn render_html(merged: &Merged) -> Result<(String, ReportSummary), BenchError> {
+/// The report as one HTML string; `registry` orders the techniques' colours and markers.
+pub fn render_html(
+    merged: &Merged,
+    registry: &Registry,
+) -> Result<(String, ReportSummary), BenchError> {
     let runs = &merged.results.runs;
-    let styles = technique_styles(runs);
+    let styles = technique_styles(runs, registry);
     let mut summary = ReportSummary {
         warnings: merged.warnings.clone(),
         ..Default::default()
@@ -570,12 +573,12 @@ fn image_strip(merged: &Merged, front: &[usize]) -> String {
     if let Some(&first) = front.first() {
         if let Some(uri) = runs[first]
             .images
-            .get("reference_shaded")
+            .get(&format!("{YARDSTICK_TECHNIQUE}_shaded"))
             .and_then(|n| data_uri(&merged.run_dirs[first].join(n)))
         {
             let _ = write!(
                 strip,
-                "<figure><img src=\"{uri}\" alt=\"reference\"><figcaption>reference</figcaption></figure>"
+                "<figure><img src=\"{uri}\" alt=\"{YARDSTICK_TECHNIQUE}\"><figcaption>{YARDSTICK_TECHNIQUE}</figcaption></figure>"
             );
             any = true;
         }
@@ -611,7 +614,7 @@ fn image_strip(merged: &Merged, front: &[usize]) -> String {
 /// fastest `hard` run's frame time on that scene, and the lowest frame time at which the
 /// technique reaches [`TARGET_MAE`].
 fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
-    let mut t = String::from("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>hard</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Last column: the fastest setting with mae_shadowed &le; 0.01.</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
+    let mut t = format!("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Last column: the fastest setting with mae_shadowed &le; 0.01.</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
     for b in BUDGETS {
         let _ = write!(t, "<th>&le; {b}x hard</th>");
     }
@@ -628,7 +631,7 @@ fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
             .collect();
         let hard = in_scene
             .iter()
-            .filter(|r| r.technique == "hard")
+            .filter(|r| r.technique == COST_FLOOR_TECHNIQUE)
             .filter_map(|r| frame_time_ms(r))
             .fold(f64::INFINITY, f64::min);
         let mut techniques: Vec<&str> = in_scene.iter().map(|r| r.technique.as_str()).collect();

@@ -84,6 +84,10 @@ pub struct Run {
     /// Scene loader warnings (repaired geometry).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
+    /// The run held against the bound its technique's crate states for this case (only for runs
+    /// at the expectation settings: defaults at 64², against the exact answer).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expectation: Option<crate::expectations::Verdict>,
 }
 
 fn timestamps() -> TimingSource {

@@ -18,11 +18,12 @@ use std::{
 };
 
 use softshadow_core::{
-    glam::Vec3, AreaLight, GpuError, ParamKind, ParamSpec, ParamValue, RenderError, Renderer,
-    Scene, SceneGpu, ShadowTechnique, TechniqueError,
+    cost::rates::FRAME, glam::Vec3, AreaLight, Cost, GpuError, ParamKind, ParamSpec, ParamValue,
+    Registry, RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
+    TechniqueInfo,
 };
 
-use crate::{registry, BenchError};
+use crate::BenchError;
 
 /// Builtin scenes the stress draws from: a few hundred triangles each, every stiff geometry
 /// that matters for light placement (contact, zero thickness, a caster crossing the light plane,
@@ -143,9 +144,9 @@ pub fn random_value(spec: &ParamSpec, rng: &mut Rng, ranges: Ranges) -> ParamVal
 }
 
 /// Estimated seconds one case may cost before its parameters are redrawn or clamped (both frames,
-/// on lavapipe on the 2-core machine the figures in [`estimate`] were measured on). Without a
-/// cap, whole ranges give cases of half an hour (`reference` with 64 x 64 maps of 4096²:
-/// 2 x 4096 depth passes of 16.7 M texels), which stall a timed run on one case.
+/// on lavapipe on the 2-core machine the rates of `softshadow_core::cost` were measured on).
+/// Without a cap, whole ranges give cases of half an hour (`reference` with 64 x 64 maps of
+/// 4096²: 2 x 4096 depth passes of 16.7 M texels), which stall a timed run on one case.
 pub const BUDGET_SECONDS: f64 = 20.0;
 
 /// Host memory one case may need (PDSM's read-back maps and attenuation functions), whatever its
@@ -155,219 +156,18 @@ pub const BUDGET_BYTES: f64 = 2.0 * (1u64 << 30) as f64;
 /// Fresh draws of a case's parameters before the cap clamps them instead.
 pub const REDRAWS: u32 = 8;
 
-/// What a case is estimated to cost, from its technique's declared parameters.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Cost {
-    /// Estimated wall time of both frames, seconds (see [`estimate`]).
-    pub seconds: f64,
-    /// Host memory of the precompute, bytes (PDSM only; 0 elsewhere).
-    pub bytes: f64,
-    /// The term that dominates, in the parameters' names (what the record says a cap was for).
-    pub dominant: &'static str,
+/// Estimated cost of running `technique` with `params` at `pixels` camera pixels: two frames (the
+/// second keeps light-space results, except `reference`'s, which redoes its maps), from the
+/// technique's own cost model ([`TechniqueInfo::cost`]) plus the per-frame overhead.
+pub fn estimate(technique: &TechniqueInfo, params: &[(String, ParamValue)], pixels: f64) -> Cost {
+    let mut cost = technique.cost.estimate(params, pixels);
+    cost.seconds += 2.0 * FRAME;
+    cost
 }
 
-impl Cost {
-    /// Whether the case fits [`BUDGET_SECONDS`] and [`BUDGET_BYTES`].
-    pub fn fits(&self) -> bool {
-        self.seconds <= BUDGET_SECONDS && self.bytes <= BUDGET_BYTES
-    }
-}
-
-impl std::fmt::Display for Cost {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "about {:.1} s, {:.0} MiB ({})",
-            self.seconds,
-            self.bytes / (1u64 << 20) as f64,
-            self.dominant
-        )
-    }
-}
-
-// Rates of lavapipe on the 2-core machine (release build, 2026-11-30, with two other sessions'
-// builds beside it), from one `workbench bench --size 48x48 --frames 1 --warmup 0 --no-error`
-// run per technique near the large ends of its ranges (docs/STABILITY.md, "Random parameter
-// stress"), rounded up: the cap needs the order of magnitude, not a prediction.
-/// Seconds per depth-map texel rendered (`hard` at 4096²: 11.6 ns; `reference` 8² maps of
-/// 2048²: 12.4 ns; `adaptive` 128 maps of 1024²: 7.9 ns).
-const DEPTH_TEXEL: f64 = 12e-9;
-/// Seconds per depth texel of `bitmask`'s peeled layers and the hierarchies' linearisation
-/// (`bitmask`, 4 layers of 4096²: 24 ns).
-const LAYER_TEXEL: f64 = 25e-9;
-/// Seconds per texel per MSSM level (`bitmask`, 4 layers of 4096², 12 levels: 44 ns).
-const HIERARCHY_TEXEL: f64 = 45e-9;
-/// Seconds per light sample and sample-map texel of PDSM's maps, readback and the part of its
-/// construction that walks them (16 samples of 1024² into a 128² PDSM: 0.75 s).
-const PDSM_MAP_TEXEL: f64 = 45e-9;
-/// Seconds per step of a PDSM texel's ray through one sample map (section 3.1: the construction
-/// is O(k m n²), k samples, m the map edge, n² texels), for maps up to 1024² (4 MiB, in cache);
-/// larger maps miss the cache on most steps, so the rate grows with the map's area beyond
-/// 1024². Fitted to the table's 64 samples of 1024² into 512² (27.5 s: this gives 24 s with the
-/// maps) and to the 30-minute stress run's slowest case, which the earlier samples² x n² model
-/// missed: 1 sample, a 4096² map, a 1752² PDSM took 137 s against 1.3 s estimated (this gives
-/// 241 s). The paper's 64 samples with 512² maps and PDSM get 11 s (3.7 s measured on the idle
-/// machine, linear in the samples: docs/BENCHMARKS.md).
-const PDSM_RAY_STEP: f64 = 1.2e-9;
-/// Seconds per PDSM texel and light sample to merge that sample's events into the texel's
-/// function (section 3.2).
-const PDSM_EVENT_MERGE: f64 = 2e-8;
-/// Seconds per pair of an occluder-map texel and an SSM texel: each micro-patch's penumbra
-/// quad covers part of the SSM (256² by 256²: 13 s, 3 ns, with the scene's default light;
-/// larger lights cover more).
-const SCATTER_PAIR: f64 = 4e-9;
-/// Seconds per iteration of a per-pixel loop (PCSS samples, gathers, filters).
-const PIXEL_ITERATION: f64 = 5e-9;
-/// Seconds a frame costs whatever the parameters (passes, submission, readback).
-const FRAME: f64 = 0.05;
-
-/// The value of an integer or float parameter of a drawn case, as f64.
-fn number(params: &[(String, ParamValue)], name: &str) -> Option<f64> {
-    params
-        .iter()
-        .find(|(n, _)| n == name)
-        .and_then(|(_, v)| match v {
-            ParamValue::Int(i) => Some(*i as f64),
-            ParamValue::Float(x) => Some(*x),
-            _ => None,
-        })
-}
-
-/// The integer parameters whose size drives each technique's cost, largest effect first: what
-/// [`estimate`] reads and what the cap halves when redrawing did not bring a case under budget.
-/// (`cost_model_reads_only_declared_integer_parameters` checks every name is declared.)
-pub fn cost_knobs(technique: &str) -> &'static [&'static str] {
-    match technique {
-        "hard" => &["shadow_map_size"],
-        "pcss" => &["shadow_map_size", "filter_samples", "blocker_samples"],
-        "ssm" => &["occluder_map_size", "ssm_size"],
-        "backprojection" => &["shadow_map_size", "max_patches"],
-        "bitmask" => &["shadow_map_size", "layers", "max_patches", "filter_passes"],
-        "adaptive" => &["shadow_map_size", "max_shadow_maps", "max_depth"],
-        "reference" => &["samples_per_axis", "shadow_map_size"],
-        "pdsm" => &[
-            "samples",
-            "shadow_map_size",
-            "pdsm_size",
-            "dynamic_map_size",
-        ],
-        _ => &[],
-    }
-}
-
-/// Estimated cost of running `technique` with `params` at `pixels` camera pixels: two frames
-/// (the second keeps light-space results, except `reference`'s, which redoes its maps).
-/// Parameters the model does not read (biases, seeds, choices of equal cost) do not change it.
-pub fn estimate(technique: &str, params: &[(String, ParamValue)], pixels: f64) -> Cost {
-    let n = |name: &str| number(params, name).unwrap_or(1.0);
-    let flag = |name: &str| {
-        params
-            .iter()
-            .any(|(p, v)| p == name && *v == ParamValue::Bool(true))
-    };
-    let choice = |name: &str, option: &str| {
-        params
-            .iter()
-            .any(|(p, v)| p == name && *v == ParamValue::Choice(option.into()))
-    };
-    let levels = |side: f64| side.max(2.0).log2().ceil();
-    let (seconds, bytes, dominant) = match technique {
-        "hard" => (
-            n("shadow_map_size").powi(2) * DEPTH_TEXEL,
-            0.0,
-            "shadow_map_size²",
-        ),
-        "pcss" => {
-            let map = n("shadow_map_size").powi(2) * DEPTH_TEXEL;
-            let filter =
-                2.0 * pixels * (n("blocker_samples") + n("filter_samples")) * PIXEL_ITERATION;
-            (map + filter, 0.0, "shadow_map_size²")
-        }
-        "ssm" => {
-            // Every occluder-map texel is a quad over its penumbra in the SSM: at worst (a light
-            // as large as the scene) a large part of the SSM.
-            let passes = if flag("two_pass") { 2.0 } else { 1.0 };
-            let batched = if choice("precision", "fp16-batched") {
-                2.0
-            } else {
-                1.0
-            };
-            let scatter = passes
-                * batched
-                * n("occluder_map_size").powi(2)
-                * n("ssm_size").powi(2)
-                * SCATTER_PAIR;
-            (scatter, 0.0, "occluder_map_size² x ssm_size²")
-        }
-        "backprojection" | "bitmask" => {
-            // The hierarchies pad the map to a power of two (2658² is built as 4096²: the
-            // 30-minute run's slowest case, 105 s against 8 s estimated without the padding).
-            let side = n("shadow_map_size").max(1.0).log2().ceil().exp2();
-            let layers = if technique == "bitmask" {
-                n("layers")
-            } else {
-                1.0
-            };
-            let maps = layers * side * side * (LAYER_TEXEL + levels(side) * HIERARCHY_TEXEL);
-            // The gather is bounded by lavapipe's loop budget per pixel (ARCHITECTURE.md).
-            let gather = 2.0 * pixels * layers * n("max_patches").powi(2).min(65_535.0);
-            let filter = 2.0 * pixels * n("filter_passes") * 64.0;
-            (
-                maps + (gather + filter) * PIXEL_ITERATION,
-                0.0,
-                "layers x padded shadow_map_size² x log2(shadow_map_size)",
-            )
-        }
-        "adaptive" => {
-            let depth = n("max_depth");
-            // Corners: (2^d + 1)² maps; centres: (2^(d+1))²; the cap stops at max_shadow_maps.
-            let most = (2f64.powf(depth + 1.0)).powi(2);
-            let maps = most.min(n("max_shadow_maps"));
-            let compare = 2.0 * maps * pixels * PIXEL_ITERATION;
-            (
-                maps * n("shadow_map_size").powi(2) * DEPTH_TEXEL + compare,
-                0.0,
-                "min(max_shadow_maps, maps at max_depth) x shadow_map_size²",
-            )
-        }
-        "reference" => (
-            2.0 * n("samples_per_axis").powi(2) * n("shadow_map_size").powi(2) * DEPTH_TEXEL,
-            0.0,
-            "2 frames x samples_per_axis² x shadow_map_size²",
-        ),
-        "pdsm" => {
-            let settings = softshadow_pdsm::PdsmSettings {
-                samples: n("samples") as u32,
-                pdsm_size: n("pdsm_size") as u32,
-                shadow_map_size: n("shadow_map_size") as u32,
-                ..Default::default()
-            };
-            let (maps_bytes, pdsm_bytes) = softshadow_pdsm::estimate_bytes(&settings);
-            let bytes = (maps_bytes + pdsm_bytes) as f64;
-            if bytes > n("memory_budget_mib") * (1u64 << 20) as f64 {
-                // Refused before building: a clear error that costs nothing.
-                (0.0, 0.0, "refused by memory_budget_mib")
-            } else {
-                let maps = n("samples") * n("shadow_map_size").powi(2) * PDSM_MAP_TEXEL;
-                let edge = n("shadow_map_size");
-                let step = PDSM_RAY_STEP * (edge / 1024.0).powi(2).max(1.0);
-                let build =
-                    n("samples") * n("pdsm_size").powi(2) * (edge * step + PDSM_EVENT_MERGE);
-                let dynamic = 2.0 * n("dynamic_map_size").powi(2) * DEPTH_TEXEL;
-                (
-                    maps + build + dynamic,
-                    bytes,
-                    "samples x (shadow_map_size² + pdsm_size² x shadow_map_size)",
-                )
-            }
-        }
-        _ => (0.0, 0.0, "not modelled"),
-    };
-    Cost {
-        seconds: seconds + 2.0 * FRAME,
-        bytes,
-        dominant,
-    }
+/// Whether `cost` fits [`BUDGET_SECONDS`] and [`BUDGET_BYTES`].
+pub fn fits(cost: &Cost) -> bool {
+    cost.seconds <= BUDGET_SECONDS && cost.bytes <= BUDGET_BYTES
 }
 
 /// What the cost cap did to a case's drawn parameters.
@@ -382,53 +182,57 @@ pub enum Capped {
 }
 
 /// Draws a value for every parameter in `specs`; while the draw is over the cost cap, draws
-/// again (up to [`REDRAWS`] times), then halves the last draw's [`cost_knobs`] (the one farthest
-/// above its minimum first) until it fits. Each range still reaches both ends, only not every
-/// parameter at its expensive end in one case.
+/// again (up to [`REDRAWS`] times), then halves the last draw's cost knobs
+/// ([`softshadow_core::CostModel::knobs`], the one farthest above its minimum first) until it
+/// fits. Each range still reaches both ends, only not every parameter at its expensive end in
+/// one case.
 pub fn draw_params(
-    technique: &str,
-    specs: &[ParamSpec],
+    technique: &TechniqueInfo,
     rng: &mut Rng,
     ranges: Ranges,
     pixels: u32,
 ) -> (Vec<(String, ParamValue)>, Capped) {
     let pixels = pixels as f64;
     let draw = |rng: &mut Rng| -> Vec<(String, ParamValue)> {
-        specs
+        technique
+            .params
             .iter()
             .map(|spec| (spec.name.to_string(), random_value(spec, rng, ranges)))
             .collect()
     };
     let mut params = draw(rng);
     let first = estimate(technique, &params, pixels);
-    if first.fits() {
+    if fits(&first) {
         return (params, Capped::No);
     }
     for draws in 2..=REDRAWS + 1 {
         params = draw(rng);
-        if estimate(technique, &params, pixels).fits() {
+        if fits(&estimate(technique, &params, pixels)) {
             return (params, Capped::Redrawn { draws, first });
         }
     }
-    let halved = clamp(technique, specs, &mut params, pixels);
+    let halved = clamp(technique, &mut params, pixels);
     (params, Capped::Clamped { first, halved })
 }
 
-/// Halves `params`' [`cost_knobs`] (the one farthest above its declared minimum, by ratio, each
+/// Halves `params`' cost knobs (the one farthest above its declared minimum, by ratio, each
 /// time) until the estimate fits or every knob is at its minimum; returns what it halved.
 pub fn clamp(
-    technique: &str,
-    specs: &[ParamSpec],
+    technique: &TechniqueInfo,
     params: &mut [(String, ParamValue)],
     pixels: f64,
 ) -> Vec<String> {
+    let specs: &[ParamSpec] = &technique.params;
     let mut halved = Vec::new();
-    while !estimate(technique, params, pixels).fits() {
+    while !fits(&estimate(technique, params, pixels)) {
         // The knob farthest above its declared minimum, by ratio.
-        let knob = cost_knobs(technique)
+        let knob = technique
+            .cost
+            .knobs
             .iter()
-            .filter_map(|&name| {
-                let ParamKind::Int { min, .. } = specs.iter().find(|s| s.name == name)?.kind else {
+            .filter_map(|name| {
+                let ParamKind::Int { min, .. } = specs.iter().find(|s| s.name == *name)?.kind
+                else {
                     return None;
                 };
                 let (index, value) = params.iter().enumerate().find_map(|(i, (n, v))| match v {
@@ -471,7 +275,7 @@ pub enum LightKind {
 pub struct Case {
     /// 0-based position in the seeded sequence.
     pub number: u64,
-    pub technique: &'static str,
+    pub technique: String,
     pub params: Vec<(String, ParamValue)>,
     pub scene: &'static str,
     pub light_kind: LightKind,
@@ -647,12 +451,19 @@ pub struct Stress {
     next_case: u64,
     scenes: HashMap<&'static str, (Scene, SceneGpu)>,
     renderers: HashMap<(u32, u32), Renderer>,
-    techniques: HashMap<&'static str, Box<dyn ShadowTechnique>>,
+    techniques: HashMap<String, Box<dyn ShadowTechnique>>,
+    registry: Registry,
     pub counts: Counts,
 }
 
 impl Stress {
-    pub fn new(gpu: softshadow_core::Gpu, seed: u64, ranges: Ranges) -> Result<Self, BenchError> {
+    /// A stress run over `registry`'s techniques, drawing its cases from `seed`.
+    pub fn new(
+        gpu: softshadow_core::Gpu,
+        registry: Registry,
+        seed: u64,
+        ranges: Ranges,
+    ) -> Result<Self, BenchError> {
         let mut scenes = HashMap::new();
         for &id in SCENES {
             let scene = softshadow_scenes::load(id)?.scene;
@@ -667,6 +478,7 @@ impl Stress {
             scenes,
             renderers: HashMap::new(),
             techniques: HashMap::new(),
+            registry,
             counts: Counts::default(),
         })
     }
@@ -674,20 +486,23 @@ impl Stress {
     /// Draws the next case of the seeded sequence.
     pub fn draw(&mut self) -> Case {
         let rng = &mut self.rng;
-        let techniques = registry::techniques();
         // In turn, so that every technique gets its share however few the cases.
-        let info = techniques[(self.next_case % techniques.len() as u64) as usize];
+        let turn = (self.next_case % self.registry.len().max(1) as u64) as usize;
+        let info = self
+            .registry
+            .iter()
+            .nth(turn)
+            .expect("a stress run has at least one technique");
         let scene = *rng.pick(SCENES);
         let (width, height) = *rng.pick(SIZES);
         let (light_kind, light) = random_light(&self.scenes[scene].0, rng);
-        let specs = (info.params)();
-        let (params, capped) = draw_params(info.id, &specs, rng, self.ranges, width * height);
-        let cost = estimate(info.id, &params, (width * height) as f64);
+        let (params, capped) = draw_params(info, rng, self.ranges, width * height);
+        let cost = estimate(info, &params, (width * height) as f64);
         let number = self.next_case;
         self.next_case += 1;
         Case {
             number,
-            technique: info.id,
+            technique: info.id.to_string(),
             params,
             scene,
             light_kind,
@@ -711,7 +526,7 @@ impl Stress {
                     .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                     .unwrap_or_else(|| "a panic without a message".into());
                 // The technique may be half-updated: start it afresh.
-                self.techniques.remove(case.technique);
+                self.techniques.remove(&case.technique);
                 Err(format!("panicked: {message}"))
             })
             .map_err(|problem| Finding {
@@ -725,11 +540,14 @@ impl Stress {
 
     fn run(&mut self, case: &Case) -> Result<Outcome, String> {
         let gpu = self.gpu.clone();
-        let info = registry::find(case.technique).map_err(|e| e.to_string())?;
-        let technique = match self.techniques.entry(case.technique) {
+        let info = self
+            .registry
+            .find(&case.technique)
+            .map_err(|e| e.to_string())?;
+        let technique = match self.techniques.entry(case.technique.clone()) {
             std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
             std::collections::hash_map::Entry::Vacant(e) => {
-                e.insert((info.create)(&gpu).map_err(|e| e.to_string())?)
+                e.insert(info.create(&gpu).map_err(|e| e.to_string())?)
             }
         };
         for (name, value) in &case.params {
@@ -782,11 +600,11 @@ impl Stress {
 fn classify(
     error: RenderError,
     gpu: &softshadow_core::Gpu,
-    techniques: &mut HashMap<&'static str, Box<dyn ShadowTechnique>>,
+    techniques: &mut HashMap<String, Box<dyn ShadowTechnique>>,
     case: &Case,
 ) -> Result<Outcome, String> {
     let _ = gpu.take_errors();
-    techniques.remove(case.technique);
+    techniques.remove(&case.technique);
     let message = error.to_string();
     let validation = matches!(
         error,
@@ -911,6 +729,7 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use softshadow_core::YARDSTICK_TECHNIQUE;
 
     fn int_spec(specs: &[ParamSpec], name: &str) -> Option<(i64, i64)> {
         match specs.iter().find(|s| s.name == name)?.kind {
@@ -920,23 +739,23 @@ mod tests {
     }
 
     #[test]
-    fn cost_model_reads_only_declared_integer_parameters() {
-        for info in registry::techniques() {
-            let specs = (info.params)();
-            let knobs = cost_knobs(info.id);
+    fn cost_models_read_only_declared_integer_parameters() {
+        for info in &softshadow::registry() {
+            let knobs = &info.cost.knobs;
             assert!(!knobs.is_empty(), "{}: no cost knobs", info.id);
             for knob in knobs {
                 assert!(
-                    int_spec(&specs, knob).is_some(),
+                    int_spec(&info.params, knob).is_some(),
                     "{}: cost knob `{knob}` is not a declared integer parameter",
                     info.id
                 );
             }
-            let defaults: Vec<_> = specs
+            let defaults: Vec<_> = info
+                .params
                 .iter()
                 .map(|s| (s.name.to_string(), s.default_value()))
                 .collect();
-            let cost = estimate(info.id, &defaults, 48.0 * 48.0);
+            let cost = info.cost.estimate(&defaults, 48.0 * 48.0);
             assert_ne!(cost.dominant, "not modelled", "{}", info.id);
             assert!(
                 cost.seconds.is_finite() && cost.seconds > 0.0,
@@ -950,22 +769,23 @@ mod tests {
     /// clamping brings it under by halving its knobs, never below their minimum.
     #[test]
     fn the_reference_at_64_squared_samples_of_4096_maps_is_clamped_under_the_budget() {
+        let registry = softshadow::registry();
+        let reference = registry.find(YARDSTICK_TECHNIQUE).unwrap();
         let params = vec![
             ("samples_per_axis".to_string(), ParamValue::Int(64)),
             ("shadow_map_size".to_string(), ParamValue::Int(4096)),
         ];
-        let cost = estimate("reference", &params, 48.0 * 48.0);
-        assert!(!cost.fits(), "{cost}");
-        let specs = (registry::find("reference").unwrap().params)();
+        let cost = estimate(reference, &params, 48.0 * 48.0);
+        assert!(!fits(&cost), "{cost}");
         let mut clamped = params.clone();
-        let halved = clamp("reference", &specs, &mut clamped, 48.0 * 48.0);
+        let halved = clamp(reference, &mut clamped, 48.0 * 48.0);
         assert!(!halved.is_empty());
         assert!(
-            estimate("reference", &clamped, 48.0 * 48.0).fits(),
+            fits(&estimate(reference, &clamped, 48.0 * 48.0)),
             "{clamped:?}"
         );
         for (name, value) in &clamped {
-            let (min, _) = int_spec(&specs, name).unwrap();
+            let (min, _) = int_spec(&reference.params, name).unwrap();
             let ParamValue::Int(v) = value else {
                 panic!("{value:?}")
             };
@@ -973,54 +793,27 @@ mod tests {
         }
     }
 
-    /// The PDSM case that took 137 s in the 30-minute rerun (1 sample, a 4096² map, a 1752²
-    /// PDSM: the map edge, not the samples, made it slow) is over the cap; the paper's settings
-    /// (64 samples, 512² maps and PDSM, 3.7 s measured) are under it.
-    #[test]
-    fn pdsm_cost_grows_with_the_map_edge() {
-        let specs = (registry::find("pdsm").unwrap().params)();
-        let with = |samples: i64, map: i64, pdsm: i64| -> Vec<(String, ParamValue)> {
-            specs
-                .iter()
-                .map(|s| {
-                    let value = match s.name {
-                        "samples" => ParamValue::Int(samples),
-                        "shadow_map_size" => ParamValue::Int(map),
-                        "pdsm_size" => ParamValue::Int(pdsm),
-                        "memory_budget_mib" => ParamValue::Int(1 << 14),
-                        _ => s.default_value(),
-                    };
-                    (s.name.to_string(), value)
-                })
-                .collect()
-        };
-        let slow = estimate("pdsm", &with(1, 4096, 1752), 48.0 * 48.0);
-        assert!(!slow.fits() && slow.seconds > 100.0, "{slow}");
-        let paper = estimate("pdsm", &with(64, 512, 512), 48.0 * 48.0);
-        assert!(paper.seconds > 3.7 && paper.fits(), "{paper}");
-    }
-
     /// Capped draws fit the budget, yet every integer range still reaches both of its ends over
     /// a few thousand draws: the cap separates expensive ends, it does not remove them.
     #[test]
     fn capped_draws_fit_and_still_reach_both_ends_of_every_range() {
         let mut rng = Rng::new(7);
-        for info in registry::techniques() {
-            let specs = (info.params)();
+        for info in &softshadow::registry() {
             let mut seen: HashMap<String, (bool, bool)> = HashMap::new();
             let mut capped = 0;
             for _ in 0..3000 {
-                let (params, cap) = draw_params(info.id, &specs, &mut rng, Ranges::Full, 48 * 48);
-                let cost = estimate(info.id, &params, 48.0 * 48.0);
+                let (params, cap) = draw_params(info, &mut rng, Ranges::Full, 48 * 48);
+                let cost = estimate(info, &params, 48.0 * 48.0);
                 match &cap {
                     Capped::No | Capped::Redrawn { .. } => {
-                        assert!(cost.fits(), "{}: {cost} after {cap:?}", info.id)
+                        assert!(fits(&cost), "{}: {cost} after {cap:?}", info.id)
                     }
                     // Clamping stops when every knob is at its minimum.
                     Capped::Clamped { .. } => capped += 1,
                 }
                 for (name, value) in &params {
-                    if let (Some((min, max)), ParamValue::Int(v)) = (int_spec(&specs, name), value)
+                    if let (Some((min, max)), ParamValue::Int(v)) =
+                        (int_spec(&info.params, name), value)
                     {
                         assert!((min..=max).contains(v), "{}: {name} = {v}", info.id);
                         let e = seen.entry(name.clone()).or_default();

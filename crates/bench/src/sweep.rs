@@ -19,7 +19,10 @@
 //!
 //! [light]                 # optional, likewise: center, direction, up, width, height, intensity
 //!
-//! [[technique]]
+//! every_technique = true  # optional: every registered technique at its crate's overview
+//!                         # settings (`TechniqueInfo::overview`), then the tables below
+//!
+//! [[technique]]           # an id or a .wgsl file
 //! id = "pcss"
 //! [technique.params]      # a value or a list of values; lists multiply (a grid)
 //! filter_samples = [16, 32, 64]
@@ -29,9 +32,12 @@
 use std::{collections::BTreeMap, path::Path};
 
 use serde::Deserialize;
-use softshadow_core::{AreaLight, Camera, ParamValue, TimingSource};
+use softshadow_core::{
+    expectations::EXPECTATION_SIZE, AreaLight, Camera, ParamValue, Registry, TechniqueInfo,
+    TimingSource,
+};
 
-use crate::{parse_size, registry, results::Shard, BenchError, BenchOptions, RunSpec};
+use crate::{parse_size, resolve_technique, results::Shard, BenchError, BenchOptions, RunSpec};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -49,6 +55,11 @@ struct SweepFile {
     camera: Option<Camera>,
     #[serde(default)]
     light: Option<AreaLight>,
+    /// Every registered technique at the settings its crate gives for the overview
+    /// ([`TechniqueInfo::overview`]), before the `[[technique]]` tables.
+    #[serde(default)]
+    every_technique: bool,
+    #[serde(default)]
     technique: Vec<TechniqueGrid>,
 }
 
@@ -87,20 +98,22 @@ fn value_text(v: &toml::Value) -> Option<String> {
 }
 
 impl Sweep {
-    pub fn load(path: &Path) -> Result<Self, BenchError> {
+    /// Reads and parses the sweep file at `path`, whose techniques `registry` knows.
+    pub fn load(path: &Path, registry: &Registry) -> Result<Self, BenchError> {
         let err = |message: String| BenchError::Sweep {
             path: path.display().to_string(),
             message,
         };
         let text = std::fs::read_to_string(path)
             .map_err(|e| err(format!("cannot read it ({e}): check the path")))?;
-        Self::parse(&text).map_err(|e| match e {
+        Self::parse(&text, registry).map_err(|e| match e {
             BenchError::Sweep { message, .. } => err(message),
             other => other,
         })
     }
 
-    pub fn parse(text: &str) -> Result<Self, BenchError> {
+    /// Parses a sweep file's text; its techniques must be in `registry` (or be .wgsl files).
+    pub fn parse(text: &str, registry: &Registry) -> Result<Self, BenchError> {
         let err = |message: String| BenchError::Sweep {
             path: "<sweep>".into(),
             message,
@@ -113,9 +126,10 @@ impl Sweep {
                 "`scenes` is empty: list at least one scene id or file".into()
             ));
         }
-        if file.technique.is_empty() {
+        if file.technique.is_empty() && !file.every_technique {
             return Err(err(
-                "no [[technique]] table: add one with `id = \"pcss\"`".into()
+                "no technique: add `every_technique = true` or a [[technique]] table with an `id`"
+                    .into(),
             ));
         }
         if let Some(camera) = &file.camera {
@@ -126,57 +140,61 @@ impl Sweep {
         if let Some(light) = &file.light {
             light.validate().map_err(|e| err(format!("[light]: {e}")))?;
         }
-        let reference_info = softshadow_reference::info();
         let mut reference_params = Vec::new();
-        for (name, value) in &file.reference {
-            let text = value_text(value)
-                .ok_or_else(|| err(format!("reference.{name}: give a single value")))?;
-            reference_params.push(reference_info.parse_param(&format!("{name}={text}"))?);
+        if !file.reference.is_empty() {
+            let yardstick = registry.yardstick()?;
+            for (name, value) in &file.reference {
+                let text = value_text(value)
+                    .ok_or_else(|| err(format!("reference.{name}: give a single value")))?;
+                reference_params.push(yardstick.parse_param(&format!("{name}={text}"))?);
+            }
         }
-        let mut runs = Vec::new();
-        for grid in &file.technique {
-            let info = registry::find(&grid.id)?;
-            // Expand the grid: each parameter contributes a list of values.
-            let mut combos: Vec<Vec<(String, ParamValue)>> = vec![Vec::new()];
-            for (name, value) in &grid.params {
+        // Each technique with its grid, in the order they run.
+        let mut grids: Vec<(TechniqueInfo, Grid)> = Vec::new();
+        if file.every_technique {
+            for info in registry {
+                let grid = info
+                    .overview
+                    .iter()
+                    .map(|(name, values)| {
+                        (
+                            name.to_string(),
+                            values.iter().map(|v| v.to_string()).collect(),
+                        )
+                    })
+                    .collect();
+                grids.push((info.clone(), grid));
+            }
+        }
+        for table in &file.technique {
+            let info = resolve_technique(registry, &table.id)?;
+            let mut grid = Vec::new();
+            for (name, value) in &table.params {
                 let values: Vec<&toml::Value> = match value {
                     toml::Value::Array(items) => items.iter().collect(),
                     single => vec![single],
                 };
-                if values.is_empty() {
-                    return Err(err(format!(
-                        "{}.{name} is an empty list: give at least one value",
-                        grid.id
-                    )));
-                }
-                let mut parsed = Vec::new();
-                for v in values {
-                    let text = value_text(v).ok_or_else(|| {
-                        err(format!(
-                            "{}.{name}: values must be numbers, booleans or strings",
-                            grid.id
-                        ))
-                    })?;
-                    parsed.push(info.parse_param(&format!("{name}={text}"))?);
-                }
-                let expanded = combos.len().saturating_mul(parsed.len());
-                if expanded.saturating_mul(file.scenes.len()) > MAX_SWEEP_RUNS {
-                    return Err(err(format!(
-                        "the grid of [[technique]] `{}` has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split the sweep into several files",
-                        grid.id
-                    )));
-                }
-                combos = combos
+                let texts = values
                     .into_iter()
-                    .flat_map(|combo| {
-                        parsed.iter().map(move |p| {
-                            let mut c = combo.clone();
-                            c.push(p.clone());
-                            c
+                    .map(|v| {
+                        value_text(v).ok_or_else(|| {
+                            err(format!(
+                                "{}.{name}: values must be numbers, booleans or strings",
+                                table.id
+                            ))
                         })
                     })
-                    .collect();
+                    .collect::<Result<Vec<_>, _>>()?;
+                grid.push((name.clone(), texts));
             }
+            grids.push((info, grid));
+        }
+        let mut runs = Vec::new();
+        for (info, grid) in &grids {
+            let combos = expand_grid(info, grid, file.scenes.len()).map_err(|e| match e {
+                GridError::Param(e) => BenchError::from(e),
+                GridError::Message(message) => err(message),
+            })?;
             if runs.len() + combos.len() * file.scenes.len() > MAX_SWEEP_RUNS {
                 return Err(err(format!(
                     "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
@@ -186,7 +204,7 @@ impl Sweep {
                 for combo in &combos {
                     runs.push(RunSpec {
                         scene: scene.clone(),
-                        technique: grid.id.clone(),
+                        technique: info.id.to_string(),
                         params: combo.clone(),
                         width,
                         height,
@@ -203,6 +221,57 @@ impl Sweep {
             light: file.light,
         })
     }
+}
+
+/// A technique's parameter grid: each parameter with the values to try, as text.
+type Grid = Vec<(String, Vec<String>)>;
+
+/// Why a technique's grid could not be expanded.
+enum GridError {
+    Param(softshadow_core::ParamError),
+    Message(String),
+}
+
+/// Every combination of `grid`'s values (each parameter a list; lists multiply), parsed against
+/// `info`'s specs; refused before it is expanded when it would exceed [`MAX_SWEEP_RUNS`] over
+/// `scenes` scenes.
+fn expand_grid(
+    info: &TechniqueInfo,
+    grid: &[(String, Vec<String>)],
+    scenes: usize,
+) -> Result<Vec<Vec<(String, ParamValue)>>, GridError> {
+    let mut combos: Vec<Vec<(String, ParamValue)>> = vec![Vec::new()];
+    for (name, texts) in grid {
+        if texts.is_empty() {
+            return Err(GridError::Message(format!(
+                "{}.{name} is an empty list: give at least one value",
+                info.id
+            )));
+        }
+        let parsed = texts
+            .iter()
+            .map(|text| info.parse_param(&format!("{name}={text}")))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(GridError::Param)?;
+        let expanded = combos.len().saturating_mul(parsed.len());
+        if expanded.saturating_mul(scenes) > MAX_SWEEP_RUNS {
+            return Err(GridError::Message(format!(
+                "the grid of [[technique]] `{}` has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split the sweep into several files",
+                info.id
+            )));
+        }
+        combos = combos
+            .into_iter()
+            .flat_map(|combo| {
+                parsed.iter().map(move |p| {
+                    let mut c = combo.clone();
+                    c.push(p.clone());
+                    c
+                })
+            })
+            .collect();
+    }
+    Ok(combos)
 }
 
 /// Parses `INDEX/COUNT` (0-based index), e.g. `2/8`.
@@ -274,13 +343,14 @@ impl Sweep {
 /// `benches/` that `--suite` also accepts by file stem.
 pub const SUITES: &[(&str, &str)] = &[(
     "stiff",
-    "every registered technique, default settings, on every `stiff-*` scene at 128x128 (issue 6; see docs/STABILITY.md)",
+    "every registered technique, default settings, on every `stiff-*` scene at 64x64, each run held against the bound its crate states (docs/STABILITY.md)",
 )];
 
 impl Sweep {
-    /// A built-in suite by name (see [`SUITES`]). Generated, not read from a file, so that a newly
-    /// registered technique or stiff case joins it without editing anything.
-    pub fn suite(name: &str) -> Result<Self, BenchError> {
+    /// A built-in suite by name (see [`SUITES`]) over `registry`'s techniques. Generated, not
+    /// read from a file, so that a newly registered technique or stiff case joins it without
+    /// editing anything.
+    pub fn suite(name: &str, registry: &Registry) -> Result<Self, BenchError> {
         match name {
             "stiff" => {
                 let scenes: Vec<String> = softshadow_scenes::builtin_scenes()
@@ -288,15 +358,15 @@ impl Sweep {
                     .filter(|s| s.id.starts_with(softshadow_scenes::stiff::PREFIX))
                     .map(|s| s.id.to_string())
                     .collect();
-                let runs = registry::techniques()
+                let runs = registry
                     .iter()
                     .flat_map(|t| {
                         scenes.iter().map(|scene| RunSpec {
                             scene: scene.clone(),
                             technique: t.id.to_string(),
                             params: Vec::new(),
-                            width: 128,
-                            height: 128,
+                            width: EXPECTATION_SIZE,
+                            height: EXPECTATION_SIZE,
                         })
                     })
                     .collect();
@@ -325,6 +395,10 @@ impl Sweep {
 mod tests {
     use super::*;
 
+    fn registry() -> Registry {
+        softshadow::registry()
+    }
+
     #[test]
     fn a_grid_over_the_run_limit_is_refused_before_it_is_expanded() {
         let list = |range: std::ops::RangeInclusive<u32>| {
@@ -337,7 +411,7 @@ mod tests {
             list(1..=64),
             list(64..=200)
         );
-        let message = Sweep::parse(&text).unwrap_err().to_string();
+        let message = Sweep::parse(&text, &registry()).unwrap_err().to_string();
         assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
         // Just under the limit in total but over it across two tables.
         let table = format!(
@@ -347,7 +421,7 @@ mod tests {
         );
         let text =
             format!("scenes = [\"atty-square\", \"stiff-fusion\"]\n{table}{table}{table}{table}");
-        let message = Sweep::parse(&text).unwrap_err().to_string();
+        let message = Sweep::parse(&text, &registry()).unwrap_err().to_string();
         assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
     }
 
@@ -368,10 +442,13 @@ mod tests {
             list(1..=250),
             list(1..=40)
         );
-        assert_eq!(Sweep::parse(&text).unwrap().runs.len(), MAX_SWEEP_RUNS);
+        assert_eq!(
+            Sweep::parse(&text, &registry()).unwrap().runs.len(),
+            MAX_SWEEP_RUNS
+        );
         // One scene more is over it.
         let text = text.replacen("scenes = [", "scenes = [\"extra\",", 1);
-        let message = Sweep::parse(&text).unwrap_err().to_string();
+        let message = Sweep::parse(&text, &registry()).unwrap_err().to_string();
         assert!(message.contains("MAX_SWEEP_RUNS"), "{message}");
         // Two tables of 250 x 20 settings: 50,000 runs each on 10 scenes, 100,000 in all, are
         // allowed; on 11 scenes each table (55,000) is under the limit but the two (110,000) are
@@ -382,9 +459,12 @@ mod tests {
             list(1..=20)
         );
         let text = format!("scenes = [{scenes}]\n{table}{table}");
-        assert_eq!(Sweep::parse(&text).unwrap().runs.len(), MAX_SWEEP_RUNS);
+        assert_eq!(
+            Sweep::parse(&text, &registry()).unwrap().runs.len(),
+            MAX_SWEEP_RUNS
+        );
         let text = text.replacen("scenes = [", "scenes = [\"extra\",", 1);
-        let message = Sweep::parse(&text).unwrap_err().to_string();
+        let message = Sweep::parse(&text, &registry()).unwrap_err().to_string();
         assert!(message.contains("the sweep has more than"), "{message}");
     }
 
@@ -399,14 +479,14 @@ mod tests {
 
     #[test]
     fn the_stiff_suite_runs_every_technique_on_every_stiff_case() {
-        let sweep = Sweep::suite("stiff").unwrap();
+        let sweep = Sweep::suite("stiff", &registry()).unwrap();
         let stiff = softshadow_scenes::builtin_scenes()
             .iter()
             .filter(|s| s.id.starts_with("stiff-"))
             .count();
         assert!(stiff >= 12, "{stiff} stiff cases");
-        assert_eq!(sweep.runs.len(), stiff * registry::techniques().len());
-        let e = Sweep::suite("nope").unwrap_err().to_string();
+        assert_eq!(sweep.runs.len(), stiff * registry().len());
+        let e = Sweep::suite("nope", &registry()).unwrap_err().to_string();
         assert!(
             e.contains("unknown suite `nope`") && e.contains("stiff"),
             "{e}"
@@ -416,12 +496,12 @@ mod tests {
     #[test]
     fn overview_lists_every_technique() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/overview.toml");
-        let sweep = Sweep::load(&path).unwrap();
-        for t in registry::techniques() {
+        let sweep = Sweep::load(&path, &registry()).unwrap();
+        for t in &registry() {
             let settings = sweep.runs.iter().filter(|r| r.technique == t.id).count();
             assert!(
                 settings >= 2 * 7,
-                "benches/overview.toml has {settings} runs of `{}`: add a [[technique]] table with two or three settings (issue 14)",
+                "benches/overview.toml has {settings} runs of `{}`: give it two or three settings with `TechniqueInfo::with_overview` in its crate (issue 14)",
                 t.id
             );
         }
@@ -431,6 +511,7 @@ mod tests {
     fn shards_partition_the_runs_round_robin() {
         let sweep = Sweep::parse(
             "scenes = [\"a\", \"b\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = [16, 32, 64]",
+            &registry(),
         )
         .unwrap();
         let all: Vec<usize> = sweep.shard(None).iter().map(|(k, _)| *k).collect();
@@ -475,6 +556,7 @@ mod tests {
             [[technique]]
             id = "hard"
             "#,
+            &registry(),
         )
         .unwrap();
         assert_eq!(sweep.runs.len(), 2 * 3 * 2 + 2);
@@ -484,21 +566,27 @@ mod tests {
 
     #[test]
     fn bad_sweeps_say_what_is_wrong() {
-        let e = Sweep::parse("scenes = []\n[[technique]]\nid = \"hard\"")
+        let e = Sweep::parse("scenes = []\n[[technique]]\nid = \"hard\"", &registry())
             .unwrap_err()
             .to_string();
         assert!(e.contains("scenes"), "{e}");
-        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"nope\"")
-            .unwrap_err()
-            .to_string();
+        let e = Sweep::parse(
+            "scenes = [\"a\"]\n[[technique]]\nid = \"nope\"",
+            &registry(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("unknown technique `nope`"), "{e}");
-        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = 100000")
+        let e = Sweep::parse("scenes = [\"a\"]\n[[technique]]\nid = \"pcss\"\n[technique.params]\nfilter_samples = 100000", &registry())
             .unwrap_err()
             .to_string();
         assert!(e.contains("out of range"), "{e}");
-        let e = Sweep::parse("scenes = [\"a\"]\ncolour = 1\n[[technique]]\nid = \"hard\"")
-            .unwrap_err()
-            .to_string();
+        let e = Sweep::parse(
+            "scenes = [\"a\"]\ncolour = 1\n[[technique]]\nid = \"hard\"",
+            &registry(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("colour"), "{e}");
     }
 }

@@ -28,9 +28,12 @@ use softshadow_core::{
     shader::{self, DefValue, ShaderSpec},
     shader_file,
     shadow_map::{create_depth_maps, CentreShadowMap, SHADOW_DEPTH_FORMAT},
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "bitmask";
@@ -388,25 +391,6 @@ pub struct Bitmask {
     filtered: bool,
 }
 
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Bitmask soft shadows: backprojected micro-patches or micro-quads OR-ed into a bit field of light samples (occluder fusion), depth-peeled layers, HSM or MSSM search, post filter",
-        source: "Schwarz & Stamminger 2007",
-        params: BitmaskSettings::param_specs,
-        requirements: || softshadow_core::Requirements {
-            // The gather pass writes three storage textures (within WebGPU's default of 4).
-            limits: softshadow_core::MinLimits {
-                max_storage_textures_per_shader_stage: 3,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        create: |gpu| Ok(Box::new(Bitmask::new(gpu, BitmaskSettings::default())?)),
-    }
-}
-
 fn compute_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let stage = wgpu::ShaderStages::COMPUTE;
     let float_texture = |binding, dimension| wgpu::BindGroupLayoutEntry {
@@ -671,10 +655,10 @@ impl Bitmask {
 
 impl ShadowTechnique for Bitmask {
     fn requirements(&self) -> softshadow_core::Requirements {
-        (info().requirements)()
+        info::requirements()
     }
 
-    fn id(&self) -> &'static str {
+    fn id(&self) -> &str {
         ID
     }
 
@@ -976,25 +960,29 @@ impl ShadowTechnique for Bitmask {
         let mut views = self.shadow_map.debug_views();
         let layers = self.kept.map_or(1, |k| k.layers as usize);
         for (k, (texture, _)) in self.peeler.maps.iter().enumerate().take(layers - 1) {
-            views.push(DebugView {
-                name: format!("peel_layer_{}", k + 1),
-                texture: texture.clone(),
-            });
+            views.push(DebugView::new(
+                format!("peel_layer_{}", k + 1),
+                texture,
+                DebugLegend::Depth,
+            ));
         }
         if let Some(targets) = &self.targets {
-            views.push(DebugView {
-                name: "level".into(),
-                texture: targets.level.0.clone(),
-            });
+            views.push(DebugView::new(
+                "level",
+                &targets.level.0,
+                softshadow_core::hierarchy::level_legend("coarsest gather level over the layers"),
+            ));
             if self.filtered {
-                views.push(DebugView {
-                    name: "bitmask".into(),
-                    texture: targets.bitmask.0.clone(),
-                });
-                views.push(DebugView {
-                    name: "area".into(),
-                    texture: targets.area.0.clone(),
-                });
+                views.push(DebugView::new(
+                    "bitmask",
+                    &targets.bitmask.0,
+                    DebugLegend::value("visibility from the bit field B, before the filter"),
+                ));
+                views.push(DebugView::new(
+                    "area",
+                    &targets.area.0,
+                    DebugLegend::value("area estimate A (unclamped visibility)"),
+                ));
             }
         }
         views

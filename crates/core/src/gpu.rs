@@ -192,7 +192,7 @@ impl Gpu {
     ) -> Result<Self, GpuError> {
         let mut lacking = Vec::new();
         for info in techniques {
-            let (features, limits) = (info.requirements)().missing_on(&device);
+            let (features, limits) = info.requirements.missing_on(&device);
             if !features.is_empty() || !limits.is_empty() {
                 let mut what = Vec::new();
                 if !features.is_empty() {

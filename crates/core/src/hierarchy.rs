@@ -623,6 +623,14 @@ fn create_texture(gpu: &Gpu, label: &str, size: u32, mips: u32, layers: u32) -> 
     })
 }
 
+/// The legend of a gather technique's `level` debug view (the level each pixel gathered at).
+pub fn level_legend(meaning: &'static str) -> crate::DebugLegend {
+    crate::DebugLegend::Value {
+        meaning: meaning.into(),
+        notes: vec!["-1 (black when present): nothing was backprojected there".into()],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,9 @@
 #![warn(missing_docs)]
 
 pub mod camera;
+pub mod cost;
 pub mod error;
+pub mod expectations;
 pub mod frame;
 pub mod fullscreen;
 pub mod gbuffer;
@@ -18,6 +20,7 @@ pub mod host;
 pub mod light;
 pub mod params;
 pub mod readback;
+pub mod registry;
 pub mod renderer;
 pub mod scene;
 pub mod scene_gpu;
@@ -29,7 +32,9 @@ pub mod technique;
 pub mod visibility;
 
 pub use camera::Camera;
+pub use cost::{Cost, CostModel, CostQuery};
 pub use error::{GpuError, ParamError, RenderError, TechniqueError};
+pub use expectations::{ErrorMetric, Expect, Expectations};
 pub use frame::{
     Frame, FrameChanges, FrameState, FrameUniforms, SerialTimes, ShadowInputs, TimingSource,
 };
@@ -39,14 +44,15 @@ pub use light::{AreaLight, SlopeFrustum};
 pub use params::{
     ParamChoice, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, TechniqueSettings,
 };
+pub use registry::{Registry, RegistryError};
 pub use renderer::{FrameOutput, GpuFrameTiming, Renderer};
 pub use scene::{Aabb, Instance, Mesh, MeshRepair, Scene};
 pub use scene_gpu::SceneGpu;
 pub use shading::ShadingMode;
 pub use stage::ShadowStage;
 pub use technique::{
-    BuildControl, DebugView, MinLimits, Requirements, ShadowTechnique, TechniqueInfo,
-    TechniqueStats,
+    BuildControl, BuildProgress, DebugLegend, DebugView, MinLimits, Requirements, ShadowTechnique,
+    TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE,
 };
 pub use visibility::VisibilityBuffer;
 

@@ -1,7 +1,7 @@
 //! Typed, documented, range-checked technique parameters. The GUI draws widgets from
 //! [`ParamSpec`]s, the benchmark sweeps them, and neither needs to know the technique.
 
-use std::fmt;
+use std::{borrow::Cow, fmt};
 
 use serde::{Deserialize, Serialize};
 
@@ -49,9 +49,9 @@ pub enum ParamKind {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ParamSpec {
     /// Name as used on the command line, in JSON and in the GUI.
-    pub name: &'static str,
+    pub name: Cow<'static, str>,
     /// What it does (the doc comment of its declaration).
-    pub description: &'static str,
+    pub description: Cow<'static, str>,
     /// Type and range.
     #[serde(flatten)]
     pub kind: ParamKind,
@@ -103,8 +103,8 @@ impl ParamSpec {
         default: f64,
     ) -> Self {
         Self {
-            name,
-            description,
+            name: Cow::Borrowed(name),
+            description: Cow::Borrowed(description),
             kind: ParamKind::Float {
                 min,
                 max,
@@ -123,8 +123,8 @@ impl ParamSpec {
         default: i64,
     ) -> Self {
         Self {
-            name,
-            description,
+            name: Cow::Borrowed(name),
+            description: Cow::Borrowed(description),
             kind: ParamKind::Int { min, max, default },
         }
     }
@@ -132,8 +132,8 @@ impl ParamSpec {
     /// A boolean parameter.
     pub const fn boolean(name: &'static str, description: &'static str, default: bool) -> Self {
         Self {
-            name,
-            description,
+            name: Cow::Borrowed(name),
+            description: Cow::Borrowed(description),
             kind: ParamKind::Bool { default },
         }
     }
@@ -146,8 +146,8 @@ impl ParamSpec {
         default: &'static str,
     ) -> Self {
         Self {
-            name,
-            description,
+            name: Cow::Borrowed(name),
+            description: Cow::Borrowed(description),
             kind: ParamKind::Choice { options, default },
         }
     }
@@ -296,7 +296,11 @@ pub fn find_spec<'a>(
         .ok_or_else(|| ParamError::Unknown {
             technique: technique.into(),
             name: name.into(),
-            known: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
+            known: specs
+                .iter()
+                .map(|s| s.name.as_ref())
+                .collect::<Vec<_>>()
+                .join(", "),
         })
 }
 
@@ -350,8 +354,8 @@ impl ParamType for f32 {
     ) -> ParamSpec {
         let (min, max) = range.unwrap_or((f32::MIN as f64, f32::MAX as f64));
         ParamSpec {
-            name,
-            description,
+            name: Cow::Borrowed(name),
+            description: Cow::Borrowed(description),
             kind: ParamKind::Float {
                 min,
                 max,

@@ -411,10 +411,7 @@ impl CentreShadowMap {
     /// The last map as a debug view (`shadow_map`, Depth32Float), for the viewer.
     pub fn debug_views(&self) -> Vec<crate::DebugView> {
         self.map_texture()
-            .map(|texture| crate::DebugView {
-                name: "shadow_map".into(),
-                texture: texture.clone(),
-            })
+            .map(|texture| crate::DebugView::new("shadow_map", texture, crate::DebugLegend::Depth))
             .into_iter()
             .collect()
     }

@@ -27,7 +27,7 @@ pub struct ShadowStage {
     height: u32,
     last_uniforms: FrameUniforms,
     /// The inputs of the last frame drawn with each technique id, for [`FrameChanges`].
-    last_states: HashMap<&'static str, FrameState>,
+    last_states: HashMap<String, FrameState>,
 }
 
 impl ShadowStage {
@@ -151,7 +151,7 @@ impl ShadowStage {
 
     /// Remembers the inputs of a frame that succeeded, for the technique's next
     /// [`FrameChanges`].
-    pub fn finish(&mut self, technique: &'static str, state: FrameState) {
-        self.last_states.insert(technique, state);
+    pub fn finish(&mut self, technique: &str, state: FrameState) {
+        self.last_states.insert(technique.to_string(), state);
     }
 }

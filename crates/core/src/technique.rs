@@ -1,17 +1,22 @@
-//! The one trait every technique implements (GUIDE.md section 2, shaped like wgpu's `Example`).
+//! The one trait every technique implements (shaped like wgpu's `Example`), and the descriptor
+//! through which the workspace knows a technique ([`TechniqueInfo`]).
 
 use std::{
+    borrow::Cow,
     collections::BTreeMap,
     sync::{
         atomic::{AtomicBool, AtomicU32, Ordering},
-        Arc,
+        Arc, Mutex,
     },
 };
 
 use crate::{
+    cost::CostModel,
     error::{ParamError, TechniqueError},
+    expectations::Expectations,
     frame::{Frame, ShadowInputs},
     params::{ParamSet, ParamSpec, ParamValue, TechniqueSettings},
+    shader::ShaderSpec,
     visibility::VisibilityBuffer,
     Gpu,
 };
@@ -138,6 +143,50 @@ pub struct DebugView {
     pub name: String,
     /// The image.
     pub texture: wgpu::Texture,
+    /// How the viewer maps it to colours and what its legend says.
+    pub legend: DebugLegend,
+}
+
+impl DebugView {
+    /// A view of `texture` called `name` with `legend`.
+    pub fn new(name: impl Into<String>, texture: &wgpu::Texture, legend: DebugLegend) -> Self {
+        Self {
+            name: name.into(),
+            texture: texture.clone(),
+            legend,
+        }
+    }
+}
+
+/// How a debug image is shown and what its colours mean: the technique says, the viewer draws.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DebugLegend {
+    /// A depth map (a depth format, or light-space depth in the red channel): texels holding a
+    /// caster mapped black (nearest) to white (farthest) over their own range, empty texels
+    /// (depth 1 or more) dark blue.
+    Depth,
+    /// A number per texel in the red channel, mapped black to white over the finite values'
+    /// range (non-finite texels magenta): `meaning` names the number, `notes` add lines (what a
+    /// special value means).
+    Value {
+        /// What the number is, e.g. "gather level".
+        meaning: Cow<'static, str>,
+        /// Extra legend lines.
+        notes: Vec<Cow<'static, str>>,
+    },
+    /// A colour-coded image shown as it is; each entry is a colour the shader writes (sRGB
+    /// bytes) and what it means.
+    Palette(Vec<([u8; 3], Cow<'static, str>)>),
+}
+
+impl DebugLegend {
+    /// A [`DebugLegend::Value`] without notes.
+    pub fn value(meaning: &'static str) -> Self {
+        DebugLegend::Value {
+            meaning: Cow::Borrowed(meaning),
+            notes: Vec::new(),
+        }
+    }
 }
 
 /// Progress and cancellation of a long precompute (the PDSM's), shared between the thread that
@@ -155,6 +204,19 @@ pub struct BuildControl {
     pub total: Arc<AtomicU32>,
     /// Set while a build runs.
     pub building: Arc<AtomicBool>,
+    /// What the running build counts, named by the technique ("PDSM rows").
+    unit: Arc<Mutex<Cow<'static, str>>>,
+}
+
+/// A running build's progress: `done` of `total` units of what `unit` names.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildProgress {
+    /// Units finished.
+    pub done: u32,
+    /// Units of the build.
+    pub total: u32,
+    /// What a unit is ("PDSM rows", "sample maps").
+    pub unit: Cow<'static, str>,
 }
 
 impl BuildControl {
@@ -164,6 +226,13 @@ impl BuildControl {
             let total = self.total.load(Ordering::Relaxed);
             (self.done.load(Ordering::Relaxed).min(total), total)
         })
+    }
+
+    /// The running build's progress with its unit, `None` when nothing builds.
+    pub fn progress_with_unit(&self) -> Option<BuildProgress> {
+        let (done, total) = self.progress()?;
+        let unit = self.unit.lock().map(|u| u.clone()).unwrap_or_default();
+        Some(BuildProgress { done, total, unit })
     }
 
     /// Asks the running build (and any later one, until [`BuildControl::clear_cancel`]) to stop.
@@ -181,8 +250,11 @@ impl BuildControl {
         self.cancel.store(false, Ordering::Relaxed);
     }
 
-    /// Marks a build of `total` units as started (`done` = 0).
-    pub fn start(&self, total: u32) {
+    /// Marks a build of `total` units of `unit` ("PDSM rows") as started (`done` = 0).
+    pub fn start(&self, total: u32, unit: &'static str) {
+        if let Ok(mut current) = self.unit.lock() {
+            *current = Cow::Borrowed(unit);
+        }
         self.done.store(0, Ordering::Relaxed);
         self.total.store(total, Ordering::Relaxed);
         self.building.store(true, Ordering::Relaxed);
@@ -197,7 +269,7 @@ impl BuildControl {
 /// A soft-shadow technique: fills the visibility buffer for the current frame.
 pub trait ShadowTechnique {
     /// Stable id used on the command line, in JSON and in the GUI.
-    fn id(&self) -> &'static str;
+    fn id(&self) -> &str;
     /// What the technique needs from the device at its current settings (checked before every
     /// frame).
     fn requirements(&self) -> Requirements {
@@ -213,8 +285,8 @@ pub trait ShadowTechnique {
     }
     /// Sets one parameter (range-checked). Takes effect on the next `render`.
     fn set_param(&mut self, name: &str, value: ParamValue) -> Result<(), ParamError> {
-        let id = self.id();
-        self.settings_mut().set_param(id, name, value)
+        let id = self.id().to_string();
+        self.settings_mut().set_param(&id, name, value)
     }
     /// Work that depends only on the scene and light; not timed per frame. Default: nothing.
     fn prepare(&mut self, _gpu: &Gpu, _inputs: &ShadowInputs<'_>) -> Result<(), TechniqueError> {
@@ -256,49 +328,168 @@ pub trait ShadowTechnique {
     fn show_debug_view(&mut self, _name: Option<&str>) {}
 }
 
-/// A registry entry: what `workbench list` prints without a GPU, and how to build the technique.
-#[derive(Clone, Copy)]
+/// The technique every error is measured against when no exact answer is asked for, and whose
+/// error against the exact answer is reported beside every run: accumulated hard shadows
+/// (`softshadow-reference`).
+pub const YARDSTICK_TECHNIQUE: &str = "reference";
+
+/// The cheapest technique, the floor of every cost comparison (ratios to its frame time in the
+/// report) and the wrong answer every soft technique's bounds must reject: one hard shadow map
+/// (`softshadow-hard`).
+pub const COST_FLOOR_TECHNIQUE: &str = "hard";
+
+/// Builds a technique on a device with its default settings.
+pub type CreateFn = dyn Fn(&Gpu) -> Result<Box<dyn ShadowTechnique>, TechniqueError> + Send + Sync;
+
+/// Everything the workspace knows about a technique, all of it from the technique's own crate
+/// (or, for a technique defined by a WGSL file, from that file): what `workbench list` prints
+/// without a GPU, how to build it, what it needs from the device, what it costs, which error it
+/// promises on which case, and how the overview sweep runs it. The benchmark, the viewer, the
+/// report and the tests read only this; none of them names a technique.
+#[derive(Clone)]
 pub struct TechniqueInfo {
     /// Stable id ([`ShadowTechnique::id`]).
-    pub id: &'static str,
+    pub id: Cow<'static, str>,
     /// One line for `workbench list` and the GUI.
-    pub description: &'static str,
+    pub description: Cow<'static, str>,
     /// Paper or source the technique follows.
-    pub source: &'static str,
-    /// The parameters with their specs.
-    pub params: fn() -> Vec<ParamSpec>,
+    pub source: Cow<'static, str>,
+    /// The parameters with their specs (defaults are the technique's defaults).
+    pub params: Vec<ParamSpec>,
     /// What the technique needs from the device at its default settings (features and limits),
     /// known without a device: what a host checks or requests when it creates its own device
     /// ([`Gpu::from_host`], [`Requirements::all`]).
-    pub requirements: fn() -> Requirements,
-    /// Builds the technique on `gpu` with its default settings.
-    pub create: fn(&Gpu) -> Result<Box<dyn ShadowTechnique>, TechniqueError>,
+    pub requirements: Requirements,
+    /// Its WGSL entry files and their permutations, validated by the workspace's naga test
+    /// (empty for a technique whose shader is compiled when it is loaded).
+    pub shaders: &'static [ShaderSpec],
+    /// Builds the technique on a device with its default settings.
+    pub create: Arc<CreateFn>,
+    /// Its cost as a function of its parameters (the stress cap's model).
+    pub cost: CostModel,
+    /// Its error bounds per stiff case and paper scene ([`crate::expectations`]).
+    pub expectations: Expectations,
+    /// The settings the overview sweep (`benches/overview.toml`) runs it at: parameter name and
+    /// the values to try, as text (each list multiplies, as in a sweep file). Empty: its defaults.
+    pub overview: Vec<(Cow<'static, str>, Vec<Cow<'static, str>>)>,
 }
 
 impl TechniqueInfo {
+    /// A technique with its id, description, source, parameter specs and constructor; no
+    /// special requirements, no shaders to validate, no cost model, no bounds and the defaults
+    /// in the overview until the `with_*` methods add them.
+    pub fn new(
+        id: impl Into<Cow<'static, str>>,
+        description: impl Into<Cow<'static, str>>,
+        source: impl Into<Cow<'static, str>>,
+        params: Vec<ParamSpec>,
+        create: impl Fn(&Gpu) -> Result<Box<dyn ShadowTechnique>, TechniqueError>
+            + Send
+            + Sync
+            + 'static,
+    ) -> Self {
+        Self {
+            id: id.into(),
+            description: description.into(),
+            source: source.into(),
+            params,
+            requirements: Requirements::default(),
+            shaders: &[],
+            create: Arc::new(create),
+            cost: CostModel::unmodelled(),
+            expectations: Expectations::default(),
+            overview: Vec::new(),
+        }
+    }
+
+    /// With these device requirements.
+    pub fn with_requirements(mut self, requirements: Requirements) -> Self {
+        self.requirements = requirements;
+        self
+    }
+
+    /// With these shaders for the naga validation test.
+    pub fn with_shaders(mut self, shaders: &'static [ShaderSpec]) -> Self {
+        self.shaders = shaders;
+        self
+    }
+
+    /// With this cost model.
+    pub fn with_cost(mut self, cost: CostModel) -> Self {
+        self.cost = cost;
+        self
+    }
+
+    /// With these error bounds.
+    pub fn with_expectations(mut self, expectations: Expectations) -> Self {
+        self.expectations = expectations;
+        self
+    }
+
+    /// With these overview-sweep settings (`(parameter, values)`).
+    pub fn with_overview(mut self, grid: &[(&'static str, &[&'static str])]) -> Self {
+        self.overview = grid
+            .iter()
+            .map(|(name, values)| {
+                (
+                    Cow::Borrowed(*name),
+                    values.iter().map(|v| Cow::Borrowed(*v)).collect(),
+                )
+            })
+            .collect();
+        self
+    }
+
+    /// Builds the technique on `gpu` with its default settings.
+    pub fn create(&self, gpu: &Gpu) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+        (self.create)(gpu)
+    }
+
     /// Builds the technique and applies `name=value` settings (strings from a CLI or a sweep).
     pub fn create_with(
         &self,
         gpu: &Gpu,
         settings: &[(String, ParamValue)],
     ) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-        let mut technique = (self.create)(gpu)?;
+        let mut technique = self.create(gpu)?;
         for (name, value) in settings {
             technique.set_param(name, value.clone())?;
         }
         Ok(technique)
     }
 
+    /// The spec of parameter `name`, or an error listing the names there are.
+    pub fn param(&self, name: &str) -> Result<&ParamSpec, ParamError> {
+        crate::params::find_spec(&self.id, &self.params, name)
+    }
+
     /// Parses `name=value` text against this technique's specs.
     pub fn parse_param(&self, text: &str) -> Result<(String, ParamValue), ParamError> {
-        let specs = (self.params)();
         let (name, value) = text.split_once('=').ok_or_else(|| ParamError::WrongType {
             name: text.into(),
             expected: "name=value".into(),
             value: text.into(),
         })?;
-        let spec = crate::params::find_spec(self.id, &specs, name.trim())?;
+        let spec = self.param(name.trim())?;
         Ok((spec.name.to_string(), spec.parse(value)?))
+    }
+
+    /// Checks already-typed settings against the specs (name, type, range).
+    pub fn check_params(&self, settings: &[(String, ParamValue)]) -> Result<(), ParamError> {
+        for (name, value) in settings {
+            self.param(name)?.check(value.clone())?;
+        }
+        Ok(())
+    }
+}
+
+impl std::fmt::Debug for TechniqueInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TechniqueInfo")
+            .field("id", &self.id)
+            .field("source", &self.source)
+            .field("params", &self.params.len())
+            .finish_non_exhaustive()
     }
 }
 
@@ -308,7 +499,7 @@ impl Requirements {
     /// `required_limits: r.limits.apply_to(wgpu::Limits::default())`).
     pub fn all(techniques: &[TechniqueInfo]) -> Self {
         techniques.iter().fold(Self::default(), |acc, t| {
-            let r = (t.requirements)();
+            let r = t.requirements;
             Self {
                 features: acc.features | r.features,
                 limits: acc.limits.max(r.limits),

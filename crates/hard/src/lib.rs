@@ -12,9 +12,12 @@ use softshadow_core::{
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
-    TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
+    TechniqueStats, VisibilityBuffer,
 };
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "hard";
@@ -44,7 +47,7 @@ struct HardParams {
 }
 
 /// The `hard` technique: a [`ShadowTechnique`] with its settings.
-pub struct HardShadows {
+pub struct Hard {
     /// Its settings; changes take effect on the next frame.
     pub settings: HardSettings,
     shadow_map: CentreShadowMap,
@@ -54,19 +57,7 @@ pub struct HardShadows {
     stats: TechniqueStats,
 }
 
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Hard shadows: one shadow map from the light centre (cost floor)",
-        source: "Williams 1978",
-        params: HardSettings::param_specs,
-        requirements: softshadow_core::Requirements::default,
-        create: |gpu| Ok(Box::new(HardShadows::new(gpu, HardSettings::default())?)),
-    }
-}
-
-impl HardShadows {
+impl Hard {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
         let layout = CentreShadowMap::lookup_layout(gpu, "hard/lookup");
@@ -81,8 +72,8 @@ impl HardShadows {
     }
 }
 
-impl ShadowTechnique for HardShadows {
-    fn id(&self) -> &'static str {
+impl ShadowTechnique for Hard {
+    fn id(&self) -> &str {
         ID
     }
 

@@ -12,9 +12,12 @@ use softshadow_core::{
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
-    TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
+    TechniqueStats, VisibilityBuffer,
 };
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "pcss";
@@ -83,18 +86,6 @@ pub struct Pcss {
     stats: TechniqueStats,
 }
 
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "PCSS: blocker search, penumbra estimate, percentage-closer filtering",
-        source: "Fernando 2005",
-        params: PcssSettings::param_specs,
-        requirements: softshadow_core::Requirements::default,
-        create: |gpu| Ok(Box::new(Pcss::new(gpu, PcssSettings::default())?)),
-    }
-}
-
 impl Pcss {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PcssSettings) -> Result<Self, TechniqueError> {
@@ -126,7 +117,7 @@ impl Pcss {
 }
 
 impl ShadowTechnique for Pcss {
-    fn id(&self) -> &'static str {
+    fn id(&self) -> &str {
         ID
     }
 

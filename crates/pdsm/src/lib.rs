@@ -12,7 +12,7 @@
 //! pixel's depth and filters bilinearly; instances marked `dynamic` are not in the precompute and
 //! shadow through a per-frame PCF map of the dynamic casters, multiplied in (section 5).
 //!
-//! Watching and cancelling a build: [`PdsmShadows::build_control`] hands out the cancel flag and
+//! Watching and cancelling a build: [`Pdsm::build_control`] hands out the cancel flag and
 //! the row counter (`done` of `pdsm_size` rows) a viewer or CLI can poll from another thread, or
 //! [`ShadowTechnique::set_build_control`] installs the caller's. With
 //! [`ShadowTechnique::set_background_build`] the CPU construction runs on a thread of its own and
@@ -41,12 +41,15 @@ use softshadow_core::{
     shader_file,
     shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
     wgpu::{self, util::DeviceExt},
-    AreaLight, BuildControl, DebugView, Frame, Gpu, GpuError, ShadowInputs, ShadowTechnique,
-    SlopeFrustum, TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats,
+    AreaLight, BuildControl, DebugLegend, DebugView, Frame, Gpu, GpuError, ShadowInputs,
+    ShadowTechnique, SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats,
     VisibilityBuffer,
 };
 
 pub use build::{BuildStats, PdsmData};
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "pdsm";
@@ -151,7 +154,7 @@ struct MapsInProgress {
     cache_dir: Option<PathBuf>,
 }
 
-/// A PDSM set aside by `invalidate_cache` in background mode (see [`PdsmShadows::background`]).
+/// A PDSM set aside by `invalidate_cache` in background mode (see [`Pdsm::background`]).
 struct Shelved {
     key: u64,
     data: PdsmData,
@@ -176,7 +179,7 @@ struct DynamicMap {
 }
 
 /// The `pdsm` technique: a [`ShadowTechnique`] with its settings.
-pub struct PdsmShadows {
+pub struct Pdsm {
     /// Its settings; changes take effect on the next frame.
     pub settings: PdsmSettings,
     /// Where built PDSMs are cached; `None` = [`cache::default_dir`].
@@ -219,18 +222,6 @@ pub struct PdsmShadows {
     warnings: Vec<String>,
     stats: TechniqueStats,
     debug: Vec<DebugView>,
-}
-
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Penumbra deep shadow maps: precomputed, compressed attenuation per texel (static casters), PCF for dynamic ones",
-        source: "St-Amour, Paquette & Poulin 2005",
-        params: PdsmSettings::param_specs,
-        requirements: softshadow_core::Requirements::default,
-        create: |gpu| Ok(Box::new(PdsmShadows::new(gpu, PdsmSettings::default())?)),
-    }
 }
 
 fn technique_error(message: String) -> TechniqueError {
@@ -347,7 +338,11 @@ enum BuildInput {
     },
 }
 
-/// A background build's progress in `unit` ("PDSM rows", "light sample maps").
+/// The units a build counts: the sample maps rendered first, then the PDSM's rows built from them.
+const SAMPLE_MAPS: &str = "light sample maps";
+const PDSM_ROWS: &str = "PDSM rows";
+
+/// A background build's progress in `unit` ([`SAMPLE_MAPS`], [`PDSM_ROWS`]).
 fn building(done: u32, total: u32, unit: &'static str) -> TechniqueError {
     TechniqueError::Building {
         technique: ID.into(),
@@ -514,7 +509,7 @@ impl Evaluation {
     }
 }
 
-impl PdsmShadows {
+impl Pdsm {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PdsmSettings) -> Result<Self, TechniqueError> {
         let fragment = wgpu::ShaderStages::FRAGMENT;
@@ -743,7 +738,7 @@ impl PdsmShadows {
         if self.background {
             // The sample maps over this and the next frames, a few per frame, then the CPU
             // construction on a thread of its own.
-            self.control.start(windows.len() as u32);
+            self.control.start(windows.len() as u32, SAMPLE_MAPS);
             let progress = MapsInProgress {
                 key,
                 maps: Vec::with_capacity(windows.len()),
@@ -757,7 +752,7 @@ impl PdsmShadows {
         let maps = self.render_sample_maps(frame, inputs, &windows)?;
         let size = self.settings.pdsm_size;
         let max_error = self.settings.compression_error;
-        self.control.start(size);
+        self.control.start(size, PDSM_ROWS);
         let clock = frame.begin_cpu_pass();
         let built = build::build(&maps, &frustum, size, max_error, &self.control);
         frame.end_cpu_pass("pdsm/build", clock);
@@ -798,7 +793,7 @@ impl PdsmShadows {
         if done < total {
             self.control.done.store(done, Ordering::Relaxed);
             self.maps_in_progress = Some(progress);
-            return Err(building(done, total, "light sample maps"));
+            return Err(building(done, total, SAMPLE_MAPS));
         }
         let MapsInProgress {
             key,
@@ -816,8 +811,8 @@ impl PdsmShadows {
         let max_error = self.settings.compression_error;
         // The thread counts rows in a control of its own (see `Pending`).
         let control = BuildControl::default();
-        control.start(size);
-        self.control.start(size);
+        control.start(size, PDSM_ROWS);
+        self.control.start(size, PDSM_ROWS);
         let thread_control = control.clone();
         let handle = std::thread::Builder::new()
             .name("pdsm build".into())
@@ -833,7 +828,7 @@ impl PdsmShadows {
             started,
             cache_dir,
         });
-        Err(building(0, size, "PDSM rows"))
+        Err(building(0, size, PDSM_ROWS))
     }
 
     /// Background mode: looks at the build running for `key`. `Ok(true)`: it finished and the
@@ -858,7 +853,7 @@ impl PdsmShadows {
             let done = pending.control.done.load(Ordering::Relaxed);
             let total = pending.control.total.load(Ordering::Relaxed);
             self.control.done.store(done, Ordering::Relaxed);
-            return Err(building(done, total, "PDSM rows"));
+            return Err(building(done, total, PDSM_ROWS));
         }
         let pending = self.pending.take().expect("looked at above");
         let done = pending.control.done.load(Ordering::Relaxed);
@@ -1248,7 +1243,7 @@ impl PdsmShadows {
         let attenuation: Vec<f32> = (0..(n * n) as usize)
             .map(|i| function::evaluate(texel(i), depth))
             .collect();
-        let image = |name: &str, values: &[f32]| {
+        let image = |name: &str, legend: DebugLegend, values: &[f32]| {
             let texture = gpu.device.create_texture_with_data(
                 &gpu.queue,
                 &wgpu::TextureDescriptor {
@@ -1268,20 +1263,25 @@ impl PdsmShadows {
                 wgpu::util::TextureDataOrder::LayerMajor,
                 bytemuck::cast_slice(values),
             );
-            DebugView {
-                name: name.into(),
-                texture,
-            }
+            DebugView::new(name, &texture, legend)
         };
         self.debug = vec![
-            image("vertices_per_texel", &counts),
-            image("attenuation_at_depth", &attenuation),
+            image(
+                "vertices_per_texel",
+                DebugLegend::value("vertices of the texel's compressed attenuation function"),
+                &counts,
+            ),
+            image(
+                "attenuation_at_depth",
+                DebugLegend::value("light visible at the depth set by debug_depth (1 = lit)"),
+                &attenuation,
+            ),
         ];
     }
 }
 
-impl ShadowTechnique for PdsmShadows {
-    fn id(&self) -> &'static str {
+impl ShadowTechnique for Pdsm {
+    fn id(&self) -> &str {
         ID
     }
 
@@ -1485,28 +1485,27 @@ impl ShadowTechnique for PdsmShadows {
         let mut views: Vec<DebugView> = self
             .debug
             .iter()
-            .map(|d| DebugView {
-                name: d.name.clone(),
-                texture: d.texture.clone(),
-            })
+            .map(|d| DebugView::new(d.name.clone(), &d.texture, d.legend.clone()))
             .collect();
         if let Some(c) = &self.centre_map {
-            views.push(DebugView {
-                name: CENTRE_MAP_VIEW.into(),
-                texture: c.texture.clone(),
-            });
+            views.push(DebugView::new(
+                CENTRE_MAP_VIEW,
+                &c.texture,
+                DebugLegend::Depth,
+            ));
         }
         if let Some(d) = &self.dynamic {
-            views.push(DebugView {
-                name: "dynamic_map".into(),
-                texture: d.texture.clone(),
-            });
+            views.push(DebugView::new(
+                "dynamic_map",
+                &d.texture,
+                DebugLegend::Depth,
+            ));
         }
         views
     }
 }
 
-impl Drop for PdsmShadows {
+impl Drop for Pdsm {
     fn drop(&mut self) {
         // A build running on its own thread stops at its next row; nobody reads its result.
         if let Some(pending) = &self.pending {

@@ -1,6 +1,6 @@
 //! Ground truth for the workbench.
 //!
-//! - [`AccumulatedReference`] (technique id `reference`): accumulated hard shadows from N x N
+//! - [`Reference`] (technique id `reference`): accumulated hard shadows from N x N
 //!   stratified (optionally jittered) point samples on the light, one depth map each, averaged
 //!   per pixel into the visibility buffer. Cached by a hash of scene, light, camera, parameters
 //!   and resolution, so it is not recomputed while nothing changed.
@@ -28,9 +28,12 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
-    wgpu, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueInfo,
+    wgpu, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "reference";
@@ -176,7 +179,7 @@ struct Cached {
 }
 
 /// The `reference` technique: accumulated hard shadows, with its settings.
-pub struct AccumulatedReference {
+pub struct Reference {
     /// Its settings; changes take effect on the next frame.
     pub settings: ReferenceSettings,
     depth: DepthMapRenderer,
@@ -232,24 +235,7 @@ struct InProgress {
     result: VisibilityBuffer,
 }
 
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Reference: accumulated hard shadows from N x N stratified light samples",
-        source: "Heckbert & Herf 1997 (accumulated hard shadows)",
-        params: ReferenceSettings::param_specs,
-        requirements: AccumulatedReference::requirements_static,
-        create: |gpu| {
-            Ok(Box::new(AccumulatedReference::new(
-                gpu,
-                ReferenceSettings::default(),
-            )?))
-        },
-    }
-}
-
-impl AccumulatedReference {
+impl Reference {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: ReferenceSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::FRAGMENT;
@@ -383,8 +369,8 @@ impl AccumulatedReference {
     }
 }
 
-impl ShadowTechnique for AccumulatedReference {
-    fn id(&self) -> &'static str {
+impl ShadowTechnique for Reference {
+    fn id(&self) -> &str {
         ID
     }
 
@@ -457,8 +443,8 @@ impl ShadowTechnique for AccumulatedReference {
     }
 }
 
-impl AccumulatedReference {
-    /// One step of progressive accumulation (see [`AccumulatedReference::set_progressive`]).
+impl Reference {
+    /// One step of progressive accumulation (see [`Reference::set_progressive`]).
     fn render_progressive(
         &mut self,
         frame: &mut Frame<'_>,

@@ -5,7 +5,7 @@
 //! meets no triangle of a shadow-casting instance. This is a Monte Carlo estimate of the visible
 //! fraction of the (uniformly emitting) light, the quantity every technique in the workbench
 //! approximates. Unlike [`crate::exact`] it works for arbitrary triangle geometry; unlike
-//! [`crate::AccumulatedReference`] it has no depth-map resolution or bias error.
+//! [`crate::Reference`] it has no depth-map resolution or bias error.
 //!
 //! **Its own error.** Only the sampling error: with jittered stratification each of the `N x N`
 //! strata contributes 0 or 1, and only the strata cut by a shadow edge are uncertain, about `O(N)`

@@ -29,9 +29,12 @@ use softshadow_core::{
     shader::{create_module, DefValue, ShaderSpec},
     shader_file,
     shadow_map::ShadowViewUniform,
-    wgpu, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, SlopeFrustum,
-    TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique,
+    SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
+
+mod info;
+pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "ssm";
@@ -249,7 +252,7 @@ struct LastFrame {
 }
 
 /// The `ssm` technique: a [`ShadowTechnique`] with its settings.
-pub struct SoftShadowMaps {
+pub struct Ssm {
     /// Its settings; changes take effect on the next frame.
     pub settings: SsmSettings,
     gpu: Gpu,
@@ -292,18 +295,6 @@ fn requirements_for(precision: Precision) -> Requirements {
         },
         occluder_receiver_split: true,
         ..Requirements::default()
-    }
-}
-
-/// The registry entry: id, description, parameters, requirements and constructor.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        id: ID,
-        description: "Soft shadow maps: per occluder-map texel, the occluded fraction of the light scattered over its penumbra",
-        source: "Atty et al. 2006",
-        params: SsmSettings::param_specs,
-        requirements: || requirements_for(Precision::Fp32),
-        create: |gpu| Ok(Box::new(SoftShadowMaps::new(gpu, SsmSettings::default())?)),
     }
 }
 
@@ -350,7 +341,7 @@ fn layout(gpu: &Gpu, label: &str, entries: &[wgpu::BindGroupLayoutEntry]) -> wgp
 const RECEIVER_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     [Vertex::ATTRIBUTES[0], Vertex::ATTRIBUTES[2]];
 
-impl SoftShadowMaps {
+impl Ssm {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: SsmSettings) -> Result<Self, TechniqueError> {
         let device = &gpu.device;
@@ -658,8 +649,8 @@ fn window(f: &SlopeFrustum) -> [f32; 4] {
     [f.s_min, f.s_max, f.t_min, f.t_max]
 }
 
-impl ShadowTechnique for SoftShadowMaps {
-    fn id(&self) -> &'static str {
+impl ShadowTechnique for Ssm {
+    fn id(&self) -> &str {
         ID
     }
 
@@ -1007,24 +998,24 @@ impl ShadowTechnique for SoftShadowMaps {
         };
         let (final_front, _) = res.final_maps();
         let mut views = vec![
-            DebugView {
-                name: "shadow_map".into(),
-                texture: res.occluder_front.texture.clone(),
-            },
-            DebugView {
-                name: "receiver_map".into(),
-                texture: res.receiver.texture.clone(),
-            },
-            DebugView {
-                name: "soft_shadow_map".into(),
-                texture: final_front.texture.clone(),
-            },
+            DebugView::new(
+                "shadow_map",
+                &res.occluder_front.texture,
+                DebugLegend::Depth,
+            ),
+            DebugView::new("receiver_map", &res.receiver.texture, DebugLegend::Depth),
+            DebugView::new(
+                "soft_shadow_map",
+                &final_front.texture,
+                DebugLegend::value("visibility stored in the soft shadow map"),
+            ),
         ];
         if let Some(back) = &res.occluder_back {
-            views.push(DebugView {
-                name: "occluder_map_back".into(),
-                texture: back.texture.clone(),
-            });
+            views.push(DebugView::new(
+                "occluder_map_back",
+                &back.texture,
+                DebugLegend::Depth,
+            ));
         }
         views
     }

@@ -29,13 +29,12 @@ use std::{
 };
 
 use egui::mutex::RwLock;
-use softshadow_bench::registry;
 use softshadow_core::{
-    scene::Fnv1a, wgpu, AreaLight, Camera, FrameOutput, Gpu, ParamSet, ParamValue, Renderer, Scene,
-    SceneGpu, ShadingMode, ShadowTechnique, TechniqueInfo,
+    scene::Fnv1a, wgpu, AreaLight, Camera, FrameOutput, Gpu, ParamSet, ParamValue, Registry,
+    Renderer, Scene, SceneGpu, ShadingMode, ShadowTechnique,
 };
 use softshadow_metrics::ErrorReport;
-use softshadow_reference::{AccumulatedReference, Progress, ReferenceSettings};
+use softshadow_reference::{Progress, Reference, ReferenceSettings};
 
 use crate::{
     display::{DebugMapping, DisplayPass, DisplayTarget, ViewMode},
@@ -64,8 +63,11 @@ const MIN_RENDER_EDGE: u32 = 16;
 /// How the viewer starts.
 #[derive(Clone, Debug)]
 pub struct ViewerOptions {
+    /// The techniques it offers (`softshadow::registry()`, plus any of the user's own).
+    pub registry: Registry,
     /// Builtin id, `.toml` scene file or glTF file.
     pub scene: String,
+    /// The technique shown first; empty: the registry's default ([`Registry::default_technique`]).
     pub technique: String,
     /// Technique parameters, `name=value` already parsed.
     pub params: Vec<(String, ParamValue)>,
@@ -76,8 +78,9 @@ pub struct ViewerOptions {
 impl Default for ViewerOptions {
     fn default() -> Self {
         Self {
+            registry: Registry::default(),
             scene: "atty-square".into(),
-            technique: "pcss".into(),
+            technique: String::new(),
             params: Vec::new(),
             state: None,
         }
@@ -118,7 +121,7 @@ struct Measured {
 pub struct ViewerApp {
     gpu: Gpu,
     egui_renderer: Arc<RwLock<egui_wgpu::Renderer>>,
-    techniques: Vec<TechniqueInfo>,
+    registry: Registry,
 
     scene: LoadedScene,
     technique_id: String,
@@ -149,7 +152,7 @@ pub struct ViewerApp {
     debug_target: Option<(DisplayTarget, egui::TextureId)>,
     debug_message: Option<String>,
 
-    reference: AccumulatedReference,
+    reference: Reference,
     /// Key of the inputs whose reference the reference renderer holds (partial or complete).
     reference_key: Option<u64>,
     reference_progress: Progress,
@@ -205,11 +208,22 @@ impl ViewerApp {
             .transpose()?;
         let scene_spec = state.as_ref().map_or(options.scene.as_str(), |s| &s.scene);
         let scene = load_scene(&gpu, scene_spec)?;
-        let technique_id = state
-            .as_ref()
-            .map_or(options.technique.clone(), |s| s.technique.clone());
-        registry::find(&technique_id)?;
-        let mut reference = AccumulatedReference::new(&gpu, ReferenceSettings::default())?;
+        let registry = options.registry.clone();
+        let default_technique = || -> Result<String, ViewerError> {
+            if !options.technique.is_empty() {
+                return Ok(options.technique.clone());
+            }
+            let info = registry
+                .default_technique()
+                .ok_or(ViewerError::NoTechnique)?;
+            Ok(info.id.to_string())
+        };
+        let technique_id = match &state {
+            Some(s) => s.technique.clone(),
+            None => default_technique()?,
+        };
+        registry.find(&technique_id)?;
+        let mut reference = Reference::new(&gpu, ReferenceSettings::default())?;
         reference.set_progressive(Some(REFERENCE_BATCHES_PER_FRAME));
         reference.set_param(
             "samples_per_axis",
@@ -228,7 +242,7 @@ impl ViewerApp {
         };
         let mut app = Self {
             display: DisplayPass::new(&gpu)?,
-            techniques: registry::techniques(),
+            registry,
             egui_renderer,
             scene,
             technique_id: String::new(),
@@ -441,7 +455,9 @@ impl ViewerApp {
         self.technique_error = None;
         self.prepared = None;
         self.timings.clear();
-        let result = registry::find(id)
+        let result = self
+            .registry
+            .find(id)
             .map_err(ViewerError::from)
             .and_then(|info| {
                 let saved: Vec<(String, ParamValue)> = self
@@ -556,7 +572,7 @@ impl ViewerApp {
     pub fn load_state(&mut self, path: &Path) {
         let result = ViewerState::load(path).and_then(|state| {
             let scene = load_scene(&self.gpu, &state.scene)?;
-            registry::find(&state.technique)?;
+            self.registry.find(&state.technique)?;
             Ok((state, scene))
         });
         match result {

@@ -17,6 +17,10 @@ pub enum ViewerError {
     #[error(transparent)]
     Bench(#[from] softshadow_bench::BenchError),
     #[error(transparent)]
+    Registry(#[from] softshadow_core::RegistryError),
+    #[error("the viewer was given no technique to show: pass a registry with at least one (`softshadow::registry()`)")]
+    NoTechnique,
+    #[error(transparent)]
     Metrics(#[from] softshadow_metrics::MetricsError),
     #[error("viewer state `{path}`: {message}")]
     State { path: String, message: String },

@@ -177,7 +177,7 @@ mod tests {
             },
             &[("samples_per_axis".into(), ParamValue::Int(8))],
         );
-        let sweep = softshadow_bench::Sweep::parse(&text).expect(&text);
+        let sweep = softshadow_bench::Sweep::parse(&text, &softshadow::registry()).expect(&text);
         assert_eq!(sweep.camera, Some(camera), "{text}");
         assert_eq!(sweep.light, Some(light), "{text}");
         assert_eq!(sweep.runs.len(), 2);

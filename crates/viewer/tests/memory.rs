@@ -93,6 +93,7 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
         gpu,
         render_state.renderer.clone(),
         &ViewerOptions {
+            registry: softshadow::registry(),
             scene: "atty-square".into(),
             technique: "hard".into(),
             ..ViewerOptions::default()

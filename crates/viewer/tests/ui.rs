@@ -19,6 +19,7 @@ fn harness(technique: &str) -> Result<Harness<'static, ViewerApp>> {
         gpu,
         render_state.renderer.clone(),
         &ViewerOptions {
+            registry: softshadow::registry(),
             scene: "atty-square".into(),
             technique: technique.into(),
             ..ViewerOptions::default()
@@ -509,12 +510,13 @@ fn an_exported_sweep_benchmarks_the_view_the_viewer_plotted() -> Result<()> {
         .query_by_label_contains("sweep.toml")
         .context("the confirmation is on screen")?;
 
-    let sweep = softshadow_bench::Sweep::load(&sweep_path)?;
+    let sweep = softshadow_bench::Sweep::load(&sweep_path, &softshadow::registry())?;
     ensure!(sweep.light == Some(light), "{:?}", sweep.light);
     ensure!(sweep.camera == Some(*harness.state().camera()));
     let gpu = Gpu::new_headless()?;
     let mut bench = softshadow_bench::Bench::new(
         gpu,
+        softshadow::registry(),
         softshadow_bench::BenchOptions {
             frames: 1,
             warmup: 0,
@@ -564,6 +566,7 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
         gpu,
         render_state.renderer.clone(),
         &ViewerOptions {
+            registry: softshadow::registry(),
             scene: "atty-square".into(),
             technique: "pdsm".into(),
             params: vec![

@@ -5,9 +5,9 @@ use std::{path::Path, process::ExitCode, time::Instant};
 
 use anyhow::{Context, Result};
 use softshadow_bench::stress::{self, Outcome, Ranges, Stress};
-use softshadow_core::Gpu;
+use softshadow_core::{Gpu, Registry};
 
-pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
+pub fn run(registry: &Registry, seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create the output folder `{}`", out.display()))?;
     // PDSM's disk cache would collect one entry per random setting: keep it in `out`.
@@ -15,7 +15,7 @@ pub fn run(seconds: u64, seed: u64, out: &Path) -> Result<ExitCode> {
         std::env::set_var("SOFTSHADOW_CACHE_DIR", out.join("pdsm-cache"));
     }
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
-    let mut stress = Stress::new(gpu, seed, Ranges::Full)?;
+    let mut stress = Stress::new(gpu, registry.clone(), seed, Ranges::Full)?;
     let start = Instant::now();
     let mut last_report = Instant::now();
     while start.elapsed().as_secs() < seconds {

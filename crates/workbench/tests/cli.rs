@@ -37,7 +37,7 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
     };
     // Every registered technique, in registry order, each with every declared parameter.
     let techniques = ids("techniques");
-    let registered: Vec<String> = softshadow_bench::registry::techniques()
+    let registered: Vec<String> = softshadow::registry()
         .iter()
         .map(|t| t.id.to_string())
         .collect();
@@ -45,12 +45,12 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
         techniques == registered,
         "list has {techniques:?}, the registry {registered:?}"
     );
-    for (k, info) in softshadow_bench::registry::techniques().iter().enumerate() {
+    for (k, info) in softshadow::registry().iter().enumerate() {
         let listed: Vec<&str> = v["techniques"][k]["params"]
             .as_array()
             .map(|a| a.iter().filter_map(|p| p["name"].as_str()).collect())
             .unwrap_or_default();
-        let declared: Vec<&str> = (info.params)().iter().map(|p| p.name).collect();
+        let declared: Vec<&str> = info.params.iter().map(|p| p.name.as_ref()).collect();
         ensure!(
             listed == declared,
             "{}: listed {listed:?}, declared {declared:?}",
@@ -141,7 +141,7 @@ fn list_text_names_every_technique_with_its_parameters_and_every_stiff_scene() -
         stiff.len()
     );
     let listed = entries(techniques);
-    let registry = softshadow_bench::registry::techniques();
+    let registry = softshadow::registry();
     ensure!(
         listed.len() == registry.len(),
         "list shows {} techniques, the registry has {}",
@@ -150,11 +150,11 @@ fn list_text_names_every_technique_with_its_parameters_and_every_stiff_scene() -
     );
     for ((id, params), info) in listed.iter().zip(&registry) {
         ensure!(
-            id == info.id,
+            *id == info.id,
             "list shows {id} where the registry has {}",
             info.id
         );
-        let declared: Vec<&str> = (info.params)().iter().map(|p| p.name).collect();
+        let declared: Vec<&str> = info.params.iter().map(|p| p.name.as_ref()).collect();
         ensure!(
             *params == declared,
             "{id}: list shows parameters {params:?}, declared {declared:?}"

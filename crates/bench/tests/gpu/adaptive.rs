@@ -6,7 +6,7 @@
 use crate::common::{closed_form, gpu};
 use anyhow::{ensure, Context, Result};
 use softshadow_adaptive::{
-    AdaptiveSampling, AdaptiveSettings, Evaluation, FrameReport, Start, ThresholdMode, Weighting,
+    Adaptive, AdaptiveSettings, Evaluation, FrameReport, Start, ThresholdMode, Weighting,
 };
 use softshadow_core::{
     glam::{Vec2, Vec3},
@@ -15,7 +15,7 @@ use softshadow_core::{
 };
 use softshadow_reference::{
     exact::{parallel_rects, ParallelRect},
-    AccumulatedReference, ReferenceSettings,
+    Reference, ReferenceSettings,
 };
 
 struct Output {
@@ -45,8 +45,8 @@ fn render(
     })
 }
 
-fn adaptive(gpu: &Gpu, settings: AdaptiveSettings) -> Result<AdaptiveSampling> {
-    Ok(AdaptiveSampling::new(gpu, settings)?)
+fn adaptive(gpu: &Gpu, settings: AdaptiveSettings) -> Result<Adaptive> {
+    Ok(Adaptive::new(gpu, settings)?)
 }
 
 /// Mean |a - b| over receiver pixels.
@@ -68,7 +68,7 @@ fn max_difference(a: &[f32], b: &[f32]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn report(technique: &AdaptiveSampling) -> FrameReport {
+fn report(technique: &Adaptive) -> FrameReport {
     technique.report().clone()
 }
 
@@ -82,7 +82,7 @@ fn epsilon_zero_with_full_grid_caps_equals_the_fixed_grid_accumulation() -> Resu
     let gpu = gpu()?;
     let scene = softshadow_scenes::load("atty-square")?.scene;
     let size = 64;
-    let mut reference = AccumulatedReference::new(
+    let mut reference = Reference::new(
         &gpu,
         ReferenceSettings {
             samples_per_axis: 8,
@@ -146,7 +146,7 @@ fn small_penumbra_uses_fewer_maps_than_a_16x16_grid_at_comparable_error() -> Res
     let gpu = gpu()?;
     let scene = softshadow_scenes::load("atty-square:light_width=0.2")?.scene;
     let size = 96;
-    let mut grid = AccumulatedReference::new(
+    let mut grid = Reference::new(
         &gpu,
         ReferenceSettings {
             samples_per_axis: 16,

@@ -237,6 +237,7 @@ fn blob_contact_umbra_stays_dark() -> Result<()> {
 fn extremes_stay_finite_and_bounded() -> Result<()> {
     let mut bench = Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -264,7 +265,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
                 let spec = RunSpec {
                     scene: scene.into(),
                     technique: "backprojection".into(),
-                    params: parse_params("backprojection", &texts)?,
+                    params: parse_params(&softshadow::registry(), "backprojection", &texts)?,
                     width: 48,
                     height: 48,
                 };

@@ -18,6 +18,7 @@ use softshadow_reference::exact::{parallel_rects, visible_fraction};
 fn bench_with_error() -> Result<Bench> {
     Ok(Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -43,7 +44,7 @@ fn run(
     let spec = RunSpec {
         scene: scene.into(),
         technique: technique.into(),
-        params: parse_params(technique, params)?,
+        params: parse_params(&softshadow::registry(), technique, params)?,
         width: size,
         height: size,
     };
@@ -459,6 +460,7 @@ fn light_space_layers_are_kept_while_only_the_camera_moves() -> Result<()> {
 fn extremes_stay_finite_and_bounded() -> Result<()> {
     let mut bench = Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -493,7 +495,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
                 let spec = RunSpec {
                     scene: scene.into(),
                     technique: "bitmask".into(),
-                    params: parse_params("bitmask", &params)?,
+                    params: parse_params(&softshadow::registry(), "bitmask", &params)?,
                     width: 48,
                     height: 48,
                 };

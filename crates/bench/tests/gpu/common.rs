@@ -73,66 +73,6 @@ pub fn exact_visibility(
     softshadow_reference::exact_visibility(scene, positions, receiver, samples_per_axis).0
 }
 
-/// The error measures a bound is stated in (against the exact answer, over receiver pixels).
-/// Not `mae_all`: a mostly lit ground dilutes it until "no shadow at all" passes a bound on a
-/// small shadow, so `mae_shadowed` (pixels where V_exact < 1) and `max_abs` instead.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Metric {
-    MaeShadowed,
-    MaxAbs,
-}
-
-impl Metric {
-    pub fn of(self, report: &ErrorReport) -> f64 {
-        match self {
-            Metric::MaeShadowed => report.mae_shadowed,
-            Metric::MaxAbs => report.max_abs,
-        }
-    }
-}
-
-/// What a test asserts for one technique on one case.
-#[derive(Clone, Copy, Debug)]
-pub enum Expect {
-    /// `metric` at most `bound`; `measured` is the value at the test's own resolution when the
-    /// bound was set (bounds are about 2-3x that, so a regression shows).
-    AtMost {
-        metric: Metric,
-        bound: f64,
-        measured: f64,
-    },
-    /// A failure by design (the docs say why): `metric` is `value` +- `tolerance`, asserted as
-    /// such rather than hidden under a loose bound.
-    KnownFailure {
-        metric: Metric,
-        value: f64,
-        tolerance: f64,
-    },
-}
-
-pub const fn at_most(metric: Metric, bound: f64, measured: f64) -> Expect {
-    Expect::AtMost {
-        metric,
-        bound,
-        measured,
-    }
-}
-
-pub const fn known_failure(metric: Metric, value: f64, tolerance: f64) -> Expect {
-    Expect::KnownFailure {
-        metric,
-        value,
-        tolerance,
-    }
-}
-
-/// A deliberately wrong answer run through the same bounds: "no shadow at all" (V = 1) and, for
-/// the soft techniques, the hard-shadow result of the same case.
-pub struct Baseline {
-    pub name: &'static str,
-    pub report: ErrorReport,
-}
-
 /// `error.vs_exact` of a run made with the error metrics and an exact ground truth.
 pub fn vs_exact(run: &Run) -> Result<&ErrorReport> {
     run.error
@@ -153,60 +93,13 @@ pub fn all_lit_vs_exact(run: &Run) -> Result<ErrorReport> {
         .context("no all_lit_vs_exact block")
 }
 
-/// Checks `report` against `expectation`, and that an `AtMost` bound rejects every baseline that
-/// is clearly worse than the technique (more than 1.5x its measured error and above 1e-3): the
-/// problems found, each prefixed with `label`.
-pub fn check(
-    label: &str,
-    expectation: Expect,
-    report: &ErrorReport,
-    baselines: &[Baseline],
-) -> Vec<String> {
-    let mut failures = Vec::new();
-    match expectation {
-        Expect::KnownFailure {
-            metric,
-            value,
-            tolerance,
-        } => {
-            let e = metric.of(report);
-            if (e - value).abs() > tolerance {
-                failures.push(format!(
-                    "{label}: known failure {metric:?} = {value} +- {tolerance}, got {e:.4} (fixed? update the expectation)"
-                ));
-            }
-        }
-        Expect::AtMost {
-            metric,
-            bound,
-            measured,
-        } => {
-            let e = metric.of(report);
-            if e > bound {
-                failures.push(format!(
-                    "{label}: {metric:?} {e:.4} > bound {bound} (measured {measured} when set)"
-                ));
-            }
-            for baseline in baselines {
-                let b = metric.of(&baseline.report);
-                if b > 1.5 * measured && b > 1e-3 && b <= bound {
-                    failures.push(format!(
-                        "{label}: the bound {metric:?} <= {bound} accepts the {} answer ({b:.4}): tighten it",
-                        baseline.name
-                    ));
-                }
-            }
-        }
-    }
-    failures
-}
-
 /// A bench measuring against the exact answer (closed form where the casters are rectangles
 /// parallel to the light, else a 16 x 16 ray cast), one frame per run; the yardstick reference
 /// (`error.report`) is not used by the tests that take this, so it is small (4 x 4 at 256^2).
 pub fn exact_bench() -> Result<Bench> {
     Ok(Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -237,7 +130,7 @@ pub fn exact_errors(
         let spec = RunSpec {
             scene: scene.into(),
             technique: technique.into(),
-            params: softshadow_bench::parse_params(technique, &texts)?,
+            params: softshadow_bench::parse_params(bench.registry(), technique, &texts)?,
             width: size,
             height: size,
         };

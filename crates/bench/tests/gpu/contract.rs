@@ -6,7 +6,6 @@
 
 use crate::common::gpu;
 use anyhow::{ensure, Result};
-use softshadow_bench::registry;
 use softshadow_core::{glam::Vec3, ParamValue, Renderer, Scene, SceneGpu};
 
 const SIZE: u32 = 64;
@@ -43,7 +42,10 @@ fn receivers_behind_the_light_hold_zero_and_non_receivers_one_for_every_techniqu
         let mut renderer = Renderer::new(&gpu, SIZE, SIZE)?;
         let (camera, light) = (scene.camera, scene.light);
         // Which pixels see a receiver behind the light, from the G-buffer of a first frame.
-        let mut probe = registry::find("hard")?.create_with(&gpu, &[])?;
+        let mut probe = softshadow::registry()
+            .find("hard")?
+            .clone()
+            .create_with(&gpu, &[])?;
         renderer.render(&scene_gpu, &camera, &light, probe.as_mut(), None)?;
         let positions = renderer.read_world_positions()?;
         let receivers = renderer.read_receiver_mask()?;
@@ -57,7 +59,7 @@ fn receivers_behind_the_light_hold_zero_and_non_receivers_one_for_every_techniqu
             behind_count > 100,
             "{name}: only {behind_count} pixels see a receiver behind the light; fix the scene"
         );
-        for info in registry::techniques() {
+        for info in softshadow::registry().iter() {
             let mut technique = info.create_with(&gpu, &[])?;
             if info.id == "reference" {
                 technique.set_param("samples_per_axis", ParamValue::Int(4))?;

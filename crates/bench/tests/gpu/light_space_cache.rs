@@ -5,7 +5,7 @@
 
 use crate::common::gpu;
 use anyhow::{ensure, Context, Result};
-use softshadow_bench::{orbit_camera, registry};
+use softshadow_bench::orbit_camera;
 use softshadow_core::{
     glam::{Mat4, Vec3},
     Gpu, Renderer, Scene, SceneGpu, ShadowTechnique,
@@ -22,7 +22,7 @@ fn keeps_nothing(id: &str) -> bool {
 
 /// A technique with its fast test settings (small maps and sample counts keep lavapipe quick).
 fn create(gpu: &Gpu, id: &str) -> Result<Box<dyn ShadowTechnique>> {
-    let info = registry::find(id)?;
+    let info = softshadow::registry().find(id)?.clone();
     let mut technique = info.create_with(gpu, &[])?;
     if id == "reference" {
         technique.set_param("samples_per_axis", softshadow_core::ParamValue::Int(4))?;
@@ -92,8 +92,8 @@ fn a_camera_only_frame_matches_a_full_frame_and_keeps_light_space_passes() -> Re
     let mut moved_light = scene.light;
     moved_light.center += Vec3::new(0.02, 0.0, 0.0);
     let mut failures = Vec::new();
-    for info in registry::techniques() {
-        let id = info.id;
+    for info in softshadow::registry().iter() {
+        let id = info.id.as_ref();
         let mut renderer = Renderer::new(&gpu, SIZE, SIZE)?;
         let mut technique = create(&gpu, id)?;
         technique.prepare(&gpu, &renderer.inputs(&scene_gpu, &camera, &scene.light))?;

@@ -13,7 +13,7 @@ use softshadow_core::{
     glam::{Mat4, Vec3},
     Gpu, Instance, RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
 };
-use softshadow_pdsm::{PdsmSettings, PdsmShadows};
+use softshadow_pdsm::{Pdsm, PdsmSettings};
 use softshadow_scenes::primitives;
 
 const SIZE: u32 = 64;
@@ -27,8 +27,8 @@ fn settings(samples: u32, pdsm_size: u32) -> PdsmSettings {
     }
 }
 
-fn technique(gpu: &Gpu, settings: PdsmSettings, cache: &std::path::Path) -> Result<PdsmShadows> {
-    let mut pdsm = PdsmShadows::new(gpu, settings)?;
+fn technique(gpu: &Gpu, settings: PdsmSettings, cache: &std::path::Path) -> Result<Pdsm> {
+    let mut pdsm = Pdsm::new(gpu, settings)?;
     pdsm.cache_dir = Some(cache.to_path_buf());
     Ok(pdsm)
 }
@@ -41,7 +41,7 @@ struct Frame {
     passes: Vec<String>,
 }
 
-fn render(gpu: &Gpu, scene: &Scene, pdsm: &mut PdsmShadows) -> Result<Frame> {
+fn render(gpu: &Gpu, scene: &Scene, pdsm: &mut Pdsm) -> Result<Frame> {
     let scene_gpu = SceneGpu::upload(gpu, scene);
     let mut renderer = Renderer::new(gpu, SIZE, SIZE)?;
     let out = renderer.render(&scene_gpu, &scene.camera, &scene.light, pdsm, None)?;
@@ -564,7 +564,7 @@ fn the_centre_map_is_drawn_only_while_its_debug_view_is_shown() -> Result<()> {
     let scene = builtin("pdsm-quads")?;
     let mut pdsm = technique(&gpu, settings(4, 32), cache.path())?;
     let drawn = |frame: &Frame| frame.passes.iter().any(|p| p == "pdsm/centre_map");
-    let stat = |pdsm: &PdsmShadows| pdsm.stats().get("centre_map_passes").copied();
+    let stat = |pdsm: &Pdsm| pdsm.stats().get("centre_map_passes").copied();
     let first = render(&gpu, &scene, &mut pdsm)?;
     ensure!(!drawn(&first), "{:?}", first.passes);
     ensure!(stat(&pdsm) == Some(0.0));
@@ -594,7 +594,7 @@ fn the_centre_map_is_drawn_only_while_its_debug_view_is_shown() -> Result<()> {
 }
 
 /// Renders until the background build is done and the frame is drawn.
-fn poll_until_drawn(gpu: &Gpu, scene: &Scene, pdsm: &mut PdsmShadows) -> Result<Frame> {
+fn poll_until_drawn(gpu: &Gpu, scene: &Scene, pdsm: &mut Pdsm) -> Result<Frame> {
     loop {
         match render(gpu, scene, pdsm) {
             Err(e) if matches!(technique_error(&e), Some(TechniqueError::Building { .. })) => {

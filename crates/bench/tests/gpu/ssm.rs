@@ -10,7 +10,7 @@ use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec}
 use softshadow_core::{Gpu, ParamValue, Renderer, SceneGpu, ShadowTechnique, TechniqueStats};
 use softshadow_metrics::ErrorReport;
 use softshadow_scenes::AttySquare;
-use softshadow_ssm::{Precision, SoftShadowMaps, SsmSettings};
+use softshadow_ssm::{Precision, Ssm, SsmSettings};
 
 /// Renders `atty-square` (with `params`) with `settings` at `size`² and compares it with the
 /// closed form (`reference::exact`) over the receiver pixels.
@@ -23,7 +23,7 @@ fn against_closed_form(
     let scene = params.scene()?;
     let scene_gpu = SceneGpu::upload(gpu, &scene);
     let mut renderer = Renderer::new(gpu, size, size)?;
-    let mut ssm = SoftShadowMaps::new(gpu, settings)?;
+    let mut ssm = Ssm::new(gpu, settings)?;
     renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut ssm, None)?;
     let v = renderer.read_visibility()?;
     let mask = renderer.read_receiver_mask()?;
@@ -105,6 +105,7 @@ fn fp16_blending_fails_at_512_and_batching_fixes_it() -> Result<()> {
 fn bench() -> Result<Bench> {
     Ok(Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -126,7 +127,7 @@ fn run(bench: &mut Bench, scene: &str, params: &[&str]) -> Result<Run> {
     let spec = RunSpec {
         scene: scene.into(),
         technique: "ssm".into(),
-        params: parse_params("ssm", &texts)?,
+        params: parse_params(&softshadow::registry(), "ssm", &texts)?,
         width: 96,
         height: 96,
     };
@@ -169,6 +170,7 @@ fn two_pass_is_no_worse_than_one_pass_on_a_thick_occluder() -> Result<()> {
 fn extremes_give_finite_visibility_in_range() -> Result<()> {
     let mut bench = Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -214,7 +216,7 @@ fn extremes_give_finite_visibility_in_range() -> Result<()> {
             let spec = RunSpec {
                 scene: scene.into(),
                 technique: "ssm".into(),
-                params: parse_params("ssm", &texts)?,
+                params: parse_params(&softshadow::registry(), "ssm", &texts)?,
                 width: 64,
                 height: 64,
             };
@@ -243,15 +245,25 @@ fn a_point_light_gives_the_hard_shadow() -> Result<()> {
 #[test]
 fn parameters_are_checked_and_listed() -> Result<()> {
     let specs = softshadow_ssm::SsmSettings::param_specs();
-    let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
+    let names: Vec<&str> = specs.iter().map(|s| s.name.as_ref()).collect();
     for name in ["occluder_map_size", "two_pass", "precision"] {
         ensure!(names.contains(&name), "{names:?}");
     }
-    ensure!(parse_params("ssm", &["occluder_map_size=2048".into()]).is_err());
-    ensure!(parse_params("ssm", &["occluder_map_size=32".into()]).is_err());
-    ensure!(parse_params("ssm", &["precision=fp8".into()]).is_err());
+    ensure!(parse_params(
+        &softshadow::registry(),
+        "ssm",
+        &["occluder_map_size=2048".into()]
+    )
+    .is_err());
+    ensure!(parse_params(
+        &softshadow::registry(),
+        "ssm",
+        &["occluder_map_size=32".into()]
+    )
+    .is_err());
+    ensure!(parse_params(&softshadow::registry(), "ssm", &["precision=fp8".into()]).is_err());
     let gpu = gpu()?;
-    let mut ssm = SoftShadowMaps::new(&gpu, SsmSettings::default())?;
+    let mut ssm = Ssm::new(&gpu, SsmSettings::default())?;
     ssm.set_param("precision", ParamValue::Choice("fp16-batched".into()))?;
     ssm.set_param("two_pass", ParamValue::Bool(true))?;
     ensure!(ssm.settings.precision == Precision::Fp16Batched && ssm.settings.two_pass);

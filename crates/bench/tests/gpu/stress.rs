@@ -5,10 +5,7 @@
 //! `workbench bench --stress SECONDS` runs the same cases, with whole ranges, for longer.
 
 use anyhow::{ensure, Result};
-use softshadow_bench::{
-    registry,
-    stress::{Outcome, Ranges, Stress},
-};
+use softshadow_bench::stress::{Outcome, Ranges, Stress};
 
 use crate::common::gpu;
 
@@ -18,8 +15,8 @@ const CASES_PER_TECHNIQUE: u64 = 5;
 
 #[test]
 fn random_parameters_and_lights_give_valid_visibility_or_a_clear_error() -> Result<()> {
-    let mut stress = Stress::new(gpu()?, SEED, Ranges::Quick)?;
-    let techniques = registry::techniques();
+    let techniques = softshadow::registry();
+    let mut stress = Stress::new(gpu()?, techniques.clone(), SEED, Ranges::Quick)?;
     for _ in 0..CASES_PER_TECHNIQUE * techniques.len() as u64 {
         let (case, result) = stress.step();
         match &result {
@@ -39,7 +36,11 @@ fn random_parameters_and_lights_give_valid_visibility_or_a_clear_error() -> Resu
     );
     // A technique that refused every case would pass the rule above without being tested.
     for info in &techniques {
-        let (cases, ok) = counts.per_technique.get(info.id).copied().unwrap_or((0, 0));
+        let (cases, ok) = counts
+            .per_technique
+            .get(info.id.as_ref())
+            .copied()
+            .unwrap_or((0, 0));
         ensure!(
             ok > 0,
             "{}: none of its {cases} cases rendered (errors: {:?})",

@@ -48,6 +48,7 @@ fn run_shard(sweep: &Sweep, shard: Option<Shard>, dir: &Path) -> Result<()> {
         shard,
     };
     let setup = RunSetup {
+        registry: softshadow::registry(),
         sweep: Some(info),
         ..Default::default()
     };
@@ -150,7 +151,7 @@ fn check_plot(svg: &str, expected_runs: usize, what: &str) -> Result<()> {
 
 #[test]
 fn three_shards_merged_equal_the_whole_sweep_and_the_report_plots_every_run() -> Result<()> {
-    let sweep = Sweep::parse(SWEEP)?;
+    let sweep = Sweep::parse(SWEEP, &softshadow::registry())?;
     let n = sweep.runs.len();
     ensure!(n == 8, "{n} runs");
     let root = tempfile::tempdir()?;
@@ -234,7 +235,7 @@ fn three_shards_merged_equal_the_whole_sweep_and_the_report_plots_every_run() ->
 
     // The report of the shards: self-contained, one plot pair per scene, every run a point.
     let all = merge::merge(&shards)?;
-    let (html, summary) = report::render_html(&all)?;
+    let (html, summary) = report::render_html(&all, &softshadow::registry())?;
     ensure!(summary.scenes == 2 && summary.points == n && summary.unplotted == 0);
     // Nothing to fetch: no scripts, no stylesheets, no external sources (the SVG namespace URI
     // is a name, not a fetch).

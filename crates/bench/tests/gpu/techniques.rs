@@ -6,12 +6,13 @@
 //! the large runs.
 
 use crate::common::{
-    all_lit_vs_exact, at_most, check, exact_bench, exact_errors, gpu, mae_shadowed, run_checked,
-    vs_exact, Baseline, Expect, Metric::MaeShadowed,
+    all_lit_vs_exact, exact_bench, exact_errors, gpu, mae_shadowed, run_checked, vs_exact,
 };
 use anyhow::{bail, ensure, Context, Result};
-use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec, Status};
-use softshadow_core::ParamValue;
+use softshadow_bench::{
+    expectations, parse_params, results::Run, Bench, BenchOptions, RunSpec, Status,
+};
+use softshadow_core::{expectations::EXPECTATION_SIZE, ParamValue};
 
 /// Size of the registry-wide runs (the pcss-specific ones use 96^2).
 const SIZE: u32 = 64;
@@ -19,6 +20,7 @@ const SIZE: u32 = 64;
 fn bench() -> Result<Bench> {
     Ok(Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 1,
             warmup: 0,
@@ -39,7 +41,7 @@ fn run(bench: &mut Bench, scene: &str, technique: &str, params: &[&str]) -> Resu
     let spec = RunSpec {
         scene: scene.into(),
         technique: technique.into(),
-        params: parse_params(technique, &texts)?,
+        params: parse_params(bench.registry(), technique, &texts)?,
         width: 96,
         height: 96,
     };
@@ -84,106 +86,69 @@ fn pcss_with_the_grid_kernel_is_near_exact_for_a_square_parallel_to_the_light() 
     Ok(())
 }
 
-/// The cases of `every_technique_stays_within_its_bound_on_the_square_and_the_blob`: one planar
-/// square parallel to the light (closed form) and a curved, self-shadowing blob (ray cast).
-const CASES: [&str; 2] = ["atty-square", BLOB];
-const BLOB: &str = "blob-floating:triangles=20000";
+/// The paper scenes every technique states a bound for: one planar square parallel to the light
+/// (closed form) and a curved, self-shadowing blob (ray cast).
+const PAPER_CASES: [&str; 2] = ["atty-square", "blob-floating:triangles=20000"];
 
-/// The stated expectation per technique and case at 64^2 against the exact answer, with the value
-/// measured at 64^2 beside each bound (docs/TECHNIQUES.md). Rule as in stiff.rs: bound 2.5x the
-/// measurement (at least measurement + 0.001), lowered to halfway to the nearest wrong answer
-/// (all-lit, or `hard` for a soft technique) where that answer is within reach.
-fn expect(technique: &str, case: &str) -> Option<Expect> {
-    // all-lit: 0.4339 on the square, 0.5424 on the blob; hard: 0.2063 and 0.1540.
-    let expectation = match (technique, case) {
-        ("hard", "atty-square") => at_most(MaeShadowed, 0.32, 0.2063),
-        ("pcss", "atty-square") => at_most(MaeShadowed, 0.082, 0.0327),
-        ("ssm", "atty-square") => at_most(MaeShadowed, 0.0088, 0.0035),
-        ("backprojection", "atty-square") => at_most(MaeShadowed, 0.044, 0.0177),
-        ("bitmask", "atty-square") => at_most(MaeShadowed, 0.044, 0.0176),
-        ("adaptive", "atty-square") => at_most(MaeShadowed, 0.085, 0.0338),
-        ("pdsm", "atty-square") => at_most(MaeShadowed, 0.027, 0.0107),
-        ("reference", "atty-square") => at_most(MaeShadowed, 0.004, 0.0016),
-        // The blob's hard shadow is close to every soft technique's error (they all lose some
-        // self-shadowing detail), so most bounds sit halfway to it.
-        ("hard", BLOB) => at_most(MaeShadowed, 0.35, 0.1540),
-        ("pcss", BLOB) => at_most(MaeShadowed, 0.12, 0.0829),
-        ("ssm", BLOB) => at_most(MaeShadowed, 0.125, 0.0973),
-        ("backprojection", BLOB) => at_most(MaeShadowed, 0.12, 0.0855),
-        ("bitmask", BLOB) => at_most(MaeShadowed, 0.11, 0.0681),
-        ("adaptive", BLOB) => at_most(MaeShadowed, 0.065, 0.0261),
-        ("pdsm", BLOB) => at_most(MaeShadowed, 0.098, 0.0414),
-        ("reference", BLOB) => at_most(MaeShadowed, 0.019, 0.0076),
-        _ => return None,
-    };
-    Some(expectation)
-}
-
-/// Every registered technique on the square and the blob, against the exact answer, within its
-/// stated bound; each bound must reject "no shadow at all" and, for the soft techniques, the
-/// `hard` result of the same case. A technique without an expectation fails the test: adding a
-/// technique means adding its rows here.
+/// Every registered technique on the square and the blob, against the exact answer, within the
+/// bound its crate states (`TechniqueInfo::expectations`); each bound must reject "no shadow at
+/// all" and, for the soft techniques, the `hard` result of the same case. A technique without a
+/// bound for a case fails the test, naming both.
 #[test]
 fn every_technique_stays_within_its_bound_on_the_square_and_the_blob() -> Result<()> {
     let mut bench = exact_bench()?;
+    let registry = bench.registry().clone();
+    let dir = tempfile::tempdir()?;
     let mut failures = Vec::new();
-    for case in CASES {
-        let mut runs: Vec<(&'static str, Run)> = Vec::new();
-        for info in softshadow_bench::registry::techniques() {
+    let mut runs = Vec::new();
+    for case in PAPER_CASES {
+        for info in &registry {
             let spec = RunSpec {
                 scene: case.into(),
-                technique: info.id.into(),
+                technique: info.id.to_string(),
                 params: vec![],
-                width: SIZE,
-                height: SIZE,
+                width: EXPECTATION_SIZE,
+                height: EXPECTATION_SIZE,
             };
-            runs.push((info.id, run_checked(&mut bench, &spec)?));
-        }
-        let hard = vs_exact(
-            &runs
-                .iter()
-                .find(|(id, _)| *id == "hard")
-                .context("hard is registered")?
-                .1,
-        )?
-        .clone();
-        for (id, run) in &runs {
-            let label = format!("{id} / {case}");
-            let report = vs_exact(run)?;
-            let all_lit = all_lit_vs_exact(run)?;
-            eprintln!(
-                "MEASURED {id:<16} {case:<30} mae_shadowed {:.4} max_abs {:.4} | all-lit {:.4} {:.4} | hard {:.4} {:.4} | {}",
-                report.mae_shadowed,
-                report.max_abs,
-                all_lit.mae_shadowed,
-                all_lit.max_abs,
-                hard.mae_shadowed,
-                hard.max_abs,
-                run.error.as_ref().and_then(|e| e.exact.clone()).unwrap_or_default()
+            let run = bench.run(runs.len(), &spec, dir.path());
+            ensure!(
+                run.status == Status::Ok,
+                "{} / {case} failed: {}",
+                info.id,
+                run.message
             );
-            // The wrong answers must be wrong here, or rejecting them proves nothing.
-            if all_lit.mae_shadowed < 0.1 {
-                failures.push(format!(
-                    "{label}: all-lit is only {:.4} off",
-                    all_lit.mae_shadowed
-                ));
-            }
-            let mut baselines = vec![Baseline {
-                name: "all-lit (V = 1)",
-                report: all_lit,
-            }];
-            if *id != "hard" {
-                baselines.push(Baseline {
-                    name: "hard",
-                    report: hard.clone(),
-                });
-            }
-            match expect(id, case) {
-                None => failures.push(format!("{label}: no expectation stated: add one")),
-                Some(expectation) => {
-                    failures.extend(check(&label, expectation, report, &baselines))
-                }
-            }
+            runs.push(run);
+        }
+    }
+    failures.extend(expectations::judge(&registry, &mut runs));
+    for run in &runs {
+        let report = vs_exact(run)?;
+        let all_lit = all_lit_vs_exact(run)?;
+        eprintln!(
+            "MEASURED {:<16} {:<30} mae_shadowed {:.4} max_abs {:.4} | all-lit {:.4} {:.4} | {}",
+            run.technique,
+            run.scene,
+            report.mae_shadowed,
+            report.max_abs,
+            all_lit.mae_shadowed,
+            all_lit.max_abs,
+            run.error
+                .as_ref()
+                .and_then(|e| e.exact.clone())
+                .unwrap_or_default()
+        );
+        // The wrong answers must be wrong here, or rejecting them proves nothing.
+        if all_lit.mae_shadowed < 0.1 {
+            failures.push(format!(
+                "{} / {}: all-lit is only {:.4} off",
+                run.technique, run.scene, all_lit.mae_shadowed
+            ));
+        }
+        if run.expectation.is_none() {
+            failures.push(format!(
+                "{} / {}: no expectation stated: add one to the technique's `expectations()` (its crate's info.rs)",
+                run.technique, run.scene
+            ));
         }
     }
     if !failures.is_empty() {
@@ -234,8 +199,8 @@ fn only_the_passes_a_scene_needs_run() -> Result<()> {
     let scene = softshadow_scenes::load(&path.display().to_string())?.scene;
     let scene_gpu = SceneGpu::upload(&gpu, &scene);
     let mut renderer = Renderer::new(&gpu, 64, 64)?;
-    for info in softshadow_bench::registry::techniques() {
-        let mut technique = (info.create)(&gpu)?;
+    for info in softshadow::registry().iter() {
+        let mut technique = info.create(&gpu)?;
         technique.prepare(
             &gpu,
             &renderer.inputs(&scene_gpu, &scene.camera, &scene.light),
@@ -289,8 +254,8 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
     let scene_gpu = SceneGpu::upload(&gpu, &scene);
     let mut renderer = Renderer::new(&gpu, 96, 96)?;
     let occluders = parallel_rects(&scene).context("atty-square is one parallel rectangle")?;
-    for info in softshadow_bench::registry::techniques() {
-        let mut technique = (info.create)(&gpu)?;
+    for info in softshadow::registry().iter() {
+        let mut technique = info.create(&gpu)?;
         renderer.render(
             &scene_gpu,
             &scene.camera,
@@ -355,6 +320,7 @@ fn umbra_is_zero_and_lit_is_one_for_every_technique() -> Result<()> {
 fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
     let mut bench = Bench::new(
         gpu()?,
+        softshadow::registry(),
         BenchOptions {
             frames: 2,
             warmup: 1,
@@ -368,7 +334,11 @@ fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
     let spec = RunSpec {
         scene: "atty-square".into(),
         technique: "reference".into(),
-        params: parse_params("reference", &["samples_per_axis=4".into()])?,
+        params: parse_params(
+            &softshadow::registry(),
+            "reference",
+            &["samples_per_axis=4".into()],
+        )?,
         width: 64,
         height: 64,
     };

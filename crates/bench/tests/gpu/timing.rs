@@ -4,7 +4,7 @@
 
 use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
-use softshadow_bench::{parse_params, registry, results, Bench, BenchOptions, RunSpec};
+use softshadow_bench::{parse_params, results, Bench, BenchOptions, RunSpec};
 use softshadow_core::{Renderer, SceneGpu, ShadingMode, TimingSource};
 
 fn options() -> BenchOptions {
@@ -32,7 +32,7 @@ fn serial_pass_times_add_up_to_the_frame_wall_time_for_every_technique() -> Resu
     let mut renderer = Renderer::new(&gpu, 64, 64)?;
     ensure!(renderer.timing == TimingSource::Serial);
     let mut report = Vec::new();
-    for info in registry::techniques() {
+    for info in softshadow::registry().iter() {
         let mut technique = info.create_with(&gpu, &[])?;
         technique.prepare(&gpu, &renderer.inputs(&scene, &camera, &light))?;
         let mut ratios = Vec::new();
@@ -90,9 +90,10 @@ fn hierarchy_build_time_is_the_level_passes_time_with_serial_timing() -> Result<
         ("backprojection", &["hierarchy=mssm"]),
         ("bitmask", &["hierarchy=mssm", "layers=2"]),
     ] {
-        let info = registry::find(id)?;
+        let info = softshadow::registry().find(id)?.clone();
         let texts: Vec<String> = params.iter().map(|p| p.to_string()).collect();
-        let mut technique = info.create_with(&gpu, &parse_params(id, &texts)?)?;
+        let mut technique =
+            info.create_with(&gpu, &parse_params(&softshadow::registry(), id, &texts)?)?;
         technique.prepare(&gpu, &renderer.inputs(&scene, &camera, &light))?;
         let output = renderer.render(&scene, &camera, &light, technique.as_mut(), None)?;
         let timing = output.gpu.context("serial timing always has pass times")?;
@@ -120,7 +121,11 @@ fn backprojection_full_search(bench: &mut Bench) -> Result<softshadow_bench::Run
     let spec = RunSpec {
         scene: "balls-3x3x3".into(),
         technique: "backprojection".into(),
-        params: parse_params("backprojection", &["hierarchy=none".to_string()])?,
+        params: parse_params(
+            &softshadow::registry(),
+            "backprojection",
+            &["hierarchy=none".to_string()],
+        )?,
         width: 64,
         height: 64,
     };
@@ -129,7 +134,7 @@ fn backprojection_full_search(bench: &mut Bench) -> Result<softshadow_bench::Run
 
 #[test]
 fn serial_timing_shows_the_backprojection_gather_as_the_largest_pass() -> Result<()> {
-    let mut bench = Bench::new(gpu()?, options())?;
+    let mut bench = Bench::new(gpu()?, softshadow::registry(), options())?;
     let run = backprojection_full_search(&mut bench)?;
     let timing = run.timing.context("timing")?;
     ensure!(timing.source == TimingSource::Serial);
@@ -154,7 +159,7 @@ fn serial_timing_shows_the_backprojection_gather_as_the_largest_pass() -> Result
 
 #[test]
 fn timestamps_on_lavapipe_are_flagged_by_the_calibration_frame() -> Result<()> {
-    let mut bench = Bench::new(gpu()?, options())?;
+    let mut bench = Bench::new(gpu()?, softshadow::registry(), options())?;
     bench.set_timing(Some(TimingSource::Timestamps));
     let run = backprojection_full_search(&mut bench)?;
     let timing = run.timing.context("timing")?;

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use softshadow_core::{Gpu, Renderer, SceneGpu};
 use softshadow_reference::{
     exact::{visible_fraction, ParallelRect},
-    AccumulatedReference, ReferenceSettings,
+    Reference, ReferenceSettings,
 };
 use softshadow_scenes::AttySquare;
 
@@ -20,7 +20,7 @@ fn reference_and_exact(
     let scene = params.scene()?;
     let scene_gpu = SceneGpu::upload(&gpu, &scene);
     let mut renderer = Renderer::new(&gpu, size, size)?;
-    let mut reference = AccumulatedReference::new(&gpu, settings)?;
+    let mut reference = Reference::new(&gpu, settings)?;
     renderer.render(
         &scene_gpu,
         &scene.camera,
@@ -107,7 +107,7 @@ fn a_cached_reference_is_copied_not_recomputed() -> Result<()> {
     let scene = AttySquare::default().scene()?;
     let scene_gpu = SceneGpu::upload(&gpu, &scene);
     let mut renderer = Renderer::new(&gpu, 64, 64)?;
-    let mut reference = AccumulatedReference::new(
+    let mut reference = Reference::new(
         &gpu,
         ReferenceSettings {
             samples_per_axis: 4,

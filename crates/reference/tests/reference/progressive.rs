@@ -3,7 +3,7 @@
 
 use anyhow::{ensure, Context, Result};
 use softshadow_core::{Gpu, Renderer, SceneGpu};
-use softshadow_reference::{AccumulatedReference, ReferenceSettings};
+use softshadow_reference::{Reference, ReferenceSettings};
 use softshadow_scenes::AttySquare;
 
 #[test]
@@ -18,7 +18,7 @@ fn progressive_reference_converges_to_the_one_frame_reference() -> Result<()> {
         ..ReferenceSettings::default()
     };
 
-    let mut one_frame = AccumulatedReference::new(&gpu, settings.clone())?;
+    let mut one_frame = Reference::new(&gpu, settings.clone())?;
     renderer.render(
         &scene_gpu,
         &scene.camera,
@@ -29,7 +29,7 @@ fn progressive_reference_converges_to_the_one_frame_reference() -> Result<()> {
     let expected = renderer.read_visibility()?;
 
     // 64 samples at 16 per batch, one batch per frame: 4 frames.
-    let mut progressive = AccumulatedReference::new(&gpu, settings)?;
+    let mut progressive = Reference::new(&gpu, settings)?;
     progressive.set_progressive(Some(1));
     let mut seen = Vec::new();
     for _ in 0..4 {

@@ -183,12 +183,12 @@ impl ViewerApp {
         let x_of = move |ms: f64| if log_x { ms.max(1e-3).log10() } else { ms };
         let front = pareto_front(&self.points);
         let defaults: BTreeMap<&str, Vec<(String, ParamValue)>> = self
-            .techniques
+            .registry
             .iter()
             .map(|t| {
                 (
-                    t.id,
-                    (t.params)()
+                    t.id.as_ref(),
+                    t.params
                         .iter()
                         .map(|s| (s.name.to_string(), s.default_value()))
                         .collect(),
@@ -216,7 +216,7 @@ impl ViewerApp {
         if log_x {
             plot = plot.x_axis_formatter(|mark, _| format_log_ms(mark.value));
         }
-        let series = techniques_with_points(&self.techniques, &self.points);
+        let series = techniques_with_points(&self.registry, &self.points);
         plot.show(ui, |plot| {
             plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(
                 [x_range[0], y_range[0]],
@@ -293,14 +293,14 @@ impl ViewerApp {
 
 /// Techniques with at least one point, with their index in the registry (their style).
 fn techniques_with_points<'a>(
-    techniques: &'a [softshadow_core::TechniqueInfo],
+    registry: &'a softshadow_core::Registry,
     points: &[TradeoffPoint],
 ) -> Vec<(usize, &'a str)> {
-    techniques
+    registry
         .iter()
         .enumerate()
         .filter(|(_, t)| points.iter().any(|p| p.technique == t.id))
-        .map(|(i, t)| (i, t.id))
+        .map(|(i, t)| (i, t.id.as_ref()))
         .collect()
 }
 

@@ -1,6 +1,6 @@
 //! The left panel's technique section (one widget per parameter, from its spec) and view modes.
 
-use softshadow_core::{ParamKind, ParamSpec, ParamValue};
+use softshadow_core::{DebugLegend, ParamKind, ParamSpec, ParamValue};
 
 use super::ViewerApp;
 
@@ -14,19 +14,19 @@ impl ViewerApp {
         egui::ComboBox::from_label("Technique")
             .selected_text(self.technique_id.clone())
             .show_ui(ui, |ui| {
-                for info in &self.techniques {
+                for info in &self.registry {
                     if ui
-                        .selectable_label(self.technique_id == info.id, info.id)
+                        .selectable_label(self.technique_id == info.id, info.id.as_ref())
                         .on_hover_text(format!("{} [{}]", info.description, info.source))
                         .clicked()
                     {
-                        chosen = Some(info.id);
+                        chosen = Some(info.id.to_string());
                     }
                 }
             });
         if let Some(id) = chosen {
             if id != self.technique_id {
-                self.select_technique(id);
+                self.select_technique(&id);
             }
         }
         let Some(technique) = &self.technique else {
@@ -35,17 +35,18 @@ impl ViewerApp {
         let mut changes = Vec::new();
         for (spec, value) in technique.params().entries {
             if let Some(new) = param_widget(ui, &spec, &value) {
-                changes.push((spec.name, new));
+                changes.push((spec.name.to_string(), new));
             }
         }
         if ui.button("Defaults").clicked() {
-            let info = self.techniques.iter().find(|t| t.id == self.technique_id);
-            for spec in info.map(|i| (i.params)()).unwrap_or_default() {
-                changes.push((spec.name, spec.default_value()));
+            if let Some(info) = self.registry.get(&self.technique_id) {
+                for spec in &info.params {
+                    changes.push((spec.name.to_string(), spec.default_value()));
+                }
             }
         }
         for (name, value) in changes {
-            self.set_param(name, value);
+            self.set_param(&name, value);
         }
     }
 
@@ -93,22 +94,32 @@ impl ViewerApp {
                 );
             }
             ViewMode::Debug => {
-                let names: Vec<String> = self
+                let views: Vec<(String, DebugLegend)> = self
                     .technique
                     .as_ref()
-                    .map(|t| t.debug_views().into_iter().map(|v| v.name).collect())
+                    .map(|t| {
+                        t.debug_views()
+                            .into_iter()
+                            .map(|v| (v.name, v.legend))
+                            .collect()
+                    })
                     .unwrap_or_default();
                 egui::ComboBox::from_label("Debug image")
-                    .selected_text(names.get(self.debug_view).cloned().unwrap_or_default())
+                    .selected_text(
+                        views
+                            .get(self.debug_view)
+                            .map(|(name, _)| name.clone())
+                            .unwrap_or_default(),
+                    )
                     .show_ui(ui, |ui| {
-                        for (i, name) in names.iter().enumerate() {
+                        for (i, (name, _)) in views.iter().enumerate() {
                             ui.selectable_value(&mut self.debug_view, i, name);
                         }
                     });
-                let name = names.get(self.debug_view).or(names.first());
+                let legend = views.get(self.debug_view).or(views.first());
                 debug_legend(
                     ui,
-                    name.map_or("", |n| n.as_str()),
+                    legend.map(|(_, legend)| legend),
                     self.debug_mapping.as_ref(),
                 );
             }
@@ -130,9 +141,9 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
             ui.add(
                 egui::Slider::new(&mut x, *min..=*max)
                     .logarithmic(*logarithmic)
-                    .text(spec.name),
+                    .text(spec.name.as_ref()),
             )
-            .on_hover_text(spec.description)
+            .on_hover_text(spec.description.as_ref())
             .changed()
             .then_some(ParamValue::Float(x))
         }
@@ -146,23 +157,23 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
             ui.add(
                 egui::Slider::new(&mut i, *min..=*max)
                     .logarithmic(logarithmic)
-                    .text(spec.name),
+                    .text(spec.name.as_ref()),
             )
-            .on_hover_text(spec.description)
+            .on_hover_text(spec.description.as_ref())
             .changed()
             .then_some(ParamValue::Int(i))
         }
         ParamKind::Bool { .. } => {
             let mut b = matches!(value, ParamValue::Bool(true));
-            ui.checkbox(&mut b, spec.name)
-                .on_hover_text(spec.description)
+            ui.checkbox(&mut b, spec.name.as_ref())
+                .on_hover_text(spec.description.as_ref())
                 .changed()
                 .then_some(ParamValue::Bool(b))
         }
         ParamKind::Choice { options, .. } => {
             let current = value.to_string();
             let mut chosen = None;
-            egui::ComboBox::from_label(spec.name)
+            egui::ComboBox::from_label(spec.name.as_ref())
                 .selected_text(current.clone())
                 .show_ui(ui, |ui| {
                     for option in options.iter() {
@@ -174,16 +185,16 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
                     }
                 })
                 .response
-                .on_hover_text(spec.description);
+                .on_hover_text(spec.description.as_ref());
             chosen
         }
     };
     new
 }
 
-/// What the debug image's colours mean: the mapped value range, and each technique's coded
-/// images (the classification and level views of backprojection, ssm's soft shadow map).
-fn debug_legend(ui: &mut egui::Ui, name: &str, mapping: Option<&DebugMapping>) {
+/// What the debug image's colours mean: the mapped value range, and what the technique says its
+/// values or colours are ([`DebugLegend`], from the technique's crate).
+fn debug_legend(ui: &mut egui::Ui, legend: Option<&DebugLegend>, mapping: Option<&DebugMapping>) {
     let swatch = |ui: &mut egui::Ui, colour: egui::Color32, meaning: &str| {
         ui.horizontal(|ui| {
             let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
@@ -194,29 +205,27 @@ fn debug_legend(ui: &mut egui::Ui, name: &str, mapping: Option<&DebugMapping>) {
     match mapping {
         Some(DebugMapping::Depth { lo, hi, count }) => {
             if *count == 0 {
-                ui.small("no texel holds a caster: the whole map is empty");
+                ui.small("no texel holds a surface: the whole map is empty");
             } else if lo == hi {
                 ui.small(format!(
-                    "all {count} caster texels at depth {lo:.5} (a caster parallel to the \
+                    "all {count} surface texels at depth {lo:.5} (a surface parallel to the \
                      light): shown mid grey"
                 ));
             } else {
                 ui.small(format!(
-                    "depth of the {count} caster texels: black {lo:.5} (nearest) to white {hi:.5}"
+                    "depth of the {count} surface texels: black {lo:.5} (nearest) to white {hi:.5}"
                 ));
             }
             swatch(
                 ui,
                 egui::Color32::from_rgb(20, 31, 89),
-                "empty (no caster, depth 1)",
+                "empty (no surface, depth 1)",
             );
         }
         Some(DebugMapping::Float { lo, hi, count }) => {
-            let meaning = match name {
-                "level" => "gather level",
-                "soft_shadow_map" => "visibility stored in the soft shadow map",
-                "receiver_map" => "receiver depth",
-                _ => "value (red channel)",
+            let (meaning, notes) = match legend {
+                Some(DebugLegend::Value { meaning, notes }) => (meaning.as_ref(), notes.as_slice()),
+                _ => ("value (red channel)", &[][..]),
             };
             if *count == 0 {
                 ui.small("no finite texel");
@@ -225,34 +234,21 @@ fn debug_legend(ui: &mut egui::Ui, name: &str, mapping: Option<&DebugMapping>) {
                     "{meaning}: black {lo:.4} to white {hi:.4} over {count} texels"
                 ));
             }
-            if name == "level" {
-                ui.small("-1 (black when present): nothing was backprojected there");
+            for note in notes {
+                ui.small(note.as_ref());
             }
             swatch(ui, egui::Color32::from_rgb(255, 0, 255), "NaN or infinite");
         }
-        Some(DebugMapping::Colour) if name == "classification" => {
-            // The colours backprojection's gather writes (`class_colour` in shaders/backprojection/).
-            swatch(
-                ui,
-                egui::Color32::from_rgb(230, 230, 217),
-                "lit: no blocker found",
-            );
-            swatch(ui, egui::Color32::from_rgb(26, 26, 89), "umbra");
-            swatch(
-                ui,
-                egui::Color32::from_rgb(255, 38, 0),
-                "backprojected, few primitives (red) ...",
-            );
-            swatch(
-                ui,
-                egui::Color32::from_rgb(0, 38, 255),
-                "... up to max_patches^2 primitives (blue)",
-            );
-            swatch(ui, egui::Color32::BLACK, "off-receiver");
-        }
-        Some(DebugMapping::Colour) => {
-            ui.small("the image's own colours");
-        }
+        Some(DebugMapping::Colour) => match legend {
+            Some(DebugLegend::Palette(entries)) => {
+                for ([r, g, b], meaning) in entries {
+                    swatch(ui, egui::Color32::from_rgb(*r, *g, *b), meaning);
+                }
+            }
+            _ => {
+                ui.small("the image's own colours");
+            }
+        },
         None => {}
     }
 }

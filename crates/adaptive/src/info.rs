@@ -1,0 +1,67 @@
+//! The `adaptive` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
+    expectations::{at_most, known_failure, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{Adaptive, AdaptiveSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (occlusion queries)",
+        "Schwärzler 2009, Real-Time Soft Shadows with Adaptive Light Source Sampling",
+        AdaptiveSettings::param_specs(),
+        |gpu| Ok(Box::new(Adaptive::new(gpu, AdaptiveSettings::default())?)),
+    )
+    .with_requirements(Adaptive::requirements_static())
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(
+        &["shadow_map_size", "max_shadow_maps", "max_depth"],
+        |q| {
+            // Corners: (2^d + 1)² maps; centres: (2^(d+1))²; the cap stops at max_shadow_maps.
+            let most = 2f64.powf(q.number("max_depth") + 1.0).powi(2);
+            let maps = most.min(q.number("max_shadow_maps"));
+            let compare = 2.0 * maps * q.pixels * PIXEL_ITERATION;
+            Cost::seconds(
+                maps * q.number("shadow_map_size").powi(2) * DEPTH_TEXEL + compare,
+                "min(max_shadow_maps, maps at max_depth) x shadow_map_size²",
+            )
+        },
+    ))
+    .with_expectations(expectations())
+    .with_overview(&[("epsilon", &["0.01", "0.002"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.15, 0.0568)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.12, 0.0443)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
+        (
+            "stiff-wide-light",
+            known_failure(MaeShadowed, 0.0227, 0.003),
+        ),
+        ("stiff-grazing", at_most(MaeShadowed, 0.11, 0.0415)),
+        ("stiff-depth-range", at_most(MaeShadowed, 0.13, 0.0488)),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.076, 0.0302)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.067, 0.0265)),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.13, 0.0498)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.24, 0.1799)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.085, 0.0338)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.076, 0.0304)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.029, 0.0113)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.079, 0.0313)),
+        ("atty-square", at_most(MaeShadowed, 0.085, 0.0338)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.065, 0.0261),
+        ),
+    ])
+}

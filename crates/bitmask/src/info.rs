@@ -1,0 +1,83 @@
+//! The `bitmask` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::{HIERARCHY_TEXEL, LAYER_TEXEL, PIXEL_ITERATION},
+    expectations::{at_most, known_failure, ErrorMetric::*},
+    Cost, CostModel, Expectations, MinLimits, Requirements, TechniqueInfo,
+};
+
+use crate::{Bitmask, BitmaskSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Bitmask soft shadows: backprojected micro-patches or micro-quads OR-ed into a bit field of light samples (occluder fusion), depth-peeled layers, HSM or MSSM search, post filter",
+        "Schwarz & Stamminger 2007",
+        BitmaskSettings::param_specs(),
+        |gpu| Ok(Box::new(Bitmask::new(gpu, BitmaskSettings::default())?)),
+    )
+    .with_requirements(requirements())
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(
+        &["shadow_map_size", "layers", "max_patches", "filter_passes"],
+        |q| {
+            // The hierarchies pad each layer to a power of two; the gather is bounded by
+            // lavapipe's loop budget per pixel (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+            let side = q.number("shadow_map_size").max(1.0).log2().ceil().exp2();
+            let levels = side.max(2.0).log2().ceil();
+            let layers = q.number("layers");
+            let maps = layers * side * side * (LAYER_TEXEL + levels * HIERARCHY_TEXEL);
+            let gather = 2.0 * q.pixels * layers * q.number("max_patches").powi(2).min(65_535.0);
+            let filter = 2.0 * q.pixels * q.number("filter_passes") * 64.0;
+            Cost::seconds(
+                maps + (gather + filter) * PIXEL_ITERATION,
+                "layers x padded shadow_map_size² x log2(shadow_map_size)",
+            )
+        },
+    ))
+    .with_expectations(expectations())
+    .with_overview(&[("pattern", &["8x8", "16x16-jittered"])])
+}
+
+/// What the technique needs from the device at any of its settings.
+pub(crate) fn requirements() -> Requirements {
+    Requirements {
+        // The gather pass writes three storage textures (within WebGPU's default of 4).
+        limits: MinLimits {
+            max_storage_textures_per_shader_stage: 3,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.11, 0.0431)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.022, 0.0087)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
+        ("stiff-wide-light", at_most(MaeShadowed, 0.0083, 0.0033)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.04, 0.0157)),
+        (
+            "stiff-depth-range",
+            known_failure(MaeShadowed, 0.2522, 0.026),
+        ),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.18, 0.0709)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.16, 0.1135)),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.044, 0.0176)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.039, 0.0154)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.044, 0.0176)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.017, 0.0068)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.01, 0.004)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.15, 0.0567)),
+        ("atty-square", at_most(MaeShadowed, 0.044, 0.0176)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.11, 0.0681),
+        ),
+    ])
+}

@@ -1,0 +1,70 @@
+//! The `hard` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::DEPTH_TEXEL,
+    expectations::{at_most, known_failure, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{Hard, HardSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Hard shadows: one shadow map from the light centre (cost floor)",
+        "Williams 1978",
+        HardSettings::param_specs(),
+        |gpu| Ok(Box::new(Hard::new(gpu, HardSettings::default())?)),
+    )
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(&["shadow_map_size"], |q| {
+        Cost::seconds(
+            q.number("shadow_map_size").powi(2) * DEPTH_TEXEL,
+            "shadow_map_size²",
+        )
+    }))
+    .with_expectations(expectations())
+    .with_overview(&[("shadow_map_size", &["512", "2048"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md). A hard
+/// shadow is wrong over every penumbra: its bounds are loose where the penumbra is wide, and
+/// where drawing no shadow would be as good it is a known failure.
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.45, 0.1777)),
+        (
+            "stiff-near-light",
+            known_failure(MaeShadowed, 0.7495, 0.075),
+        ),
+        ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
+        ("stiff-wide-light", known_failure(MaeShadowed, 0.052, 0.006)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.39, 0.2252)),
+        (
+            "stiff-depth-range",
+            known_failure(MaeShadowed, 0.7478, 0.075),
+        ),
+        (
+            "stiff-zero-thickness",
+            known_failure(MaeShadowed, 0.217, 0.022),
+        ),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.32, 0.1988)),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        (
+            "stiff-aspect-100",
+            known_failure(MaeShadowed, 0.4277, 0.043),
+        ),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.5, 0.2915)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.33, 0.2063)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.38, 0.1505)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.19, 0.0733)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.36, 0.2539)),
+        ("atty-square", at_most(MaeShadowed, 0.32, 0.2063)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.35, 0.1540),
+        ),
+    ])
+}

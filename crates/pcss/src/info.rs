@@ -1,0 +1,68 @@
+//! The `pcss` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
+    expectations::{at_most, known_failure, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{Pcss, PcssSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "PCSS: blocker search, penumbra estimate, percentage-closer filtering",
+        "Fernando 2005",
+        PcssSettings::param_specs(),
+        |gpu| Ok(Box::new(Pcss::new(gpu, PcssSettings::default())?)),
+    )
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(
+        &["shadow_map_size", "filter_samples", "blocker_samples"],
+        |q| {
+            let map = q.number("shadow_map_size").powi(2) * DEPTH_TEXEL;
+            let samples = q.number("blocker_samples") + q.number("filter_samples");
+            let filter = 2.0 * q.pixels * samples * PIXEL_ITERATION;
+            Cost::seconds(map + filter, "shadow_map_size²")
+        },
+    ))
+    .with_expectations(expectations())
+    .with_overview(&[("filter_samples", &["16", "64"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.099, 0.0393)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.18, 0.0681)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.0012, 2.0e-04)),
+        (
+            "stiff-wide-light",
+            known_failure(MaeShadowed, 0.0195, 0.002),
+        ),
+        ("stiff-grazing", at_most(MaeShadowed, 0.095, 0.0379)),
+        (
+            "stiff-depth-range",
+            known_failure(MaeShadowed, 0.2522, 0.026),
+        ),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.087, 0.0347)),
+        (
+            "stiff-partly-outside",
+            known_failure(MaeShadowed, 0.4217, 0.043),
+        ),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.14, 0.0548)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.22, 0.1314)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.082, 0.0327)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.061, 0.0241)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.027, 0.0108)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.13, 0.0508)),
+        ("atty-square", at_most(MaeShadowed, 0.082, 0.0327)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.12, 0.0829),
+        ),
+    ])
+}

@@ -1,0 +1,64 @@
+//! The `reference` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::DEPTH_TEXEL,
+    expectations::{at_most, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{Reference, ReferenceSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Reference: accumulated hard shadows from N x N stratified light samples",
+        "Heckbert & Herf 1997 (accumulated hard shadows)",
+        ReferenceSettings::param_specs(),
+        |gpu| Ok(Box::new(Reference::new(gpu, ReferenceSettings::default())?)),
+    )
+    .with_requirements(Reference::requirements_static())
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(
+        &["samples_per_axis", "shadow_map_size"],
+        // Both frames redo every map: nothing is kept when the camera moves.
+        |q| {
+            Cost::seconds(
+                2.0 * q.number("samples_per_axis").powi(2)
+                    * q.number("shadow_map_size").powi(2)
+                    * DEPTH_TEXEL,
+                "2 frames x samples_per_axis² x shadow_map_size²",
+            )
+        },
+    ))
+    .with_expectations(expectations())
+    .with_overview(&[("samples_per_axis", &["4", "8"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md): at its
+/// default 32 x 32 samples the reference is within a few thousandths everywhere.
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.011, 0.0044)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.0033, 0.0013)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
+        ("stiff-wide-light", at_most(MaeShadowed, 0.003, 0.0012)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.004, 0.0016)),
+        ("stiff-depth-range", at_most(MaeShadowed, 0.0038, 0.0015)),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.0065, 0.0026)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.012, 0.0046)),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.0053, 0.0021)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.0083, 0.0033)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.004, 0.0016)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.003, 0.0012)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.0015, 5.0e-04)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.004, 0.0016)),
+        ("atty-square", at_most(MaeShadowed, 0.004, 0.0016)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.019, 0.0076),
+        ),
+    ])
+}

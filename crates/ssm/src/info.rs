@@ -1,0 +1,70 @@
+//! The `ssm` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    expectations::{at_most, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{requirements_for, Precision, Ssm, SsmSettings, ID, SHADERS};
+
+/// Seconds per pair of an occluder-map texel and an SSM texel: each micro-patch's penumbra quad
+/// covers part of the SSM (256² by 256²: 13 s, 3 ns, with the scene's default light; larger
+/// lights cover more).
+const SCATTER_PAIR: f64 = 4e-9;
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Soft shadow maps: per occluder-map texel, the occluded fraction of the light scattered over its penumbra",
+        "Atty et al. 2006",
+        SsmSettings::param_specs(),
+        |gpu| Ok(Box::new(Ssm::new(gpu, SsmSettings::default())?)),
+    )
+    .with_requirements(requirements_for(Precision::Fp32))
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(&["occluder_map_size", "ssm_size"], |q| {
+        // Every occluder-map texel is a quad over its penumbra in the SSM: at worst (a light as
+        // large as the scene) a large part of the SSM.
+        let passes = if q.flag("two_pass") { 2.0 } else { 1.0 };
+        let batched = if q.choice("precision", "fp16-batched") {
+            2.0
+        } else {
+            1.0
+        };
+        let pairs = q.number("occluder_map_size").powi(2) * q.number("ssm_size").powi(2);
+        Cost::seconds(
+            passes * batched * pairs * SCATTER_PAIR,
+            "occluder_map_size² x ssm_size²",
+        )
+    }))
+    .with_expectations(expectations())
+    .with_overview(&[("ssm_size", &["64", "128", "256"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.096, 0.0382)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.005, 0.002)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.0016, 6.0e-04)),
+        ("stiff-wide-light", at_most(MaeShadowed, 0.0012, 2.0e-04)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.014, 0.0054)),
+        ("stiff-depth-range", at_most(MaeShadowed, 0.011, 0.0044)),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.039, 0.0153)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.36, 0.1417)),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.02, 0.008)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.015, 0.0057)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.0088, 0.0035)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.0035, 0.0014)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.002, 8.0e-04)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.056, 0.0221)),
+        ("atty-square", at_most(MaeShadowed, 0.0088, 0.0035)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.125, 0.0973),
+        ),
+    ])
+}

@@ -1,0 +1,682 @@
+//! `workbench`: the soft-shadow workbench.
+//!
+//! - `workbench` or `workbench view [--scene ID|FILE] [--technique ID] [--state FILE]
+//!   [--screenshot FILE --frames N]`: the interactive viewer.
+//! - `workbench list [--json]`: scenes, techniques and every parameter with range and default.
+//! - `workbench bench --scene ID|FILE --technique ID [--param name=value]... --out DIR`
+//! - `workbench bench --sweep FILE --out DIR`
+//! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `benches/NAME.toml`)
+//! - `workbench bench --sweep FILE --shard I/N --out DIR`: shard I (0-based) of N
+//! - `workbench bench --resume DIR`: finish an interrupted benchmark (its results.json keeps every
+//!   finished run)
+//! - `workbench bench --stress SECONDS [--seed N] --out DIR`: random parameter stress
+//!   (docs/STABILITY.md)
+//! - `workbench merge DIR... --out DIR`: the shards of one sweep as one results.json
+//! - `workbench report DIR_OR_RESULTS_JSON... --out report.html [--csv runs.csv]`
+//!
+//! The whole command line is a library function, [`main_with`], so that a crate with a technique
+//! of its own ships a binary that is the workbench plus that technique:
+//!
+//! ```no_run
+//! fn main() -> std::process::ExitCode {
+//!     # let my_technique_info = || softshadow_workbench::builtin_registry().iter().next().unwrap().clone();
+//!     softshadow_workbench::main_with(vec![my_technique_info()])
+//! }
+//! ```
+
+use std::{path::PathBuf, process::ExitCode};
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use softshadow_bench::{BenchOptions, RunSetup, RunSpec, Status, Sweep, SweepInfo};
+use softshadow_core::{BuildControl, Gpu, ParamKind, Registry, TechniqueInfo, TimingSource};
+
+mod resume;
+mod stress;
+
+#[derive(Parser)]
+#[command(
+    name = "workbench",
+    version,
+    about = "Measure soft-shadow techniques: error against run time"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List scenes, techniques and their parameters.
+    List {
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run techniques headless and write results.json and images.
+    Bench(BenchArgs),
+    /// The interactive viewer (the default without a subcommand).
+    View(ViewArgs),
+    /// Merge the shards of one sweep (output folders of `bench --shard`) into one folder.
+    Merge {
+        /// Output folders (or their results.json) of the shards.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Folder for the merged results.json and images (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Write one self-contained HTML report (error against frame time) of any results.
+    Report {
+        /// Benchmark output folders or results.json files (shards are merged).
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// The HTML file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Also write every run as one row of this CSV file.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
+}
+
+#[derive(Args, Default)]
+struct ViewArgs {
+    /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
+    #[arg(long, default_value = "atty-square")]
+    scene: String,
+    /// Technique id (see `list`); default: the first soft technique registered.
+    #[arg(long)]
+    technique: Option<String>,
+    /// Technique parameter, `name=value` (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Start from a viewer state saved with "Save state".
+    #[arg(long)]
+    state: Option<PathBuf>,
+    /// Window size in pixels.
+    #[arg(long, default_value = "1280x800", value_name = "WxH")]
+    size: String,
+    /// Render this many frames, then exit (prints the mean frame time).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Save the last frame, UI included, to this PNG file (with --frames).
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
+}
+
+#[derive(Args, Clone, serde::Serialize, serde::Deserialize)]
+struct BenchArgs {
+    /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
+    #[arg(long, conflicts_with_all = ["sweep", "suite"])]
+    scene: Option<String>,
+    /// Technique id (see `list`).
+    #[arg(long, conflicts_with_all = ["sweep", "suite"])]
+    technique: Option<String>,
+    /// Technique parameter, `name=value` (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Reference parameter, `name=value` (repeatable), e.g. samples_per_axis=16.
+    #[arg(long = "reference-param", value_name = "NAME=VALUE")]
+    reference_params: Vec<String>,
+    /// Image size.
+    #[arg(long, default_value = "256x256", value_name = "WxH")]
+    size: String,
+    /// Timed frames per run.
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Untimed warm-up frames per run.
+    #[arg(long)]
+    warmup: Option<u32>,
+    /// A sweep file (scenes x techniques x parameter grids), see docs/BENCHMARKS.md.
+    #[arg(long, conflicts_with = "suite")]
+    sweep: Option<PathBuf>,
+    /// A named suite: `stiff` (every technique on every stiff case, docs/STABILITY.md) or the
+    /// stem of a sweep file in `benches/` (e.g. `pcss`).
+    #[arg(long)]
+    suite: Option<String>,
+    /// Skip the reference and the error metrics (timings only).
+    #[arg(long)]
+    no_error: bool,
+    /// Skip the exact ground truth (closed form or CPU ray cast) and `error.reference_vs_exact`.
+    #[arg(long)]
+    no_exact: bool,
+    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form).
+    #[arg(long, default_value_t = softshadow_bench::DEFAULT_EXACT_SAMPLES)]
+    exact_samples: u32,
+    /// Do not write images.
+    #[arg(long)]
+    no_images: bool,
+    /// Skip `timing_camera_only` (frames in which only the camera moves and light-space work is
+    /// kept).
+    #[arg(long)]
+    no_camera_only: bool,
+    /// How passes are timed: `timestamps` (GPU timestamp queries) or `serial` (each pass
+    /// submitted on its own and waited for). Default: serial on a CPU adapter, timestamps on a
+    /// GPU.
+    #[arg(long, value_name = "timestamps|serial")]
+    timing: Option<String>,
+    /// Run only shard INDEX of COUNT (0-based) of the sweep: runs INDEX, INDEX+COUNT, ...
+    /// (docs/CLUSTER.md).
+    #[arg(long, value_name = "INDEX/COUNT")]
+    shard: Option<String>,
+    /// Output folder (created if missing).
+    #[arg(long, required_unless_present = "resume")]
+    out: Option<PathBuf>,
+    /// Finish the benchmark interrupted in DIR (Ctrl-C, killed): runs what its results.json
+    /// lacks, with the arguments it was started with, and adds them to it.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "technique", "sweep", "suite", "out", "stress"])]
+    #[serde(skip)]
+    resume: Option<PathBuf>,
+    /// Random parameter stress for SECONDS seconds: every technique, random parameters in their
+    /// ranges, random lights, 32² to 48²; writes stress.json to --out (docs/STABILITY.md).
+    #[arg(long, value_name = "SECONDS", conflicts_with_all = ["scene", "technique", "sweep", "suite"])]
+    #[serde(skip)]
+    stress: Option<u64>,
+    /// Seed of the random cases of --stress.
+    #[arg(long, default_value_t = 1, requires = "stress")]
+    #[serde(skip)]
+    seed: u64,
+}
+
+/// The built-in techniques (`softshadow::registry()`).
+pub fn builtin_registry() -> Registry {
+    softshadow::registry()
+}
+
+/// The workbench's command line (`list`, `bench`, `view`, `merge`, `report`) over the built-in
+/// techniques plus `extra` ones (a user's own, from their crate): what `workbench` runs with no
+/// extra techniques. Parses the process's arguments; returns the exit code (2 for bad input, 3
+/// when a benchmark run failed).
+pub fn main_with(extra: Vec<TechniqueInfo>) -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let mut registry = builtin_registry();
+    for info in extra {
+        if let Err(e) = registry.add(info) {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    }
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Some(Command::List { json }) => list(&registry, json),
+        Some(Command::Bench(args)) => bench(&registry, args),
+        Some(Command::View(args)) => view(&registry, args),
+        Some(Command::Merge { inputs, out }) => merge(&inputs, &out),
+        Some(Command::Report { inputs, out, csv }) => {
+            report(&registry, &inputs, &out, csv.as_deref())
+        }
+        None => view(
+            &registry,
+            ViewArgs {
+                scene: "atty-square".into(),
+                size: "1280x800".into(),
+                ..ViewArgs::default()
+            },
+        ),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            // One line: the chain of causes, most specific last.
+            let message: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            eprintln!("error: {}", message.join(": "));
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
+    let scenes = softshadow_scenes::builtin_scenes();
+    let techniques = registry;
+    if json {
+        let value = serde_json::json!({
+            "scenes": scenes.iter().map(|s| serde_json::json!({
+                "id": s.id,
+                "description": s.description,
+                "params": s.params.iter().map(|p| serde_json::json!({
+                    "name": p.name, "default": p.default, "description": p.description,
+                    "range": p.range_text(),
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+            "techniques": techniques.iter().map(|t| serde_json::json!({
+                "id": t.id,
+                "description": t.description,
+                "source": t.source,
+                "params": t.params,
+            })).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&value)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("Scenes:");
+    for s in &scenes {
+        println!("  {:<20} {}", s.id, s.description);
+        for p in &s.params {
+            println!(
+                "      {:<20} default {:<8} {} ({})",
+                p.name,
+                p.default,
+                p.description,
+                p.range_text()
+            );
+        }
+    }
+    println!("\nTechniques:");
+    for t in techniques {
+        println!("  {:<20} {} [{}]", t.id, t.description, t.source);
+        for p in &t.params {
+            let default = match &p.kind {
+                ParamKind::Float { default, .. } => default.to_string(),
+                ParamKind::Int { default, .. } => default.to_string(),
+                ParamKind::Bool { default } => default.to_string(),
+                ParamKind::Choice { default, .. } => default.to_string(),
+            };
+            println!(
+                "      {:<20} default {:<8} {} ({})",
+                p.name,
+                default,
+                p.description,
+                p.range_text()
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--suite NAME`: a built-in suite, else `benches/NAME.toml` (from the current folder or the
+/// repository this binary was built from).
+fn load_suite(registry: &Registry, name: &str) -> Result<Sweep> {
+    let file = format!("{name}.toml");
+    let candidates = [
+        PathBuf::from("benches").join(&file),
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../benches")
+            .join(&file),
+    ];
+    if softshadow_bench::sweep::SUITES
+        .iter()
+        .any(|(n, _)| *n == name)
+    {
+        return Ok(Sweep::suite(name, registry)?);
+    }
+    match candidates.iter().find(|p| p.is_file()) {
+        Some(path) => Ok(Sweep::load(path, registry)?),
+        None => Ok(Sweep::suite(name, registry)?),
+    }
+}
+
+fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
+    if let Some(seconds) = args.stress {
+        let out = args
+            .out
+            .context("--stress needs --out DIR for stress.json")?;
+        return stress::run(registry, seconds, args.seed, &out);
+    }
+    let resuming = args.resume.is_some();
+    let (args, finished, finished_hash) = match &args.resume {
+        Some(dir) => {
+            let previous = resume::load(dir)?;
+            (previous.args, previous.runs, previous.sweep_hash)
+        }
+        None => (args, Vec::new(), None),
+    };
+    let out = args.out.clone().context("give --out DIR")?;
+    // Everything that can be checked without a GPU is checked first, so bad input fails fast
+    // and writes nothing.
+    let sweep = match (&args.sweep, &args.suite) {
+        (Some(path), _) => Some(Sweep::load(path, registry)?),
+        (None, Some(name)) => Some(load_suite(registry, name)?),
+        (None, None) => None,
+    };
+    let shard = args
+        .shard
+        .as_deref()
+        .map(softshadow_bench::sweep::parse_shard)
+        .transpose()?;
+    if shard.is_some() && sweep.is_none() {
+        bail!("--shard splits a sweep: give --sweep FILE or --suite NAME with it");
+    }
+    let timing = args
+        .timing
+        .as_deref()
+        .map(|t| {
+            TimingSource::parse(t).ok_or_else(|| softshadow_bench::BenchError::BadTiming(t.into()))
+        })
+        .transpose()?;
+    let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) =
+        &sweep
+    {
+        (
+            sweep.runs.clone(),
+            sweep.frames,
+            sweep.warmup,
+            sweep.reference_params.clone(),
+            (sweep.camera, sweep.light),
+        )
+    } else {
+        let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
+            bail!("give --scene and --technique, or --sweep FILE, or --suite NAME (see `workbench list`)");
+        };
+        let (width, height) = softshadow_bench::parse_size(&args.size)?;
+        let params = softshadow_bench::parse_params(registry, technique, &args.params)?;
+        let spec = RunSpec {
+            scene: scene.clone(),
+            technique: technique.clone(),
+            params,
+            width,
+            height,
+        };
+        softshadow_bench::validate(registry, &spec)?;
+        (vec![spec], None, None, Vec::new(), (None, None))
+    };
+    if !args.reference_params.is_empty() {
+        let reference = registry.yardstick()?;
+        for text in &args.reference_params {
+            reference_params.push(reference.parse_param(text)?);
+        }
+    }
+    let frames = args.frames.or(sweep_frames).unwrap_or(10);
+    if frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let options = BenchOptions {
+        frames,
+        warmup: args.warmup.or(sweep_warmup).unwrap_or(2),
+        error: !args.no_error,
+        reference_params,
+        images: !args.no_images,
+        exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
+        camera_only: !args.no_camera_only,
+    };
+    let sweep_info = sweep.as_ref().map(|sweep| SweepInfo {
+        hash: sweep.hash(&options, timing),
+        runs_total: sweep.runs.len(),
+        shard,
+    });
+    if let (Some(info), Some(hash)) = (&sweep_info, &finished_hash) {
+        if &info.hash != hash {
+            bail!(
+                "cannot resume: the sweep (or its options) changed since its results.json was written (hash {hash}, now {}); start it again with a new --out",
+                info.hash
+            );
+        }
+    }
+    let indexed: Vec<(usize, RunSpec)> = match &sweep {
+        Some(sweep) => sweep.shard(shard),
+        None => specs.into_iter().enumerate().collect(),
+    };
+    let gpu = Gpu::new_headless().context("cannot start the GPU")?;
+    // After the last check that can fail, so bad input and a missing GPU write nothing.
+    if !resuming {
+        resume::save(&args, &out)?;
+    }
+    // Bars on stderr (indicatif draws nothing when it is not a terminal): the runs, and below
+    // them the progress of a long precompute while one builds.
+    let bars = MultiProgress::new();
+    let progress = bars.add(ProgressBar::new(indexed.len() as u64));
+    progress.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    progress.set_position(finished.len() as u64);
+    let control = BuildControl::default();
+    interrupt_on_ctrl_c(&control, &bars)?;
+    let setup = RunSetup {
+        registry: registry.clone(),
+        sweep: sweep_info,
+        timing,
+        camera: view.0,
+        light: view.1,
+        build_control: Some(control.clone()),
+    };
+    let runs_total = indexed.len();
+    let all_done = std::sync::atomic::AtomicBool::new(false);
+    let results = std::thread::scope(|scope| {
+        scope.spawn(|| watch_builds(&control, &bars, &all_done));
+        let results = softshadow_bench::run_resumed(
+            gpu,
+            &indexed,
+            setup,
+            options,
+            &out,
+            finished,
+            |_, run| {
+                progress.set_message(format!("{} / {}", run.scene, run.technique));
+                progress.inc(1);
+                if run.status == Status::Error {
+                    progress.println(format!(
+                        "run failed: {} / {}: {}",
+                        run.scene, run.technique, run.message
+                    ));
+                }
+            },
+        );
+        all_done.store(true, std::sync::atomic::Ordering::Relaxed);
+        results
+    })?;
+    progress.finish_and_clear();
+    let failed = results
+        .runs
+        .iter()
+        .filter(|r| r.status == Status::Error)
+        .count();
+    for run in &results.runs {
+        let frame = run
+            .timing
+            .as_ref()
+            .and_then(|t| {
+                Some(format!(
+                    "{:.2} ms {}",
+                    t.frame_ms.as_ref()?.median,
+                    t.source
+                ))
+            })
+            .unwrap_or_else(|| "-".to_string());
+        let err = run
+            .error
+            .as_ref()
+            .map_or("-".to_string(), |e| format!("{:.4}", e.report.mae_shadowed));
+        let exact = run
+            .error
+            .as_ref()
+            .and_then(|e| e.vs_exact.as_ref())
+            .map_or("-".to_string(), |r| format!("{:.4}", r.mae_all));
+        let invalid = run
+            .stability
+            .as_ref()
+            .map_or(0, |s| s.nan + s.inf + s.out_of_range);
+        println!(
+            "{:<24} {:<16} {:<6} frame {:>20}  mae_shadowed {:<7} exact mae_all {:<7} invalid {}",
+            run.scene,
+            run.technique,
+            if run.status == Status::Ok {
+                "ok"
+            } else {
+                "error"
+            },
+            frame,
+            err,
+            exact,
+            invalid
+        );
+    }
+    let invalid = results
+        .runs
+        .iter()
+        .filter(|r| {
+            r.stability
+                .as_ref()
+                .is_some_and(|s| s.nan + s.inf + s.out_of_range > 0)
+        })
+        .count();
+    println!("wrote {}", out.join("results.json").display());
+    if control.is_cancelled() {
+        eprintln!(
+            "interrupted (Ctrl-C): {} of {runs_total} runs done and in results.json (the cancelled one left out); `workbench bench --resume {}` finishes the rest",
+            results.runs.len(),
+            out.display()
+        );
+        return Ok(ExitCode::from(130));
+    }
+    if failed > 0 || invalid > 0 {
+        eprintln!(
+            "{failed} of {} runs failed and {invalid} wrote NaN, Inf or values outside [0, 1]; details are in results.json",
+            results.runs.len()
+        );
+        return Ok(ExitCode::from(3));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Ctrl-C stops the benchmark cleanly: a long precompute stops at its next unit (its run fails with
+/// "cancelled"), no further run starts, and results.json holds the runs done. A second Ctrl-C
+/// quits at once without writing it.
+fn interrupt_on_ctrl_c(control: &BuildControl, bars: &MultiProgress) -> Result<()> {
+    let control = control.clone();
+    let bars = bars.clone();
+    ctrlc::set_handler(move || {
+        if control.is_cancelled() {
+            std::process::exit(130);
+        }
+        control.cancel();
+        let message = "interrupted: stopping after the current run (a precompute stops at once); \
+                       Ctrl-C again quits without writing results.json";
+        if bars.println(message).is_err() || bars.is_hidden() {
+            eprintln!("{message}");
+        }
+    })
+    .context("cannot install the Ctrl-C handler")
+}
+
+/// Shows a bar of a long precompute while one runs, in the units its technique counts (polls
+/// `control` until `finished`).
+fn watch_builds(
+    control: &BuildControl,
+    bars: &MultiProgress,
+    finished: &std::sync::atomic::AtomicBool,
+) {
+    let style = ProgressStyle::with_template("precompute {bar:30} {pos}/{len} {msg} {elapsed}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar());
+    let mut bar: Option<ProgressBar> = None;
+    while !finished.load(std::sync::atomic::Ordering::Relaxed) {
+        match (control.progress_with_unit(), &bar) {
+            (Some(p), Some(b)) => {
+                b.set_length(p.total.into());
+                b.set_position(p.done.into());
+                b.set_message(p.unit.to_string());
+            }
+            (Some(p), None) => {
+                let b = bars.add(ProgressBar::new(p.total.into()).with_style(style.clone()));
+                b.set_position(p.done.into());
+                b.set_message(p.unit.to_string());
+                bar = Some(b);
+            }
+            (None, Some(b)) => {
+                b.finish_and_clear();
+                bars.remove(b);
+                bar = None;
+            }
+            (None, None) => {}
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+        bars.remove(&b);
+    }
+}
+
+fn merge(inputs: &[PathBuf], out: &std::path::Path) -> Result<ExitCode> {
+    let loaded = inputs
+        .iter()
+        .map(|p| softshadow_bench::merge::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = softshadow_bench::merge::merge(&loaded)?;
+    for w in &merged.warnings {
+        eprintln!("warning: {w}");
+    }
+    let results = softshadow_bench::merge::write_merged(&merged, out)?;
+    println!(
+        "merged {} runs from {} files into {}",
+        results.runs.len(),
+        loaded.len(),
+        out.join("results.json").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn report(
+    registry: &Registry,
+    inputs: &[PathBuf],
+    out: &std::path::Path,
+    csv: Option<&std::path::Path>,
+) -> Result<ExitCode> {
+    let loaded = inputs
+        .iter()
+        .map(|p| softshadow_bench::merge::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = softshadow_bench::merge::merge(&loaded)?;
+    for w in &merged.warnings {
+        eprintln!("warning: {w}");
+    }
+    let summary = softshadow_bench::report::write_report(&merged, registry, out, csv)?;
+    println!(
+        "wrote {}: {} scenes, {} plotted runs, {} not plotted (failed or without error metrics){}",
+        out.display(),
+        summary.scenes,
+        summary.points,
+        summary.unplotted,
+        csv.map(|c| format!("; {}", c.display()))
+            .unwrap_or_default()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn view(registry: &Registry, args: ViewArgs) -> Result<ExitCode> {
+    // Bad input fails before a window opens.
+    let (width, height) = softshadow_bench::parse_size(&args.size)?;
+    let technique = match args.technique {
+        Some(technique) => technique,
+        None => registry
+            .default_technique()
+            .context("no technique is registered")?
+            .id
+            .to_string(),
+    };
+    let params = softshadow_bench::parse_params(registry, &technique, &args.params)?;
+    let options = softshadow_viewer::ViewOptions {
+        app: softshadow_viewer::ViewerOptions {
+            registry: registry.clone(),
+            scene: args.scene,
+            technique,
+            params,
+            state: args.state,
+        },
+        width,
+        height,
+        frames: args.frames,
+        screenshot: args.screenshot.clone(),
+    };
+    let summary = softshadow_viewer::run(options)?;
+    if args.frames.is_some() {
+        println!(
+            "{} frames at {width}x{height} on {}: frame time mean {} ms, median {} ms, mean after the reference converged {} ms; technique GPU {} ms; reference {}/{} light samples",
+            summary.frames,
+            summary.adapter,
+            summary.mean_frame_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary.median_frame_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary
+                .converged_mean_frame_ms
+                .map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary.technique_gpu_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            summary.reference_progress.0,
+            summary.reference_progress.1,
+        );
+    }
+    if let Some(path) = &args.screenshot {
+        println!("wrote {}", path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
