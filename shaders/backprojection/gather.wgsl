@@ -127,7 +127,7 @@ fn edge_t(e: i32) -> f32 {
 // Light area covered by the micro-patches of `rect` (blocks of level g.level): each block is a
 // patch parallel to the light at its minimum depth; with gap filling a patch's left and bottom
 // edges are extended to the neighbouring patch's edge when that patch occludes too (Guennebaud et
-// al. 2006; ALGORITHMS.md 1).
+// al. 2006; docs/TECHNIQUES.md, `backprojection`).
 fn micropatch_area(g: Gather, lo: vec2<i32>, count: vec2<i32>) -> f32 {
     let a = g.half_light;
     var area = 0.0;

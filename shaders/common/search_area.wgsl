@@ -46,7 +46,8 @@ fn rect_is_empty(r: TexelRect) -> bool {
 
 // Texels that can hold an occluder of the light-space receiver point `p`: the light rectangle
 // (half extents `half_light`) projected through `p` onto the plane z = z_star, in slopes centred on
-// p's own slope with half extent half_light (p.z - z_star) / (p.z z_star) (ALGORITHMS.md 1), plus
+// p's own slope with half extent half_light (p.z - z_star) / (p.z z_star) (docs/ARCHITECTURE.md,
+// "Search area"), plus
 // half a texel of margin, clamped to the map.
 fn search_rect(view: ShadowView, p: vec3<f32>, half_light: vec2<f32>, z_star: f32) -> TexelRect {
     let n = view.size.x;
@@ -164,7 +165,8 @@ fn hierarchy_range(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, hierarchy:
 // Search area of receiver `p` (light space) with two refinements: start at the near plane, bound
 // the depth range over the area, classify (lit if no texel is closer than `threshold`, umbra if
 // every texel is: then the occluding height field spans the whole light pyramid), and shrink the
-// area to the nearest depth found (ALGORITHMS.md 1; paper sec. 5); the final area is bounded and
+// area to the nearest depth found (docs/ARCHITECTURE.md, "Search area"; Schwarz & Stamminger 2007
+// sec. 5); the final area is bounded and
 // classified once more. `hierarchy = none` returns the
 // unrefined area for a full search.
 fn refine_search(

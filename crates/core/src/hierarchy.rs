@@ -61,7 +61,7 @@ pub fn top_level(map_size: u32) -> u32 {
 }
 
 /// Widest search area a receiver can have, in texels: the light projected through a receiver at
-/// infinity onto the near plane, `2 max(a, b) / near` in slopes (ALGORITHMS.md section 1),
+/// infinity onto the near plane, `2 max(a, b) / near` in slopes (docs/ARCHITECTURE.md, "Search area"),
 /// plus the half-texel margins.
 pub fn max_search_texels(
     light_half: glam::Vec2,

@@ -1,4 +1,4 @@
-//! One frame, top to bottom (GUIDE.md section 1):
+//! One frame, top to bottom (docs/ARCHITECTURE.md, "The contract"):
 //! G-buffer pass -> technique passes -> visibility buffer -> shading pass (only when asked),
 //! with every pass timed (GPU timestamps, or each pass submitted and waited for on its own: see
 //! [`TimingSource`]) and listed in `passes_run`.

@@ -1,4 +1,4 @@
-//! Shading pass: one pass serves every technique (GUIDE.md section 1).
+//! Shading pass: one pass serves every technique (docs/ARCHITECTURE.md, "The contract").
 
 use bytemuck::{Pod, Zeroable};
 

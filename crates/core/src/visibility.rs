@@ -1,4 +1,4 @@
-//! The visibility buffer: the one output contract of every technique (GUIDE.md section 1).
+//! The visibility buffer: the one output contract of every technique (docs/ARCHITECTURE.md, "The contract").
 //!
 //! `V(x, y)` = fraction of the area light's surface visible from the surface point seen at pixel
 //! (x, y): 1 = fully lit, 0 = umbra. Pixels that see no receiver hold 1. Receiver points at or

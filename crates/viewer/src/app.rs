@@ -1,5 +1,5 @@
 //! The viewer's state and UI: scene and technique pickers, the parameter panel generated from the
-//! technique's [`ParamSpec`]s, light and camera controls, GPU timings, the progressive reference
+//! technique's [`ParamSpec`](softshadow_core::ParamSpec)s, light and camera controls, GPU timings, the progressive reference
 //! and the live error, view modes, and the error-against-time plot.
 //!
 //! [`ViewerApp::ui`] lays out one egui pass and renders one GPU frame; the winit window
