@@ -6,8 +6,8 @@
 //      in slopes, i.e. w_p = (z_r - d_b) w_light / d_b on the receiver.
 //   3. Percentage-closer filtering over that extent (at least `min_filter_texels`).
 // Both kernels are rotated (Vogel) or jittered (grid) per pixel by interleaved gradient noise.
-// The grid is the KERNEL_GRID permutation, not a uniform flag: llvmpipe computes both sides of a
-// branch, so every sample paid for both kernels' points.
+// The grid is the KERNEL_GRID permutation, not a uniform flag (docs/ARCHITECTURE.md, "Lavapipe's
+// branches").
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, linear_depth, texel_slope, in_map}

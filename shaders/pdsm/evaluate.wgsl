@@ -11,8 +11,8 @@
 //
 // Two draws of this file (`Evaluation` in lib.rs): with ENDS_PASS, a pixel whose four texels the
 // ends answer is written and marked in the stencil, the others are discarded; without it, the
-// whole evaluation runs where the stencil is still clear. llvmpipe pays for a branch's masked-off
-// side, so the searches cost their code at every pixel unless the stencil test skips the block.
+// whole evaluation runs where the stencil is still clear (docs/ARCHITECTURE.md, "Lavapipe's
+// branches").
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
@@ -56,10 +56,8 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let c = clamp(texel, vec2<i32>(0), vec2<i32>(n - 1));
     let e = textureLoad(ends, vec2<i32>(2 * c.x, c.y), 0);
     let g = textureLoad(ends, vec2<i32>(2 * c.x + 1, c.y), 0);
-    // Chosen with `select`, in the order the cases take precedence, not by early returns:
-    // llvmpipe turns each return of this function (inlined four times) into lane-mask work on
-    // every path (`ssm/project` halved when its early return went; here the gain was within
-    // the noise, BENCHMARKS.md).
+    // Chosen with `select`, in the order the cases take precedence, not by early returns
+    // (docs/ARCHITECTURE.md, "Lavapipe's branches").
     // Inside the longest segment: the search's own result (it brackets such a depth by the
     // segment's two vertices). A receiver's point usually lies in the gap before its own events.
     let in_segment = depth >= g.x && depth < g.z;
@@ -98,8 +96,8 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
 }
 
 #ifdef DYNAMIC
-// Only in the DYNAMIC permutation (drawn when there are dynamic casters): llvmpipe paid for this
-// loop even when a uniform flag skipped it, which doubled the pass on static scenes.
+// Only in the DYNAMIC permutation, drawn when there are dynamic casters (docs/ARCHITECTURE.md,
+// "Lavapipe's branches").
 fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
     let uv = view_uv(dynamic_view, light_pos);
     if !in_map(uv) {

@@ -202,8 +202,7 @@ pub struct Adaptive {
     resolve_layout: wgpu::BindGroupLayout,
     compare: FullscreenPipeline,
     /// The evaluation and the accumulation, each without and with PCF (`[off, on]`): a
-    /// permutation per setting, because llvmpipe paid for the PCF lookup's four texel reads
-    /// when a uniform flag turned it off.
+    /// permutation per setting (docs/ARCHITECTURE.md, "Lavapipe's branches").
     evaluate: [FullscreenPipeline; 2],
     accumulate: [FullscreenPipeline; 2],
     resolve: FullscreenPipeline,

@@ -7,8 +7,10 @@
 
 #![warn(missing_docs)]
 
+pub mod background;
 pub mod camera;
 pub mod cost;
+pub mod disk_cache;
 pub mod error;
 pub mod expectations;
 pub mod frame;

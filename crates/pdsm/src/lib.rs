@@ -28,12 +28,12 @@ pub mod function;
 use std::{
     path::PathBuf,
     sync::atomic::Ordering,
-    thread::JoinHandle,
     time::{Duration, Instant},
 };
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
+    background::BackgroundJob,
     fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline, STENCIL_FORMAT},
     glam::{Vec2, Vec3},
     scene::{Aabb, Fnv1a},
@@ -129,14 +129,12 @@ struct Kept {
     from_cache: bool,
 }
 
-/// A CPU construction running on a thread of its own (background builds, the viewer).
+/// A CPU construction running on a thread of its own (background builds, the viewer). The job
+/// counts rows in a control of its own, copied to the shared one on every poll, and stops alone
+/// (cancelled, superseded by other inputs, or the technique dropped).
 struct Pending {
     key: u64,
-    /// Stops this build only (cancelled, superseded by other inputs, or the technique dropped).
-    /// The thread counts rows in its own `done`, copied to the shared control on every poll, so
-    /// a superseded build never moves the progress of the next one.
-    control: BuildControl,
-    handle: JoinHandle<Result<PdsmData, build::Cancelled>>,
+    job: BackgroundJob<Result<PdsmData, build::Cancelled>>,
     /// When the build started (its sample maps), for `construction_ms`.
     started: Instant,
     cache_dir: Option<PathBuf>,
@@ -182,13 +180,14 @@ struct DynamicMap {
 pub struct Pdsm {
     /// Its settings; changes take effect on the next frame.
     pub settings: PdsmSettings,
-    /// Where built PDSMs are cached; `None` = [`cache::default_dir`].
+    /// Where built PDSMs are cached; `None` =
+    /// [`softshadow_core::disk_cache::default_dir`].
     pub cache_dir: Option<PathBuf>,
     depth: DepthMapRenderer,
     dynamic_depth: DepthMapRenderer,
     /// The evaluation without dynamic casters, and with them (`DYNAMIC`: the PCF lookup of the
-    /// dynamic map). Two pipelines because llvmpipe paid for the PCF loop even when a uniform
-    /// flag skipped it: it doubled the evaluation pass on scenes without dynamic casters.
+    /// dynamic map): a permutation, not a uniform flag (docs/ARCHITECTURE.md, "Lavapipe's
+    /// branches").
     evaluate: Evaluation,
     evaluate_dynamic: Evaluation,
     /// The stencil of the evaluation's two draws, at the size of the last visibility buffer.
@@ -358,11 +357,8 @@ fn cancelled() -> TechniqueError {
     }
 }
 
-fn cache_write_warning(dir: &std::path::Path, e: &impl std::fmt::Display) -> String {
-    format!(
-        "pdsm: could not write the cache file in {}: {e}; set SOFTSHADOW_CACHE_DIR to a writable folder",
-        dir.display()
-    )
+fn cache_write_warning(dir: &std::path::Path, e: &std::io::Error) -> String {
+    cache::in_dir(dir).write_warning(e)
 }
 
 /// Bytes the precompute is estimated to need: read-back maps (light-space depth, f32) and the
@@ -405,12 +401,10 @@ pub fn texel_ends(data: &PdsmData) -> Vec<[f32; 4]> {
 }
 
 /// Section 4's evaluation as two draws into one pass, so the four texels' searches run only
-/// inside penumbrae. llvmpipe runs both sides of a branch under a lane mask, and the searches'
-/// storage-buffer reads loop over the lanes even when all are off, so one shader that skips them
-/// per pixel still paid for them everywhere. The first draw (`ENDS_PASS`) answers every pixel
-/// whose four texels are constant at its depth from the ends texture and marks it in the
-/// stencil; the rest it discards. The second draw, the whole evaluation, runs where the stencil
-/// is still clear, and llvmpipe's early stencil test skips every block without such a pixel.
+/// inside penumbrae (docs/ARCHITECTURE.md, "Lavapipe's branches"). The first draw (`ENDS_PASS`)
+/// answers every pixel whose four texels are constant at its depth from the ends texture and
+/// marks it in the stencil; the rest it discards. The second draw, the whole evaluation, runs
+/// where the stencil is still clear.
 struct Evaluation {
     ends: FullscreenPipeline,
     penumbra: FullscreenPipeline,
@@ -709,7 +703,9 @@ impl Pdsm {
         }
         let started = Instant::now();
         let cache_dir = if self.settings.disk_cache {
-            self.cache_dir.clone().or_else(cache::default_dir)
+            self.cache_dir
+                .clone()
+                .or_else(softshadow_core::disk_cache::default_dir)
         } else {
             None
         };
@@ -809,22 +805,17 @@ impl Pdsm {
         };
         let size = self.settings.pdsm_size;
         let max_error = self.settings.compression_error;
-        // The thread counts rows in a control of its own (see `Pending`).
-        let control = BuildControl::default();
-        control.start(size, PDSM_ROWS);
         self.control.start(size, PDSM_ROWS);
-        let thread_control = control.clone();
-        let handle = std::thread::Builder::new()
-            .name("pdsm build".into())
-            .spawn(move || build::build(&maps, &frustum, size, max_error, &thread_control))
-            .map_err(|e| {
-                self.control.finish();
-                technique_error(format!("cannot start the PDSM build thread: {e}"))
-            })?;
+        let job = BackgroundJob::spawn("pdsm build", size, PDSM_ROWS, move |control| {
+            build::build(&maps, &frustum, size, max_error, control)
+        })
+        .map_err(|e| {
+            self.control.finish();
+            technique_error(format!("cannot start the PDSM build thread: {e}"))
+        })?;
         self.pending = Some(Pending {
             key,
-            control,
-            handle,
+            job,
             started,
             cache_dir,
         });
@@ -841,26 +832,23 @@ impl Pdsm {
         };
         if pending.key != key {
             // Superseded: it stops at its next row and its result is never read.
-            pending.control.cancel();
+            pending.job.cancel();
             self.pending = None;
             self.control.finish();
             return Ok(false);
         }
         if self.control.is_cancelled() {
-            pending.control.cancel();
+            pending.job.cancel();
         }
-        if !pending.handle.is_finished() {
-            let done = pending.control.done.load(Ordering::Relaxed);
-            let total = pending.control.total.load(Ordering::Relaxed);
-            self.control.done.store(done, Ordering::Relaxed);
+        pending.job.report_to(&self.control);
+        if !pending.job.is_finished() {
+            let (done, total) = pending.job.progress();
             return Err(building(done, total, PDSM_ROWS));
         }
         let pending = self.pending.take().expect("looked at above");
-        let done = pending.control.done.load(Ordering::Relaxed);
-        self.control.done.store(done, Ordering::Relaxed);
         self.control.finish();
         let built = pending
-            .handle
+            .job
             .join()
             .map_err(|_| technique_error("the PDSM build thread panicked; see the log".into()))?;
         // A cancel discards the result even when the build got to its end first.
@@ -1509,7 +1497,7 @@ impl Drop for Pdsm {
     fn drop(&mut self) {
         // A build running on its own thread stops at its next row; nobody reads its result.
         if let Some(pending) = &self.pending {
-            pending.control.cancel();
+            pending.job.cancel();
             self.control.finish();
         }
     }
