@@ -294,6 +294,7 @@ impl Bench {
             message: String::new(),
             timing: None,
             timing_camera_only: None,
+            cold: None,
             error: None,
             stability: None,
             stats: BTreeMap::new(),
@@ -351,7 +352,25 @@ impl Bench {
         let light = self.light.unwrap_or(scene.scene.light);
         technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
 
-        for _ in 0..self.options.warmup {
+        // The first frame, cold (nothing built or loaded yet), is timed on its own and counts
+        // as the first warm-up frame.
+        let (cold, cold_passes) = time_frames(1, |_| {
+            renderer.render(
+                &scene.gpu,
+                &camera,
+                &light,
+                technique.as_mut(),
+                Some(ShadingMode::Shaded),
+            )
+        })?;
+        run.cold = Some(results::ColdFrame {
+            timing: results::Timing {
+                passes_run: Some(cold_passes),
+                ..cold
+            },
+            stats: technique.stats(),
+        });
+        for _ in 1..self.options.warmup {
             technique.invalidate_cache();
             renderer.render(
                 &scene.gpu,

@@ -52,6 +52,12 @@ pub fn frame_time_ms(run: &Run) -> Option<f64> {
     (ms.is_finite() && ms > 0.0).then_some(ms)
 }
 
+/// Time of the run's first frame, with nothing built or loaded yet (`cold.timing`).
+pub fn cold_frame_ms(run: &Run) -> Option<f64> {
+    let ms = run.cold.as_ref()?.timing.frame_ms.as_ref()?.median;
+    ms.is_finite().then_some(ms)
+}
+
 /// mae_shadowed against the exact answer when the run has one, else against the reference.
 pub fn mae_shadowed(run: &Run) -> Option<f64> {
     let error = run.error.as_ref()?;
@@ -516,7 +522,7 @@ pub fn render_html(
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
     );
     let mut order = in_scene.to_vec();
     order.sort_by(|&a, &b| {
@@ -546,11 +552,12 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
         };
         let _ = write!(
             t,
-            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             if front.contains(&i) { " class=\"front\"" } else { "" },
             escape(&run.technique),
             escape(&params_text(run)),
             frame_time_ms(run).map_or("-".into(), ms),
+            cold_frame_ms(run).map_or("-".into(), ms),
             timing
                 .and_then(|t| t.technique_ms.as_ref())
                 .map_or("-".into(), |p| ms(p.median)),
@@ -699,7 +706,7 @@ fn csv_field(text: &str) -> String {
 /// The runs as one flat CSV (one row per run), for pandas or R.
 pub fn runs_csv(merged: &Merged) -> String {
     let mut out = String::from(
-        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,mae_shadowed,darker_shadowed,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
     );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for run in &merged.results.runs {
@@ -727,6 +734,7 @@ pub fn runs_csv(merged: &Merged) -> String {
                 .as_ref()
                 .and_then(|t| t.frame_ms.as_ref())
                 .map(|p| p.median)),
+            num(cold_frame_ms(run)),
             num(mae_shadowed(run)),
             num(darker_shadowed(run)),
             if error.is_some() {

@@ -74,6 +74,10 @@ pub struct Run {
     /// Frames in which only the camera moves (a small orbit): light-space work is kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timing_camera_only: Option<Timing>,
+    /// The run's first frame, with nothing built yet (the first warm-up frame): what a
+    /// technique's caches cost to fill or load (a precompute built, or read from its disk cache).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cold: Option<ColdFrame>,
     pub error: Option<ErrorFields>,
     pub stability: Option<Stability>,
     pub stats: BTreeMap<String, f64>,
@@ -92,6 +96,15 @@ pub struct Run {
 
 fn timestamps() -> TimingSource {
     TimingSource::Timestamps
+}
+
+/// The first frame of a run: its timing, passes and counters (what it built or loaded).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ColdFrame {
+    /// Its timing (one frame), its passes in `passes_run`.
+    pub timing: Timing,
+    /// The technique's counters after it (e.g. a precompute's `construction_ms`, `from_cache`).
+    pub stats: BTreeMap<String, f64>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -218,6 +218,18 @@ fn bench_writes_results_json_with_every_field_and_the_images() -> Result<()> {
         .filter_map(|p| p["name"].as_str())
         .collect();
     ensure!(passes.contains(&"pcss/filter"), "{passes:?}");
+    // The cold first frame builds the shadow map the camera-only frames keep.
+    let cold_passes: Vec<&str> = run["cold"]["timing"]["passes_run"]
+        .as_array()
+        .context("cold.timing.passes_run")?
+        .iter()
+        .filter_map(|p| p.as_str())
+        .collect();
+    ensure!(cold_passes.contains(&"pcss/shadow_map"), "{cold_passes:?}");
+    ensure!(run["cold"]["timing"]["frame_ms"]["median"]
+        .as_f64()
+        .is_some_and(|x| x > 0.0));
+    ensure!(run["cold"]["stats"].is_object(), "cold.stats");
     for k in [
         "reference",
         "mae_shadowed",

@@ -630,3 +630,65 @@ fn the_two_draw_evaluation_matches_one_full_draw_bit_for_bit() -> Result<()> {
     }
     Ok(())
 }
+
+/// A benchmark run shows what the precompute costs: its cold first frame builds the PDSM
+/// (`cold.stats`: not from the cache, with its construction time), while the timed frames, which
+/// drop their caches, load it from the disk cache the cold frame filled.
+#[test]
+fn a_benchmark_run_reports_the_cold_build_beside_the_cached_frames() -> Result<()> {
+    use softshadow_bench::{Bench, BenchOptions, RunSpec, Status};
+    let out = tempfile::tempdir()?;
+    // In a benchmark the technique caches in the test process's folder (`gpu()` sets it); this
+    // test's own PDSM size (a key no other test builds) keeps it from loading another's entry.
+    let mut bench = Bench::new(
+        gpu()?,
+        softshadow::registry(),
+        BenchOptions {
+            frames: 2,
+            warmup: 1,
+            error: false,
+            images: false,
+            exact_samples_per_axis: None,
+            camera_only: false,
+            ..BenchOptions::default()
+        },
+    )?;
+    let spec = RunSpec {
+        scene: "pdsm-quads".into(),
+        technique: softshadow_pdsm::ID.into(),
+        params: softshadow_bench::parse_params(
+            bench.registry(),
+            softshadow_pdsm::ID,
+            &[
+                "pdsm_size=68".into(),
+                "samples=4".into(),
+                "shadow_map_size=128".into(),
+            ],
+        )?,
+        width: 32,
+        height: 32,
+    };
+    let run = bench.run(0, &spec, out.path());
+    ensure!(run.status == Status::Ok, "{}", run.message);
+    let cold = run.cold.as_ref().context("the cold frame is reported")?;
+    ensure!(
+        cold.stats.get("from_cache") == Some(&0.0)
+            && cold
+                .stats
+                .get("construction_ms")
+                .is_some_and(|ms| *ms > 0.0),
+        "cold frame: {:?}",
+        cold.stats
+    );
+    let cold_passes = cold.timing.passes_run.clone().unwrap_or_default();
+    ensure!(
+        cold_passes.iter().any(|p| p == "pdsm/build"),
+        "{cold_passes:?}"
+    );
+    ensure!(
+        run.stats.get("from_cache") == Some(&1.0),
+        "timed frames: {:?}",
+        run.stats
+    );
+    Ok(())
+}
