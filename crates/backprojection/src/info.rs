@@ -64,7 +64,11 @@ fn expectations() -> Expectations {
             known_failure(MaeShadowed, 0.2522, 0.026),
         ),
         ("stiff-zero-thickness", at_most(MaeShadowed, 0.18, 0.0716)),
-        ("stiff-partly-outside", at_most(MaeShadowed, 0.32, 0.2026)),
+        // No better than `hard` (0.1988): the wall crossing the light plane.
+        (
+            "stiff-partly-outside",
+            known_failure(MaeShadowed, 0.2026, 0.02),
+        ),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
         ("stiff-aspect-100", at_most(MaeShadowed, 0.039, 0.0155)),
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.0073, 0.0029)),

@@ -30,9 +30,12 @@ pub struct Baseline {
     pub report: ErrorReport,
 }
 
+/// A baseline more than this factor above a technique's measured error must fail its bound.
+pub const CLEARLY_WORSE: f64 = 1.1;
+
 /// The problems of `report` against `expect` (empty: it holds), each prefixed with `label`: the
 /// value outside the bound, or a bound that accepts a baseline clearly worse than the technique
-/// (more than 1.5x its measured error and above 1e-3).
+/// (more than [`CLEARLY_WORSE`] times its measured error and above 1e-3).
 pub fn check(
     label: &str,
     expect: Expect,
@@ -59,7 +62,7 @@ pub fn check(
     {
         for baseline in baselines {
             let b = metric_value(metric, &baseline.report);
-            if b > 1.5 * measured && b > 1e-3 && b <= bound {
+            if b > CLEARLY_WORSE * measured && b > 1e-3 && b <= bound {
                 problems.push(format!(
                     "{label}: the bound {} <= {bound} accepts the {} answer ({b:.4}): tighten it",
                     metric.name(),

@@ -53,7 +53,8 @@ fn expectations() -> Expectations {
         ("stiff-grazing", at_most(MaeShadowed, 0.014, 0.0054)),
         ("stiff-depth-range", at_most(MaeShadowed, 0.011, 0.0044)),
         ("stiff-zero-thickness", at_most(MaeShadowed, 0.039, 0.0153)),
-        ("stiff-partly-outside", at_most(MaeShadowed, 0.36, 0.1417)),
+        // Halfway to `hard` (0.1988), which is only 1.4x worse here.
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.17, 0.1417)),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
         ("stiff-aspect-100", at_most(MaeShadowed, 0.02, 0.008)),
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.015, 0.0057)),
