@@ -277,7 +277,11 @@ fn a_gltf_1_file_says_it_is_gltf_1_and_to_re_export_it() {
     glb_1.extend(&content);
     let files = [
         ("old.gltf", serde_json::to_vec(&json_1).unwrap(), "1.0"),
-        ("no-asset.gltf", serde_json::to_vec(&no_asset).unwrap(), "1.0"),
+        (
+            "no-asset.gltf",
+            serde_json::to_vec(&no_asset).unwrap(),
+            "1.0",
+        ),
         ("old.glb", glb_1, "1.0 (binary"),
     ];
     for (name, bytes, version) in files {
