@@ -4,7 +4,7 @@
 //! - `loops_end_at_the_budget_only_on_lavapipe_before_24_1`: llvmpipe's 65535-iteration loop
 //!   budget ("Lavapipe's loop budget"); asserted.
 //! - `branch_costs` (ignored, a measurement): what a branch no pixel takes, and `discard`, cost
-//!   ("Lavapipe's branches"). `cargo test -p softshadow-core --test lavapipe -- --ignored
+//!   ("Lavapipe's branches"). `cargo test --workspace --test lavapipe -- --ignored
 //!   --nocapture` prints the table quoted there.
 
 use std::time::Instant;
