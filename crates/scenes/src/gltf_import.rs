@@ -2,9 +2,8 @@
 //!
 //! Only geometry is read: positions, normals (computed when missing) and indices (generated for
 //! non-indexed primitives) of triangle primitives (lists, strips and fans; strips and fans become
-//! lists). Materials, textures, skins and
-//! animations are ignored, and images are never loaded, so a model with missing textures still
-//! loads. Each triangle primitive becomes one [`Mesh`]; the default scene's node hierarchy
+//! lists). Materials, textures, skins and animations are ignored, and images are never loaded,
+//! so a model with missing textures still loads. Each triangle primitive becomes one [`Mesh`]; the default scene's node hierarchy
 //! (or the first scene, or, without scenes, every mesh at the origin) gives the world transforms.
 
 use std::path::Path;
