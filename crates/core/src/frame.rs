@@ -281,8 +281,9 @@ pub struct ShadowInputs<'a> {
 #[serde(rename_all = "lowercase")]
 pub enum TimingSource {
     /// GPU timestamp queries around each pass, all passes in one submission. Cheap and exact on
-    /// a GPU; on a CPU adapter (lavapipe) a timestamp does not wait for earlier compute
-    /// dispatches, so compute passes read almost nothing.
+    /// a GPU; on lavapipe before Mesa 24.1 a timestamp does not wait for earlier compute
+    /// dispatches, so compute passes read almost nothing (docs/ARCHITECTURE.md, "Lavapipe's
+    /// timestamps").
     Timestamps,
     /// Each pass recorded into its own submission and waited for: the pass time is the wall
     /// time from the start of its recording to the end of its GPU work. True on every adapter,

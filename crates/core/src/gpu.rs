@@ -25,6 +25,17 @@ pub struct AdapterSummary {
     pub driver: String,
 }
 
+impl AdapterSummary {
+    /// Mesa's (major, minor) version when the driver is Mesa's (lavapipe reads
+    /// `llvmpipe Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)`), else `None`. Lavapipe before 24.1 has
+    /// limits that later versions lifted (docs/ARCHITECTURE.md, "Lavapipe").
+    pub fn mesa_version(&self) -> Option<(u32, u32)> {
+        let version = self.driver.split("Mesa ").nth(1)?;
+        let mut parts = version.split(|c: char| !c.is_ascii_digit());
+        Some((parts.next()?.parse().ok()?, parts.next()?.parse().ok()?))
+    }
+}
+
 /// Shared GPU handles. Cheap to clone (wgpu handles are reference counted).
 ///
 /// Made either by the workbench ([`Gpu::new_headless`], [`Gpu::from_adapter`]: it picks the

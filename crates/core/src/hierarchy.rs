@@ -79,9 +79,10 @@ pub fn max_search_texels(
     }
 }
 
-/// Loop iterations one shader invocation may run on lavapipe (llvmpipe): its loops end silently
-/// once their iterations together reach 65535 (`LP_MAX_TGSI_LOOP_ITERATIONS` in Mesa's gallivm,
-/// one counter shared by every loop of the invocation). A full search (`hierarchy = none`) must
+/// Loop iterations one shader invocation may run on lavapipe before Mesa 24.1 (measured on
+/// 22.3.6; none on 25.0.7): its loops end silently once their iterations together reach 65535
+/// (`LP_MAX_TGSI_LOOP_ITERATIONS` in Mesa's gallivm, one counter shared by every loop of the
+/// invocation; docs/ARCHITECTURE.md, "Lavapipe's loop budget"). A full search (`hierarchy = none`) must
 /// keep its gather under this, or the blocks after the budget are dropped without an error; the
 /// rest (about 5,000) is left for the shader's other loops.
 pub const LOOP_BUDGET: u32 = 60_000;
@@ -417,8 +418,9 @@ impl DepthHierarchy {
                 }
             }
         }
-        // Timestamps after a dependent dispatch (see `fence` in hierarchy.wgsl): on lavapipe a
-        // timestamp does not wait for earlier compute work without a barrier. With serial timing
+        // Timestamps after a dependent dispatch (see `fence` in hierarchy.wgsl): on lavapipe 22.3 a
+        // timestamp does not wait for earlier compute work without a barrier
+        // (docs/ARCHITECTURE.md, "Lavapipe's timestamps"). With serial timing
         // the level pass is submitted and waited for on its own: its wall time is the build
         // time, and the two timestamps would lie in different submissions, so the interval
         // between them would include the round trips (2,150 ms read against 57 ms of passes).

@@ -137,6 +137,28 @@ pub enum SceneError {
         message: String,
     },
 
+    /// A glTF 1.0 file (JSON with dictionaries of objects, or a version 1 binary): only glTF 2.0
+    /// is read.
+    #[error("glTF file `{path}` is glTF {version}, which is not read here (only glTF 2.0): re-export it as glTF 2.0")]
+    GltfVersion {
+        /// The file.
+        path: String,
+        /// The version it declares, e.g. "1.0".
+        version: String,
+    },
+
+    /// A glTF file that requires an extension this loader does not read, such as Draco mesh
+    /// compression.
+    #[error("glTF file `{path}` requires the extension `{extension}`{what}, which is not read here: re-export it without `{extension}`")]
+    GltfExtension {
+        /// The file.
+        path: String,
+        /// The extension's name, e.g. `KHR_draco_mesh_compression`.
+        extension: String,
+        /// What the extension is, with a leading " (", or empty.
+        what: String,
+    },
+
     /// A glTF file without any triangle geometry.
     #[error("glTF file `{path}` contains no triangle meshes: export at least one mesh with triangle primitives")]
     GltfNoGeometry {

@@ -1,9 +1,9 @@
 //! glTF 2.0 geometry import: `.gltf` with external or embedded (data URI) buffers, and `.glb`.
 //!
 //! Only geometry is read: positions, normals (computed when missing) and indices (generated for
-//! non-indexed primitives) of triangle-list primitives. Materials, textures, skins and
-//! animations are ignored, and images are never loaded, so a model with missing textures still
-//! loads. Each triangle primitive becomes one [`Mesh`]; the default scene's node hierarchy
+//! non-indexed primitives) of triangle primitives (lists, strips and fans; strips and fans become
+//! lists). Materials, textures, skins and animations are ignored, and images are never loaded,
+//! so a model with missing textures still loads. Each triangle primitive becomes one [`Mesh`]; the default scene's node hierarchy
 //! (or the first scene, or, without scenes, every mesh at the origin) gives the world transforms.
 
 use std::path::Path;
@@ -57,13 +57,21 @@ pub fn parse_gltf(
         limit,
         advice: advice.into(),
     };
+    let header_word = |at: usize| {
+        let word = bytes.strip_prefix(b"glTF")?.get(at..at + 4)?;
+        Some(u32::from_le_bytes([word[0], word[1], word[2], word[3]]))
+    };
+    // A version 1 GLB is glTF 1.0's binary form (KHR_binary_glTF); gltf calls it only
+    // "unsupported version".
+    if header_word(0) == Some(1) {
+        return Err(SceneError::GltfVersion {
+            path: shown.clone(),
+            version: "1.0 (binary, KHR_binary_glTF)".into(),
+        });
+    }
     // gltf 1.4 subtracts 12 from the GLB header's length unchecked (a panic below 12: found by
     // the `gltf` fuzz target), so that header is checked here first.
-    if let Some(length) = bytes
-        .strip_prefix(b"glTF")
-        .and_then(|rest| rest.get(4..8))
-        .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
-    {
+    if let Some(length) = header_word(4) {
         if length < 12 {
             return Err(malformed(format!(
                 "its GLB header gives a length of {length} bytes, less than the 12-byte header"
@@ -73,9 +81,45 @@ pub fn parse_gltf(
     // gltf-json 1.4's validation reads the POSITION accessor of every primitive by index
     // without a bounds check (a panic on an index past the accessors: found by the `gltf` fuzz
     // target), so those indices are checked here before gltf validates the rest.
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| malformed(e.to_string()))?;
+    let gltf::Gltf { document, blob } = match gltf::Gltf::from_slice_without_validation(bytes) {
+        Ok(gltf) => gltf,
+        Err(e) => {
+            // glTF 1.0 keeps its objects in dictionaries, so gltf's message for it is a
+            // type error ("invalid type: map, expected a sequence").
+            if let Some(version) = gltf_1_json_version(bytes) {
+                return Err(SceneError::GltfVersion {
+                    path: shown.clone(),
+                    version,
+                });
+            }
+            return Err(malformed(e.to_string()));
+        }
+    };
     let root = document.into_json();
+    if !root.asset.version.starts_with("2.") {
+        return Err(SceneError::GltfVersion {
+            path: shown.clone(),
+            version: root.asset.version.clone(),
+        });
+    }
+    // gltf would call these "malformed" ("Unsupported extension"): say which one and what to do.
+    if let Some(extension) = root
+        .extensions_required
+        .iter()
+        .find(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()))
+    {
+        return Err(SceneError::GltfExtension {
+            path: shown.clone(),
+            extension: extension.clone(),
+            what: match extension.as_str() {
+                "KHR_draco_mesh_compression" => " (Draco-compressed geometry)",
+                "EXT_meshopt_compression" => " (meshoptimizer-compressed buffers)",
+                "KHR_mesh_quantization" => " (quantized vertex attributes)",
+                _ => "",
+            }
+            .into(),
+        });
+    }
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
@@ -216,13 +260,49 @@ pub fn parse_gltf(
     Ok(geometry)
 }
 
+/// The version of a glTF 1.0 JSON file that gltf could not parse: its `asset.version` when that
+/// is not 2.x, or "1.0" when it keeps meshes, nodes, accessors or buffers in dictionaries (glTF
+/// 1.0's layout; glTF 2.0 uses arrays). `None` for anything else, or for a GLB.
+fn gltf_1_json_version(bytes: &[u8]) -> Option<String> {
+    let json: serde_json::Value = serde_json::from_slice(bytes).ok()?;
+    if let Some(version) = json["asset"]["version"].as_str() {
+        return (!version.starts_with("2.")).then(|| version.to_string());
+    }
+    ["meshes", "nodes", "accessors", "buffers"]
+        .iter()
+        .any(|key| json[key].is_object())
+        .then(|| "1.0".to_string())
+}
+
 /// (vertices, triangles) a primitive declares, from its accessors' counts (nothing is read).
 fn primitive_size(primitive: &gltf::Primitive<'_>) -> (usize, usize) {
     let vertices = primitive
         .get(&gltf::Semantic::Positions)
         .map_or(0, |a| a.count());
     let indices = primitive.indices().map_or(vertices, |a| a.count());
-    (vertices, indices / 3)
+    let triangles = match primitive.mode() {
+        Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
+        _ => indices / 3,
+    };
+    (vertices, triangles)
+}
+
+/// Triangle-list indices of a triangle strip or fan, in the order and winding of the glTF 2.0
+/// specification (3.7.2.1, "Topology types"): strip triangle i is (v[i], v[i + 1 + i % 2],
+/// v[i + 2 - i % 2]), fan triangle i is (v[i + 1], v[i + 2], v[0]). Triangles that repeat an
+/// index are left out: exporters join strips with them on purpose, so they are not damage to
+/// report as repair would.
+fn list_from(mode: Mode, indices: &[u32]) -> Vec<u32> {
+    let count = indices.len().saturating_sub(2);
+    let triangle = |i: usize| match mode {
+        Mode::TriangleStrip => [indices[i], indices[i + 1 + i % 2], indices[i + 2 - i % 2]],
+        _ => [indices[i + 1], indices[i + 2], indices[0]],
+    };
+    (0..count)
+        .map(triangle)
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .flatten()
+        .collect()
 }
 
 enum WalkError {
@@ -333,9 +413,12 @@ fn read_primitive(
     name: &str,
 ) -> Result<Mesh, String> {
     let mode = primitive.mode();
-    if mode != Mode::Triangles {
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
         return Err(format!(
-            "mode {mode:?} is not supported (only triangle lists are read; triangulate on export)"
+            "mode {mode:?} is not supported (only triangles, triangle strips and fans are read)"
         ));
     }
     let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|d| &d.0[..]));
@@ -371,6 +454,10 @@ fn read_primitive(
             .into_u32()
             .collect(),
         None => (0..positions.len() as u32).collect(),
+    };
+    let indices = match mode {
+        Mode::TriangleStrip | Mode::TriangleFan => list_from(mode, &indices),
+        _ => indices,
     };
     if indices.len() % 3 != 0 {
         return Err(format!(

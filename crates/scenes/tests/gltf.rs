@@ -167,3 +167,181 @@ fn a_file_without_triangles_is_an_error() {
     let err = load_gltf(&path).unwrap_err();
     assert!(matches!(err, SceneError::GltfNoGeometry { .. }), "{err:?}");
 }
+
+/// `f32` values as little-endian bytes.
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+#[test]
+fn triangle_strips_and_fans_load_as_lists_with_the_specification_winding() {
+    // Every triangle below lies in y = 0 and faces +y in the winding of the glTF 2.0
+    // specification (3.7.2.1), so computed normals of +y check the order.
+    // mesh 0: a non-indexed strip of 4 vertices (2 triangles).
+    let strip = [0., 0., 0., 0., 0., 1., 1., 0., 0., 1., 0., 1.];
+    // mesh 1: a non-indexed fan around the origin, 5 vertices (3 triangles).
+    let fan = [0., 0., 0., 1., 0., 0., 0., 0., -1., -1., 0., 0., 0., 0., 1.];
+    // mesh 2: an indexed strip of two quads joined by repeated indices (4 triangles and 4
+    // joining ones, which are not damage and so are dropped without a warning).
+    let mut quads = strip.to_vec();
+    quads.extend(strip.chunks(3).flat_map(|p| [p[0] + 2.0, p[1], p[2]]));
+    let join: Vec<u8> = [0u16, 1, 2, 3, 3, 4, 4, 5, 6, 7]
+        .iter()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
+    let mut buffer = f32_bytes(&strip);
+    let fan_at = buffer.len();
+    buffer.extend(f32_bytes(&fan));
+    let quads_at = buffer.len();
+    buffer.extend(f32_bytes(&quads));
+    let join_at = buffer.len();
+    buffer.extend(&join);
+    buffer.extend([0, 0, 0, 0]);
+    let json = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": [0, 1, 2] }],
+        "nodes": [{ "mesh": 0 }, { "mesh": 1 }, { "mesh": 2 }],
+        "meshes": [
+            { "name": "strip", "primitives": [{ "attributes": { "POSITION": 0 }, "mode": 5 }] },
+            { "name": "fan", "primitives": [{ "attributes": { "POSITION": 1 }, "mode": 6 }] },
+            { "name": "joined", "primitives": [{ "attributes": { "POSITION": 2 }, "indices": 3, "mode": 5 }] }
+        ],
+        "bufferViews": [
+            { "buffer": 0, "byteOffset": 0, "byteLength": 48 },
+            { "buffer": 0, "byteOffset": fan_at, "byteLength": 60 },
+            { "buffer": 0, "byteOffset": quads_at, "byteLength": 96 },
+            { "buffer": 0, "byteOffset": join_at, "byteLength": 20 }
+        ],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+              "min": [0.0, 0.0, 0.0], "max": [1.0, 0.0, 1.0] },
+            { "bufferView": 1, "componentType": 5126, "count": 5, "type": "VEC3",
+              "min": [-1.0, 0.0, -1.0], "max": [1.0, 0.0, 1.0] },
+            { "bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC3",
+              "min": [0.0, 0.0, 0.0], "max": [3.0, 0.0, 1.0] },
+            { "bufferView": 3, "componentType": 5123, "count": 10, "type": "SCALAR" }
+        ]
+    });
+    let dir = tempfile::tempdir().unwrap();
+    for kind in KINDS {
+        let path = write_gltf(
+            dir.path(),
+            &format!("strips-{kind:?}"),
+            kind,
+            json.clone(),
+            &buffer,
+        );
+        let geometry = load_gltf(&path).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+        assert!(geometry.warnings.is_empty(), "{:?}", geometry.warnings);
+        let counts: Vec<usize> = geometry.meshes.iter().map(|m| m.triangle_count()).collect();
+        assert_eq!(counts, [2, 3, 4], "{kind:?}");
+        assert_eq!(geometry.meshes[0].indices, [0, 1, 2, 1, 3, 2]);
+        assert_eq!(geometry.meshes[1].indices, [1, 2, 0, 2, 3, 0, 3, 4, 0]);
+        assert_eq!(
+            geometry.meshes[2].indices,
+            [0, 1, 2, 1, 3, 2, 4, 5, 6, 5, 7, 6]
+        );
+        for mesh in &geometry.meshes {
+            assert!(
+                mesh.normals.iter().all(|n| n.abs_diff_eq(Vec3::Y, 1e-6)),
+                "{}: {:?}",
+                mesh.name,
+                mesh.normals
+            );
+        }
+        assert_eq!(geometry.instances.len(), 3);
+    }
+}
+
+#[test]
+fn a_gltf_1_file_says_it_is_gltf_1_and_to_re_export_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // glTF 1.0 keeps its objects in dictionaries keyed by id; with and without `asset`.
+    let json_1 = serde_json::json!({
+        "asset": { "version": "1.0" },
+        "scene": "defaultScene",
+        "scenes": { "defaultScene": { "nodes": ["node"] } },
+        "nodes": { "node": { "meshes": ["mesh"] } },
+        "meshes": { "mesh": { "primitives": [{ "attributes": { "POSITION": "positions" }, "mode": 4 }] } },
+        "accessors": { "positions": { "bufferView": "view", "byteOffset": 0, "componentType": 5126, "count": 3, "type": "VEC3" } }
+    });
+    let mut no_asset = json_1.clone();
+    no_asset.as_object_mut().unwrap().remove("asset");
+    // Binary glTF 1.0 (KHR_binary_glTF): header version 1, then content length and format 0.
+    let content = serde_json::to_vec(&json_1).unwrap();
+    let mut glb_1 = b"glTF".to_vec();
+    glb_1.extend(1u32.to_le_bytes());
+    glb_1.extend((20 + content.len() as u32).to_le_bytes());
+    glb_1.extend((content.len() as u32).to_le_bytes());
+    glb_1.extend(0u32.to_le_bytes());
+    glb_1.extend(&content);
+    let files = [
+        ("old.gltf", serde_json::to_vec(&json_1).unwrap(), "1.0"),
+        (
+            "no-asset.gltf",
+            serde_json::to_vec(&no_asset).unwrap(),
+            "1.0",
+        ),
+        ("old.glb", glb_1, "1.0 (binary"),
+    ];
+    for (name, bytes, version) in files {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let err = load_gltf(&path).unwrap_err();
+        assert!(matches!(err, SceneError::GltfVersion { .. }), "{err:?}");
+        let message = err.to_string();
+        assert!(
+            message.contains(name)
+                && message.contains(&format!("is glTF {version}"))
+                && message.contains("re-export it as glTF 2.0")
+                && !message.contains("malformed"),
+            "{message}"
+        );
+        // Through `load` too, as the CLI and the viewer call it.
+        let message = load(path.to_str().unwrap()).unwrap_err().to_string();
+        assert!(message.contains("re-export it as glTF 2.0"), "{message}");
+    }
+}
+
+#[test]
+fn a_draco_compressed_file_names_the_extension_and_says_to_re_export_without_it() {
+    let dir = tempfile::tempdir().unwrap();
+    for kind in KINDS {
+        let (mut json, buffer) = sample_model();
+        let draco = "KHR_draco_mesh_compression";
+        json["extensionsUsed"] = serde_json::json!([draco]);
+        json["extensionsRequired"] = serde_json::json!([draco]);
+        json["meshes"][0]["primitives"][0]["extensions"] = serde_json::json!({
+            draco: { "bufferView": 0, "attributes": { "POSITION": 0 } }
+        });
+        let path = write_gltf(dir.path(), &format!("draco-{kind:?}"), kind, json, &buffer);
+        let err = load_gltf(&path).unwrap_err();
+        assert!(matches!(err, SceneError::GltfExtension { .. }), "{err:?}");
+        let message = err.to_string();
+        assert!(
+            message.contains("draco-")
+                && message.contains("requires the extension `KHR_draco_mesh_compression` (Draco")
+                && message.contains("re-export it without `KHR_draco_mesh_compression`")
+                && !message.contains("malformed"),
+            "{message}"
+        );
+    }
+}
+
+#[test]
+fn an_unknown_required_extension_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut json, buffer) = sample_model();
+    json["extensionsUsed"] = serde_json::json!(["EXT_made_up"]);
+    json["extensionsRequired"] = serde_json::json!(["EXT_made_up"]);
+    let path = write_gltf(dir.path(), "made-up", GltfKind::Binary, json, &buffer);
+    let message = load_gltf(&path).unwrap_err().to_string();
+    assert_eq!(
+        message,
+        format!(
+            "glTF file `{}` requires the extension `EXT_made_up`, which is not read here: \
+             re-export it without `EXT_made_up`",
+            path.display()
+        )
+    );
+}

@@ -1,15 +1,16 @@
 //! The viewer's state and UI: scene and technique pickers, the parameter panel generated from the
-//! technique's [`ParamSpec`](softshadow_core::ParamSpec)s, light and camera controls, GPU timings, the progressive reference
-//! and the live error, view modes, and the error-against-time plot.
+//! technique's [`ParamSpec`](softshadow_core::ParamSpec)s, light and camera controls, GPU
+//! timings, the progressive reference and the live error, view modes, and the error-against-time
+//! plot.
 //!
 //! [`ViewerApp::ui`] lays out one egui pass and renders one GPU frame; the winit window
 //! ([`crate::window`]) and the egui_kittest tests drive the same function.
 //!
-//! The modules follow the window: the left panel's [`scene_panel`] (scene, light, camera),
-//! [`technique_panel`] (parameters, view modes), [`build_panel`] (a precompute building off the
-//! UI thread) and [`files_panel`]; the right panel's
-//! [`timing_panel`] and [`error_panel`] (metrics and the error-against-time plot); the central
-//! [`image`]. This file holds the state, the actions and the GPU frame.
+//! The modules (private, so named rather than linked) follow the window: the left panel's
+//! `scene_panel` (scene, light, camera), `technique_panel` (parameters, view modes),
+//! `build_panel` (a precompute building off the UI thread) and `files_panel`; the right panel's
+//! `timing_panel` and `error_panel` (metrics and the error-against-time plot); the central
+//! `image`. This file holds the state, the actions and the GPU frame.
 
 mod build_panel;
 mod error_panel;
