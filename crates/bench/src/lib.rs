@@ -4,6 +4,7 @@
 //! A run that fails (bad parameter, technique error, device error) is recorded with its message
 //! and the rest of the runs go on.
 
+pub mod doc_tables;
 pub mod expectations;
 pub mod merge;
 pub mod output;
@@ -756,6 +757,8 @@ pub fn run_all(
 pub struct RunSetup {
     /// The techniques the runs name (the built-ins and any a user adds).
     pub registry: Registry,
+    /// The command that makes these runs, recorded in results.json (`Results::command`).
+    pub command: Vec<String>,
     pub sweep: Option<SweepInfo>,
     pub timing: Option<TimingSource>,
     pub camera: Option<Camera>,
@@ -803,6 +806,8 @@ pub fn run_resumed(
     let mut results = Results {
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),
+        command: setup.command.clone(),
+        date: results::today_utc(),
         sweep: setup.sweep,
         runs: finished,
     };

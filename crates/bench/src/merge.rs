@@ -207,6 +207,15 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
         results: Results {
             schema_version: crate::results::SCHEMA_VERSION,
             adapter,
+            command: inputs
+                .first()
+                .map(|i| i.results.command.clone())
+                .unwrap_or_default(),
+            date: inputs
+                .iter()
+                .map(|i| i.results.date.clone())
+                .max()
+                .unwrap_or_default(),
             sweep,
             runs: entries.into_iter().map(|e| e.2).collect(),
         },

@@ -378,7 +378,8 @@ pub fn write_report(
     Ok(summary)
 }
 
-fn ms(v: f64) -> String {
+/// A time in ms with as many digits as it needs.
+pub fn ms(v: f64) -> String {
     if v >= 100.0 {
         format!("{v:.0}")
     } else if v >= 1.0 {
@@ -617,15 +618,25 @@ fn image_strip(merged: &Merged, front: &[usize]) -> String {
     }
 }
 
-/// Per scene and technique: the lowest mae_shadowed within each budget of [`BUDGETS`] x the
-/// fastest `hard` run's frame time on that scene, and the lowest frame time at which the
-/// technique reaches [`TARGET_MAE`].
-fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
-    let mut t = format!("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Last column: the fastest setting with mae_shadowed &le; 0.01.</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
-    for b in BUDGETS {
-        let _ = write!(t, "<th>&le; {b}x hard</th>");
-    }
-    t.push_str("<th>cost to mae &le; 0.01</th></tr>");
+/// One row of the headline: a technique on a scene (and size).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeadlineRow {
+    pub scene: String,
+    pub technique: String,
+    /// Per budget of [`BUDGETS`]: the lowest mae_shadowed of the technique's settings whose frame
+    /// time is within that multiple of the fastest cost-floor run on the scene (`None`: none is).
+    pub best_within: Vec<Option<f64>>,
+    /// The lowest frame time at which the technique reaches [`TARGET_MAE`], ms (`None`: never).
+    pub cost_to_target_ms: Option<f64>,
+    /// The fastest cost-floor frame time on the scene, ms (`None`: no cost-floor run).
+    pub floor_ms: Option<f64>,
+}
+
+/// Per scene (with its size, in the order given) and technique (by name): the lowest
+/// mae_shadowed within each budget of [`BUDGETS`] x the fastest cost-floor run's frame time on
+/// that scene, and the lowest frame time at which the technique reaches [`TARGET_MAE`].
+pub fn headline_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<HeadlineRow> {
+    let mut rows = Vec::new();
     for (scene, width, height) in scenes {
         let in_scene: Vec<&Run> = runs
             .iter()
@@ -636,13 +647,12 @@ fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
                     && r.status == Status::Ok
             })
             .collect();
-        let hard = in_scene
+        let floor = in_scene
             .iter()
             .filter(|r| r.technique == COST_FLOOR_TECHNIQUE)
             .filter_map(|r| frame_time_ms(r))
             .fold(f64::INFINITY, f64::min);
         let mut techniques: Vec<&str> = in_scene.iter().map(|r| r.technique.as_str()).collect();
-        techniques.dedup();
         techniques.sort();
         techniques.dedup();
         for technique in techniques {
@@ -651,45 +661,72 @@ fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
                 .filter(|r| r.technique == technique)
                 .filter_map(|r| Some((frame_time_ms(r)?, mae_shadowed(r)?)))
                 .collect();
-            let _ = write!(
-                t,
-                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td>",
-                escape(scene),
-                escape(technique)
-            );
-            for b in BUDGETS {
-                let best = points
-                    .iter()
-                    .filter(|(time, _)| hard.is_finite() && *time <= b * hard)
-                    .map(|(_, e)| *e)
-                    .fold(f64::INFINITY, f64::min);
-                let _ = write!(
-                    t,
-                    "<td>{}</td>",
-                    if best.is_finite() {
-                        format!("{best:.4}")
-                    } else {
-                        "-".into()
-                    }
-                );
-            }
+            let best_within = BUDGETS
+                .iter()
+                .map(|b| {
+                    let best = points
+                        .iter()
+                        .filter(|(time, _)| floor.is_finite() && *time <= b * floor)
+                        .map(|(_, e)| *e)
+                        .fold(f64::INFINITY, f64::min);
+                    best.is_finite().then_some(best)
+                })
+                .collect();
             let cost = points
                 .iter()
                 .filter(|(_, e)| *e <= TARGET_MAE)
                 .map(|(time, _)| *time)
                 .fold(f64::INFINITY, f64::min);
+            rows.push(HeadlineRow {
+                scene: scene.clone(),
+                technique: technique.to_string(),
+                best_within,
+                cost_to_target_ms: cost.is_finite().then_some(cost),
+                floor_ms: floor.is_finite().then_some(floor),
+            });
+        }
+    }
+    rows
+}
+
+impl HeadlineRow {
+    /// The last column as text: "12.3 ms (2.1x hard)", or "not reached".
+    pub fn cost_text(&self) -> String {
+        match (self.cost_to_target_ms, self.floor_ms) {
+            (None, _) => "not reached".to_string(),
+            (Some(cost), Some(floor)) => {
+                format!(
+                    "{} ms ({:.1}x {COST_FLOOR_TECHNIQUE})",
+                    ms(cost),
+                    cost / floor
+                )
+            }
+            (Some(cost), None) => format!("{} ms", ms(cost)),
+        }
+    }
+}
+
+fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
+    let mut t = format!("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Last column: the fastest setting with mae_shadowed &le; {TARGET_MAE}.</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
+    for b in BUDGETS {
+        let _ = write!(t, "<th>&le; {b}x {COST_FLOOR_TECHNIQUE}</th>");
+    }
+    let _ = write!(t, "<th>cost to mae &le; {TARGET_MAE}</th></tr>");
+    for row in headline_rows(runs, scenes) {
+        let _ = write!(
+            t,
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td>",
+            escape(&row.scene),
+            escape(&row.technique)
+        );
+        for best in &row.best_within {
             let _ = write!(
                 t,
-                "<td>{}</td></tr>",
-                if !cost.is_finite() {
-                    "not reached".to_string()
-                } else if hard.is_finite() {
-                    format!("{} ms ({:.1}x hard)", ms(cost), cost / hard)
-                } else {
-                    format!("{} ms", ms(cost))
-                }
+                "<td>{}</td>",
+                best.map_or("-".into(), |b| format!("{b:.4}"))
             );
         }
+        let _ = write!(t, "<td>{}</td></tr>", escape(&row.cost_text()));
     }
     t.push_str("</table>");
     t

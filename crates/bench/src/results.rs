@@ -16,10 +16,39 @@ pub const SCHEMA_VERSION: u32 = 3;
 pub struct Results {
     pub schema_version: u32,
     pub adapter: Adapter,
+    /// The command that made these runs (`workbench` arguments, e.g. `["bench", "--suite",
+    /// "stiff", "--out", "DIR"]`), so a figure can be made again (`workbench docs --rerun`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub command: Vec<String>,
+    /// The day the runs were made (UTC, `YYYY-MM-DD`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub date: String,
     /// Which sweep these runs come from and which shard of it (absent for a single run).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sweep: Option<SweepInfo>,
     pub runs: Vec<Run>,
+}
+
+/// Today's date in UTC, `YYYY-MM-DD` (the civil date of the Unix day, Hinnant's algorithm).
+pub fn today_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    civil_date((secs / 86_400) as i64)
+}
+
+/// The proleptic Gregorian date of `days` since 1970-01-01.
+fn civil_date(days: i64) -> String {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!("{year:04}-{month:02}-{day:02}")
 }
 
 /// The sweep a results.json belongs to.
@@ -202,6 +231,14 @@ pub fn percentiles(values: &[f64]) -> Percentiles {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn civil_dates_match_known_days() {
+        assert_eq!(civil_date(0), "1970-01-01");
+        assert_eq!(civil_date(11_016), "2000-02-29");
+        assert_eq!(civil_date(20_789), "2026-12-02");
+        assert_eq!(civil_date(-1), "1969-12-31");
+    }
 
     #[test]
     fn percentiles_interpolate() {

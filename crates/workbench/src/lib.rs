@@ -67,6 +67,19 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Rewrite the generated tables of the documents from their committed results
+    /// (docs/results/*.json); see `softshadow_bench::doc_tables`.
+    Docs {
+        /// Markdown files (default: every docs/*.md).
+        files: Vec<PathBuf>,
+        /// Only check: exit 1 naming every table that differs from its results.
+        #[arg(long, conflicts_with = "rerun")]
+        check: bool,
+        /// First make every results file again with the command it records (as slow as the
+        /// benchmarks themselves), then rewrite the tables.
+        #[arg(long)]
+        rerun: bool,
+    },
     /// Write one self-contained HTML report (error against frame time) of any results.
     Report {
         /// Benchmark output folders or results.json files (shards are merged).
@@ -204,6 +217,11 @@ pub fn main_with(extra: Vec<TechniqueInfo>) -> ExitCode {
         Some(Command::Bench(args)) => bench(&registry, args),
         Some(Command::View(args)) => view(&registry, args),
         Some(Command::Merge { inputs, out }) => merge(&inputs, &out),
+        Some(Command::Docs {
+            files,
+            check,
+            rerun,
+        }) => docs(files, check, rerun),
         Some(Command::Report { inputs, out, csv }) => {
             report(&registry, &inputs, &out, csv.as_deref())
         }
@@ -315,12 +333,13 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         return stress::run(registry, seconds, args.seed, &out);
     }
     let resuming = args.resume.is_some();
-    let (args, finished, finished_hash) = match &args.resume {
+    let (args, finished, finished_hash, command) = match &args.resume {
         Some(dir) => {
             let previous = resume::load(dir)?;
-            (previous.args, previous.runs, previous.sweep_hash)
+            let command = previous.command;
+            (previous.args, previous.runs, previous.sweep_hash, command)
         }
-        None => (args, Vec::new(), None),
+        None => (args, Vec::new(), None, std::env::args().skip(1).collect()),
     };
     let out = args.out.clone().context("give --out DIR")?;
     // Everything that can be checked without a GPU is checked first, so bad input fails fast
@@ -410,7 +429,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
     let gpu = Gpu::new_headless().context("cannot start the GPU")?;
     // After the last check that can fail, so bad input and a missing GPU write nothing.
     if !resuming {
-        resume::save(&args, &out)?;
+        resume::save(&args, &command, &out)?;
     }
     // Bars on stderr (indicatif draws nothing when it is not a terminal): the runs, and below
     // them the progress of a long precompute while one builds.
@@ -425,6 +444,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
     interrupt_on_ctrl_c(&control, &bars)?;
     let setup = RunSetup {
         registry: registry.clone(),
+        command,
         sweep: sweep_info,
         timing,
         camera: view.0,
@@ -586,6 +606,107 @@ fn watch_builds(
         b.finish_and_clear();
         bars.remove(&b);
     }
+}
+
+/// `docs`: rewrites (or checks) the generated tables; with `rerun`, first makes their results
+/// again by running the command each results file records.
+fn docs(files: Vec<PathBuf>, check: bool, rerun: bool) -> Result<ExitCode> {
+    use softshadow_bench::doc_tables;
+    let root = std::env::current_dir().context("cannot read the current folder")?;
+    let files = if files.is_empty() {
+        let mut found: Vec<PathBuf> = std::fs::read_dir(root.join("docs"))
+            .context("no docs/ folder here: run from the repository root or name the files")?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "md"))
+            .collect();
+        found.sort();
+        found
+    } else {
+        files
+    };
+    if rerun {
+        let mut done: Vec<PathBuf> = Vec::new();
+        for file in &files {
+            for results in doc_tables::results_files(file)? {
+                if !done.contains(&results) {
+                    rerun_results(&root.join(&results))?;
+                    done.push(results);
+                }
+            }
+        }
+    }
+    let mut drifted = Vec::new();
+    for file in &files {
+        if check {
+            drifted.extend(doc_tables::drift(file, &root)?);
+        } else {
+            let text = std::fs::read_to_string(file)
+                .with_context(|| format!("cannot read {}", file.display()))?;
+            let new = doc_tables::regenerate(&text, file, &root)?;
+            if new != text {
+                softshadow_bench::output::write_atomic(file, new.as_bytes())?;
+                println!("rewrote the tables of {}", file.display());
+            }
+        }
+    }
+    if !drifted.is_empty() {
+        eprintln!(
+            "{} generated tables differ from their committed results (run `workbench docs` to rewrite them):\n{}",
+            drifted.len(),
+            drifted.join("\n")
+        );
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Makes the results file `path` again: runs the benchmark command it records into a temporary
+/// folder and writes its results, without images, over `path`.
+fn rerun_results(path: &std::path::Path) -> Result<()> {
+    let recorded = softshadow_bench::merge::load(path)?.results;
+    if recorded.command.first().map(String::as_str) != Some("bench") {
+        bail!(
+            "{} records no `bench` command to make it again: make it with `workbench bench ... --out DIR` and copy DIR/results.json there",
+            path.display()
+        );
+    }
+    let out = tempfile_dir()?;
+    let mut args = recorded.command.clone();
+    match args.iter().position(|a| a == "--out") {
+        Some(k) if k + 1 < args.len() => args[k + 1] = out.display().to_string(),
+        _ => args.extend(["--out".into(), out.display().to_string()]),
+    }
+    println!(
+        "making {} again: workbench {}",
+        path.display(),
+        args.join(" ")
+    );
+    let status = std::process::Command::new(std::env::current_exe()?)
+        .args(&args)
+        .status()
+        .context("cannot run the workbench again")?;
+    // Exit 3 (a run failed) still leaves results worth showing: the failure is in them.
+    if !(status.success() || status.code() == Some(3)) {
+        bail!("`workbench {}` failed ({status})", args.join(" "));
+    }
+    let mut fresh = softshadow_bench::merge::load(&out)?.results;
+    fresh.command = recorded.command;
+    let json = serde_json::to_vec_pretty(&softshadow_bench::doc_tables::compact(fresh))?;
+    softshadow_bench::output::write_atomic(path, &json)?;
+    let _ = std::fs::remove_dir_all(&out);
+    Ok(())
+}
+
+/// A new empty folder under the system's temporary folder.
+fn tempfile_dir() -> Result<PathBuf> {
+    let dir = std::env::temp_dir().join(format!(
+        "softshadow-docs-{}-{}",
+        std::process::id(),
+        softshadow_bench::results::today_utc()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    Ok(dir)
 }
 
 fn merge(inputs: &[PathBuf], out: &std::path::Path) -> Result<ExitCode> {

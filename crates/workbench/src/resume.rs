@@ -20,11 +20,13 @@ pub struct Previous {
     pub runs: Vec<Run>,
     /// The sweep hash its results.json recorded, if it ran a sweep.
     pub sweep_hash: Option<String>,
+    /// The command line it was started with (recorded in results.json).
+    pub command: Vec<String>,
 }
 
 /// Writes `out/bench-args.json`: the arguments, with the sweep file and the working folder made
 /// absolute so that a resume from another folder reads the same files.
-pub fn save(args: &BenchArgs, out: &Path) -> Result<()> {
+pub fn save(args: &BenchArgs, command: &[String], out: &Path) -> Result<()> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create the output folder `{}`", out.display()))?;
     let absolute = |p: &PathBuf| std::path::absolute(p).unwrap_or_else(|_| p.clone());
@@ -34,6 +36,7 @@ pub fn save(args: &BenchArgs, out: &Path) -> Result<()> {
             sweep: args.sweep.as_ref().map(absolute),
             ..args.clone()
         },
+        command: command.to_vec(),
     };
     let json = serde_json::to_vec_pretty(&saved)?;
     softshadow_bench::output::write_atomic(&out.join(ARGS_FILE), &json)?;
@@ -80,6 +83,7 @@ pub fn load(dir: &Path) -> Result<Previous> {
         args,
         runs,
         sweep_hash,
+        command: saved.command,
     })
 }
 
@@ -87,4 +91,6 @@ pub fn load(dir: &Path) -> Result<Previous> {
 struct Saved {
     working_dir: PathBuf,
     args: BenchArgs,
+    #[serde(default)]
+    command: Vec<String>,
 }
