@@ -13,6 +13,9 @@ OUT="${OUT:-results/overview}"
 WORKBENCH="${WORKBENCH:-./target/release/workbench}"
 SHARDS="${SHARDS:-4}"
 JOBS="${JOBS:-2}"
+# One reference cache for every shard: a scene's references are rendered once.
+REFERENCE_CACHE="${REFERENCE_CACHE:-$OUT/reference-cache}"
 mkdir -p "$OUT"
 seq 0 $((SHARDS - 1)) | parallel --will-cite --halt now,fail=1 -j "$JOBS" \
-    "$WORKBENCH" bench --sweep "$SWEEP" --shard "{}/$SHARDS" --out "$OUT/shard-{}"
+    "$WORKBENCH" bench --sweep "$SWEEP" --shard "{}/$SHARDS" \
+    --reference-cache "$REFERENCE_CACHE" --out "$OUT/shard-{}"

@@ -17,9 +17,11 @@ set -euo pipefail
 SWEEP="${SWEEP:-benches/overview.toml}"
 OUT="${OUT:-results/overview}"
 WORKBENCH="${WORKBENCH:-./target/release/workbench}"
+REFERENCE_CACHE="${REFERENCE_CACHE:-$OUT/reference-cache}"
 mkdir -p "$OUT"
 # SLURM_ARRAY_TASK_ID runs 0..N-1 and SLURM_ARRAY_TASK_COUNT is N: shard i of N, round robin.
 "$WORKBENCH" bench \
     --sweep "$SWEEP" \
     --shard "${SLURM_ARRAY_TASK_ID}/${SLURM_ARRAY_TASK_COUNT}" \
+    --reference-cache "$REFERENCE_CACHE" \
     --out "$OUT/shard-${SLURM_ARRAY_TASK_ID}"

@@ -17,9 +17,7 @@
 }
 
 // `hierarchy = none` gathers level-0 texels over the unrefined area, up to this many per axis:
-// softshadow_core::hierarchy::full_search_patches(1), so that the gather stays under lavapipe's
-// budget of 65535 loop iterations per invocation before Mesa 24.1 (more are silently skipped;
-// docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+// softshadow_core::hierarchy::full_search_patches(1) (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
 const FULL_SEARCH_PATCHES: i32 = 240;
 // Bound of the gather loops: quads span one block more than patches.
 const MAX_GATHER_AXIS: i32 = 257;

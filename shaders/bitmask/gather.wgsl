@@ -196,12 +196,8 @@ fn word_bits(tiled: u32, first: u32, last: u32, w: u32) -> u32 {
 
 // ORs the light samples inside the light-space rectangle [lo, hi] into the mask (sec. 3: scale,
 // bias and integer conversion map the extent to bit ranges); adds its clipped area when asked.
-// Loop free on purpose: llvmpipe (lavapipe) ends every loop of an invocation once their
-// iterations together reach 65535 (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops), and the
-// gather already spends up to 240 x 240 of them (core::hierarchy::full_search_patches). A loop
-// here, run for each of those rectangles, used up that budget part way through a full search and
-// silently dropped the occlusion of the remaining blocks (whole rows of the light at 384^2 maps
-// and above).
+// Loop free on purpose: the gather spends the loop budget (docs/ARCHITECTURE.md, "Lavapipe's
+// loop budget").
 fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec2<f32>) {
     let a = g.half_light;
     // Clamped first: a backprojected coordinate can be huge (p next to the occluder).

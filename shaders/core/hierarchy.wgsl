@@ -73,9 +73,8 @@ fn mssm_level(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(dst, vec2<i32>(id.xy), vec4<f32>(r, 0.0, 0.0));
 }
 
-// One texel read of `src` into a 1 x 1 target: the dependency makes wgpu put a barrier before it,
-// and the barrier makes a CPU implementation (lavapipe) finish the level passes, so the build
-// timestamps written around it measure the levels (DepthHierarchy::last_build_ms).
+// One texel read of `src` into a 1 x 1 target: wgpu puts a barrier before it, so the build
+// timestamps around it measure the levels (docs/ARCHITECTURE.md, "Lavapipe's timestamps").
 @compute @workgroup_size(1)
 fn fence() {
     textureStore(dst, vec2<i32>(0), vec4<f32>(textureLoad(src, vec2<i32>(0), 0).xy, 0.0, 0.0));

@@ -18,6 +18,8 @@
 //!   `mae_shadowed` and what the technique's crate states for it (the run's verdict).
 //! - `headline FILE`: per scene and technique, the lowest mae_shadowed within 1x, 2x, 4x and 8x
 //!   the cost floor's frame time, and the cost of reaching mae_shadowed 0.01 (as in the report).
+//! - `summary FILE`: per technique across scenes, as the report's first table: scenes where it
+//!   is on the Pareto front, its median lowest error within each budget, its mean rank.
 //! - `runs FILE columns=a,b,.. [technique=ID] [scene=SCENE]`: one row per run, the columns named
 //!   (see [`COLUMNS`]).
 
@@ -31,8 +33,8 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 
 use crate::{
     report::{
-        cold_frame_ms, darker_shadowed, flip, frame_time_ms, headline_rows, mae_shadowed, ms,
-        params_text, BUDGETS, TARGET_MAE,
+        best_per_budget, cold_frame_ms, darker_shadowed, flip, frame_time_ms, headline_rows,
+        mae_shadowed, ms, params_text, summary_rows, BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -55,6 +57,8 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("darker_shadowed", "of it too dark"),
     ("flip", "FLIP"),
     ("exact", "exact answer"),
+    ("reference_vs_exact", "reference vs exact (mae_shadowed)"),
+    ("all_lit_vs_exact", "no shadow vs exact (mae_shadowed)"),
     ("status", "status"),
 ];
 
@@ -212,10 +216,11 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
     let mut t = match kind {
         "stiff-matrix" => stiff_matrix(&results.runs),
         "headline" => headline(&results.runs),
+        "summary" => summary(&results.runs),
         "runs" => runs_table(&results.runs, &options)?,
         other => {
             return Err(format!(
-                "unknown table kind `{other}`: use stiff-matrix, headline or runs"
+                "unknown table kind `{other}`: use stiff-matrix, headline, summary or runs"
             ))
         }
     };
@@ -291,13 +296,7 @@ fn bound_text(stated: &str) -> String {
 }
 
 fn headline(runs: &[Run]) -> String {
-    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
-    for run in runs {
-        let key = (run.scene.clone(), run.width, run.height);
-        if !scenes.contains(&key) {
-            scenes.push(key);
-        }
-    }
+    let scenes = scenes_of(runs);
     let mut t = String::from("| scene | technique |");
     for b in BUDGETS {
         let _ = write!(t, " <= {b}x `{COST_FLOOR_TECHNIQUE}` |");
@@ -314,6 +313,70 @@ fn headline(runs: &[Run]) -> String {
         let _ = writeln!(t, " {} |", row.cost_text());
     }
     t
+}
+
+fn summary(runs: &[Run]) -> String {
+    let scenes = scenes_of(runs);
+    let rows = summary_rows(runs, &scenes);
+    let mut t = String::from("| technique | on the Pareto front |");
+    for b in BUDGETS {
+        let _ = write!(
+            t,
+            " median error <= {b}x `{COST_FLOOR_TECHNIQUE}` (scenes best) |"
+        );
+    }
+    t.push_str(" mean rank |\n|---|---|");
+    t.push_str(&"---|".repeat(BUDGETS.len() + 1));
+    t.push('\n');
+    for row in &rows {
+        let _ = write!(
+            t,
+            "| `{}` | {} of {} |",
+            row.technique,
+            row.on_front.len(),
+            row.scenes
+        );
+        for (median, wins) in row.median_within.iter().zip(&row.best_within) {
+            let _ = write!(
+                t,
+                " {} |",
+                median.map_or("-".into(), |m| format!("{m:.4} ({wins})"))
+            );
+        }
+        let _ = writeln!(
+            t,
+            " {} |",
+            row.mean_rank.map_or("-".into(), |r| format!("{r:.1}"))
+        );
+    }
+    let picks: Vec<String> = best_per_budget(&rows)
+        .iter()
+        .zip(BUDGETS)
+        .map(|(pick, b)| match pick {
+            Some((technique, wins)) => format!(
+                "within {b}x: `{technique}` ({wins} of {} scenes)",
+                scenes.len()
+            ),
+            None => format!("within {b}x: none fits"),
+        })
+        .collect();
+    let _ = writeln!(
+        t,
+        "\nLowest error on the most scenes: {}.",
+        picks.join("; ")
+    );
+    t
+}
+
+fn scenes_of(runs: &[Run]) -> Vec<(String, u32, u32)> {
+    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
+    for run in runs {
+        let key = (run.scene.clone(), run.width, run.height);
+        if !scenes.contains(&key) {
+            scenes.push(key);
+        }
+    }
+    scenes
 }
 
 fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, String> {
@@ -385,6 +448,16 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                 "mae_shadowed" => mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
+                "reference_vs_exact" => run
+                    .error
+                    .as_ref()
+                    .and_then(|e| e.reference_vs_exact.as_ref())
+                    .map_or("-".into(), |e| format!("{:.4}", e.mae_shadowed)),
+                "all_lit_vs_exact" => run
+                    .error
+                    .as_ref()
+                    .and_then(|e| e.all_lit_vs_exact.as_ref())
+                    .map_or("-".into(), |e| format!("{:.4}", e.mae_shadowed)),
                 "exact" => run
                     .error
                     .as_ref()

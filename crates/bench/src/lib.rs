@@ -8,6 +8,7 @@ pub mod doc_tables;
 pub mod expectations;
 pub mod merge;
 pub mod output;
+pub mod reference_cache;
 pub mod report;
 pub mod results;
 pub mod stress;
@@ -15,7 +16,7 @@ pub mod sweep;
 
 use std::{
     collections::{BTreeMap, HashMap},
-    path::Path,
+    path::{Path, PathBuf},
 };
 
 use softshadow_core::{
@@ -24,6 +25,8 @@ use softshadow_core::{
     TechniqueError, TechniqueInfo, TimingSource, YARDSTICK_TECHNIQUE,
 };
 use softshadow_metrics::ErrorReport;
+
+use reference_cache::{CachedReference, ReferenceCacheUse, ReferenceKey};
 use thiserror::Error;
 
 pub use results::{Results, Run, Shard, Status, SweepInfo};
@@ -97,6 +100,9 @@ pub struct BenchOptions {
     /// Also time frames in which only the camera moves (`timing_camera_only`): light-space work
     /// is then kept from the first frame.
     pub camera_only: bool,
+    /// A folder of reference images shared across benchmarks and shards ([`reference_cache`]):
+    /// `None` renders every reference.
+    pub reference_cache: Option<PathBuf>,
 }
 
 impl Default for BenchOptions {
@@ -109,6 +115,7 @@ impl Default for BenchOptions {
             images: true,
             exact_samples_per_axis: Some(DEFAULT_EXACT_SAMPLES),
             camera_only: true,
+            reference_cache: None,
         }
     }
 }
@@ -180,6 +187,8 @@ struct ReferenceResult {
     label: String,
     images: BTreeMap<String, String>,
     exact: Option<ExactResult>,
+    /// Where it came from, when a reference cache is set.
+    cache_use: Option<ReferenceCacheUse>,
 }
 
 /// The exact ground truth of one scene and size, and the reference's error against it.
@@ -296,6 +305,7 @@ impl Bench {
             timing: None,
             timing_camera_only: None,
             cold: None,
+            reference_cache: None,
             error: None,
             stability: None,
             stats: BTreeMap::new(),
@@ -456,6 +466,12 @@ impl Bench {
         let write_images = self.options.images;
         if self.options.error {
             let reference = self.reference_for(spec, out_dir)?;
+            run.reference_cache = reference.cache_use.clone();
+            if let Some(ReferenceCacheUse::Rebuilt(why) | ReferenceCacheUse::NotStored(why)) =
+                &run.reference_cache
+            {
+                run.warnings.push(why.clone());
+            }
             let mut report =
                 softshadow_metrics::compare(&visibility, &reference.visibility, &mask)?;
             report.flip_mean = Some(softshadow_metrics::flip_mean(
@@ -508,110 +524,189 @@ impl Bench {
         Ok(())
     }
 
-    /// The reference for this scene and size, computed once per benchmark.
+    /// The reference for this scene and size, computed once per benchmark (or read from the
+    /// reference cache).
     fn reference_for(
         &mut self,
         spec: &RunSpec,
         out_dir: &Path,
     ) -> Result<&ReferenceResult, BenchError> {
         let key = (spec.scene.clone(), spec.width, spec.height);
-        if !self.references.contains_key(&key) {
-            if self.reference.is_none() {
-                let info = self.registry.yardstick()?;
-                self.reference = Some(info.create_with(&self.gpu, &self.options.reference_params)?);
-            }
-            let reference = self.reference.as_mut().expect("created above");
-            let scene = &self.scenes[&spec.scene];
-            let renderer = self
-                .renderers
-                .get_mut(&(spec.width, spec.height))
-                .expect("created by the run");
-            let camera = self.camera.unwrap_or(scene.scene.camera);
-            let light = self.light.unwrap_or(scene.scene.light);
-            renderer.render(
-                &scene.gpu,
-                &camera,
-                &light,
-                reference.as_mut(),
-                Some(ShadingMode::Shaded),
-            )?;
-            let visibility = renderer.read_visibility()?;
-            let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
-            let settings: Vec<String> = reference
-                .params()
-                .entries
-                .iter()
-                .map(|(s, v)| format!("{}={v}", s.name))
-                .collect();
-            let label = format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","));
-            let exact = match self.options.exact_samples_per_axis {
-                Some(samples) => {
-                    puffin::profile_scope!("exact ground truth");
-                    let positions = renderer.read_world_positions()?;
-                    let mask = renderer.read_receiver_mask()?;
-                    let (exact, truth) = softshadow_reference::exact_visibility(
-                        &scene.scene,
-                        &positions,
-                        &mask,
-                        samples,
-                    );
-                    let label = truth.to_string();
-                    let reference_vs_exact =
-                        softshadow_metrics::compare(&visibility, &exact, &mask)?;
-                    let all_lit = vec![1.0; exact.len()];
-                    let all_lit_vs_exact = softshadow_metrics::compare(&all_lit, &exact, &mask)?;
-                    Some(ExactResult {
-                        visibility: exact,
-                        label,
-                        reference_vs_exact,
-                        all_lit_vs_exact,
-                    })
+        match self.references.get_mut(&key) {
+            // Only the first run says the entry was rebuilt; later ones use what is now stored.
+            Some(known) => {
+                if let Some(ReferenceCacheUse::Rebuilt(_)) = known.cache_use {
+                    known.cache_use = Some(ReferenceCacheUse::Stored);
                 }
-                None => None,
+            }
+            None => {
+                let result = self.make_reference(spec, out_dir)?;
+                self.references.insert(key.clone(), result);
+            }
+        }
+        Ok(&self.references[&key])
+    }
+
+    fn make_reference(
+        &mut self,
+        spec: &RunSpec,
+        out_dir: &Path,
+    ) -> Result<ReferenceResult, BenchError> {
+        let info = self.registry.yardstick()?;
+        let shaders = info.shaders;
+        if self.reference.is_none() {
+            self.reference = Some(info.create_with(&self.gpu, &self.options.reference_params)?);
+        }
+        let reference = self.reference.as_mut().expect("created above");
+        let scene = &self.scenes[&spec.scene];
+        let renderer = self
+            .renderers
+            .get_mut(&(spec.width, spec.height))
+            .expect("created by the run");
+        let camera = self.camera.unwrap_or(scene.scene.camera);
+        let light = self.light.unwrap_or(scene.scene.light);
+        let settings: Vec<String> = reference
+            .params()
+            .entries
+            .iter()
+            .map(|(s, v)| format!("{}={v}", s.name))
+            .collect();
+        let label = format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","));
+        let pixels = (spec.width * spec.height) as usize;
+
+        let cache = self.options.reference_cache.as_deref().map(|dir| {
+            let key = ReferenceKey {
+                scene: &scene.scene,
+                camera: &camera,
+                light: &light,
+                width: spec.width,
+                height: spec.height,
+                label: &label,
+                shaders,
+                exact_samples_per_axis: self.options.exact_samples_per_axis,
             };
-            let mut images = BTreeMap::new();
-            if self.options.images {
-                let stem = format!(
-                    "reference_{}_{}x{}",
-                    sanitize(&spec.scene),
-                    spec.width,
-                    spec.height
-                );
-                let name = format!("{stem}.exr");
-                output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
-                images.insert(YARDSTICK_TECHNIQUE.into(), name);
-                let name = format!("{stem}_shaded.png");
-                output::write_png(
+            (reference_cache::in_dir(dir), key.hash())
+        });
+        let mut cache_use = None;
+        let mut cached = None;
+        if let Some((cache, key)) = &cache {
+            match cache.load(*key).and_then(|payload| {
+                payload
+                    .map(|p| reference_cache::decode(&p, pixels))
+                    .transpose()
+            }) {
+                Ok(Some(found)) => cached = Some(found),
+                Ok(None) => cache_use = Some(ReferenceCacheUse::Stored),
+                Err(why) => cache_use = Some(ReferenceCacheUse::Rebuilt(format!(
+                    "a reference cache entry cannot be trusted ({why}): rendered again and stored"
+                ))),
+            }
+        }
+        let cached = match cached {
+            Some(found) => {
+                cache_use = Some(ReferenceCacheUse::Hit);
+                found
+            }
+            None => {
+                renderer.render(
+                    &scene.gpu,
+                    &camera,
+                    &light,
+                    reference.as_mut(),
+                    Some(ShadingMode::Shaded),
+                )?;
+                let visibility = renderer.read_visibility()?;
+                let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
+                let exact = match self.options.exact_samples_per_axis {
+                    Some(samples) => {
+                        puffin::profile_scope!("exact ground truth");
+                        let positions = renderer.read_world_positions()?;
+                        let mask = renderer.read_receiver_mask()?;
+                        let (exact, truth) = softshadow_reference::exact_visibility(
+                            &scene.scene,
+                            &positions,
+                            &mask,
+                            samples,
+                        );
+                        Some((truth.to_string(), exact))
+                    }
+                    None => None,
+                };
+                let made = CachedReference {
+                    label: label.clone(),
+                    visibility,
+                    shaded_rgb,
+                    exact,
+                };
+                if let Some((cache, key)) = &cache {
+                    if let Err(e) = cache.store(*key, &reference_cache::encode(&made)) {
+                        // A cache that cannot be written costs time, not results.
+                        cache_use = Some(ReferenceCacheUse::NotStored(format!(
+                            "cannot write the reference cache in {} ({e}): the reference is used but not kept; point --reference-cache at a writable folder",
+                            cache.dir.display()
+                        )));
+                    }
+                }
+                made
+            }
+        };
+
+        let exact = match cached.exact {
+            Some((label, exact)) => {
+                let mask = renderer.read_receiver_mask()?;
+                let reference_vs_exact =
+                    softshadow_metrics::compare(&cached.visibility, &exact, &mask)?;
+                let all_lit = vec![1.0; exact.len()];
+                let all_lit_vs_exact = softshadow_metrics::compare(&all_lit, &exact, &mask)?;
+                Some(ExactResult {
+                    visibility: exact,
+                    label,
+                    reference_vs_exact,
+                    all_lit_vs_exact,
+                })
+            }
+            None => None,
+        };
+        let (visibility, shaded_rgb) = (cached.visibility, cached.shaded_rgb);
+        let mut images = BTreeMap::new();
+        if self.options.images {
+            let stem = format!(
+                "reference_{}_{}x{}",
+                sanitize(&spec.scene),
+                spec.width,
+                spec.height
+            );
+            let name = format!("{stem}.exr");
+            output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
+            images.insert(YARDSTICK_TECHNIQUE.into(), name);
+            let name = format!("{stem}_shaded.png");
+            output::write_png(
+                &out_dir.join(&name),
+                spec.width,
+                spec.height,
+                3,
+                &shaded_rgb,
+            )?;
+            images.insert(format!("{YARDSTICK_TECHNIQUE}_shaded"), name);
+            if let Some(exact) = &exact {
+                let name = format!("{stem}_exact.exr");
+                output::write_exr_gray(
                     &out_dir.join(&name),
                     spec.width,
                     spec.height,
-                    3,
-                    &shaded_rgb,
+                    &exact.visibility,
                 )?;
-                images.insert(format!("{YARDSTICK_TECHNIQUE}_shaded"), name);
-                if let Some(exact) = &exact {
-                    let name = format!("{stem}_exact.exr");
-                    output::write_exr_gray(
-                        &out_dir.join(&name),
-                        spec.width,
-                        spec.height,
-                        &exact.visibility,
-                    )?;
-                    images.insert("exact".into(), name);
-                }
+                images.insert("exact".into(), name);
             }
-            self.references.insert(
-                key.clone(),
-                ReferenceResult {
-                    visibility,
-                    shaded_rgb,
-                    label,
-                    images,
-                    exact,
-                },
-            );
         }
-        Ok(&self.references[&key])
+        Ok(ReferenceResult {
+            visibility,
+            shaded_rgb,
+            label: cached.label,
+            images,
+            exact,
+            cache_use,
+        })
     }
 }
 

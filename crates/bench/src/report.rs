@@ -438,6 +438,7 @@ pub fn render_html(
     for w in &merged.warnings {
         let _ = write!(body, "<p class=\"warn\">warning: {}</p>", escape(w));
     }
+    body.push_str(&summary_table(runs, &scenes));
     body.push_str(&headline_table(runs, &scenes));
 
     for (scene, width, height) in &scenes {
@@ -704,6 +705,177 @@ impl HeadlineRow {
             (Some(cost), None) => format!("{} ms", ms(cost)),
         }
     }
+}
+
+/// One technique across every scene of a report: the first screen's answer to "which technique
+/// for which budget".
+#[derive(Clone, Debug, PartialEq)]
+pub struct SummaryRow {
+    pub technique: String,
+    /// Scenes the technique has a measured run on.
+    pub scenes: usize,
+    /// Scenes where one of its runs is on the Pareto front of mae_shadowed against frame time.
+    pub on_front: Vec<String>,
+    /// Per budget of [`BUDGETS`]: the median over scenes of its lowest mae_shadowed within the
+    /// budget (scenes where no setting fits are left out; `None`: it fits on none).
+    pub median_within: Vec<Option<f64>>,
+    /// Per budget: the scenes where its lowest error within the budget is the lowest of all
+    /// techniques.
+    pub best_within: Vec<usize>,
+    /// Its mean rank by lowest error over every (scene, budget) where it fits (1 = best).
+    pub mean_rank: Option<f64>,
+}
+
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    Some(if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    })
+}
+
+/// Per technique (by name), its standing across `scenes`, from the headline rows and each
+/// scene's Pareto front.
+pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryRow> {
+    let headline = headline_rows(runs, scenes);
+    let mut techniques: Vec<&str> = headline.iter().map(|r| r.technique.as_str()).collect();
+    techniques.sort();
+    techniques.dedup();
+    let mut rows: Vec<SummaryRow> = techniques
+        .iter()
+        .map(|t| SummaryRow {
+            technique: t.to_string(),
+            scenes: headline.iter().filter(|r| r.technique == *t).count(),
+            on_front: Vec::new(),
+            median_within: vec![None; BUDGETS.len()],
+            best_within: vec![0; BUDGETS.len()],
+            mean_rank: None,
+        })
+        .collect();
+    let index = |t: &str| techniques.iter().position(|x| *x == t).expect("listed");
+    let mut ranks: Vec<Vec<f64>> = vec![Vec::new(); techniques.len()];
+    let mut within: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); BUDGETS.len()]; techniques.len()];
+    for (scene, width, height) in scenes {
+        let in_scene: Vec<&Run> = runs
+            .iter()
+            .filter(|r| {
+                &r.scene == scene
+                    && r.width == *width
+                    && r.height == *height
+                    && r.status == Status::Ok
+            })
+            .collect();
+        let points: Vec<(&str, f64, f64)> = in_scene
+            .iter()
+            .filter_map(|r| Some((r.technique.as_str(), frame_time_ms(r)?, mae_shadowed(r)?)))
+            .collect();
+        let front = pareto_front(&points.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>());
+        let mut front_techniques: Vec<&str> = front.iter().map(|&k| points[k].0).collect();
+        front_techniques.sort();
+        front_techniques.dedup();
+        for t in front_techniques {
+            rows[index(t)].on_front.push(scene.clone());
+        }
+        let scene_rows: Vec<&HeadlineRow> = headline.iter().filter(|r| &r.scene == scene).collect();
+        for b in 0..BUDGETS.len() {
+            let mut fitting: Vec<(&str, f64)> = scene_rows
+                .iter()
+                .filter_map(|r| Some((r.technique.as_str(), r.best_within[b]?)))
+                .collect();
+            fitting.sort_by(|a, b| a.1.total_cmp(&b.1));
+            for (rank, (t, error)) in fitting.iter().enumerate() {
+                let k = index(t);
+                ranks[k].push(rank as f64 + 1.0);
+                within[k][b].push(*error);
+                if rank == 0 {
+                    rows[k].best_within[b] += 1;
+                }
+            }
+        }
+    }
+    for (k, row) in rows.iter_mut().enumerate() {
+        row.mean_rank =
+            (!ranks[k].is_empty()).then(|| ranks[k].iter().sum::<f64>() / ranks[k].len() as f64);
+        row.median_within = within[k].iter().map(|v| median(v.clone())).collect();
+    }
+    rows.sort_by(|a, b| {
+        a.mean_rank
+            .unwrap_or(f64::INFINITY)
+            .total_cmp(&b.mean_rank.unwrap_or(f64::INFINITY))
+    });
+    rows
+}
+
+/// Per budget, the technique with the lowest error on the most scenes (ties: the better mean
+/// rank, i.e. the earlier row), with its count: "which technique for which budget".
+pub fn best_per_budget(rows: &[SummaryRow]) -> Vec<Option<(String, usize)>> {
+    (0..BUDGETS.len())
+        .map(|b| {
+            let mut best: Option<(&SummaryRow, usize)> = None;
+            for row in rows {
+                let wins = row.best_within[b];
+                if wins > 0 && best.is_none_or(|(_, w)| wins > w) {
+                    best = Some((row, wins));
+                }
+            }
+            best.map(|(row, wins)| (row.technique.clone(), wins))
+        })
+        .collect()
+}
+
+fn summary_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
+    let rows = summary_rows(runs, scenes);
+    let mut t = format!("<h2>Across scenes: which technique for which budget</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on each scene. ");
+    let picks: Vec<String> = best_per_budget(&rows)
+        .iter()
+        .zip(BUDGETS)
+        .map(|(pick, b)| match pick {
+            Some((technique, wins)) => format!(
+                "within {b}x: <b>{}</b> (lowest error on {wins} of {} scenes)",
+                escape(technique),
+                scenes.len()
+            ),
+            None => format!("within {b}x: no technique fits"),
+        })
+        .collect();
+    let _ = write!(t, "{}.</p>", picks.join("; "));
+    t.push_str("<table><tr><th class=\"l\">technique</th><th title=\"scenes where one of its settings is on the Pareto front of error against frame time\">on the Pareto front</th>");
+    for b in BUDGETS {
+        let _ = write!(
+            t,
+            "<th title=\"median over scenes of its lowest mae_shadowed within {b}x the cost floor; in brackets: scenes where it is the lowest of all\">median error &le; {b}x</th>"
+        );
+    }
+    t.push_str("<th title=\"its mean rank by lowest error over every scene and budget where a setting fits (1 = best)\">mean rank</th></tr>");
+    for row in &rows {
+        let _ = write!(
+            t,
+            "<tr><td class=\"l\">{}</td><td title=\"{}\">{} of {}</td>",
+            escape(&row.technique),
+            escape(&row.on_front.join(", ")),
+            row.on_front.len(),
+            row.scenes
+        );
+        for (median, wins) in row.median_within.iter().zip(&row.best_within) {
+            let _ = write!(
+                t,
+                "<td>{}</td>",
+                median.map_or("-".into(), |m| format!("{m:.4} ({wins})"))
+            );
+        }
+        let _ = write!(
+            t,
+            "<td>{}</td></tr>",
+            row.mean_rank.map_or("-".into(), |r| format!("{r:.1}"))
+        );
+    }
+    t.push_str("</table>");
+    t
 }
 
 fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {

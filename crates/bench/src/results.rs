@@ -107,6 +107,10 @@ pub struct Run {
     /// technique's caches cost to fill or load (a precompute built, or read from its disk cache).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cold: Option<ColdFrame>,
+    /// Where the run's reference images came from when a reference cache is set (`hit`,
+    /// `stored`, `rebuilt` with the reason, `not_stored` with the reason).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_cache: Option<crate::reference_cache::ReferenceCacheUse>,
     pub error: Option<ErrorFields>,
     pub stability: Option<Stability>,
     pub stats: BTreeMap<String, f64>,

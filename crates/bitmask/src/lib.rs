@@ -680,12 +680,8 @@ impl ShadowTechnique for Bitmask {
         let s = self.settings.clone();
         // The settings are range-checked by set_param; a library user may set any value.
         let layers = s.layers.clamp(1, MAX_LAYERS);
-        // A full search gathers up to `full_search` blocks per axis in each layer, the most that
-        // keeps all layers of one pixel under lavapipe's loop budget (core::hierarchy). A bitmask
-        // block spends about two of the budget's iterations, not one as in backprojection
-        // (measured on stiff-fusion, 32x32 pattern, one layer: 30,276 blocks per pixel kept every
-        // block, 41,209 dropped some, mae 0.01 -> 0.41), so each layer counts as two passes:
-        // 169 blocks per axis for one layer, 82 per layer for four.
+        // A bitmask block costs two iterations of the loop budget, so a layer counts as two
+        // passes (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
         let full_search = full_search_patches(2 * layers);
         let max_patches = match s.hierarchy {
             HierarchyKind::None => full_search,

@@ -418,12 +418,9 @@ impl DepthHierarchy {
                 }
             }
         }
-        // Timestamps after a dependent dispatch (see `fence` in hierarchy.wgsl): on lavapipe 22.3 a
-        // timestamp does not wait for earlier compute work without a barrier
-        // (docs/ARCHITECTURE.md, "Lavapipe's timestamps"). With serial timing
-        // the level pass is submitted and waited for on its own: its wall time is the build
-        // time, and the two timestamps would lie in different submissions, so the interval
-        // between them would include the round trips (2,150 ms read against 57 ms of passes).
+        // Timestamps after a dependent dispatch (docs/ARCHITECTURE.md, "Lavapipe's timestamps").
+        // With serial timing the level pass is submitted and waited for on its own, so its wall
+        // time is the build time and timestamps in two submissions would add the round trips.
         let serial = frame.is_timed_serially();
         let timed = self.timer.is_some() && !serial;
         let first_source = &hsm.mips[0];

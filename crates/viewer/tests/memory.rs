@@ -2,7 +2,7 @@
 //! `polycount-1m` was left for a 6-triangle scene; issue 15: no growth per switch over 10
 //! minutes). Its own test binary, so no other test's allocations share the process.
 //!
-//! - `VIEWER_MEMORY_SCENE=polycount-1m` measures the issue's case (docs/BENCHMARKS.md); the
+//! - `VIEWER_MEMORY_SCENE=polycount-1m` measures the issue's case (docs/STABILITY.md, "Viewer memory over 10 minutes"); the
 //!   default heavy scene keeps the test quick.
 //! - `VIEWER_MEMORY_SECONDS=600` keeps switching for that long instead of 20 times and prints a
 //!   sample every 5 s (docs/STABILITY.md).
@@ -179,7 +179,7 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
         gpu_memory()
     );
     // Back on the light scene, what the heavy one held is released: within 64 MiB of the
-    // baseline (measured: see docs/BENCHMARKS.md), plus, on Mesa 22.3, the driver's own leak
+    // baseline (docs/STABILITY.md, "Viewer memory over 10 minutes"), plus, on Mesa 22.3, the driver's own leak
     // over the run. Without that allowance the leak alone (about 37 MiB over 20 switches, more
     // on a loaded machine) failed the bound in one CI run of three.
     let leaky_driver = driver.contains(KNOWN_LEAKY_DRIVER);

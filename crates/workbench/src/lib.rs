@@ -170,6 +170,10 @@ struct BenchArgs {
     /// GPU.
     #[arg(long, value_name = "timestamps|serial")]
     timing: Option<String>,
+    /// Read reference images from DIR and store the ones it lacks there (a folder every shard
+    /// of a sweep can share, docs/CLUSTER.md); each run says whether its reference was a hit.
+    #[arg(long, value_name = "DIR")]
+    reference_cache: Option<PathBuf>,
     /// Run only shard INDEX of COUNT (0-based) of the sweep: runs INDEX, INDEX+COUNT, ...
     /// (docs/CLUSTER.md).
     #[arg(long, value_name = "INDEX/COUNT")]
@@ -408,6 +412,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         images: !args.no_images,
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
         camera_only: !args.no_camera_only,
+        reference_cache: args.reference_cache.clone(),
     };
     let sweep_info = sweep.as_ref().map(|sweep| SweepInfo {
         hash: sweep.hash(&options, timing),

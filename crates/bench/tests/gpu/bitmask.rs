@@ -30,6 +30,7 @@ fn bench_with_error() -> Result<Bench> {
             images: false,
             exact_samples_per_axis: Some(16),
             camera_only: false,
+            reference_cache: None,
         },
     )?)
 }

@@ -111,6 +111,7 @@ pub fn exact_bench() -> Result<Bench> {
             images: false,
             exact_samples_per_axis: Some(16),
             camera_only: false,
+            reference_cache: None,
         },
     )?)
 }

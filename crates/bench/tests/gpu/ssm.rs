@@ -118,6 +118,7 @@ fn bench() -> Result<Bench> {
             // The closed form is used directly where it applies; skip the ray-cast truth.
             exact_samples_per_axis: None,
             camera_only: false,
+            reference_cache: None,
         },
     )?)
 }
@@ -179,6 +180,7 @@ fn extremes_give_finite_visibility_in_range() -> Result<()> {
             images: false,
             exact_samples_per_axis: None,
             camera_only: false,
+            reference_cache: None,
         },
     )?;
     let dir = tempfile::tempdir()?;

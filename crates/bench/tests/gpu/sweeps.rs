@@ -269,5 +269,128 @@ fn three_shards_merged_equal_the_whole_sweep_and_the_report_plots_every_run() ->
     }
     let csv = report::runs_csv(&all);
     ensure!(csv.lines().count() == n + 1, "{csv}");
+
+    // The summary across scenes: every technique ran on both scenes, each scene's Pareto front
+    // holds at least one technique, and the fastest budget names a winner on both scenes.
+    ensure!(html.contains("Across scenes: which technique for which budget"));
+    let scenes = [
+        ("atty-square".to_string(), 64, 64),
+        ("balls-3x3x3".to_string(), 64, 64),
+    ];
+    let rows = report::summary_rows(&all.results.runs, &scenes);
+    ensure!(rows.len() == 3, "three techniques: {rows:?}");
+    ensure!(rows.iter().all(|r| r.scenes == 2), "{rows:?}");
+    let on_front: usize = rows.iter().map(|r| r.on_front.len()).sum();
+    ensure!(on_front >= 2, "each scene has a Pareto front: {rows:?}");
+    let wins_at_largest: usize = rows.iter().map(|r| *r.best_within.last().unwrap()).sum();
+    ensure!(wins_at_largest == 2, "one winner per scene: {rows:?}");
+    ensure!(report::best_per_budget(&rows).last().unwrap().is_some());
+    Ok(())
+}
+
+/// The shared reference cache (issue 29): a second run of a sweep reads every reference from the
+/// cache and gets the same errors; a corrupt entry is rendered again with a warning, never
+/// trusted.
+#[test]
+fn a_second_sweep_reads_every_reference_from_the_cache_and_a_corrupt_entry_is_rebuilt() -> Result<()>
+{
+    use softshadow_bench::reference_cache::ReferenceCacheUse;
+    let sweep = Sweep::parse(SWEEP, &softshadow::registry())?;
+    let cache = tempfile::tempdir()?;
+    let run = |dir: &Path| -> Result<softshadow_bench::Results> {
+        let options = BenchOptions {
+            reference_cache: Some(cache.path().to_path_buf()),
+            ..options()
+        };
+        let setup = RunSetup {
+            registry: softshadow::registry(),
+            ..Default::default()
+        };
+        Ok(run_indexed(
+            gpu()?,
+            &sweep.shard(None),
+            setup,
+            options,
+            dir,
+            |_, _| {},
+        )?)
+    };
+    let uses = |results: &softshadow_bench::Results| -> Vec<Option<ReferenceCacheUse>> {
+        results
+            .runs
+            .iter()
+            .map(|r| r.reference_cache.clone())
+            .collect()
+    };
+
+    let first_dir = tempfile::tempdir()?;
+    let first = run(first_dir.path())?;
+    ensure!(
+        uses(&first)
+            .iter()
+            .all(|u| *u == Some(ReferenceCacheUse::Stored)),
+        "first sweep: every reference rendered and stored, got {:?}",
+        uses(&first)
+    );
+    let entries: Vec<_> = std::fs::read_dir(cache.path())?.collect::<Result<_, _>>()?;
+    ensure!(
+        entries.len() == 2,
+        "one entry per scene, got {}",
+        entries.len()
+    );
+
+    let second_dir = tempfile::tempdir()?;
+    let second = run(second_dir.path())?;
+    ensure!(
+        uses(&second)
+            .iter()
+            .all(|u| *u == Some(ReferenceCacheUse::Hit)),
+        "second sweep: every run a cache hit, got {:?}",
+        uses(&second)
+    );
+    let same_errors = |other: &softshadow_bench::Results| -> Result<()> {
+        for (a, b) in first.runs.iter().zip(&other.runs) {
+            let (a, b) = (error_figures(a)?, error_figures(b)?);
+            for (x, y) in a.iter().zip(&b) {
+                ensure!(
+                    (x - y).abs() <= 1e-6,
+                    "the cache changed an error: {a:?} vs {b:?}"
+                );
+            }
+        }
+        Ok(())
+    };
+    same_errors(&second)?;
+
+    // Flip one byte in the middle of every entry: the checksum no longer matches.
+    for entry in &entries {
+        let mut bytes = std::fs::read(entry.path())?;
+        let middle = bytes.len() / 2;
+        bytes[middle] ^= 0x5a;
+        std::fs::write(entry.path(), bytes)?;
+    }
+    let third_dir = tempfile::tempdir()?;
+    let third = run(third_dir.path())?;
+    let mut rebuilt = 0;
+    for run in &third.runs {
+        match &run.reference_cache {
+            Some(ReferenceCacheUse::Rebuilt(why)) => {
+                rebuilt += 1;
+                ensure!(
+                    run.warnings.iter().any(|w| w == why) && why.contains("cannot be trusted"),
+                    "a rebuilt entry is warned of: {:?}",
+                    run.warnings
+                );
+            }
+            Some(ReferenceCacheUse::Stored) => {}
+            other => anyhow::bail!("a corrupt entry was used: {other:?}"),
+        }
+    }
+    ensure!(rebuilt == 2, "one rebuild per scene, got {rebuilt}");
+    same_errors(&third)?;
+    let fourth_dir = tempfile::tempdir()?;
+    ensure!(uses(&run(fourth_dir.path())?)
+        .iter()
+        .all(|u| *u == Some(ReferenceCacheUse::Hit)));
     Ok(())
 }

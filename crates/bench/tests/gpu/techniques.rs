@@ -32,6 +32,7 @@ fn bench() -> Result<Bench> {
             images: false,
             exact_samples_per_axis: None,
             camera_only: false,
+            reference_cache: None,
         },
     )?)
 }
@@ -329,6 +330,7 @@ fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
             images: false,
             exact_samples_per_axis: None,
             camera_only: false,
+            reference_cache: None,
         },
     )?;
     let spec = RunSpec {
