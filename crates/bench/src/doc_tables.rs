@@ -229,9 +229,13 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
     } else {
         format!("`workbench {}`", results.command.join(" "))
     };
+    let load = results
+        .load
+        .as_ref()
+        .map_or(String::new(), |l| format!(", {l}"));
     let _ = writeln!(
         t,
-        "\nMade by {command} on {}, {} ({}); results: `{file}`.",
+        "\nMade by {command} on {}, {} ({}{load}); results: `{file}`.",
         if results.date.is_empty() {
             "an unrecorded date"
         } else {

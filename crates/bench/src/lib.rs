@@ -597,9 +597,11 @@ impl Bench {
             }) {
                 Ok(Some(found)) => cached = Some(found),
                 Ok(None) => cache_use = Some(ReferenceCacheUse::Stored),
-                Err(why) => cache_use = Some(ReferenceCacheUse::Rebuilt(format!(
+                Err(why) => {
+                    cache_use = Some(ReferenceCacheUse::Rebuilt(format!(
                     "a reference cache entry cannot be trusted ({why}): rendered again and stored"
-                ))),
+                )))
+                }
             }
         }
         let cached = match cached {
@@ -903,6 +905,7 @@ pub fn run_resumed(
         adapter: bench.adapter(),
         command: setup.command.clone(),
         date: results::today_utc(),
+        load: results::MachineLoad::now(),
         sweep: setup.sweep,
         runs: finished,
     };
@@ -922,6 +925,9 @@ pub fn run_resumed(
         results.runs.push(run);
         results.runs.sort_by_key(|r| r.index);
         expectations::judge(&setup.registry, &mut results.runs);
+        if let Some(load) = &mut results.load {
+            load.update();
+        }
         write_results(&results, out_dir)?;
         if cancelled {
             break;

@@ -216,6 +216,15 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
                 .map(|i| i.results.date.clone())
                 .max()
                 .unwrap_or_default(),
+            // Shards ran apart: the busiest start and end any of them saw.
+            load: inputs
+                .iter()
+                .filter_map(|i| i.results.load.clone())
+                .reduce(|a, b| crate::results::MachineLoad {
+                    cpus: a.cpus.max(b.cpus),
+                    start: a.start.max(b.start),
+                    end: a.end.max(b.end),
+                }),
             sweep,
             runs: entries.into_iter().map(|e| e.2).collect(),
         },

@@ -23,6 +23,10 @@ pub struct Results {
     /// The day the runs were made (UTC, `YYYY-MM-DD`).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub date: String,
+    /// How busy the machine was while the runs were made: times measured on a shared CPU device
+    /// are only comparable within one run of the benchmark.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<MachineLoad>,
     /// Which sweep these runs come from and which shard of it (absent for a single run).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sweep: Option<SweepInfo>,
@@ -49,6 +53,49 @@ fn civil_date(days: i64) -> String {
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
     format!("{year:04}-{month:02}-{day:02}")
+}
+
+/// The machine's CPUs and its 1-minute load average (`/proc/loadavg`) when the benchmark started
+/// and when it last wrote its results.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MachineLoad {
+    pub cpus: usize,
+    pub start: f64,
+    pub end: f64,
+}
+
+impl MachineLoad {
+    /// The load now as both start and end; `None` where the system does not say (not Linux).
+    pub fn now() -> Option<Self> {
+        let load = load_average()?;
+        Some(Self {
+            cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            start: load,
+            end: load,
+        })
+    }
+
+    /// Records the load now as the end.
+    pub fn update(&mut self) {
+        if let Some(load) = load_average() {
+            self.end = load;
+        }
+    }
+}
+
+impl std::fmt::Display for MachineLoad {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "load average {:.1} at the start and {:.1} at the end on {} CPUs",
+            self.start, self.end, self.cpus
+        )
+    }
+}
+
+fn load_average() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    text.split_whitespace().next()?.parse().ok()
 }
 
 /// The sweep a results.json belongs to.
