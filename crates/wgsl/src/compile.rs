@@ -221,7 +221,7 @@ mod tests {
 
     #[test]
     fn the_examples_compile() {
-        for name in ["pcf.wgsl", "pcss_like.wgsl"] {
+        for name in ["pcf.wgsl", "pcss_like.wgsl", "one_tap.wgsl"] {
             compile_text(&example(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
     }

@@ -94,9 +94,17 @@ pub fn is_technique_file(value: &str) -> bool {
     value.ends_with(".wgsl")
 }
 
+/// How the `source` of a file technique's [`TechniqueInfo`] starts; the path follows.
+const SOURCE_PREFIX: &str = "WGSL file ";
+
 /// The `source` of a file technique's [`TechniqueInfo`]: the file, by the path it was given.
 fn source_text(path: &Path) -> String {
-    format!("WGSL file {}", path.display())
+    format!("{SOURCE_PREFIX}{}", path.display())
+}
+
+/// The file a technique was loaded from, if it is a file technique ([`load`]).
+pub fn file_of(info: &TechniqueInfo) -> Option<PathBuf> {
+    info.source.strip_prefix(SOURCE_PREFIX).map(PathBuf::from)
 }
 
 /// Reads, checks and compiles the technique file `path` into a registry entry: id = the file
