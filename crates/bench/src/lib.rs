@@ -149,8 +149,22 @@ pub fn check_size(width: u32, height: u32) -> Result<(), BenchError> {
     Ok(())
 }
 
-/// The technique `name` names: a registered id.
+/// The technique `name` names: a registered id, or a `.wgsl` file registered under its stem
+/// (the caller registers the file first, `softshadow_wgsl::register_file`).
 pub fn resolve_technique(registry: &Registry, name: &str) -> Result<TechniqueInfo, BenchError> {
+    if name.ends_with(".wgsl") {
+        let stem = std::path::Path::new(name)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned());
+        // A file technique's `source` names the path it was registered from; a built-in of
+        // the same stem is not that file.
+        if let Some(info) = stem
+            .and_then(|stem| registry.get(&stem))
+            .filter(|info| info.source.ends_with(name))
+        {
+            return Ok(info.clone());
+        }
+    }
     Ok(registry.find(name)?.clone())
 }
 

@@ -112,6 +112,25 @@ impl Sweep {
         })
     }
 
+    /// The `[[technique]]` ids of the sweep file at `path` that name WGSL files (end in
+    /// `.wgsl`): what a caller registers (`softshadow_wgsl::register_file`) before [`Sweep::load`].
+    pub fn technique_files(path: &Path) -> Result<Vec<String>, BenchError> {
+        let err = |message: String| BenchError::Sweep {
+            path: path.display().to_string(),
+            message,
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| err(format!("cannot read it ({e}): check the path")))?;
+        let file: SweepFile =
+            toml::from_str(&text).map_err(|e| err(e.to_string().replace('\n', " ")))?;
+        Ok(file
+            .technique
+            .into_iter()
+            .map(|t| t.id)
+            .filter(|id| id.ends_with(".wgsl"))
+            .collect())
+    }
+
     /// Parses a sweep file's text; its techniques must be in `registry` (or be .wgsl files).
     pub fn parse(text: &str, registry: &Registry) -> Result<Self, BenchError> {
         let err = |message: String| BenchError::Sweep {

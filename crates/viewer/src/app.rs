@@ -14,6 +14,7 @@
 
 mod build_panel;
 mod error_panel;
+mod file_reload;
 mod files_panel;
 mod image;
 mod scene_panel;
@@ -185,6 +186,8 @@ pub struct ViewerApp {
     technique_error: Option<String>,
     /// The active technique's precompute when it builds off the UI thread ([`build_panel`]).
     build: build_panel::BuildState,
+    /// The active technique's WGSL file, watched for new versions ([`file_reload`]).
+    file_reload: file_reload::FileReload,
     scene_path: String,
     state_path: String,
     screenshot_path: String,
@@ -282,6 +285,7 @@ impl ViewerApp {
             errors: Vec::new(),
             technique_error: None,
             build: Default::default(),
+            file_reload: Default::default(),
             scene_path: String::new(),
             state_path: "viewer-state.json".into(),
             screenshot_path: "screenshot.png".into(),
@@ -678,6 +682,7 @@ impl ViewerApp {
         for path in dropped {
             self.open_scene(&path.display().to_string());
         }
+        self.reload_technique_file();
 
         let mut panel_frame = egui::Frame::side_top_panel(ui.style());
         if !self.opaque_panels {
@@ -1132,6 +1137,9 @@ impl ViewerApp {
 
     fn errors_ui(&mut self, ui: &mut egui::Ui) {
         if let Some(error) = &self.technique_error {
+            ui.colored_label(egui::Color32::LIGHT_RED, error);
+        }
+        if let Some(error) = self.file_reload.error() {
             ui.colored_label(egui::Color32::LIGHT_RED, error);
         }
         if !self.errors.is_empty() {

@@ -629,3 +629,108 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
     );
     Ok(())
 }
+
+/// `pcf.wgsl` of `examples/wgsl/`.
+fn pcf_example() -> Result<String> {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/wgsl/pcf.wgsl");
+    Ok(std::fs::read_to_string(path)?)
+}
+
+#[test]
+fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("live_pcf.wgsl");
+    std::fs::write(&path, pcf_example()?)?;
+    let mut registry = softshadow::registry();
+    let id = softshadow_wgsl::register_file(&mut registry, &path)?;
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut app = ViewerApp::new(
+        gpu,
+        render_state.renderer.clone(),
+        &ViewerOptions {
+            registry,
+            scene: "atty-square".into(),
+            technique: id.clone(),
+            ..ViewerOptions::default()
+        },
+    )?;
+    app.set_reference_param("samples_per_axis", ParamValue::Int(4));
+    app.set_reference_param("shadow_map_size", ParamValue::Int(256));
+    let mut harness = Harness::builder()
+        .with_size(SIZE)
+        .renderer(WgpuTestRenderer::from_render_state(render_state))
+        .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
+    harness.run_steps(7);
+    let first = harness
+        .state()
+        .metrics()
+        .context("metrics of the first version")?
+        .mae_shadowed;
+    ensure!(
+        harness.state().points().len() == 1,
+        "{:?}",
+        harness.state().points()
+    );
+
+    // Version 2: no shadow at all, with a parameter of its own.
+    std::fs::write(
+        &path,
+        "// Draws no shadow.\n// @param level: f32 = 1.0 in 0.0..=1.0, V everywhere\n\
+         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return params.level;\n}\n",
+    )?;
+    harness.run_steps(7);
+    let app = harness.state();
+    ensure!(
+        app.technique_params()
+            .is_some_and(|p| p.get("level").is_some()),
+        "the new version's parameter: {:?}",
+        app.technique_params()
+    );
+    let second = app
+        .metrics()
+        .context("metrics of the second version")?
+        .mae_shadowed;
+    ensure!(
+        second > first + 0.05,
+        "an all-lit version must measure worse than the pcf: {second} against {first}"
+    );
+    let names: Vec<&str> = app.points().iter().map(|p| p.technique.as_str()).collect();
+    ensure!(
+        names.len() == 2
+            && names.contains(&id.as_str())
+            && names.contains(&format!("{id} v1").as_str()),
+        "the new version is a new point, the old one stays as v1: {names:?}"
+    );
+
+    // Version 3 does not compile: the error is shown, the last good version keeps drawing.
+    std::fs::write(
+        &path,
+        "// @param level: f32 = 1.0 in 0.0..=1.0, V everywhere\n\
+         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return params.level +;\n}\n",
+    )?;
+    harness.run_steps(3);
+    let shown = format!("{}:3:", path.display());
+    harness
+        .query_by_label_contains(&shown)
+        .with_context(|| format!("the error `{shown}...` is shown in the panel"))?;
+    let app = harness.state();
+    ensure!(
+        app.technique_error().is_none(),
+        "{:?}",
+        app.technique_error()
+    );
+    ensure!(
+        app.technique_params()
+            .is_some_and(|p| p.get("level").is_some()),
+        "the last good version stays"
+    );
+    let kept = app
+        .metrics()
+        .context("the last good version's metrics")?
+        .mae_shadowed;
+    ensure!(kept == second, "the image changed: {kept} against {second}");
+    ensure!(app.points().len() == 2, "{:?}", app.points());
+    Ok(())
+}

@@ -99,7 +99,8 @@ struct ViewArgs {
     /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
     #[arg(long, default_value = "atty-square")]
     scene: String,
-    /// Technique id (see `list`); default: the first soft technique registered.
+    /// Technique id (see `list`) or a .wgsl technique file (docs/WGSL.md); default: the first
+    /// soft technique registered.
     #[arg(long)]
     technique: Option<String>,
     /// Technique parameter, `name=value` (repeatable).
@@ -124,7 +125,7 @@ struct BenchArgs {
     /// Scene id (see `list`), optionally `id:param=value,...`, or a .toml / .gltf / .glb file.
     #[arg(long, conflicts_with_all = ["sweep", "suite"])]
     scene: Option<String>,
-    /// Technique id (see `list`).
+    /// Technique id (see `list`) or a .wgsl technique file (docs/WGSL.md).
     #[arg(long, conflicts_with_all = ["sweep", "suite"])]
     technique: Option<String>,
     /// Technique parameter, `name=value` (repeatable).
@@ -347,7 +348,8 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
     };
     let out = args.out.clone().context("give --out DIR")?;
     // Everything that can be checked without a GPU is checked first, so bad input fails fast
-    // and writes nothing.
+    // and writes nothing. A technique given as a .wgsl file joins the registry first.
+    let registry = &with_technique_files(registry, &args)?;
     let sweep = match (&args.sweep, &args.suite) {
         (Some(path), _) => Some(Sweep::load(path, registry)?),
         (None, Some(name)) => Some(load_suite(registry, name)?),
@@ -386,7 +388,10 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         let params = softshadow_bench::parse_params(registry, technique, &args.params)?;
         let spec = RunSpec {
             scene: scene.clone(),
-            technique: technique.clone(),
+            // The id (a .wgsl file's stem), not the path given.
+            technique: softshadow_bench::resolve_technique(registry, technique)?
+                .id
+                .to_string(),
             params,
             width,
             height,
@@ -760,11 +765,39 @@ fn report(
     Ok(ExitCode::SUCCESS)
 }
 
+/// `registry` plus the technique files (`.wgsl`) named by `--technique` or by the
+/// `[[technique]]` tables of `--sweep`.
+fn with_technique_files(registry: &Registry, args: &BenchArgs) -> Result<Registry> {
+    let mut files: Vec<String> = args.technique.iter().cloned().collect();
+    if let Some(sweep) = &args.sweep {
+        files.extend(Sweep::technique_files(sweep)?);
+    }
+    let mut registry = registry.clone();
+    register_technique_files(&mut registry, &files)?;
+    Ok(registry)
+}
+
+/// Registers every value of `values` that names a technique file (`softshadow_wgsl`).
+fn register_technique_files(registry: &mut Registry, values: &[String]) -> Result<()> {
+    for value in values
+        .iter()
+        .filter(|v| softshadow_wgsl::is_technique_file(v))
+    {
+        softshadow_wgsl::register_file(registry, std::path::Path::new(value))?;
+    }
+    Ok(())
+}
+
 fn view(registry: &Registry, args: ViewArgs) -> Result<ExitCode> {
     // Bad input fails before a window opens.
     let (width, height) = softshadow_bench::parse_size(&args.size)?;
+    let mut registry = registry.clone();
+    register_technique_files(&mut registry, args.technique.as_slice())?;
+    let registry = &registry;
     let technique = match args.technique {
-        Some(technique) => technique,
+        Some(technique) => softshadow_bench::resolve_technique(registry, &technique)?
+            .id
+            .to_string(),
         None => registry
             .default_technique()
             .context("no technique is registered")?

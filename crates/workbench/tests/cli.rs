@@ -480,3 +480,102 @@ fn run_source(results: &Value) -> &str {
         .as_str()
         .unwrap_or("")
 }
+
+/// `examples/wgsl/NAME` by absolute path.
+fn wgsl_example(name: &str) -> Result<String> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/wgsl")
+        .join(name)
+        .canonicalize()?;
+    Ok(path.to_str().context("utf-8 path")?.to_string())
+}
+
+#[test]
+fn bench_and_a_sweep_take_a_wgsl_file_as_a_technique() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let pcf = wgsl_example("pcf.wgsl")?;
+    let out = dir.path().join("single");
+    let o = workbench(&[
+        "bench",
+        "--scene",
+        "atty-square",
+        "--technique",
+        &pcf,
+        "--param",
+        "radius=2",
+        "--size",
+        "48x48",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--no-images",
+        "--reference-param",
+        "samples_per_axis=4",
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    ensure!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
+    let run = &v["runs"][0];
+    ensure!(run["status"] == "ok", "{run}");
+    ensure!(run["technique"] == "pcf", "{}", run["technique"]);
+    ensure!(run["params"]["radius"] == 2, "{}", run["params"]);
+    ensure!(run["params"]["bias_texels"] == 1.5, "{}", run["params"]);
+
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "size = \"32x32\"\nframes = 1\nwarmup = 0\nscenes = [\"atty-square\"]\n\
+             [reference]\nsamples_per_axis = 4\n[[technique]]\nid = \"{}\"\n\
+             [technique.params]\nsearch_grid = [2, 4]\n",
+            wgsl_example("pcss_like.wgsl")?
+        ),
+    )?;
+    let out = dir.path().join("sweep");
+    let o = workbench(&[
+        "bench",
+        "--sweep",
+        sweep.to_str().context("utf-8")?,
+        "--no-images",
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    ensure!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
+    let runs = v["runs"].as_array().context("runs")?;
+    ensure!(runs.len() == 2, "{runs:?}");
+    for run in runs {
+        ensure!(
+            run["status"] == "ok" && run["technique"] == "pcss_like",
+            "{run}"
+        );
+    }
+
+    // A broken file: one line naming file, line and column, exit 2, nothing written.
+    let broken = dir.path().join("broken.wgsl");
+    std::fs::write(
+        &broken,
+        "fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return 1.0\n}\n",
+    )?;
+    let out = dir.path().join("broken");
+    let o = workbench(&[
+        "bench",
+        "--scene",
+        "atty-square",
+        "--technique",
+        broken.to_str().context("utf-8")?,
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    let message = stderr(&o);
+    ensure!(o.status.code() == Some(2), "{message}");
+    ensure!(message.lines().count() == 1, "{message}");
+    ensure!(
+        message.contains(&format!("{}:3:1:", broken.display())),
+        "{message}"
+    );
+    ensure!(!out.exists(), "a broken technique file wrote output");
+    Ok(())
+}

@@ -16,3 +16,4 @@ mod stress;
 mod sweeps;
 mod techniques;
 mod timing;
+mod wgsl;

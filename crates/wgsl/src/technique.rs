@@ -1,0 +1,257 @@
+//! The technique of a file: the centre shadow map (core's `CentreShadowMap`, the map `hard` and
+//! `pcss` render) and the file's one fullscreen pass, nothing else (docs/WGSL.md, "Cost").
+
+use std::borrow::Cow;
+
+use softshadow_core::{
+    fullscreen::{render_pipeline, FullscreenPipeline},
+    params::find_spec,
+    shadow_map::CentreShadowMap,
+    visibility::VISIBILITY_FORMAT,
+    wgpu, DebugView, Frame, Gpu, ParamError, ParamKind, ParamSet, ParamSpec, ParamValue,
+    ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
+    VisibilityBuffer,
+};
+
+use crate::{
+    compile::CompiledFile,
+    directives::{Directives, Fit, ScalarType, SHADOW_MAP_SIZE},
+};
+
+/// The spec of `shadow_map_size`, the parameter every file technique has (as `hard`'s).
+pub(crate) fn shadow_map_size_spec() -> ParamSpec {
+    ParamSpec {
+        name: Cow::Borrowed(SHADOW_MAP_SIZE),
+        description: Cow::Borrowed("Edge of the centre shadow map in texels"),
+        kind: ParamKind::Int {
+            min: 64,
+            max: 4096,
+            default: 1024,
+        },
+    }
+}
+
+/// The settings of a file technique: its declared parameters (then `shadow_map_size`) and their
+/// current values.
+#[derive(Clone, Debug)]
+pub struct FileSettings {
+    specs: Vec<ParamSpec>,
+    types: Vec<ScalarType>,
+    values: Vec<ParamValue>,
+}
+
+impl FileSettings {
+    /// The defaults of `directives`.
+    pub fn new(directives: &Directives) -> Self {
+        let mut specs: Vec<ParamSpec> = directives.params.iter().map(|p| p.spec.clone()).collect();
+        let mut types: Vec<ScalarType> = directives.params.iter().map(|p| p.ty).collect();
+        specs.push(shadow_map_size_spec());
+        types.push(ScalarType::U32);
+        let values = specs.iter().map(ParamSpec::default_value).collect();
+        Self {
+            specs,
+            types,
+            values,
+        }
+    }
+
+    /// The value of `name`, if the file declares it.
+    pub fn get(&self, name: &str) -> Option<&ParamValue> {
+        let index = self.specs.iter().position(|s| s.name == name)?;
+        Some(&self.values[index])
+    }
+
+    /// The `Params` uniform block: one 4-byte scalar per parameter in declaration order,
+    /// padded to 16 bytes (`compile::params_struct` declares the same layout).
+    pub fn uniform_bytes(&self) -> Vec<u8> {
+        let mut bytes = Vec::with_capacity(16 * self.values.len().div_ceil(4));
+        for (ty, value) in self.types.iter().zip(&self.values) {
+            let word: [u8; 4] = match (ty, value) {
+                (ScalarType::F32, v) => (v.as_f64().unwrap_or(0.0) as f32).to_ne_bytes(),
+                (ScalarType::U32, v) => (v.as_f64().unwrap_or(0.0) as u32).to_ne_bytes(),
+                (ScalarType::I32, v) => (v.as_f64().unwrap_or(0.0) as i32).to_ne_bytes(),
+                (ScalarType::Bool, v) => u32::from(*v == ParamValue::Bool(true)).to_ne_bytes(),
+            };
+            bytes.extend_from_slice(&word);
+        }
+        bytes.resize(bytes.len().div_ceil(16) * 16, 0);
+        bytes
+    }
+}
+
+impl TechniqueSettings for FileSettings {
+    fn specs(&self) -> Vec<ParamSpec> {
+        self.specs.clone()
+    }
+
+    fn param_set(&self) -> ParamSet {
+        ParamSet {
+            entries: self
+                .specs
+                .iter()
+                .cloned()
+                .zip(self.values.iter().cloned())
+                .collect(),
+        }
+    }
+
+    fn set_param(
+        &mut self,
+        technique: &str,
+        name: &str,
+        value: ParamValue,
+    ) -> Result<(), ParamError> {
+        let value = find_spec(technique, &self.specs, name)?.check(value)?;
+        let index = self
+            .specs
+            .iter()
+            .position(|s| s.name == name)
+            .expect("found above");
+        self.values[index] = value;
+        Ok(())
+    }
+}
+
+/// A technique defined by a WGSL file.
+pub struct FileTechnique {
+    id: String,
+    settings: FileSettings,
+    shadow_map: CentreShadowMap,
+    pass: FullscreenPipeline,
+    layout: wgpu::BindGroupLayout,
+    params_buffer: wgpu::Buffer,
+    shadow_map_label: String,
+    pass_label: String,
+    no_casters_label: String,
+    stats: TechniqueStats,
+}
+
+impl FileTechnique {
+    /// Builds the pipeline of `compiled` (the file of `directives`) on `gpu`.
+    pub fn new(
+        gpu: &Gpu,
+        id: &str,
+        directives: &Directives,
+        compiled: &CompiledFile,
+    ) -> Result<Self, TechniqueError> {
+        let pass_label = format!("{id}/pass");
+        let layout = CentreShadowMap::lookup_layout(gpu, &pass_label);
+        let module = gpu
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(&pass_label),
+                source: wgpu::ShaderSource::Naga(Cow::Owned(compiled.module.clone())),
+            });
+        let pipeline_layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(&pass_label),
+                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
+                immediate_size: 0,
+            });
+        let target = wgpu::ColorTargetState {
+            format: VISIBILITY_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        };
+        let pipeline =
+            render_pipeline(gpu, &pass_label, &pipeline_layout, &module, &[Some(target)]);
+        let settings = FileSettings::new(directives);
+        let params_buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(&pass_label),
+            size: settings.uniform_bytes().len() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let shadow_map = match directives.fit {
+            Fit::Casters => CentreShadowMap::new(gpu)?,
+            Fit::Receivers => CentreShadowMap::new(gpu)?.clipped_to_receivers(),
+        };
+        Ok(Self {
+            id: id.to_string(),
+            settings,
+            shadow_map,
+            pass: FullscreenPipeline { pipeline },
+            layout,
+            params_buffer,
+            shadow_map_label: format!("{id}/shadow_map"),
+            no_casters_label: format!("{id}/no_casters"),
+            pass_label,
+            stats: TechniqueStats::new(),
+        })
+    }
+
+    /// Its settings.
+    pub fn file_settings(&self) -> &FileSettings {
+        &self.settings
+    }
+}
+
+impl ShadowTechnique for FileTechnique {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
+    }
+
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
+    }
+
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        let size = match self.settings.get(SHADOW_MAP_SIZE) {
+            Some(ParamValue::Int(size)) => *size as u32,
+            _ => 1024,
+        };
+        if self
+            .shadow_map
+            .render(frame, inputs, size, &self.shadow_map_label)
+            .is_none()
+        {
+            // No caster in front of the light: receivers in front of it are lit.
+            out.write_unshadowed(frame, inputs.frame_bind_group, &self.no_casters_label)?;
+            self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
+            return Ok(());
+        }
+        gpu.queue
+            .write_buffer(&self.params_buffer, 0, &self.settings.uniform_bytes());
+        let bind_group = self
+            .shadow_map
+            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
+            .expect("rendered above");
+        self.pass.record(
+            frame,
+            &self.pass_label,
+            inputs.frame_bind_group,
+            &bind_group,
+            &[],
+            &out.view,
+            Some(1.0),
+        );
+        self.stats = TechniqueStats::from([
+            ("shadow_maps".into(), 1.0),
+            ("shadow_map_texels".into(), (size as f64) * (size as f64)),
+        ]);
+        Ok(())
+    }
+
+    fn invalidate_cache(&mut self) {
+        self.shadow_map.invalidate();
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        self.stats.clone()
+    }
+
+    fn debug_views(&self) -> Vec<DebugView> {
+        self.shadow_map.debug_views()
+    }
+}
