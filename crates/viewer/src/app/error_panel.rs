@@ -119,12 +119,36 @@ pub fn fitted_bounds(points: &[[f64; 2]], log_x: bool) -> ([f64; 2], [f64; 2]) {
     }
 }
 
+/// The error-against-time plot's points and options.
+pub(super) struct PlotState {
+    pub(super) points: Vec<TradeoffPoint>,
+    /// Scene, light and camera the points were measured for (not the size or the reference's
+    /// samples: errors are per-pixel means, comparable across both).
+    pub(super) points_key: Option<u64>,
+    /// The time axis is log10(ms).
+    pub(super) log_time_axis: bool,
+    /// Where "Export sweep" writes.
+    pub(super) export_path: String,
+}
+
+impl Default for PlotState {
+    fn default() -> Self {
+        Self {
+            points: Vec::new(),
+            points_key: None,
+            log_time_axis: false,
+            export_path: "viewer-sweep.toml".into(),
+        }
+    }
+}
+
 impl ViewerApp {
     pub(super) fn reference_error_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Error against the reference");
-        let p = self.reference_progress;
+        let p = self.reference.progress;
         let samples = self
             .reference
+            .yardstick
             .params()
             .get("samples_per_axis")
             .and_then(ParamValue::as_f64)
@@ -140,6 +164,7 @@ impl ViewerApp {
         {
             if let Err(e) = self
                 .reference
+                .yardstick
                 .set_param("samples_per_axis", ParamValue::Int(new_samples))
             {
                 self.report_error(e.to_string());
@@ -178,10 +203,10 @@ impl ViewerApp {
             "One point per technique setting measured for this scene, light and camera (time: \
              the cost of computing, caches dropped); the Pareto front is the line.",
         );
-        ui.checkbox(&mut self.log_time_axis, "log time axis");
-        let log_x = self.log_time_axis;
+        ui.checkbox(&mut self.plot.log_time_axis, "log time axis");
+        let log_x = self.plot.log_time_axis;
         let x_of = move |ms: f64| if log_x { ms.max(1e-3).log10() } else { ms };
-        let front = pareto_front(&self.points);
+        let front = pareto_front(&self.plot.points);
         let defaults: BTreeMap<&str, Vec<(String, ParamValue)>> = self
             .registry
             .iter()
@@ -196,6 +221,7 @@ impl ViewerApp {
             })
             .collect();
         let all: Vec<[f64; 2]> = self
+            .plot
             .points
             .iter()
             .map(|p| [x_of(p.gpu_ms), p.error])
@@ -216,7 +242,7 @@ impl ViewerApp {
         if log_x {
             plot = plot.x_axis_formatter(|mark, _| format_log_ms(mark.value));
         }
-        let series = techniques_with_points(&self.registry, &self.points);
+        let series = techniques_with_points(&self.registry, &self.plot.points);
         plot.show(ui, |plot| {
             plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(
                 [x_range[0], y_range[0]],
@@ -225,7 +251,7 @@ impl ViewerApp {
             if !front.is_empty() {
                 let line: Vec<[f64; 2]> = front
                     .iter()
-                    .map(|&i| [x_of(self.points[i].gpu_ms), self.points[i].error])
+                    .map(|&i| [x_of(self.plot.points[i].gpu_ms), self.plot.points[i].error])
                     .collect();
                 plot.line(
                     egui_plot::Line::new("Pareto front", line)
@@ -236,6 +262,7 @@ impl ViewerApp {
             for (index, id) in &series {
                 let (colour, shape) = series_style(*index);
                 let data: Vec<[f64; 2]> = self
+                    .plot
                     .points
                     .iter()
                     .filter(|p| p.technique == *id)
@@ -269,7 +296,7 @@ impl ViewerApp {
             }
         });
         for &i in &front {
-            let p = &self.points[i];
+            let p = &self.plot.points[i];
             let label = p.label(defaults.get(p.technique.as_str()).map_or(&[][..], |d| d));
             ui.small(format!(
                 "front: {label}: {} ms, {:.4}",
@@ -278,13 +305,16 @@ impl ViewerApp {
             ));
         }
         ui.horizontal(|ui| {
-            ui.add(egui::TextEdit::singleline(&mut self.export_path).desired_width(150.0));
+            ui.add(egui::TextEdit::singleline(&mut self.plot.export_path).desired_width(150.0));
             if ui
-                .add_enabled(!self.points.is_empty(), egui::Button::new("Export sweep"))
+                .add_enabled(
+                    !self.plot.points.is_empty(),
+                    egui::Button::new("Export sweep"),
+                )
                 .on_hover_text("Writes the points as a sweep file for `workbench bench --sweep`")
                 .clicked()
             {
-                let path = PathBuf::from(self.export_path.trim());
+                let path = PathBuf::from(self.plot.export_path.trim());
                 self.export_sweep(&path);
             }
         });

@@ -12,11 +12,11 @@ impl ViewerApp {
     pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
         let mut chosen = None;
         egui::ComboBox::from_label("Technique")
-            .selected_text(self.technique_id.clone())
+            .selected_text(self.technique.id.clone())
             .show_ui(ui, |ui| {
                 for info in &self.registry {
                     if ui
-                        .selectable_label(self.technique_id == info.id, info.id.as_ref())
+                        .selectable_label(self.technique.id == info.id, info.id.as_ref())
                         .on_hover_text(format!("{} [{}]", info.description, info.source))
                         .clicked()
                     {
@@ -25,11 +25,11 @@ impl ViewerApp {
                 }
             });
         if let Some(id) = chosen {
-            if id != self.technique_id {
+            if id != self.technique.id {
                 self.select_technique(&id);
             }
         }
-        let Some(technique) = &self.technique else {
+        let Some(technique) = &self.technique.active else {
             return;
         };
         let mut changes = Vec::new();
@@ -39,7 +39,7 @@ impl ViewerApp {
             }
         }
         if ui.button("Defaults").clicked() {
-            if let Some(info) = self.registry.get(&self.technique_id) {
+            if let Some(info) = self.registry.get(&self.technique.id) {
                 for spec in &info.params {
                     changes.push((spec.name.to_string(), spec.default_value()));
                 }
@@ -52,6 +52,7 @@ impl ViewerApp {
 
     pub(super) fn view_ui(&mut self, ui: &mut egui::Ui) {
         let current = self
+            .image
             .renderers
             .as_ref()
             .map_or((0, 0), |r| (r.width, r.height));
@@ -60,7 +61,7 @@ impl ViewerApp {
             Some((w, h)) => format!("{w}x{h}"),
         };
         egui::ComboBox::from_label("render size")
-            .selected_text(label(self.render_size))
+            .selected_text(label(self.image.render_size))
             .show_ui(ui, |ui| {
                 let mut options = vec![None, Some(current)];
                 for size in RENDER_SIZES {
@@ -69,7 +70,7 @@ impl ViewerApp {
                     }
                 }
                 for option in options {
-                    ui.selectable_value(&mut self.render_size, option, label(option));
+                    ui.selectable_value(&mut self.image.render_size, option, label(option));
                 }
             })
             .response
@@ -79,12 +80,12 @@ impl ViewerApp {
             );
         ui.horizontal_wrapped(|ui| {
             for mode in ViewMode::ALL {
-                ui.selectable_value(&mut self.view_mode, mode, mode.label());
+                ui.selectable_value(&mut self.image.view_mode, mode, mode.label());
             }
         });
-        match self.view_mode {
+        match self.image.view_mode {
             ViewMode::Split => {
-                ui.add(egui::Slider::new(&mut self.split, 0.0..=1.0).text("divider"));
+                ui.add(egui::Slider::new(&mut self.image.split, 0.0..=1.0).text("divider"));
                 ui.small("Left: technique, right: reference. Drag the divider on the image.");
             }
             ViewMode::Difference => {
@@ -96,6 +97,7 @@ impl ViewerApp {
             ViewMode::Debug => {
                 let views: Vec<(String, DebugLegend)> = self
                     .technique
+                    .active
                     .as_ref()
                     .map(|t| {
                         t.debug_views()
@@ -107,20 +109,20 @@ impl ViewerApp {
                 egui::ComboBox::from_label("Debug image")
                     .selected_text(
                         views
-                            .get(self.debug_view)
+                            .get(self.image.debug_view)
                             .map(|(name, _)| name.clone())
                             .unwrap_or_default(),
                     )
                     .show_ui(ui, |ui| {
                         for (i, (name, _)) in views.iter().enumerate() {
-                            ui.selectable_value(&mut self.debug_view, i, name);
+                            ui.selectable_value(&mut self.image.debug_view, i, name);
                         }
                     });
-                let legend = views.get(self.debug_view).or(views.first());
+                let legend = views.get(self.image.debug_view).or(views.first());
                 debug_legend(
                     ui,
                     legend.map(|(_, legend)| legend),
-                    self.debug_mapping.as_ref(),
+                    self.image.debug_mapping.as_ref(),
                 );
             }
             _ => {}
