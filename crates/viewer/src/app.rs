@@ -20,6 +20,7 @@ mod build_panel;
 mod error_panel;
 mod files_panel;
 mod image;
+mod overlays;
 mod reference;
 mod scene_panel;
 mod technique;
@@ -57,6 +58,10 @@ pub const REFERENCE_BATCHES_PER_FRAME: u32 = 2;
 const COST_FRAMES: usize = 5;
 /// Frame times kept for the frame-time readout.
 const FRAME_TIME_WINDOW: usize = 60;
+/// Width of the left (controls) panel, points.
+pub const LEFT_PANEL_WIDTH: f32 = 250.0;
+/// Width of the right (measurements) panel, points.
+pub const RIGHT_PANEL_WIDTH: f32 = 280.0;
 /// Smallest render edge (the image area can be tiny while a window is being resized).
 const MIN_RENDER_EDGE: u32 = 16;
 
@@ -117,17 +122,10 @@ pub struct ViewerApp {
     /// File paths, the screenshot request and the puffin server ([`files_panel`]).
     files: files_panel::FilesState,
     /// Errors and confirmations.
-    messages: Messages,
+    messages: overlays::Messages,
     /// Side panels paint their background (egui's default). The window turns this off and clears
     /// to the panel colour instead: on a CPU rasteriser the two full-height fills cost ~20 ms.
     opaque_panels: bool,
-}
-
-/// Errors shown until dismissed, and the last confirmation (where a file went).
-#[derive(Default)]
-struct Messages {
-    errors: Vec<String>,
-    status: Option<String>,
 }
 
 impl ViewerApp {
@@ -237,17 +235,25 @@ impl ViewerApp {
         self.messages.status = Some(message.into());
     }
 
+    /// Points of the other views (scene, light or camera) measured this session: kept, shown
+    /// hollow on request.
+    pub fn points_of_other_views(&self) -> usize {
+        let view = self.current_view_key();
+        self.plot
+            .views
+            .iter()
+            .filter(|v| v.key != view)
+            .map(|v| v.points.len())
+            .sum()
+    }
+
+    /// Points of the error-against-time plot for the current scene, light and camera.
     pub fn points(&self) -> &[TradeoffPoint] {
-        &self.plot.points
+        self.plot.points_of(self.current_view_key())
     }
 
     pub fn report_error(&mut self, message: impl Into<String>) {
-        let message = message.into();
-        log::warn!("{message}");
-        self.messages.errors.push(message);
-        if self.messages.errors.len() > 8 {
-            self.messages.errors.remove(0);
-        }
+        self.messages.push_error(message.into());
     }
 
     // ----- Actions -----
@@ -302,13 +308,17 @@ impl ViewerApp {
         }
         egui::Panel::left("controls")
             .frame(panel_frame)
-            .default_size(250.0)
+            // Fixed widths: the image area, and so a "fit" render size, follows the window
+            // only (a panel following its content restarted the reference).
+            .exact_size(LEFT_PANEL_WIDTH)
+            .resizable(false)
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| self.controls_ui(ui));
             });
         egui::Panel::right("measurements")
             .frame(panel_frame)
-            .default_size(270.0)
+            .exact_size(RIGHT_PANEL_WIDTH)
+            .resizable(false)
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| {
                     self.timing_ui(ui);
@@ -338,10 +348,7 @@ impl ViewerApp {
         if self.timing.setting_key != Some(setting_key) {
             // Frames of another setting would mix into the medians (issue: ssm read 190 ms right
             // after a switch and 700 ms once settled).
-            self.timing.setting_key = Some(setting_key);
-            self.timing.rolling.clear();
-            self.timing.cost.clear();
-            self.timing.frame_times.clear();
+            self.timing.new_setting(setting_key);
         }
         self.render_technique();
         self.render_reference();
@@ -352,13 +359,8 @@ impl ViewerApp {
     // ----- Panels -----
 
     fn controls_ui(&mut self, ui: &mut egui::Ui) {
+        // Messages, progress and legends float over the image (`overlays`): nothing here moves.
         ui.heading("Soft-shadow viewer");
-        self.errors_ui(ui);
-        self.build_ui(ui);
-        if let Some(status) = &self.messages.status {
-            // Where the last screenshot, state or sweep went, whichever section is open.
-            ui.colored_label(egui::Color32::LIGHT_GREEN, status);
-        }
 
         ui.collapsing("Scene", |ui| self.scene_ui(ui))
             .header_response
@@ -372,27 +374,6 @@ impl ViewerApp {
         ui.collapsing("Light", |ui| self.light_ui(ui));
         ui.collapsing("Camera", |ui| self.camera_ui(ui));
         ui.collapsing("Files", |ui| self.files_ui(ui));
-    }
-
-    fn errors_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some(error) = &self.technique.error {
-            ui.colored_label(egui::Color32::LIGHT_RED, error);
-        }
-        if !self.messages.errors.is_empty() {
-            let mut clear = false;
-            ui.group(|ui| {
-                for error in &self.messages.errors {
-                    ui.colored_label(egui::Color32::LIGHT_RED, error);
-                }
-                clear = ui.button("Dismiss errors").clicked();
-            });
-            if clear {
-                self.messages.errors.clear();
-            }
-        }
-        for warning in &self.scene.loaded.warnings {
-            ui.colored_label(egui::Color32::YELLOW, warning);
-        }
     }
 }
 

@@ -34,17 +34,14 @@ impl Default for FilesState {
 
 impl ViewerApp {
     pub(super) fn files_ui(&mut self, ui: &mut egui::Ui) {
+        // Each path on its own row, its buttons below: nothing is clipped at the panel's width.
+        let width = ui.available_width();
+        ui.add(egui::TextEdit::singleline(&mut self.files.screenshot_path).desired_width(width));
+        if ui.button("Screenshot").clicked() {
+            self.files.screenshot_request = Some(PathBuf::from(self.files.screenshot_path.trim()));
+        }
+        ui.add(egui::TextEdit::singleline(&mut self.files.state_path).desired_width(width));
         ui.horizontal(|ui| {
-            ui.add(
-                egui::TextEdit::singleline(&mut self.files.screenshot_path).desired_width(150.0),
-            );
-            if ui.button("Screenshot").clicked() {
-                self.files.screenshot_request =
-                    Some(PathBuf::from(self.files.screenshot_path.trim()));
-            }
-        });
-        ui.horizontal(|ui| {
-            ui.add(egui::TextEdit::singleline(&mut self.files.state_path).desired_width(150.0));
             if ui.button("Save state").clicked() {
                 let path = PathBuf::from(self.files.state_path.trim());
                 self.save_state(&path);
@@ -117,6 +114,7 @@ impl ViewerApp {
                     }
                 }
                 self.select_technique(&state.technique);
+                self.confirm(format!("loaded the state from {}", shown_path(path)));
             }
             Err(e) => self.report_error(e.to_string()),
         }
@@ -135,7 +133,7 @@ impl ViewerApp {
             .into_iter()
             .collect();
         let text = sweep_toml(
-            &self.plot.points,
+            self.points(),
             View {
                 scene: &self.scene.loaded.spec,
                 width: r.width,
@@ -148,7 +146,7 @@ impl ViewerApp {
         match std::fs::write(path, text) {
             Ok(()) => self.confirm(format!(
                 "wrote {} points to {}",
-                self.plot.points.len(),
+                self.points().len(),
                 shown_path(path)
             )),
             Err(e) => self.report_error(format!(

@@ -53,6 +53,9 @@ impl ViewerApp {
     /// The image, with camera interaction; returns the render size in pixels.
     pub(super) fn image_ui(&mut self, ui: &mut egui::Ui) -> (u32, u32) {
         self.image.interacting = false;
+        let area = ui.available_rect_before_wrap();
+        let ctx = ui.ctx().clone();
+        self.overlays_ui(&ctx, area);
         let available = ui.available_size();
         let ppp = ui.ctx().pixels_per_point();
         // A fixed render size does not follow the panels (opening a section that widens the
@@ -79,9 +82,6 @@ impl ViewerApp {
                 (r.texture_id, size * scale)
             })
         };
-        if let Some(message) = &self.image.debug_message {
-            ui.colored_label(egui::Color32::LIGHT_RED, message);
-        }
         let Some((id, size)) = texture else {
             ui.allocate_space(available);
             return (width, height);

@@ -5,7 +5,7 @@ use softshadow_core::{scene::Fnv1a, ParamValue, ShadingMode, ShadowTechnique};
 use softshadow_metrics::ErrorReport;
 use softshadow_reference::{Progress, Reference};
 
-use super::{ViewerApp, ViewerError, COST_FRAMES};
+use super::{ViewerApp, ViewerError};
 use crate::tradeoff::TradeoffPoint;
 
 /// The progressive reference and the metrics of the technique against it.
@@ -15,6 +15,9 @@ pub(super) struct ReferenceState {
     pub(super) key: Option<u64>,
     pub(super) progress: Progress,
     pub(super) measured: Option<Measured>,
+    /// Accumulations begun (the first included): each new scene, light, camera, size or
+    /// reference setting begins one.
+    pub(super) restarts: u64,
 }
 
 impl ReferenceState {
@@ -24,6 +27,7 @@ impl ReferenceState {
             key: None,
             progress: Progress::default(),
             measured: None,
+            restarts: 0,
         }
     }
 }
@@ -82,6 +86,9 @@ impl ViewerApp {
             Some(ShadingMode::Shaded),
         ) {
             Ok(_) => {
+                if self.reference.key != Some(key) {
+                    self.reference.restarts += 1;
+                }
                 self.reference.key = Some(key);
                 self.reference.progress = self.reference.yardstick.progress();
             }
@@ -91,13 +98,16 @@ impl ViewerApp {
                 self.report_error(format!("reference failed: {e}"));
             }
         }
-        let view = self.current_view_key();
-        if self.plot.points_key != Some(view) {
-            // Points are only comparable for one scene, light and camera; a new size or more
-            // reference samples keep them (per-pixel means), and the point is re-measured.
-            self.plot.points.clear();
-            self.plot.points_key = Some(view);
+    }
+
+    /// The progress of the reference of the current inputs: none done while the reference
+    /// renderer still holds another view's (it waits while the camera moves).
+    pub(super) fn shown_reference_progress(&self) -> Progress {
+        let mut progress = self.reference.progress;
+        if self.reference.key != Some(self.current_reference_key()) {
+            progress.done = 0;
         }
+        progress
     }
 
     /// Metrics once the reference has converged and whenever the setting or the inputs changed;
@@ -130,7 +140,7 @@ impl ViewerApp {
         else {
             return;
         };
-        if self.timing.cost.len() < COST_FRAMES {
+        if self.timing.cost.len() < self.timing.cost_frames_wanted() {
             return;
         }
         let point = TradeoffPoint {
@@ -140,15 +150,8 @@ impl ViewerApp {
             gpu_ms: gpu_ms.max(0.0),
             error: measured.report.mae_shadowed,
         };
-        match self
-            .plot
-            .points
-            .iter_mut()
-            .find(|p| p.same_setting(&point.technique, &point.params))
-        {
-            Some(existing) => *existing = point,
-            None => self.plot.points.push(point),
-        }
+        let view = self.current_view_key();
+        self.plot.insert(view, point);
     }
 
     /// The converged reference's inputs, the technique and its parameters: what one set of
@@ -194,6 +197,12 @@ impl ViewerApp {
 
     pub fn reference_progress(&self) -> Progress {
         self.reference.progress
+    }
+
+    /// Accumulations of the reference begun so far, the first included: a restart costs the
+    /// whole accumulation again.
+    pub fn reference_accumulations(&self) -> u64 {
+        self.reference.restarts
     }
 
     /// Error metrics of the current setting, once the reference has converged (`None` while

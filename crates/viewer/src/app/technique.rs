@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use softshadow_core::{scene::Fnv1a, ParamSet, ParamValue, ShadingMode, ShadowTechnique};
 
-use super::{build_panel::BuildState, ViewerApp, ViewerError, COST_FRAMES};
+use super::{build_panel::BuildState, timing_panel::SLOW_COST_FRAME_MS, ViewerApp, ViewerError};
 use crate::display::ViewMode;
 
 /// The active technique, every technique's settings, and its last error.
@@ -113,7 +113,8 @@ impl ViewerApp {
         // The first frames of a setting pay the whole cost (as the benchmark's `timing` does);
         // later ones may keep light-space results while only the camera moves. Not while the
         // user drags: the camera-only frames are what keeps that interactive.
-        let measuring_cost = self.timing.cost.len() < COST_FRAMES && !self.image.interacting;
+        let measuring_cost =
+            self.timing.cost.len() < self.timing.cost_frames_wanted() && !self.image.interacting;
         if measuring_cost {
             technique.invalidate_cache();
         }
@@ -139,6 +140,7 @@ impl ViewerApp {
                     self.timing.rolling.push(gpu.clone());
                     if measuring_cost {
                         self.timing.cost.push(gpu.clone());
+                        self.timing.slow_cost_frames |= output.cpu_ms > SLOW_COST_FRAME_MS;
                     }
                 }
                 self.timing.last_output = Some(output);

@@ -83,50 +83,42 @@ impl ViewerApp {
                 ui.selectable_value(&mut self.image.view_mode, mode, mode.label());
             }
         });
-        match self.image.view_mode {
-            ViewMode::Split => {
-                ui.add(egui::Slider::new(&mut self.image.split, 0.0..=1.0).text("divider"));
-                ui.small("Left: technique, right: reference. Drag the divider on the image.");
-            }
-            ViewMode::Difference => {
-                ui.small(
-                    "Red: too dark, blue: too bright, full colour at |V - V_ref| = 0.25; \
-                     white exact, grey off-receiver, magenta NaN/inf.",
-                );
-            }
-            ViewMode::Debug => {
-                let views: Vec<(String, DebugLegend)> = self
-                    .technique
-                    .active
-                    .as_ref()
-                    .map(|t| {
-                        t.debug_views()
-                            .into_iter()
-                            .map(|v| (v.name, v.legend))
-                            .collect()
-                    })
-                    .unwrap_or_default();
-                egui::ComboBox::from_label("Debug image")
-                    .selected_text(
-                        views
-                            .get(self.image.debug_view)
-                            .map(|(name, _)| name.clone())
-                            .unwrap_or_default(),
-                    )
-                    .show_ui(ui, |ui| {
-                        for (i, (name, _)) in views.iter().enumerate() {
-                            ui.selectable_value(&mut self.image.debug_view, i, name);
-                        }
-                    });
-                let legend = views.get(self.image.debug_view).or(views.first());
-                debug_legend(
-                    ui,
-                    legend.map(|(_, legend)| legend),
-                    self.image.debug_mapping.as_ref(),
-                );
-            }
-            _ => {}
-        }
+        // One row reserved for the mode's own control, so nothing below moves when the mode
+        // changes; the mode's legend floats over the image (`overlays`).
+        let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
+        ui.allocate_ui_with_layout(
+            row,
+            egui::Layout::left_to_right(egui::Align::Center),
+            |ui| {
+                ui.set_min_size(row);
+                match self.image.view_mode {
+                    ViewMode::Split => {
+                        ui.add(egui::Slider::new(&mut self.image.split, 0.0..=1.0).text("divider"));
+                    }
+                    ViewMode::Debug => {
+                        let names: Vec<String> = self
+                            .technique
+                            .active
+                            .as_ref()
+                            .map(|t| t.debug_views().into_iter().map(|v| v.name).collect())
+                            .unwrap_or_default();
+                        egui::ComboBox::from_label("Debug image")
+                            .selected_text(
+                                names
+                                    .get(self.image.debug_view)
+                                    .cloned()
+                                    .unwrap_or_default(),
+                            )
+                            .show_ui(ui, |ui| {
+                                for (i, name) in names.iter().enumerate() {
+                                    ui.selectable_value(&mut self.image.debug_view, i, name);
+                                }
+                            });
+                    }
+                    _ => {}
+                }
+            },
+        );
     }
 }
 
@@ -196,7 +188,11 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
 
 /// What the debug image's colours mean: the mapped value range, and what the technique says its
 /// values or colours are ([`DebugLegend`], from the technique's crate).
-fn debug_legend(ui: &mut egui::Ui, legend: Option<&DebugLegend>, mapping: Option<&DebugMapping>) {
+pub(super) fn debug_legend(
+    ui: &mut egui::Ui,
+    legend: Option<&DebugLegend>,
+    mapping: Option<&DebugMapping>,
+) {
     let swatch = |ui: &mut egui::Ui, colour: egui::Color32, meaning: &str| {
         ui.horizontal(|ui| {
             let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());

@@ -24,6 +24,33 @@ pub(super) struct TimingState {
     pub(super) last_frame: Option<Instant>,
     /// Frames rendered so far.
     pub(super) frames: u64,
+    /// A frame of this setting with the caches dropped took longer than [`SLOW_COST_FRAME_MS`]:
+    /// the cost rests on the frames measured so far instead of [`COST_FRAMES`].
+    pub(super) slow_cost_frames: bool,
+}
+
+/// A cost frame slower than this (CPU wall time, ms) is not repeated: five frames of the
+/// reference technique took three minutes on lavapipe, during which nothing else could be done.
+pub(super) const SLOW_COST_FRAME_MS: f64 = 1000.0;
+
+impl TimingState {
+    /// Frames with the caches dropped that the cost of the current setting rests on.
+    pub(super) fn cost_frames_wanted(&self) -> usize {
+        if self.slow_cost_frames {
+            self.cost.len().max(1)
+        } else {
+            COST_FRAMES
+        }
+    }
+
+    /// Empties the windows when the setting changes (a median never mixes two settings).
+    pub(super) fn new_setting(&mut self, key: u64) {
+        self.setting_key = Some(key);
+        self.rolling.clear();
+        self.cost.clear();
+        self.frame_times.clear();
+        self.slow_cost_frames = false;
+    }
 }
 
 impl ViewerApp {
@@ -31,17 +58,26 @@ impl ViewerApp {
         ui.heading("GPU time");
         let stats = self.stats();
         ui.label(format!(
-            "frame time {} (median of {} frames of this setting)",
+            "UI frame interval {} (median of {} frames of this setting)",
             stats
                 .frame_ms
                 .map_or("-".into(), |ms| format!("{ms:.1} ms, {:.1} fps", 1e3 / ms)),
             self.timing.frame_times.len()
-        ));
+        ))
+        .on_hover_text(
+            "Wall time between two drawn viewer frames: the technique's frame, the reference's \
+             accumulation step while it converges, the display and egui. The table below holds \
+             the technique's own GPU passes only.",
+        );
         if let Some(output) = &self.timing.last_output {
             ui.label(format!(
                 "technique frame CPU wall time {:.1} ms",
                 output.cpu_ms
-            ));
+            ))
+            .on_hover_text(
+                "Wall time of the technique's last frame on the CPU: recording, \
+                 submitting and (with serial timing) waiting for every pass",
+            );
         }
         let source = self.timing.last_output.as_ref().map(|o| o.timing_source);
         if let Some(source) = source {
@@ -62,17 +98,37 @@ impl ViewerApp {
         }
 
         // The cost of computing: what the plot and the benchmark's `timing` use.
-        match self.timing.cost.technique_ms() {
-            Some(ms) if self.timing.cost.len() >= COST_FRAMES => {
+        let wanted = self.timing.cost_frames_wanted();
+        match (
+            self.timing.cost.technique_ms(),
+            self.timing.cost.technique_range(),
+        ) {
+            (Some(ms), Some((lo, hi))) if self.timing.cost.len() >= wanted => {
                 ui.strong(format!("cost of the technique {} ms", format_ms(ms)))
                     .on_hover_text(
                         "median GPU time of the technique's passes over frames rendered with its \
                          kept results dropped (invalidate_cache), as the benchmark's `timing`",
                     );
+                ui.label(format!(
+                    "range {} to {} ms over {} frames",
+                    format_ms(lo),
+                    format_ms(hi),
+                    self.timing.cost.len()
+                ))
+                .on_hover_text(
+                    "the fastest and slowest of the frames the cost rests on: how far a \
+                     re-measurement of the same setting may move",
+                );
+                if self.timing.slow_cost_frames {
+                    ui.small(format!(
+                        "a frame took over {SLOW_COST_FRAME_MS:.0} ms: not repeated {COST_FRAMES} \
+                         times"
+                    ));
+                }
             }
             _ => {
                 ui.label(format!(
-                    "measuring the cost: frame {} of {COST_FRAMES} with caches dropped",
+                    "measuring the cost: frame {} of {wanted} with caches dropped",
                     self.timing.cost.len()
                 ));
             }
@@ -97,10 +153,12 @@ impl ViewerApp {
                 ui.label(format_ms(row.median_ms));
                 ui.end_row();
             }
-            ui.strong("technique");
+            ui.strong("technique")
+                .on_hover_text("the technique's own passes");
             ui.strong(format_ms(self.timing.rolling.technique_ms().unwrap_or(0.0)));
             ui.end_row();
-            ui.strong("frame");
+            ui.strong("frame (GPU passes)")
+                .on_hover_text("G-buffer, technique and shading passes of the technique's frame");
             ui.strong(format_ms(self.timing.rolling.total_ms().unwrap_or(0.0)));
             ui.end_row();
         });
