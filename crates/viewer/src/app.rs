@@ -59,7 +59,7 @@ const COST_FRAMES: usize = 5;
 /// Frame times kept for the frame-time readout.
 const FRAME_TIME_WINDOW: usize = 60;
 /// Width of the left (controls) panel, points.
-pub const LEFT_PANEL_WIDTH: f32 = 250.0;
+pub const LEFT_PANEL_WIDTH: f32 = 300.0;
 /// Width of the right (measurements) panel, points.
 pub const RIGHT_PANEL_WIDTH: f32 = 280.0;
 /// Smallest render edge (the image area can be tiny while a window is being resized).
@@ -302,6 +302,9 @@ impl ViewerApp {
             self.open_scene(&path.display().to_string());
         }
 
+        // "fit" follows the window: its size less the panels' fixed widths.
+        let window = ui.max_rect().size();
+        self.image.fit_size = egui::vec2(window.x - LEFT_PANEL_WIDTH - RIGHT_PANEL_WIDTH, window.y);
         let mut panel_frame = egui::Frame::side_top_panel(ui.style());
         if !self.opaque_panels {
             panel_frame = panel_frame.fill(egui::Color32::TRANSPARENT);

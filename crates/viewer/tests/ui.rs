@@ -719,7 +719,7 @@ fn switching_techniques_and_opening_sections_never_restarts_the_reference() -> R
         harness
             .get_by_role_and_label(Role::ComboBox, "Technique")
             .click();
-        harness.run_steps(1);
+        harness.run_steps(2);
         harness
             .query_all_by_label(id)
             .last()
@@ -734,8 +734,9 @@ fn switching_techniques_and_opening_sections_never_restarts_the_reference() -> R
         harness.run_steps(2);
         check(&harness, &format!("view mode {mode:?}"))?;
     }
-    harness.get_by_label("Save state").click();
-    harness.run_steps(1);
+    harness
+        .state_mut()
+        .save_state(&dir.path().join("saved.json"));
     harness.state_mut().open_scene("no-such-scene");
     harness.run_steps(2);
     check(&harness, "a confirmation and an error")?;
@@ -776,7 +777,7 @@ fn messages_and_legends_leave_the_controls_where_they_were() -> Result<()> {
         .click();
     harness.run_steps(2);
     let before = control_rects(&harness);
-    ensure!(before.len() == 8, "every control found: {before:?}");
+    ensure!(before.len() == 6, "every control found: {before:?}");
     snapshot(&mut harness, "viewer_messages_hidden")?;
 
     harness

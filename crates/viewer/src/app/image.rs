@@ -29,6 +29,9 @@ pub(super) struct ImageState {
     pub(super) debug_message: Option<String>,
     /// A render size chosen by the user (`None`: fit).
     pub(super) render_size: Option<(u32, u32)>,
+    /// The "fit" size, points: the window less the side panels' fixed widths, whatever the
+    /// panels hold.
+    pub(super) fit_size: egui::Vec2,
 }
 
 impl ImageState {
@@ -45,6 +48,7 @@ impl ImageState {
             debug_target: None,
             debug_message: None,
             render_size: None,
+            fit_size: egui::Vec2::ZERO,
         }
     }
 }
@@ -53,16 +57,19 @@ impl ViewerApp {
     /// The image, with camera interaction; returns the render size in pixels.
     pub(super) fn image_ui(&mut self, ui: &mut egui::Ui) -> (u32, u32) {
         self.image.interacting = false;
+        // The visible image area: the central panel may reach under the right panel's margin.
         let area = ui.available_rect_before_wrap();
+        let area = egui::Rect::from_min_size(area.min, area.size().min(self.image.fit_size));
         let ctx = ui.ctx().clone();
         self.overlays_ui(&ctx, area);
         let available = ui.available_size();
         let ppp = ui.ctx().pixels_per_point();
-        // A fixed render size does not follow the panels (opening a section that widens the
-        // left panel would otherwise restart the reference); the image is scaled to fit.
+        // "fit" follows the window only: a size taken from the image area would follow the
+        // panels' content, and every change of it restarts the reference.
+        let fit = self.image.fit_size;
         let (width, height) = self.image.render_size.unwrap_or((
-            ((available.x * ppp).round() as u32).max(MIN_RENDER_EDGE),
-            ((available.y * ppp).round() as u32).max(MIN_RENDER_EDGE),
+            ((fit.x * ppp).round() as u32).max(MIN_RENDER_EDGE),
+            ((fit.y * ppp).round() as u32).max(MIN_RENDER_EDGE),
         ));
         let debug = self.image.view_mode == ViewMode::Debug;
         let texture = if debug {
@@ -74,10 +81,13 @@ impl ViewerApp {
         } else {
             self.image.renderers.as_ref().map(|r| {
                 let size = egui::vec2(r.width as f32, r.height as f32) / ppp;
+                // A fixed size is scaled to fit; "fit" is drawn 1:1 unless the image area is
+                // smaller than the window less the panels.
+                let fits = (available.x / size.x).min(available.y / size.y);
                 let scale = if self.image.render_size.is_some() {
-                    (available.x / size.x).min(available.y / size.y)
+                    fits
                 } else {
-                    1.0
+                    fits.min(1.0)
                 };
                 (r.texture_id, size * scale)
             })

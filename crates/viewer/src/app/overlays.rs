@@ -1,6 +1,7 @@
 //! What appears and goes while the viewer runs, drawn over the image so that no control of the
-//! side panels moves when it appears: errors, warnings and confirmations (bottom left), a
-//! precompute's progress (from [`super::build_panel`]) and the legend of the view mode (top left).
+//! side panels moves when it appears: a precompute's progress (from [`super::build_panel`]),
+//! errors, warnings and confirmations (top left, growing downwards, so their buttons stay put) and
+//! the legend of the view mode (bottom left).
 
 use super::{technique_panel::debug_legend, ViewerApp};
 use crate::display::ViewMode;
@@ -31,11 +32,13 @@ const MARGIN: f32 = 8.0;
 impl ViewerApp {
     /// Draws the overlays over `image`, the image area's rectangle.
     pub(super) fn overlays_ui(&mut self, ctx: &egui::Context, image: egui::Rect) {
-        let width = (image.width() - 2.0 * MARGIN).max(80.0);
+        // The popup frame's own margins come on top of the content's width.
+        let width = (image.width() - 4.0 * MARGIN - 8.0).max(80.0);
         if self.has_legend() {
             egui::Area::new(egui::Id::unique("viewer/legend"))
                 .order(egui::Order::Foreground)
-                .fixed_pos(image.left_top() + egui::vec2(MARGIN, MARGIN))
+                .fixed_pos(image.left_bottom() + egui::vec2(MARGIN, -MARGIN))
+                .pivot(egui::Align2::LEFT_BOTTOM)
                 .constrain_to(image)
                 .show(ctx, |ui| {
                     egui::Frame::popup(ui.style()).show(ui, |ui| {
@@ -47,8 +50,7 @@ impl ViewerApp {
         if self.has_messages() {
             egui::Area::new(egui::Id::unique("viewer/messages"))
                 .order(egui::Order::Foreground)
-                .fixed_pos(image.left_bottom() + egui::vec2(MARGIN, -MARGIN))
-                .pivot(egui::Align2::LEFT_BOTTOM)
+                .fixed_pos(image.left_top() + egui::vec2(MARGIN, MARGIN))
                 .constrain_to(image)
                 .show(ctx, |ui| {
                     egui::Frame::popup(ui.style()).show(ui, |ui| {
