@@ -770,7 +770,9 @@ fn control_rects(harness: &Harness<ViewerApp>) -> Vec<(String, egui::Rect)> {
 /// appear. Snapshots of both states, the measurements panel masked.
 #[test]
 fn messages_and_legends_leave_the_controls_where_they_were() -> Result<()> {
-    let dir = tempfile::tempdir()?;
+    // A fixed folder, not a random temporary one: the confirmation naming it is in the snapshot.
+    let dir = std::env::temp_dir().join("softshadow-viewer-messages-test");
+    std::fs::create_dir_all(&dir)?;
     let mut harness = harness("pcss")?;
     harness
         .get_by_role_and_label(Role::DisclosureTriangle, "Files")
@@ -780,9 +782,7 @@ fn messages_and_legends_leave_the_controls_where_they_were() -> Result<()> {
     ensure!(before.len() == 6, "every control found: {before:?}");
     snapshot(&mut harness, "viewer_messages_hidden")?;
 
-    harness
-        .state_mut()
-        .save_state(&dir.path().join("state.json"));
+    harness.state_mut().save_state(&dir.join("state.json"));
     harness.state_mut().open_scene("no-such-scene");
     harness.get_by_label(ViewMode::Difference.label()).click();
     harness.run_steps(2);

@@ -199,22 +199,18 @@ impl ViewerApp {
             .get("samples_per_axis")
             .and_then(ParamValue::as_f64)
             .unwrap_or(DEFAULT_REFERENCE_SAMPLES as f64) as i64;
-        let waiting = if self.image.interacting {
-            ", waits while the camera moves"
-        } else {
-            ""
-        };
-        ui.add(egui::ProgressBar::new(p.fraction()).text(format!(
-            "reference {} / {} light samples{waiting}",
-            p.done, p.total
-        )))
+        ui.add(
+            egui::ProgressBar::new(p.fraction())
+                .text(format!("reference {} / {} light samples", p.done, p.total)),
+        )
         .on_hover_text(
             "Light samples the reference has accumulated for the current scene, light, camera \
              and size; it restarts when one of them changes",
         );
         let mut new_samples = samples;
         if ui
-            .add(egui::Slider::new(&mut new_samples, 1..=64).text("reference samples per axis"))
+            .add(egui::Slider::new(&mut new_samples, 1..=64).text("samples per axis"))
+            .on_hover_text("light samples per axis of the reference: N x N in all")
             .changed()
         {
             if let Err(e) = self
@@ -443,7 +439,8 @@ pub fn linear_ticks(bounds: (f64, f64), max_ticks: usize) -> Vec<egui_plot::Grid
         .find(|step| *step >= rough)
         .unwrap_or(10.0 * power);
     let first = (bounds.0 / step).ceil() as i64;
-    let last = (bounds.1 / step).floor() as i64;
+    // Not in the last few percent, where its label would be cut at the plot's edge.
+    let last = ((bounds.1 - 0.05 * range) / step).floor() as i64;
     (first..=last)
         .map(|i| egui_plot::GridMark {
             value: i as f64 * step,

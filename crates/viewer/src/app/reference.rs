@@ -88,6 +88,12 @@ impl ViewerApp {
             Ok(_) => {
                 if self.reference.key != Some(key) {
                     self.reference.restarts += 1;
+                    log::info!(
+                        "reference accumulation {} begun at {}x{}",
+                        self.reference.restarts,
+                        r.width,
+                        r.height
+                    );
                 }
                 self.reference.key = Some(key);
                 self.reference.progress = self.reference.yardstick.progress();

@@ -91,7 +91,8 @@ impl ViewerApp {
         let mut tilt = (-d.y).clamp(-1.0, 1.0).asin().to_degrees();
         let mut yaw = d.x.atan2(d.z).to_degrees();
         let tilt_changed = ui
-            .add(egui::Slider::new(&mut tilt, -90.0..=90.0).text("tilt (deg below horizon)"))
+            .add(egui::Slider::new(&mut tilt, -90.0..=90.0).text("tilt (deg)"))
+            .on_hover_text("degrees below the horizon: 90 points straight down")
             .changed();
         let yaw_changed = ui
             .add(egui::Slider::new(&mut yaw, -180.0..=180.0).text("yaw (deg)"))

@@ -75,8 +75,9 @@ impl ViewerApp {
             })
             .response
             .on_hover_text(
-                "A fixed size keeps the reference and the timings when panels open or the \
-                 window is resized; the image is scaled to fit",
+                "fit: the window less the side panels (fixed widths), so only resizing the \
+                 window changes it; a fixed size also keeps the reference and the timings when \
+                 the window is resized, and the image is scaled to fit",
             );
         ui.horizontal_wrapped(|ui| {
             for mode in ViewMode::ALL {

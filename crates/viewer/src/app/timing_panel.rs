@@ -109,12 +109,16 @@ impl ViewerApp {
                         "median GPU time of the technique's passes over frames rendered with its \
                          kept results dropped (invalidate_cache), as the benchmark's `timing`",
                     );
-                ui.label(format!(
-                    "range {} to {} ms over {} frames",
-                    format_ms(lo),
-                    format_ms(hi),
-                    self.timing.cost.len()
-                ))
+                let frames = self.timing.cost.len();
+                ui.label(if frames == 1 {
+                    "one frame: its spread is not known".to_string()
+                } else {
+                    format!(
+                        "range {} to {} ms over {frames} frames",
+                        format_ms(lo),
+                        format_ms(hi)
+                    )
+                })
                 .on_hover_text(
                     "the fastest and slowest of the frames the cost rests on: how far a \
                      re-measurement of the same setting may move",
