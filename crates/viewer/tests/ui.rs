@@ -838,6 +838,12 @@ fn the_plot_keeps_points_across_an_orbit() -> Result<()> {
         harness.hover_at(centre + egui::vec2(15.0 * step as f32, 0.0));
         harness.step();
     }
+    // The reference waits while the camera moves: the new view has none of its samples (the
+    // old view's full count is not shown as this one's).
+    ensure!(harness.state().stale_metrics().is_some());
+    harness
+        .query_by_label_contains("reference 0 / 16 light samples")
+        .context("the moved view's progress starts at 0")?;
     harness.event(egui::Event::PointerButton {
         pos: centre + egui::vec2(45.0, 0.0),
         button: egui::PointerButton::Primary,
