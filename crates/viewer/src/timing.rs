@@ -67,6 +67,15 @@ impl RollingTimings {
         (!self.frames.is_empty()).then(|| median(self.frames.iter().map(|f| f.total_ms)))
     }
 
+    /// Smallest and largest GPU time of the technique's own passes over the window: how noisy
+    /// its median is.
+    pub fn technique_range(&self) -> Option<(f64, f64)> {
+        let times = self.frames.iter().map(|f| f.technique_ms());
+        let lo = times.clone().fold(f64::INFINITY, f64::min);
+        let hi = times.fold(f64::NEG_INFINITY, f64::max);
+        (!self.frames.is_empty() && lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+    }
+
     /// Median GPU time of the technique's own passes.
     pub fn technique_ms(&self) -> Option<f64> {
         (!self.frames.is_empty()).then(|| median(self.frames.iter().map(|f| f.technique_ms())))
@@ -111,6 +120,7 @@ mod tests {
         assert_eq!(rows[1].name, "pcss/filter");
         assert_eq!(rows[1].median_ms, 2.0);
         assert_eq!(t.technique_ms(), Some(2.0));
+        assert_eq!(t.technique_range(), Some((1.0, 100.0)));
         for _ in 0..WINDOW {
             t.push(frame(&[("gbuffer", 1.0), ("hard/lookup", 5.0)]));
         }

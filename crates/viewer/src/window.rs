@@ -51,7 +51,8 @@ pub struct ViewSummary {
     /// Mean frame time once the reference had converged (only the technique renders), ms.
     pub converged_mean_frame_ms: Option<f64>,
     pub adapter: String,
-    /// Technique passes' median GPU time at the end, ms.
+    /// Technique passes' median GPU time at the end, ms; when the last frames ran none of the
+    /// technique's passes (a kept result, as the reference's), its cost of computing instead.
     pub technique_gpu_ms: Option<f64>,
     /// Light samples of the reference done / total at the end.
     pub reference_progress: (u32, u32),
@@ -386,7 +387,8 @@ impl Handler {
             .iter()
             .filter(|r| !softshadow_core::renderer::is_core_pass(&r.name))
             .map(|r| r.median_ms)
-            .reduce(|a, b| a + b);
+            .reduce(|a, b| a + b)
+            .or(running.app.cost_ms());
         if last_frame {
             let errors = running.app.errors();
             if let Some(error) = running

@@ -630,6 +630,362 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
     Ok(())
 }
 
+/// Small settings for the slow techniques, so a test that visits every technique stays short.
+fn small_settings(
+) -> std::collections::BTreeMap<String, std::collections::BTreeMap<String, ParamValue>> {
+    let mut settings = std::collections::BTreeMap::new();
+    let mut set = |technique: &str, values: &[(&str, ParamValue)]| {
+        settings.insert(
+            technique.to_string(),
+            values
+                .iter()
+                .map(|(name, value)| (name.to_string(), value.clone()))
+                .collect(),
+        );
+    };
+    set(
+        "reference",
+        &[
+            ("samples_per_axis", ParamValue::Int(4)),
+            ("shadow_map_size", ParamValue::Int(256)),
+        ],
+    );
+    set(
+        "pdsm",
+        &[
+            ("pdsm_size", ParamValue::Int(32)),
+            ("samples", ParamValue::Int(4)),
+            ("shadow_map_size", ParamValue::Int(128)),
+            ("disk_cache", ParamValue::Bool(false)),
+        ],
+    );
+    set("bitmask", &[("shadow_map_size", ParamValue::Int(256))]);
+    set(
+        "backprojection",
+        &[("shadow_map_size", ParamValue::Int(256))],
+    );
+    set(
+        "adaptive",
+        &[
+            ("shadow_map_size", ParamValue::Int(128)),
+            ("max_shadow_maps", ParamValue::Int(8)),
+        ],
+    );
+    settings
+}
+
+/// Issue 31: the render size follows the window only (the side panels have fixed widths), so
+/// switching through every technique with the picker, opening every section, every view mode,
+/// a confirmation and an error never restart the reference.
+#[test]
+fn switching_techniques_and_opening_sections_never_restarts_the_reference() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let mut harness = harness("hard")?;
+    let mut state = harness.state().state();
+    state.params = small_settings();
+    let state_path = dir.path().join("state.json");
+    state.save(&state_path)?;
+    harness.state_mut().load_state(&state_path);
+    run_until_converged(&mut harness)?;
+    let size = harness.state().render_size().context("rendered")?;
+    let accumulations = harness.state().reference_accumulations();
+    let check = |h: &Harness<ViewerApp>, what: &str| -> Result<()> {
+        ensure!(
+            h.state().render_size() == Some(size),
+            "{what}: render size {:?}, was {size:?}",
+            h.state().render_size()
+        );
+        ensure!(
+            h.state().reference_accumulations() == accumulations
+                && h.state().reference_progress().is_complete(),
+            "{what}: the reference restarted ({} accumulations, was {accumulations}; {:?})",
+            h.state().reference_accumulations(),
+            h.state().reference_progress()
+        );
+        Ok(())
+    };
+    for section in ["Scene", "Light", "Camera", "Files"] {
+        harness
+            .get_by_role_and_label(Role::DisclosureTriangle, section)
+            .click();
+        harness.run_steps(2);
+        check(&harness, &format!("opening {section}"))?;
+    }
+    let ids: Vec<String> = softshadow::registry()
+        .iter()
+        .map(|t| t.id.to_string())
+        .collect();
+    for id in &ids {
+        harness
+            .get_by_role_and_label(Role::ComboBox, "Technique")
+            .click();
+        harness.run_steps(2);
+        harness
+            .query_all_by_label(id)
+            .last()
+            .with_context(|| format!("{id} in the picker"))?
+            .click();
+        harness.run_steps(3);
+        ensure!(harness.state().technique_id() == id, "picked {id}");
+        check(&harness, &format!("switching to {id}"))?;
+    }
+    for mode in ViewMode::ALL {
+        harness.get_by_label(mode.label()).click();
+        harness.run_steps(2);
+        check(&harness, &format!("view mode {mode:?}"))?;
+    }
+    harness
+        .state_mut()
+        .save_state(&dir.path().join("saved.json"));
+    harness.state_mut().open_scene("no-such-scene");
+    harness.run_steps(2);
+    check(&harness, "a confirmation and an error")?;
+    Ok(())
+}
+
+/// The rectangles of the left panel's controls, by label.
+fn control_rects(harness: &Harness<ViewerApp>) -> Vec<(String, egui::Rect)> {
+    [
+        "Technique",
+        "Defaults",
+        "render size",
+        "Light",
+        "Camera",
+        "Files",
+        "Save state",
+        "Load",
+    ]
+    .into_iter()
+    .filter_map(|label| {
+        harness
+            .query_all_by_label(label)
+            .find(|n| n.rect().left() < SIZE.x * 0.3)
+            .map(|n| (label.to_string(), n.rect()))
+    })
+    .collect()
+}
+
+/// Issue 31: a confirmation, an error, a view mode's legend and its own control take space of
+/// their own (over the image, or a reserved row): no control of the left panel moves when they
+/// appear. Snapshots of both states, the measurements panel masked.
+#[test]
+fn messages_and_legends_leave_the_controls_where_they_were() -> Result<()> {
+    // A fixed folder, not a random temporary one: the confirmation naming it is in the snapshot.
+    let dir = std::env::temp_dir().join("softshadow-viewer-messages-test");
+    std::fs::create_dir_all(&dir)?;
+    let mut harness = harness("pcss")?;
+    harness
+        .get_by_role_and_label(Role::DisclosureTriangle, "Files")
+        .click();
+    harness.run_steps(2);
+    let before = control_rects(&harness);
+    ensure!(before.len() == 6, "every control found: {before:?}");
+    snapshot(&mut harness, "viewer_messages_hidden")?;
+
+    harness.state_mut().save_state(&dir.join("state.json"));
+    harness.state_mut().open_scene("no-such-scene");
+    harness.get_by_label(ViewMode::Difference.label()).click();
+    harness.run_steps(2);
+    harness
+        .query_by_label_contains("saved the state to")
+        .context("the confirmation is shown")?;
+    harness
+        .query_by_label_contains("no-such-scene")
+        .context("the error is shown")?;
+    harness
+        .query_by_label_contains("too dark")
+        .context("the difference legend is shown")?;
+    ensure!(
+        control_rects(&harness) == before,
+        "{:?}\nvs\n{before:?}",
+        control_rects(&harness)
+    );
+    snapshot(&mut harness, "viewer_messages_shown")?;
+
+    // The split view's divider and the debug view's picker share one reserved row.
+    for mode in [ViewMode::Split, ViewMode::Debug, ViewMode::Shaded] {
+        harness.get_by_label(mode.label()).click();
+        harness.run_steps(2);
+        ensure!(
+            control_rects(&harness) == before,
+            "{mode:?}: {:?}",
+            control_rects(&harness)
+        );
+    }
+    Ok(())
+}
+
+/// Issue 31: the plot keeps its points per scene, light and camera: an orbit starts an empty
+/// view and keeps the earlier one's point, which the checkbox shows.
+#[test]
+fn the_plot_keeps_points_across_an_orbit() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.run_steps(2);
+    ensure!(
+        harness.state().points().len() == 1,
+        "{:?}",
+        harness.state().points()
+    );
+    let centre = egui::pos2(250.0 + 100.0, SIZE.y * 0.5);
+    harness.hover_at(centre);
+    harness.event(egui::Event::PointerButton {
+        pos: centre,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    for step in 1..=3 {
+        harness.hover_at(centre + egui::vec2(15.0 * step as f32, 0.0));
+        harness.step();
+    }
+    // The reference waits while the camera moves: the new view has none of its samples (the
+    // old view's full count is not shown as this one's).
+    ensure!(harness.state().stale_metrics().is_some());
+    harness
+        .query_by_label_contains("reference 0 / 16 light samples")
+        .context("the moved view's progress starts at 0")?;
+    harness.event(egui::Event::PointerButton {
+        pos: centre + egui::vec2(45.0, 0.0),
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: egui::Modifiers::NONE,
+    });
+    harness.step();
+    ensure!(
+        harness.state().points_of_other_views() == 1,
+        "the first view's point is kept"
+    );
+    run_until_converged(&mut harness)?;
+    harness.run_steps(6);
+    ensure!(
+        harness.state().points().len() == 1 && harness.state().points_of_other_views() == 1,
+        "a point for the new camera beside the old one: {:?}",
+        harness.state().points()
+    );
+    harness
+        .get_by_label_contains("show 1 points of 1 other views")
+        .click();
+    harness.run_steps(1);
+    ensure!(
+        harness.state().errors().is_empty(),
+        "{:?}",
+        harness.state().errors()
+    );
+    Ok(())
+}
+
+/// `hard`, sleeping in every frame: a technique whose frame takes more than a second.
+struct Sleepy {
+    inner: Box<dyn softshadow_core::ShadowTechnique>,
+    sleep: std::time::Duration,
+    /// Frames rendered with the caches dropped (the cost frames).
+    cost_frames: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    cache_dropped: bool,
+}
+
+impl softshadow_core::ShadowTechnique for Sleepy {
+    fn id(&self) -> &str {
+        "sleepy"
+    }
+    fn settings(&self) -> &dyn softshadow_core::TechniqueSettings {
+        self.inner.settings()
+    }
+    fn settings_mut(&mut self) -> &mut dyn softshadow_core::TechniqueSettings {
+        self.inner.settings_mut()
+    }
+    fn requirements(&self) -> softshadow_core::Requirements {
+        self.inner.requirements()
+    }
+    fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        inputs: &softshadow_core::ShadowInputs<'_>,
+    ) -> Result<(), softshadow_core::TechniqueError> {
+        self.inner.prepare(gpu, inputs)
+    }
+    fn invalidate_cache(&mut self) {
+        self.cache_dropped = true;
+        self.inner.invalidate_cache();
+    }
+    fn render(
+        &mut self,
+        frame: &mut softshadow_core::Frame<'_>,
+        inputs: &softshadow_core::ShadowInputs<'_>,
+        out: &softshadow_core::VisibilityBuffer,
+    ) -> Result<(), softshadow_core::TechniqueError> {
+        if std::mem::take(&mut self.cache_dropped) {
+            self.cost_frames
+                .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        }
+        std::thread::sleep(self.sleep);
+        self.inner.render(frame, inputs, out)
+    }
+}
+
+/// Issue 31: a frame slower than a second is measured once, not five times (five frames of the
+/// reference technique froze the viewer for three minutes), and its point still appears.
+#[test]
+fn a_slow_frame_is_measured_once() -> Result<()> {
+    let cost_frames = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let hard = softshadow::registry()
+        .get("hard")
+        .context("hard is built in")?
+        .clone();
+    let counter = cost_frames.clone();
+    let create = hard.create.clone();
+    let sleepy = softshadow_core::TechniqueInfo::new(
+        "sleepy",
+        "hard, sleeping 1.1 s per frame",
+        "test",
+        hard.params.clone(),
+        move |gpu| {
+            Ok(Box::new(Sleepy {
+                inner: create(gpu)?,
+                sleep: std::time::Duration::from_millis(1100),
+                cost_frames: counter.clone(),
+                cache_dropped: false,
+            }) as Box<dyn softshadow_core::ShadowTechnique>)
+        },
+    );
+    let mut registry = softshadow::registry();
+    registry.add(sleepy)?;
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut app = ViewerApp::new(
+        gpu,
+        render_state.renderer.clone(),
+        &ViewerOptions {
+            registry,
+            scene: "atty-square".into(),
+            technique: "sleepy".into(),
+            ..ViewerOptions::default()
+        },
+    )?;
+    app.set_reference_param("samples_per_axis", ParamValue::Int(4));
+    app.set_reference_param("shadow_map_size", ParamValue::Int(256));
+    let mut harness = Harness::builder()
+        .with_size(SIZE)
+        .renderer(WgpuTestRenderer::from_render_state(render_state))
+        .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
+    harness.run_steps(2);
+    let frames = cost_frames.load(std::sync::atomic::Ordering::SeqCst);
+    ensure!(frames == 1, "{frames} frames with the caches dropped");
+    ensure!(
+        harness.state().points().len() == 1,
+        "{:?}",
+        harness.state().points()
+    );
+    harness
+        .query_by_label_contains("not repeated")
+        .context("the panel says why the cost rests on one frame")?;
+    // Switching away: the next frame is the other technique's.
+    harness.state_mut().select_technique("hard");
+    harness.step();
+    ensure!(harness.state().technique_id() == "hard");
+    ensure!(cost_frames.load(std::sync::atomic::Ordering::SeqCst) == 1);
+    Ok(())
+}
+
 /// `pcf.wgsl` of `examples/wgsl/`.
 fn pcf_example() -> Result<String> {
     let path =

@@ -56,36 +56,39 @@ impl BuildState {
 impl ViewerApp {
     /// `(done, total)` units of the precompute building off the UI thread, if one is.
     pub fn build_progress(&self) -> Option<(u32, u32)> {
-        self.build.running.map(|(done, total, _)| (done, total))
+        self.technique
+            .build
+            .running
+            .map(|(done, total, _)| (done, total))
     }
 
     /// Whether the last frame found the precompute cancelled.
     pub fn build_cancelled(&self) -> bool {
-        self.build.cancelled
+        self.technique.build.cancelled
     }
 
     /// Stops the running precompute (the Cancel button); the technique fails with "cancelled"
     /// until [`ViewerApp::build_again`].
     pub fn cancel_build(&mut self) {
-        self.build.control.cancel();
+        self.technique.build.control.cancel();
     }
 
     /// Clears the cancel flag: the next frame builds again (the Build again button).
     pub fn build_again(&mut self) {
-        self.build.control.clear_cancel();
-        self.build.cancelled = false;
+        self.technique.build.control.clear_cancel();
+        self.technique.build.cancelled = false;
     }
 
     pub(super) fn build_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some((done, total, unit)) = self.build.running {
+        if let Some((done, total, unit)) = self.technique.build.running {
             let fraction = if total == 0 {
                 0.0
             } else {
                 done as f32 / total as f32
             };
-            let cancelling = self.build.control.is_cancelled();
+            let cancelling = self.technique.build.control.is_cancelled();
             ui.group(|ui| {
-                ui.label(format!("{}: building its precompute", self.technique_id));
+                ui.label(format!("{}: building its precompute", self.technique.id));
                 ui.add(egui::ProgressBar::new(fraction).text(format!(
                     "{:.0} % ({done} of {total} {unit})",
                     fraction * 100.0
@@ -103,9 +106,9 @@ impl ViewerApp {
                 });
                 ui.weak("The frame is drawn, timed and plotted once it is done.");
             });
-        } else if self.build.cancelled {
+        } else if self.technique.build.cancelled {
             ui.group(|ui| {
-                ui.label(format!("{}: precompute cancelled", self.technique_id));
+                ui.label(format!("{}: precompute cancelled", self.technique.id));
                 if ui.button("Build again").clicked() {
                     self.build_again();
                 }

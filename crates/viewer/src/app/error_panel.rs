@@ -10,7 +10,11 @@ use softshadow_metrics::ErrorReport;
 use super::{format_ms, ViewerApp, DEFAULT_REFERENCE_SAMPLES};
 use crate::tradeoff::{pareto_front, TradeoffPoint};
 
-/// Colours told apart on the dark theme (Okabe and Ito's colour-blind-safe set, plus two).
+#[cfg(test)]
+mod tests;
+
+/// Colours told apart on the dark theme (Okabe and Ito's colour-blind-safe set, plus two), in an
+/// order where the first eight (the built-ins) hold no two near blues.
 const SERIES_COLOURS: [egui::Color32; 10] = [
     egui::Color32::from_rgb(230, 159, 0),
     egui::Color32::from_rgb(86, 180, 233),
@@ -18,10 +22,10 @@ const SERIES_COLOURS: [egui::Color32; 10] = [
     egui::Color32::from_rgb(240, 228, 66),
     egui::Color32::from_rgb(213, 94, 0),
     egui::Color32::from_rgb(204, 121, 167),
-    egui::Color32::from_rgb(0, 114, 178),
-    egui::Color32::from_rgb(170, 170, 170),
-    egui::Color32::from_rgb(255, 120, 120),
     egui::Color32::from_rgb(160, 120, 255),
+    egui::Color32::from_rgb(170, 170, 170),
+    egui::Color32::from_rgb(0, 114, 178),
+    egui::Color32::from_rgb(255, 120, 120),
 ];
 
 /// Markers, so two techniques differ in shape as well as colour.
@@ -119,27 +123,99 @@ pub fn fitted_bounds(points: &[[f64; 2]], log_x: bool) -> ([f64; 2], [f64; 2]) {
     }
 }
 
+/// The points measured from one scene, light and camera (errors of other views are not
+/// comparable: another camera sees other pixels).
+pub(super) struct ViewPoints {
+    /// Scene, light and camera ([`ViewerApp::current_view_key`]); not the size or the
+    /// reference's samples: errors are per-pixel means, comparable across both.
+    pub(super) key: u64,
+    pub(super) points: Vec<TradeoffPoint>,
+}
+
+/// The error-against-time plot's points, per view, and its options.
+pub(super) struct PlotState {
+    /// Every view a point was measured from, in the order first measured: moving the camera
+    /// deletes nothing.
+    pub(super) views: Vec<ViewPoints>,
+    /// Also draw the other views' points (hollow).
+    pub(super) show_other_views: bool,
+    /// The time axis is log10(ms).
+    pub(super) log_time_axis: bool,
+    /// Where "Export sweep" writes.
+    pub(super) export_path: String,
+}
+
+impl Default for PlotState {
+    fn default() -> Self {
+        Self {
+            views: Vec::new(),
+            show_other_views: false,
+            log_time_axis: false,
+            export_path: "viewer-sweep.toml".into(),
+        }
+    }
+}
+
+impl PlotState {
+    /// The points of the view `key` (none yet: empty).
+    pub(super) fn points_of(&self, key: u64) -> &[TradeoffPoint] {
+        self.views
+            .iter()
+            .find(|v| v.key == key)
+            .map_or(&[][..], |v| &v.points)
+    }
+
+    /// Adds a point to the view `key`, replacing that view's point of the same setting.
+    pub(super) fn insert(&mut self, key: u64, point: TradeoffPoint) {
+        let index = match self.views.iter().position(|v| v.key == key) {
+            Some(index) => index,
+            None => {
+                self.views.push(ViewPoints {
+                    key,
+                    points: Vec::new(),
+                });
+                self.views.len() - 1
+            }
+        };
+        let points = &mut self.views[index].points;
+        match points
+            .iter_mut()
+            .find(|p| p.same_setting(&point.technique, &point.params))
+        {
+            Some(existing) => *existing = point,
+            None => points.push(point),
+        }
+    }
+}
+
 impl ViewerApp {
     pub(super) fn reference_error_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Error against the reference");
-        let p = self.reference_progress;
+        let p = self.shown_reference_progress();
         let samples = self
             .reference
+            .yardstick
             .params()
             .get("samples_per_axis")
             .and_then(ParamValue::as_f64)
             .unwrap_or(DEFAULT_REFERENCE_SAMPLES as f64) as i64;
-        ui.add(egui::ProgressBar::new(p.fraction()).text(format!(
-            "reference {} / {} light samples ({samples} x {samples})",
-            p.done, p.total
-        )));
+        ui.add(
+            egui::ProgressBar::new(p.fraction())
+                .text(format!("reference {} / {} light samples", p.done, p.total)),
+        )
+        .on_hover_text(
+            "Light samples the reference has accumulated for the current scene, light, camera \
+             and size; it restarts when one of them changes",
+        );
         let mut new_samples = samples;
         if ui
-            .add(egui::Slider::new(&mut new_samples, 1..=64).text("reference samples per axis"))
+            .add(egui::Slider::new(&mut new_samples, 1..=64).text("samples per axis"))
+            .on_hover_text("light samples per axis of the reference: N x N in all")
             .changed()
         {
             if let Err(e) = self
                 .reference
+                .yardstick
                 .set_param("samples_per_axis", ParamValue::Int(new_samples))
             {
                 self.report_error(e.to_string());
@@ -178,10 +254,33 @@ impl ViewerApp {
             "One point per technique setting measured for this scene, light and camera (time: \
              the cost of computing, caches dropped); the Pareto front is the line.",
         );
-        ui.checkbox(&mut self.log_time_axis, "log time axis");
-        let log_x = self.log_time_axis;
+        let view = self.current_view_key();
+        let points: Vec<TradeoffPoint> = self.plot.points_of(view).to_vec();
+        let other_views = self.plot.views.iter().filter(|v| v.key != view);
+        let other_view_count = other_views.clone().count();
+        let other_count: usize = other_views.clone().map(|v| v.points.len()).sum();
+        let others: Vec<TradeoffPoint> = if self.plot.show_other_views {
+            other_views.flat_map(|v| v.points.iter().cloned()).collect()
+        } else {
+            Vec::new()
+        };
+        ui.horizontal_wrapped(|ui| {
+            ui.checkbox(&mut self.plot.log_time_axis, "log time axis");
+            ui.add_enabled(
+                other_count > 0,
+                egui::Checkbox::new(
+                    &mut self.plot.show_other_views,
+                    format!("show {other_count} points of {other_view_count} other views"),
+                ),
+            )
+            .on_hover_text(
+                "Points measured from another camera, light or scene, drawn hollow: kept when \
+                 the camera moves, but their errors are of other pixels",
+            );
+        });
+        let log_x = self.plot.log_time_axis;
         let x_of = move |ms: f64| if log_x { ms.max(1e-3).log10() } else { ms };
-        let front = pareto_front(&self.points);
+        let front = pareto_front(&points);
         let defaults: BTreeMap<&str, Vec<(String, ParamValue)>> = self
             .registry
             .iter()
@@ -195,9 +294,9 @@ impl ViewerApp {
                 )
             })
             .collect();
-        let all: Vec<[f64; 2]> = self
-            .points
+        let all: Vec<[f64; 2]> = points
             .iter()
+            .chain(&others)
             .map(|p| [x_of(p.gpu_ms), p.error])
             .collect();
         let (x_range, y_range) = fitted_bounds(&all, log_x);
@@ -215,8 +314,14 @@ impl ViewerApp {
             .allow_scroll(false);
         if log_x {
             plot = plot.x_axis_formatter(|mark, _| format_log_ms(mark.value));
+        } else {
+            // Few enough ticks that egui_plot has room to label each (its default spacing
+            // labelled only "0" on this narrow plot).
+            plot = plot
+                .x_grid_spacer(|input| linear_ticks(input.bounds, TIME_TICKS))
+                .x_axis_formatter(|mark, _| format_tick(mark.value));
         }
-        let series = techniques_with_points(&self.registry, &self.points);
+        let series = techniques_with_points(&self.registry, &points, &others);
         plot.show(ui, |plot| {
             plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(
                 [x_range[0], y_range[0]],
@@ -225,7 +330,7 @@ impl ViewerApp {
             if !front.is_empty() {
                 let line: Vec<[f64; 2]> = front
                     .iter()
-                    .map(|&i| [x_of(self.points[i].gpu_ms), self.points[i].error])
+                    .map(|&i| [x_of(points[i].gpu_ms), points[i].error])
                     .collect();
                 plot.line(
                     egui_plot::Line::new("Pareto front", line)
@@ -235,19 +340,30 @@ impl ViewerApp {
             }
             for (index, id) in &series {
                 let (colour, shape) = series_style(*index);
-                let data: Vec<[f64; 2]> = self
-                    .points
-                    .iter()
-                    .filter(|p| p.technique == *id)
-                    .map(|p| [x_of(p.gpu_ms), p.error])
-                    .collect();
+                let of = |points: &[TradeoffPoint]| -> Vec<[f64; 2]> {
+                    points
+                        .iter()
+                        .filter(|p| p.technique == *id)
+                        .map(|p| [x_of(p.gpu_ms), p.error])
+                        .collect()
+                };
                 plot.points(
-                    egui_plot::Points::new(*id, data)
+                    egui_plot::Points::new(*id, of(&points))
                         .radius(5.0)
                         .shape(shape)
                         .filled(true)
                         .color(colour),
                 );
+                let other = of(&others);
+                if !other.is_empty() {
+                    plot.points(
+                        egui_plot::Points::new(format!("{id} (other views)"), other)
+                            .radius(5.0)
+                            .shape(shape)
+                            .filled(false)
+                            .color(colour.gamma_multiply(0.7)),
+                    );
+                }
             }
         });
         // The legend, outside the data.
@@ -269,7 +385,7 @@ impl ViewerApp {
             }
         });
         for &i in &front {
-            let p = &self.points[i];
+            let p = &points[i];
             let label = p.label(defaults.get(p.technique.as_str()).map_or(&[][..], |d| d));
             ui.small(format!(
                 "front: {label}: {} ms, {:.4}",
@@ -278,13 +394,13 @@ impl ViewerApp {
             ));
         }
         ui.horizontal(|ui| {
-            ui.add(egui::TextEdit::singleline(&mut self.export_path).desired_width(150.0));
+            ui.add(egui::TextEdit::singleline(&mut self.plot.export_path).desired_width(140.0));
             if ui
-                .add_enabled(!self.points.is_empty(), egui::Button::new("Export sweep"))
+                .add_enabled(!points.is_empty(), egui::Button::new("Export sweep"))
                 .on_hover_text("Writes the points as a sweep file for `workbench bench --sweep`")
                 .clicked()
             {
-                let path = PathBuf::from(self.export_path.trim());
+                let path = PathBuf::from(self.plot.export_path.trim());
                 self.export_sweep(&path);
             }
         });
@@ -295,13 +411,55 @@ impl ViewerApp {
 fn techniques_with_points<'a>(
     registry: &'a softshadow_core::Registry,
     points: &[TradeoffPoint],
+    others: &[TradeoffPoint],
 ) -> Vec<(usize, &'a str)> {
     registry
         .iter()
         .enumerate()
-        .filter(|(_, t)| points.iter().any(|p| p.technique == t.id))
+        .filter(|(_, t)| points.iter().chain(others).any(|p| p.technique == t.id))
         .map(|(i, t)| (i, t.id.as_ref()))
         .collect()
+}
+
+/// Ticks of the linear time axis at most.
+const TIME_TICKS: usize = 3;
+
+/// Grid marks of a linear axis over `bounds`: at most `max_ticks` at a round step (1, 2 or 5
+/// times a power of ten), so that each has room for its label.
+pub fn linear_ticks(bounds: (f64, f64), max_ticks: usize) -> Vec<egui_plot::GridMark> {
+    let range = bounds.1 - bounds.0;
+    if !(range.is_finite() && range > 0.0) || max_ticks == 0 {
+        return Vec::new();
+    }
+    let rough = range / max_ticks as f64;
+    let power = 10f64.powf(rough.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|step| *step >= rough)
+        .unwrap_or(10.0 * power);
+    let first = (bounds.0 / step).ceil() as i64;
+    // Not in the last few percent, where its label would be cut at the plot's edge.
+    let last = ((bounds.1 - 0.05 * range) / step).floor() as i64;
+    (first..=last)
+        .map(|i| egui_plot::GridMark {
+            value: i as f64 * step,
+            step_size: step,
+        })
+        .collect()
+}
+
+/// Tick label of a linear ms axis: whole numbers from 10 ms up, otherwise as few decimals as
+/// the value needs.
+pub fn format_tick(ms: f64) -> String {
+    if ms.abs() < 1e-9 {
+        "0".into()
+    } else if ms.abs() >= 10.0 {
+        format!("{ms:.0}")
+    } else {
+        let text = format!("{ms:.3}");
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
 }
 
 /// Tick label of a log10(ms) axis: whole decades read "1 ms", "10 ms", others nothing.

@@ -30,7 +30,7 @@ impl FileReload {
 impl ViewerApp {
     /// Polls the active technique's file; once per frame.
     pub(super) fn reload_technique_file(&mut self) {
-        let id = self.technique_id.clone();
+        let id = self.technique.id.clone();
         let Some(path) = self.registry.get(&id).and_then(softshadow_wgsl::file_of) else {
             self.file_reload = FileReload::default();
             return;
@@ -55,13 +55,15 @@ impl ViewerApp {
         };
         // The old version's points stay on the plot under their own name.
         let old_name = format!("{id} v{}", self.file_reload.version);
-        for point in self.points.iter_mut().filter(|p| p.technique == id) {
-            point.technique = old_name.clone();
+        for view in &mut self.plot.views {
+            for point in view.points.iter_mut().filter(|p| p.technique == id) {
+                point.technique = old_name.clone();
+            }
         }
         self.file_reload.version += 1;
         self.file_reload.error = None;
         // Settings of parameters the new version no longer declares (or with another range) go.
-        if let Some(saved) = self.settings.get_mut(&id) {
+        if let Some(saved) = self.technique.settings.get_mut(&id) {
             saved.retain(|name, value| {
                 info.param(name)
                     .is_ok_and(|spec| spec.check(value.clone()).is_ok())
@@ -80,7 +82,7 @@ impl ViewerApp {
         }
         self.select_technique(&id);
         // Same id and parameters, another shader: measure it afresh.
-        self.setting_key = None;
-        self.measured = None;
+        self.timing.setting_key = None;
+        self.reference.measured = None;
     }
 }

@@ -1,18 +1,41 @@
 //! The left panel's scene, light and camera sections.
 
-use softshadow_core::glam::Vec3;
+use softshadow_core::{glam::Vec3, scene::Fnv1a, AreaLight, Camera, Gpu, Scene, SceneGpu};
 
-use super::ViewerApp;
+use super::{ViewerApp, ViewerError};
+use crate::orbit::Orbit;
+
+/// The scene with its camera and light: what is looked at, and from where.
+pub(super) struct SceneState {
+    pub(super) loaded: LoadedScene,
+    pub(super) camera: Camera,
+    pub(super) orbit: Orbit,
+    pub(super) light: AreaLight,
+    /// The "Open" field's text.
+    pub(super) path_field: String,
+}
+
+impl SceneState {
+    pub(super) fn new(loaded: LoadedScene, camera: Camera, light: AreaLight) -> Self {
+        Self {
+            loaded,
+            orbit: Orbit::from_camera(&camera),
+            camera,
+            light,
+            path_field: String::new(),
+        }
+    }
+}
 
 impl ViewerApp {
     pub(super) fn scene_ui(&mut self, ui: &mut egui::Ui) {
         let mut open = None;
         egui::ComboBox::from_label("Scene")
-            .selected_text(self.scene.spec.clone())
+            .selected_text(self.scene.loaded.spec.clone())
             .show_ui(ui, |ui| {
                 for info in softshadow_scenes::builtin_scenes() {
                     if ui
-                        .selectable_label(self.scene.spec == info.id, info.id)
+                        .selectable_label(self.scene.loaded.spec == info.id, info.id)
                         .on_hover_text(info.description)
                         .clicked()
                     {
@@ -22,25 +45,29 @@ impl ViewerApp {
             });
         ui.horizontal(|ui| {
             let field = ui.add(
-                egui::TextEdit::singleline(&mut self.scene_path)
+                egui::TextEdit::singleline(&mut self.scene.path_field)
                     .hint_text("scene.toml / model.glb")
                     .desired_width(170.0),
             );
             // Enter in the field opens, as the Open button does.
             let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-            if (ui.button("Open").clicked() || entered) && !self.scene_path.trim().is_empty() {
-                open = Some(self.scene_path.trim().to_string());
+            if (ui.button("Open").clicked() || entered) && !self.scene.path_field.trim().is_empty()
+            {
+                open = Some(self.scene.path_field.trim().to_string());
             }
         });
         ui.small("Or drop a .toml / .gltf / .glb file on the window.");
-        ui.label(format!("{} triangles", self.scene.scene.triangle_count()));
+        ui.label(format!(
+            "{} triangles",
+            self.scene.loaded.scene.triangle_count()
+        ));
         if let Some(spec) = open {
             self.open_scene(&spec);
         }
     }
 
     pub(super) fn light_ui(&mut self, ui: &mut egui::Ui) {
-        let light = &mut self.light;
+        let light = &mut self.scene.light;
         ui.horizontal(|ui| {
             ui.label("position");
             ui.add(
@@ -64,7 +91,8 @@ impl ViewerApp {
         let mut tilt = (-d.y).clamp(-1.0, 1.0).asin().to_degrees();
         let mut yaw = d.x.atan2(d.z).to_degrees();
         let tilt_changed = ui
-            .add(egui::Slider::new(&mut tilt, -90.0..=90.0).text("tilt (deg below horizon)"))
+            .add(egui::Slider::new(&mut tilt, -90.0..=90.0).text("tilt (deg)"))
+            .on_hover_text("degrees below the horizon: 90 points straight down")
             .changed();
         let yaw_changed = ui
             .add(egui::Slider::new(&mut yaw, -180.0..=180.0).text("yaw (deg)"))
@@ -77,20 +105,78 @@ impl ViewerApp {
         ui.add(egui::Slider::new(&mut light.height, 0.0..=4.0).text("height"));
         ui.add(egui::Slider::new(&mut light.intensity, 0.0..=4.0).text("intensity"));
         if ui.button("Reset light").clicked() {
-            self.light = self.scene.scene.light;
+            self.scene.light = self.scene.loaded.scene.light;
         }
     }
 
     pub(super) fn camera_ui(&mut self, ui: &mut egui::Ui) {
         ui.small("Image: left drag orbits, right or middle drag pans, scroll zooms.");
-        ui.add(egui::Slider::new(&mut self.camera.fov_y_degrees, 10.0..=120.0).text("fov (deg)"));
         ui.add(
-            egui::Slider::new(&mut self.orbit.distance, 0.1..=100.0)
+            egui::Slider::new(&mut self.scene.camera.fov_y_degrees, 10.0..=120.0).text("fov (deg)"),
+        );
+        ui.add(
+            egui::Slider::new(&mut self.scene.orbit.distance, 0.1..=100.0)
                 .logarithmic(true)
                 .text("distance"),
         );
         if ui.button("Reset camera and light").clicked() {
             self.reset_view();
         }
+    }
+}
+
+pub(super) struct LoadedScene {
+    pub(super) spec: String,
+    pub(super) scene: Scene,
+    pub(super) gpu: SceneGpu,
+    pub(super) warnings: Vec<String>,
+}
+
+pub(super) fn load_scene(gpu: &Gpu, spec: &str) -> Result<LoadedScene, ViewerError> {
+    let loaded = softshadow_scenes::load(spec)?;
+    let scene_gpu = SceneGpu::upload(gpu, &loaded.scene);
+    Ok(LoadedScene {
+        spec: spec.trim().to_string(),
+        gpu: scene_gpu,
+        scene: loaded.scene,
+        warnings: loaded.warnings,
+    })
+}
+
+impl ViewerApp {
+    /// Loads a scene (builtin id, scene file or glTF). On failure the error is shown and the
+    /// current scene stays.
+    pub fn open_scene(&mut self, spec: &str) {
+        match load_scene(&self.gpu, spec) {
+            Ok(scene) => {
+                for warning in &scene.warnings {
+                    log::warn!("{warning}");
+                }
+                self.scene.camera = scene.scene.camera;
+                self.scene.light = scene.scene.light;
+                self.scene.orbit = Orbit::from_camera(&self.scene.camera);
+                self.scene.loaded = scene;
+                self.technique.prepared = None;
+                self.release_memory();
+                self.timing.rolling.clear();
+            }
+            Err(e) => self.report_error(format!("cannot open scene `{spec}`: {e}")),
+        }
+    }
+
+    /// Camera and light back to the scene's own.
+    pub fn reset_view(&mut self) {
+        self.scene.camera = self.scene.loaded.scene.camera;
+        self.scene.light = self.scene.loaded.scene.light;
+        self.scene.orbit = Orbit::from_camera(&self.scene.camera);
+    }
+
+    /// Scene, light and camera: what the plot's points are comparable for.
+    pub(super) fn current_view_key(&self) -> u64 {
+        let mut h = Fnv1a::default();
+        h.write_u64(self.scene.loaded.gpu.content_hash);
+        h.write_u64(self.scene.camera.content_hash());
+        h.write_u64(self.scene.light.content_hash());
+        h.finish()
     }
 }

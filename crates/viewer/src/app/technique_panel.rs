@@ -12,11 +12,11 @@ impl ViewerApp {
     pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
         let mut chosen = None;
         egui::ComboBox::from_label("Technique")
-            .selected_text(self.technique_id.clone())
+            .selected_text(self.technique.id.clone())
             .show_ui(ui, |ui| {
                 for info in &self.registry {
                     if ui
-                        .selectable_label(self.technique_id == info.id, info.id.as_ref())
+                        .selectable_label(self.technique.id == info.id, info.id.as_ref())
                         .on_hover_text(format!("{} [{}]", info.description, info.source))
                         .clicked()
                     {
@@ -25,11 +25,11 @@ impl ViewerApp {
                 }
             });
         if let Some(id) = chosen {
-            if id != self.technique_id {
+            if id != self.technique.id {
                 self.select_technique(&id);
             }
         }
-        let Some(technique) = &self.technique else {
+        let Some(technique) = &self.technique.active else {
             return;
         };
         let mut changes = Vec::new();
@@ -39,7 +39,7 @@ impl ViewerApp {
             }
         }
         if ui.button("Defaults").clicked() {
-            if let Some(info) = self.registry.get(&self.technique_id) {
+            if let Some(info) = self.registry.get(&self.technique.id) {
                 for spec in &info.params {
                     changes.push((spec.name.to_string(), spec.default_value()));
                 }
@@ -52,6 +52,7 @@ impl ViewerApp {
 
     pub(super) fn view_ui(&mut self, ui: &mut egui::Ui) {
         let current = self
+            .image
             .renderers
             .as_ref()
             .map_or((0, 0), |r| (r.width, r.height));
@@ -60,7 +61,7 @@ impl ViewerApp {
             Some((w, h)) => format!("{w}x{h}"),
         };
         egui::ComboBox::from_label("render size")
-            .selected_text(label(self.render_size))
+            .selected_text(label(self.image.render_size))
             .show_ui(ui, |ui| {
                 let mut options = vec![None, Some(current)];
                 for size in RENDER_SIZES {
@@ -69,62 +70,56 @@ impl ViewerApp {
                     }
                 }
                 for option in options {
-                    ui.selectable_value(&mut self.render_size, option, label(option));
+                    ui.selectable_value(&mut self.image.render_size, option, label(option));
                 }
             })
             .response
             .on_hover_text(
-                "A fixed size keeps the reference and the timings when panels open or the \
-                 window is resized; the image is scaled to fit",
+                "fit: the window less the side panels (fixed widths), so only resizing the \
+                 window changes it; a fixed size also keeps the reference and the timings when \
+                 the window is resized, and the image is scaled to fit",
             );
         ui.horizontal_wrapped(|ui| {
             for mode in ViewMode::ALL {
-                ui.selectable_value(&mut self.view_mode, mode, mode.label());
+                ui.selectable_value(&mut self.image.view_mode, mode, mode.label());
             }
         });
-        match self.view_mode {
-            ViewMode::Split => {
-                ui.add(egui::Slider::new(&mut self.split, 0.0..=1.0).text("divider"));
-                ui.small("Left: technique, right: reference. Drag the divider on the image.");
-            }
-            ViewMode::Difference => {
-                ui.small(
-                    "Red: too dark, blue: too bright, full colour at |V - V_ref| = 0.25; \
-                     white exact, grey off-receiver, magenta NaN/inf.",
-                );
-            }
-            ViewMode::Debug => {
-                let views: Vec<(String, DebugLegend)> = self
-                    .technique
-                    .as_ref()
-                    .map(|t| {
-                        t.debug_views()
-                            .into_iter()
-                            .map(|v| (v.name, v.legend))
-                            .collect()
-                    })
-                    .unwrap_or_default();
-                egui::ComboBox::from_label("Debug image")
-                    .selected_text(
-                        views
-                            .get(self.debug_view)
-                            .map(|(name, _)| name.clone())
-                            .unwrap_or_default(),
-                    )
-                    .show_ui(ui, |ui| {
-                        for (i, (name, _)) in views.iter().enumerate() {
-                            ui.selectable_value(&mut self.debug_view, i, name);
-                        }
-                    });
-                let legend = views.get(self.debug_view).or(views.first());
-                debug_legend(
-                    ui,
-                    legend.map(|(_, legend)| legend),
-                    self.debug_mapping.as_ref(),
-                );
-            }
-            _ => {}
-        }
+        // One row reserved for the mode's own control, so nothing below moves when the mode
+        // changes; the mode's legend floats over the image (`overlays`).
+        let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
+        ui.allocate_ui_with_layout(
+            row,
+            egui::Layout::left_to_right(egui::Align::Center),
+            |ui| {
+                ui.set_min_size(row);
+                match self.image.view_mode {
+                    ViewMode::Split => {
+                        ui.add(egui::Slider::new(&mut self.image.split, 0.0..=1.0).text("divider"));
+                    }
+                    ViewMode::Debug => {
+                        let names: Vec<String> = self
+                            .technique
+                            .active
+                            .as_ref()
+                            .map(|t| t.debug_views().into_iter().map(|v| v.name).collect())
+                            .unwrap_or_default();
+                        egui::ComboBox::from_label("Debug image")
+                            .selected_text(
+                                names
+                                    .get(self.image.debug_view)
+                                    .cloned()
+                                    .unwrap_or_default(),
+                            )
+                            .show_ui(ui, |ui| {
+                                for (i, name) in names.iter().enumerate() {
+                                    ui.selectable_value(&mut self.image.debug_view, i, name);
+                                }
+                            });
+                    }
+                    _ => {}
+                }
+            },
+        );
     }
 }
 
@@ -194,7 +189,11 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
 
 /// What the debug image's colours mean: the mapped value range, and what the technique says its
 /// values or colours are ([`DebugLegend`], from the technique's crate).
-fn debug_legend(ui: &mut egui::Ui, legend: Option<&DebugLegend>, mapping: Option<&DebugMapping>) {
+pub(super) fn debug_legend(
+    ui: &mut egui::Ui,
+    legend: Option<&DebugLegend>,
+    mapping: Option<&DebugMapping>,
+) {
     let swatch = |ui: &mut egui::Ui, colour: egui::Color32, meaning: &str| {
         ui.horizontal(|ui| {
             let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());

@@ -2,27 +2,84 @@
 //! are absent while only the camera moves), per-pass rolling medians, and the cost of computing
 //! the technique (frames with its caches dropped, as the benchmark's `timing`).
 
-use super::{format_ms, ViewerApp, COST_FRAMES};
-use crate::timing::PassRow;
+use std::{collections::VecDeque, time::Instant};
+
+use softshadow_core::FrameOutput;
+
+use super::{format_ms, FrameStats, ViewerApp, COST_FRAMES};
+use crate::timing::{median, PassRow, RollingTimings};
+
+/// GPU timings of the current setting and the frame-time window.
+#[derive(Default)]
+pub(super) struct TimingState {
+    /// GPU timings of the latest frames of the current setting (what the table shows).
+    pub(super) rolling: RollingTimings,
+    /// GPU timings of frames rendered after `invalidate_cache()`: the cost of computing.
+    pub(super) cost: RollingTimings,
+    /// Everything the timings and the frame-time window belong to (technique, parameters,
+    /// scene, light, camera, size): a change empties both.
+    pub(super) setting_key: Option<u64>,
+    pub(super) last_output: Option<FrameOutput>,
+    pub(super) frame_times: VecDeque<f64>,
+    pub(super) last_frame: Option<Instant>,
+    /// Frames rendered so far.
+    pub(super) frames: u64,
+    /// A frame of this setting with the caches dropped took longer than [`SLOW_COST_FRAME_MS`]:
+    /// the cost rests on the frames measured so far instead of [`COST_FRAMES`].
+    pub(super) slow_cost_frames: bool,
+}
+
+/// A cost frame slower than this (CPU wall time, ms) is not repeated: five frames of the
+/// reference technique took three minutes on lavapipe, during which nothing else could be done.
+pub(super) const SLOW_COST_FRAME_MS: f64 = 1000.0;
+
+impl TimingState {
+    /// Frames with the caches dropped that the cost of the current setting rests on.
+    pub(super) fn cost_frames_wanted(&self) -> usize {
+        if self.slow_cost_frames {
+            self.cost.len().max(1)
+        } else {
+            COST_FRAMES
+        }
+    }
+
+    /// Empties the windows when the setting changes (a median never mixes two settings).
+    pub(super) fn new_setting(&mut self, key: u64) {
+        self.setting_key = Some(key);
+        self.rolling.clear();
+        self.cost.clear();
+        self.frame_times.clear();
+        self.slow_cost_frames = false;
+    }
+}
 
 impl ViewerApp {
     pub(super) fn timing_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("GPU time");
         let stats = self.stats();
         ui.label(format!(
-            "frame time {} (median of {} frames of this setting)",
+            "UI frame interval {} (median of {} frames of this setting)",
             stats
                 .frame_ms
                 .map_or("-".into(), |ms| format!("{ms:.1} ms, {:.1} fps", 1e3 / ms)),
-            self.frame_times.len()
-        ));
-        if let Some(output) = &self.last_output {
+            self.timing.frame_times.len()
+        ))
+        .on_hover_text(
+            "Wall time between two drawn viewer frames: the technique's frame, the reference's \
+             accumulation step while it converges, the display and egui. The table below holds \
+             the technique's own GPU passes only.",
+        );
+        if let Some(output) = &self.timing.last_output {
             ui.label(format!(
                 "technique frame CPU wall time {:.1} ms",
                 output.cpu_ms
-            ));
+            ))
+            .on_hover_text(
+                "Wall time of the technique's last frame on the CPU: recording, \
+                 submitting and (with serial timing) waiting for every pass",
+            );
         }
-        let source = self.last_output.as_ref().map(|o| o.timing_source);
+        let source = self.timing.last_output.as_ref().map(|o| o.timing_source);
         if let Some(source) = source {
             ui.label(format!("pass times: {source}")).on_hover_text(
                 "serial: each pass submitted on its own and waited for, its wall time is the \
@@ -30,36 +87,65 @@ impl ViewerApp {
                  compute work); timestamps: GPU timestamp queries (the default on a GPU)",
             );
         }
-        if self.last_output.as_ref().is_some_and(|o| o.gpu.is_none()) {
+        if self
+            .timing
+            .last_output
+            .as_ref()
+            .is_some_and(|o| o.gpu.is_none())
+        {
             ui.label("this adapter has no timestamp queries: GPU times unavailable");
             return;
         }
 
         // The cost of computing: what the plot and the benchmark's `timing` use.
-        match self.cost_timings.technique_ms() {
-            Some(ms) if self.cost_timings.len() >= COST_FRAMES => {
+        let wanted = self.timing.cost_frames_wanted();
+        match (
+            self.timing.cost.technique_ms(),
+            self.timing.cost.technique_range(),
+        ) {
+            (Some(ms), Some((lo, hi))) if self.timing.cost.len() >= wanted => {
                 ui.strong(format!("cost of the technique {} ms", format_ms(ms)))
                     .on_hover_text(
                         "median GPU time of the technique's passes over frames rendered with its \
                          kept results dropped (invalidate_cache), as the benchmark's `timing`",
                     );
+                let frames = self.timing.cost.len();
+                ui.label(if frames == 1 {
+                    "one frame: its spread is not known".to_string()
+                } else {
+                    format!(
+                        "range {} to {} ms over {frames} frames",
+                        format_ms(lo),
+                        format_ms(hi)
+                    )
+                })
+                .on_hover_text(
+                    "the fastest and slowest of the frames the cost rests on: how far a \
+                     re-measurement of the same setting may move",
+                );
+                if self.timing.slow_cost_frames {
+                    ui.small(format!(
+                        "a frame took over {SLOW_COST_FRAME_MS:.0} ms: not repeated {COST_FRAMES} \
+                         times"
+                    ));
+                }
             }
             _ => {
                 ui.label(format!(
-                    "measuring the cost: frame {} of {COST_FRAMES} with caches dropped",
-                    self.cost_timings.len()
+                    "measuring the cost: frame {} of {wanted} with caches dropped",
+                    self.timing.cost.len()
                 ));
             }
         }
 
-        let rows = self.timings.rows();
+        let rows = self.timing.rolling.rows();
         if rows.is_empty() {
             ui.label("no GPU timings yet");
             return;
         }
         ui.small(format!(
             "this frame's passes, median of the last {} frames ({})",
-            self.timings.len(),
+            self.timing.rolling.len(),
             source.map_or("-", |s| s.as_str())
         ));
         egui::Grid::new("timings").striped(true).show(ui, |ui| {
@@ -71,17 +157,20 @@ impl ViewerApp {
                 ui.label(format_ms(row.median_ms));
                 ui.end_row();
             }
-            ui.strong("technique");
-            ui.strong(format_ms(self.timings.technique_ms().unwrap_or(0.0)));
+            ui.strong("technique")
+                .on_hover_text("the technique's own passes");
+            ui.strong(format_ms(self.timing.rolling.technique_ms().unwrap_or(0.0)));
             ui.end_row();
-            ui.strong("frame");
-            ui.strong(format_ms(self.timings.total_ms().unwrap_or(0.0)));
+            ui.strong("frame (GPU passes)")
+                .on_hover_text("G-buffer, technique and shading passes of the technique's frame");
+            ui.strong(format_ms(self.timing.rolling.total_ms().unwrap_or(0.0)));
             ui.end_row();
         });
         // Passes the full computation runs that this frame left out (kept results).
         let passes_run = self.passes_run();
         let skipped: Vec<String> = self
-            .cost_timings
+            .timing
+            .cost
             .rows()
             .into_iter()
             .map(|r| r.name)
@@ -132,5 +221,39 @@ fn timing_chart(ui: &mut egui::Ui, rows: &[PassRow]) {
             font.clone(),
             text_colour,
         );
+    }
+}
+
+impl ViewerApp {
+    /// Rows of the timing table (passes of the current technique, rolling medians).
+    pub fn timing_rows(&self) -> Vec<PassRow> {
+        self.timing.rolling.rows()
+    }
+
+    /// Passes the technique's last frame ran (light-space passes are absent on camera-only
+    /// frames), G-buffer and shading included.
+    pub fn passes_run(&self) -> &[String] {
+        self.timing
+            .last_output
+            .as_ref()
+            .map_or(&[][..], |o| o.passes_run.as_slice())
+    }
+
+    /// Rolling GPU timings of frames rendered with the caches dropped (the cost of computing).
+    pub fn cost_rows(&self) -> Vec<PassRow> {
+        self.timing.cost.rows()
+    }
+
+    /// Median technique GPU time of the frames rendered with the caches dropped, ms.
+    pub fn cost_ms(&self) -> Option<f64> {
+        self.timing.cost.technique_ms()
+    }
+
+    pub fn stats(&self) -> FrameStats {
+        FrameStats {
+            frame_ms: (!self.timing.frame_times.is_empty())
+                .then(|| median(self.timing.frame_times.iter().copied())),
+            frames: self.timing.frames,
+        }
     }
 }

@@ -1,0 +1,232 @@
+//! The progressive reference (the yardstick) and the metrics of the technique against it: once
+//! per setting, after the reference has converged.
+
+use softshadow_core::{scene::Fnv1a, ParamValue, ShadingMode, ShadowTechnique};
+use softshadow_metrics::ErrorReport;
+use softshadow_reference::{Progress, Reference};
+
+use super::{ViewerApp, ViewerError};
+use crate::tradeoff::TradeoffPoint;
+
+/// The progressive reference and the metrics of the technique against it.
+pub(super) struct ReferenceState {
+    pub(super) yardstick: Reference,
+    /// Key of the inputs whose reference the reference renderer holds (partial or complete).
+    pub(super) key: Option<u64>,
+    pub(super) progress: Progress,
+    pub(super) measured: Option<Measured>,
+    /// Accumulations begun (the first included): each new scene, light, camera, size or
+    /// reference setting begins one.
+    pub(super) restarts: u64,
+}
+
+impl ReferenceState {
+    pub(super) fn new(yardstick: Reference) -> Self {
+        Self {
+            yardstick,
+            key: None,
+            progress: Progress::default(),
+            measured: None,
+            restarts: 0,
+        }
+    }
+}
+
+/// Metrics of one technique setting against the converged reference.
+pub(super) struct Measured {
+    pub(super) key: u64,
+    pub(super) report: ErrorReport,
+}
+
+pub(super) fn rgba_to_rgb(rgba: &[u8]) -> Vec<u8> {
+    rgba.chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect()
+}
+
+impl ViewerApp {
+    /// Sets one parameter of the reference (e.g. `samples_per_axis`); it restarts accumulating.
+    pub fn set_reference_param(&mut self, name: &str, value: ParamValue) {
+        if let Err(e) = self.reference.yardstick.set_param(name, value) {
+            self.report_error(e.to_string());
+        }
+    }
+
+    pub(super) fn current_reference_key(&self) -> u64 {
+        let mut h = Fnv1a::default();
+        h.write_u64(self.scene.loaded.gpu.content_hash);
+        h.write_u64(self.scene.camera.content_hash());
+        h.write_u64(self.scene.light.content_hash());
+        if let Some(r) = &self.image.renderers {
+            h.write_u64(u64::from(r.width) << 32 | u64::from(r.height));
+        }
+        for (_, value) in self.reference.yardstick.params().entries {
+            h.write_str(&value.to_string());
+        }
+        h.finish()
+    }
+
+    pub(super) fn render_reference(&mut self) {
+        puffin::profile_function!();
+        let key = self.current_reference_key();
+        if self.reference.key == Some(key) && self.reference.progress.is_complete() {
+            return;
+        }
+        if self.image.interacting {
+            return;
+        }
+        let Some(r) = self.image.renderers.as_mut() else {
+            return;
+        };
+        match r.reference.render(
+            &self.scene.loaded.gpu,
+            &self.scene.camera,
+            &self.scene.light,
+            &mut self.reference.yardstick,
+            Some(ShadingMode::Shaded),
+        ) {
+            Ok(_) => {
+                if self.reference.key != Some(key) {
+                    self.reference.restarts += 1;
+                    log::info!(
+                        "reference accumulation {} begun at {}x{}",
+                        self.reference.restarts,
+                        r.width,
+                        r.height
+                    );
+                }
+                self.reference.key = Some(key);
+                self.reference.progress = self.reference.yardstick.progress();
+            }
+            Err(e) => {
+                let _ = self.gpu.take_errors();
+                self.reference.key = None;
+                self.report_error(format!("reference failed: {e}"));
+            }
+        }
+    }
+
+    /// The progress of the reference of the current inputs: none done while the reference
+    /// renderer still holds another view's (it waits while the camera moves).
+    pub(super) fn shown_reference_progress(&self) -> Progress {
+        let mut progress = self.reference.progress;
+        if self.reference.key != Some(self.current_reference_key()) {
+            progress.done = 0;
+        }
+        progress
+    }
+
+    /// Metrics once the reference has converged and whenever the setting or the inputs changed;
+    /// the plot point's time follows the rolling median.
+    pub(super) fn measure(&mut self) {
+        puffin::profile_function!();
+        // A reference for other inputs (the camera moved while it waited) does not count.
+        let converged = self.reference.key == Some(self.current_reference_key())
+            && self.reference.progress.is_complete();
+        if !converged
+            || self.technique.error.is_some()
+            || self.technique.active.is_none()
+            || self.technique.build.is_running()
+        {
+            return;
+        }
+        let setting = self.setting();
+        let key = self.current_measure_key();
+        if self.reference.measured.as_ref().map(|m| m.key) != Some(key) {
+            match self.compute_metrics() {
+                Ok(report) => self.reference.measured = Some(Measured { key, report }),
+                Err(e) => {
+                    self.report_error(format!("cannot measure the error: {e}"));
+                    return;
+                }
+            }
+        }
+        let (Some(measured), Some(gpu_ms)) =
+            (&self.reference.measured, self.timing.cost.technique_ms())
+        else {
+            return;
+        };
+        if self.timing.cost.len() < self.timing.cost_frames_wanted() {
+            return;
+        }
+        let point = TradeoffPoint {
+            technique: self.technique.id.clone(),
+            params: setting,
+            // Timestamp noise can put a tiny pass below zero; a cost is never negative.
+            gpu_ms: gpu_ms.max(0.0),
+            error: measured.report.mae_shadowed,
+        };
+        let view = self.current_view_key();
+        self.plot.insert(view, point);
+    }
+
+    /// The converged reference's inputs, the technique and its parameters: what one set of
+    /// metrics belongs to.
+    pub(super) fn current_measure_key(&self) -> u64 {
+        let mut h = Fnv1a::default();
+        h.write_u64(self.current_reference_key());
+        h.write_str(&self.technique.id);
+        for (name, value) in self.setting() {
+            h.write_str(&name);
+            h.write_str(&value.to_string());
+        }
+        h.finish()
+    }
+
+    /// Whether the shown metrics belong to the current setting and a converged reference.
+    pub(super) fn metrics_are_current(&self) -> bool {
+        self.reference.key == Some(self.current_reference_key())
+            && self.reference.progress.is_complete()
+            && self
+                .reference
+                .measured
+                .as_ref()
+                .is_some_and(|m| m.key == self.current_measure_key())
+    }
+
+    pub(super) fn compute_metrics(&self) -> Result<ErrorReport, ViewerError> {
+        let r = self.image.renderers.as_ref().expect("rendered this frame");
+        let v = r.technique.read_visibility()?;
+        let v_ref = r.reference.read_visibility()?;
+        let mask = r.technique.read_receiver_mask()?;
+        let mut report = softshadow_metrics::compare(&v, &v_ref, &mask)?;
+        let shaded = rgba_to_rgb(&r.technique.read_shaded()?);
+        let shaded_ref = rgba_to_rgb(&r.reference.read_shaded()?);
+        report.flip_mean = Some(softshadow_metrics::flip_mean(
+            &shaded,
+            &shaded_ref,
+            r.width,
+            r.height,
+        )?);
+        Ok(report)
+    }
+
+    pub fn reference_progress(&self) -> Progress {
+        self.reference.progress
+    }
+
+    /// Accumulations of the reference begun so far, the first included: a restart costs the
+    /// whole accumulation again.
+    pub fn reference_accumulations(&self) -> u64 {
+        self.reference.restarts
+    }
+
+    /// Error metrics of the current setting, once the reference has converged (`None` while
+    /// the shown ones are stale).
+    pub fn metrics(&self) -> Option<&ErrorReport> {
+        self.reference
+            .measured
+            .as_ref()
+            .filter(|_| self.metrics_are_current())
+            .map(|m| &m.report)
+    }
+
+    /// Metrics on screen that belong to an earlier setting (greyed and labelled stale).
+    pub fn stale_metrics(&self) -> Option<&ErrorReport> {
+        self.reference
+            .measured
+            .as_ref()
+            .filter(|_| !self.metrics_are_current())
+            .map(|m| &m.report)
+    }
+}
