@@ -786,6 +786,8 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
             rows[index(t)].on_front.push(scene.clone());
         }
         let scene_rows: Vec<&HeadlineRow> = headline.iter().filter(|r| &r.scene == scene).collect();
+        // `b` indexes the budget in every row's per-budget vectors.
+        #[allow(clippy::needless_range_loop)]
         for b in 0..BUDGETS.len() {
             let mut fitting: Vec<(&str, f64)> = scene_rows
                 .iter()
