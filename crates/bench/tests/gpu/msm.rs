@@ -40,7 +40,10 @@ fn msm_is_within_a_bound_of_pcss_on_a_single_caster() -> Result<()> {
             e <= pcss + 0.01,
             "{variant}: mae_shadowed {e:.4}, pcss grid {pcss:.4}: more than 0.01 worse"
         );
-        ensure!(e < hard / 4.0, "{variant}: {e:.4} not far from hard {hard:.4}");
+        ensure!(
+            e < hard / 4.0,
+            "{variant}: {e:.4} not far from hard {hard:.4}"
+        );
         ensure!(
             report.brighter_umbra < 0.02,
             "{variant} leaks on a single caster: brighter_umbra {:.4}",
@@ -59,7 +62,12 @@ fn msm_and_evsm_leak_light_where_casters_overlap_in_depth() -> Result<()> {
     let pcss = &exact_errors(&mut bench, "stiff-light-leak", "pcss", &[&[]], SIZE)?[0];
     ensure!(pcss.umbra_pixels > 100, "too few umbra pixels: {pcss:?}");
     let pcss_leak = pcss.brighter_umbra;
-    let variants = ["msm4", "evsm2", "evsm4", "msm4, light_bleeding_reduction 0.5"];
+    let variants = [
+        "msm4",
+        "evsm2",
+        "evsm4",
+        "msm4, light_bleeding_reduction 0.5",
+    ];
     let reports = exact_errors(
         &mut bench,
         "stiff-light-leak",
@@ -101,7 +109,13 @@ fn msm_keeps_its_moment_map_while_only_the_camera_moves() -> Result<()> {
     let scene_gpu = SceneGpu::upload(&gpu, &scene);
     let mut renderer = Renderer::new(&gpu, SIZE, SIZE)?;
     let mut technique = softshadow::registry().find("msm")?.create_with(&gpu, &[])?;
-    let first = renderer.render(&scene_gpu, &scene.camera, &scene.light, technique.as_mut(), None)?;
+    let first = renderer.render(
+        &scene_gpu,
+        &scene.camera,
+        &scene.light,
+        technique.as_mut(),
+        None,
+    )?;
     for pass in ["msm/shadow_map", "msm/moments", "msm/mips", "msm/filter"] {
         ensure!(
             first.passes_run.iter().any(|p| p == pass),
