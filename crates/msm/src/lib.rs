@@ -84,8 +84,8 @@ softshadow_core::technique_settings! {
         moment_bias: f32 = 3e-5, in 0.0..=0.01;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
-        /// Light-bleeding reduction: lit fractions below it become 0, the rest is rescaled to [0, 1]
-        light_bleeding_reduction: f32 = 0.0, in 0.0..=0.95;
+        /// Light-bleeding reduction: lit fractions below it become 0, the rest is rescaled to [0, 1] (0.05: darkens the filter's slight overshoot at umbra edges; engines ship 0.1-0.3 for VSM)
+        light_bleeding_reduction: f32 = 0.05, in 0.0..=0.95;
         /// Blocker-search rectangle as a fraction of the light seen through the receiver down to the near plane
         blocker_search_scale: f32 = 1.0, in 0.05..=1.0;
         /// Taps per axis of each filtered-moment lookup (trilinear in the mip chain)
