@@ -116,14 +116,25 @@ struct MomentMap {
     size: u32,
     evsm: bool,
     texture: wgpu::Texture,
-    /// All levels (read by the filter).
-    all_levels: wgpu::TextureView,
     /// One view per level (render targets, and the downsampling's sources).
     levels: Vec<wgpu::TextureView>,
+    /// The downsampling's source bind group per level from 1 (reads the level above).
+    mip_sources: Vec<wgpu::BindGroup>,
+    /// The filter's group 1 over this map (made once: per-frame bind groups are CPU time
+    /// outside every pass).
+    filter_bind_group: wgpu::BindGroup,
 }
 
 impl MomentMap {
-    fn new(gpu: &Gpu, size: u32, evsm: bool) -> Self {
+    fn new(
+        gpu: &Gpu,
+        size: u32,
+        evsm: bool,
+        layouts: (&wgpu::BindGroupLayout, &wgpu::BindGroupLayout),
+        uniforms: (&wgpu::Buffer, &wgpu::Buffer),
+    ) -> Self {
+        let (downsample_layout, filter_layout) = layouts;
+        let (view_buffer, params_buffer) = uniforms;
         let level_count = size.ilog2() + 1;
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("msm/moment_map"),
@@ -139,7 +150,7 @@ impl MomentMap {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
             view_formats: &[],
         });
-        let levels = (0..level_count)
+        let levels: Vec<wgpu::TextureView> = (0..level_count)
             .map(|level| {
                 texture.create_view(&wgpu::TextureViewDescriptor {
                     label: Some("msm/moment_map level"),
@@ -149,12 +160,45 @@ impl MomentMap {
                 })
             })
             .collect();
+        let mip_sources = levels[..levels.len() - 1]
+            .iter()
+            .map(|source| {
+                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("msm/mips source"),
+                    layout: downsample_layout,
+                    entries: &[wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(source),
+                    }],
+                })
+            })
+            .collect();
+        let all_levels = texture.create_view(&Default::default());
+        let filter_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("msm/filter"),
+            layout: filter_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: view_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&all_levels),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: params_buffer.as_entire_binding(),
+                },
+            ],
+        });
         Self {
             size,
             evsm,
-            all_levels: texture.create_view(&Default::default()),
             texture,
             levels,
+            mip_sources,
+            filter_bind_group,
         }
     }
 }
@@ -252,7 +296,13 @@ impl Msm {
             .as_ref()
             .is_none_or(|m| m.size != size || m.evsm != evsm)
         {
-            self.moment_map = Some(MomentMap::new(gpu, size, evsm));
+            self.moment_map = Some(MomentMap::new(
+                gpu,
+                size,
+                evsm,
+                (&self.downsample_layout, &self.filter_layout),
+                (&self.shadow_map.view_buffer, &self.params_buffer),
+            ));
         }
         let map = self.moment_map.as_ref().expect("created above");
         let bind_group = self
@@ -273,22 +323,14 @@ impl Msm {
             &map.levels[0],
             Some(0.0),
         );
-        for level in 1..map.levels.len() {
-            let source = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("msm/mips source"),
-                layout: &self.downsample_layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&map.levels[level - 1]),
-                }],
-            });
+        for (source, target) in map.mip_sources.iter().zip(&map.levels[1..]) {
             self.downsample.record(
                 frame,
                 "msm/mips",
                 inputs.frame_bind_group,
-                &source,
+                source,
                 &[],
-                &map.levels[level],
+                target,
                 Some(0.0),
             );
         }
@@ -357,24 +399,6 @@ impl ShadowTechnique for Msm {
             self.build_moment_map(frame, inputs);
         }
         let map = self.moment_map.as_ref().expect("built above");
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("msm/filter"),
-            layout: &self.filter_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.shadow_map.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&map.all_levels),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.params_buffer.as_entire_binding(),
-                },
-            ],
-        });
         let filter = match s.variant {
             Variant::Msm4 => &self.filter_msm4,
             Variant::Evsm2 => &self.filter_evsm2,
@@ -384,7 +408,7 @@ impl ShadowTechnique for Msm {
             frame,
             "msm/filter",
             inputs.frame_bind_group,
-            &bind_group,
+            &map.filter_bind_group,
             &[],
             &out.view,
             Some(1.0),
