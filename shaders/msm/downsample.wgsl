@@ -1,6 +1,6 @@
 // One level of the moment map's mip chain: the mean of the 2 x 2 texels of the level above
 // (clamped to its edge when its size is odd). Moments are linear in the depth distribution, so
-// the mean of moments is the moments of the union (Peters and Klein 2015, Section 3).
+// the mean of moments is the moments of the union (what makes moment maps filterable).
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 
 @group(1) @binding(0) var source: texture_2d<f32>;

@@ -1,7 +1,7 @@
 // The moment map, texel by texel from the shadow map from the light centre (same size).
 // Depth z is light-space depth normalised to [0, 1] over `depth_range` (empty texels: 1, beyond
 // every receiver, so they never shadow).
-//   moment shadow maps (Peters and Klein 2015, Section 3): b = (z, z^2, z^3, z^4);
+//   moment shadow maps (Peters and Klein 2015): b = (z, z^2, z^3, z^4);
 //   EVSM (the EVSM permutation; Lauritzen and McCool 2008, exponential variance shadow maps):
 //     x = 2 z - 1, (e^(c+ x), e^(2 c+ x), -e^(-c- x), e^(-2 c- x)).
 // Keep `moments_of` equal to the one in msm.wgsl.

@@ -112,8 +112,8 @@ fn nonzero(x: f32) -> f32 {
 // atoms, one at the receiver depth z_f, whose first moments are the biased moments b. Returns
 // (fraction of the distribution strictly in front of z_f: the shadow, mean depth of that part).
 fn hamburger(filtered: vec4<f32>, z_f: f32) -> vec2<f32> {
-    // Moment bias: a convex combination with the moments of a wide distribution (Section 4.2
-    // of the paper's author version; 3e-5 for 32-bit floats).
+    // Moment bias: a convex combination with the moments of a wide distribution (the paper's
+    // alpha, 3e-5 for 32-bit floats).
     let b = mix(filtered, vec4<f32>(0.5), params.moment_bias);
     // Hankel matrix [[1, b1, b2], [b1, b2, b3], [b2, b3, b4]] = L D L^T.
     let d22 = nonzero(b.y - b.x * b.x);
