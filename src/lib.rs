@@ -2,7 +2,7 @@
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
 //! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
-//! `pdsm`, `reference`; all on by default).
+//! `pdsm`, `msm`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -28,6 +28,8 @@ pub use softshadow_backprojection as backprojection;
 pub use softshadow_bitmask as bitmask;
 #[cfg(feature = "hard")]
 pub use softshadow_hard as hard;
+#[cfg(feature = "msm")]
+pub use softshadow_msm as msm;
 #[cfg(feature = "pcss")]
 pub use softshadow_pcss as pcss;
 #[cfg(feature = "pdsm")]
@@ -57,6 +59,8 @@ pub fn builtin_techniques() -> Vec<TechniqueInfo> {
         softshadow_adaptive::info(),
         #[cfg(feature = "pdsm")]
         softshadow_pdsm::info(),
+        #[cfg(feature = "msm")]
+        softshadow_msm::info(),
         #[cfg(feature = "reference")]
         softshadow_reference::info(),
     ]

@@ -33,7 +33,7 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 
 use crate::{
     report::{
-        best_per_budget, cold_frame_ms, darker_shadowed, flip, frame_time_ms, headline_rows,
+        best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms, headline_rows,
         mae_shadowed, ms, params_text, summary_rows, BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
@@ -55,6 +55,7 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("floor_ratio", "frame / fastest cost floor"),
     ("mae_shadowed", "mae_shadowed"),
     ("darker_shadowed", "of it too dark"),
+    ("brighter_umbra", "too bright in umbra"),
     ("flip", "FLIP"),
     ("exact", "exact answer"),
     ("reference_vs_exact", "reference vs exact (mae_shadowed)"),
@@ -451,6 +452,7 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                 },
                 "mae_shadowed" => mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
+                "brighter_umbra" => brighter_umbra(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "reference_vs_exact" => run
                     .error

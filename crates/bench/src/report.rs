@@ -80,6 +80,17 @@ pub fn darker_shadowed(run: &Run) -> Option<f64> {
     darker.is_finite().then_some(darker)
 }
 
+/// Light leaking: how much too bright the run is inside umbrae, against the same answer as
+/// [`mae_shadowed`] (`ErrorReport::brighter_umbra`).
+pub fn brighter_umbra(run: &Run) -> Option<f64> {
+    let error = run.error.as_ref()?;
+    let brighter = error
+        .vs_exact
+        .as_ref()
+        .map_or(error.report.brighter_umbra, |e| e.brighter_umbra);
+    brighter.is_finite().then_some(brighter)
+}
+
 /// Which answer [`mae_shadowed`] was measured against.
 pub fn mae_against(run: &Run) -> &'static str {
     match run.error.as_ref().and_then(|e| e.vs_exact.as_ref()) {
@@ -526,7 +537,7 @@ pub fn render_html(
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
     );
     let mut order = in_scene.to_vec();
     order.sort_by(|&a, &b| {
@@ -556,7 +567,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
         };
         let _ = write!(
             t,
-            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             if front.contains(&i) { " class=\"front\"" } else { "" },
             escape(&run.technique),
             escape(&params_text(run)),
@@ -568,6 +579,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
             timing.map_or("-".into(), |t| t.source.to_string()),
             mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
             darker_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
+            brighter_umbra(run).map_or("-".into(), |v| format!("{v:.4}")),
             if run.error.is_some() { mae_against(run) } else { "-" },
             flip(run).map_or("-".into(), |v| format!("{v:.4}")),
             status
@@ -926,7 +938,7 @@ fn csv_field(text: &str) -> String {
 /// The runs as one flat CSV (one row per run), for pandas or R.
 pub fn runs_csv(merged: &Merged) -> String {
     let mut out = String::from(
-        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
     );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for run in &merged.results.runs {
@@ -957,6 +969,7 @@ pub fn runs_csv(merged: &Merged) -> String {
             num(cold_frame_ms(run)),
             num(mae_shadowed(run)),
             num(darker_shadowed(run)),
+            num(brighter_umbra(run)),
             if error.is_some() {
                 mae_against(run).to_string()
             } else {

@@ -115,6 +115,19 @@ pub struct ErrorReport {
     /// (read as 0) in results written before it existed.
     #[serde(default)]
     pub darker_shadowed: f64,
+    /// Light leaking: the mean, over the receiver pixels in umbra (`V_ref <=`
+    /// [`UMBRA_THRESHOLD`]), of how much brighter than the reference the technique is there,
+    /// `max(0, V - V_ref)` (a non-finite `V` counts 1). The too-bright part of
+    /// [`mae_shadowed`](Self::mae_shadowed) inside umbrae: what filterable shadow maps
+    /// (variance, exponential, moment) get wrong where casters at very different depths overlap.
+    /// `0.0` when there are no umbra pixels; missing (read as 0) in results written before it
+    /// existed.
+    #[serde(default)]
+    pub brighter_umbra: f64,
+    /// Number of receiver pixels with `V_ref <=` [`UMBRA_THRESHOLD`] (0 in results written
+    /// before it existed).
+    #[serde(default)]
+    pub umbra_pixels: u64,
     /// Mean of `e` over all receiver pixels.
     pub mae_all: f64,
     /// Root mean square of `e` over all receiver pixels.
@@ -133,6 +146,11 @@ pub struct ErrorReport {
     /// leaves this `None`; set it from [`flip_mean`].
     pub flip_mean: Option<f64>,
 }
+
+/// Largest reference visibility of a pixel counted as umbra by [`ErrorReport::brighter_umbra`]:
+/// the exact answers (closed form, ray cast) write 0 there; the margin keeps an accumulated
+/// reference's last-sample rounding in.
+pub const UMBRA_THRESHOLD: f32 = 0.01;
 
 /// Counts of numerically unhealthy values in a visibility buffer (see [`stability`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -192,6 +210,8 @@ pub fn compare(
     let mut sum_shadowed = 0.0f64;
     let mut sum_darker = 0.0f64;
     let mut shadowed_pixels = 0u64;
+    let mut sum_brighter_umbra = 0.0f64;
+    let mut umbra_pixels = 0u64;
 
     for (index, ((&vi, &ri), &receiver)) in v.iter().zip(v_ref).zip(receiver_mask).enumerate() {
         if !receiver {
@@ -211,6 +231,12 @@ pub fn compare(
                 sum_darker += e;
             }
             shadowed_pixels += 1;
+        }
+        if ri <= UMBRA_THRESHOLD {
+            if !vi.is_finite() || vi > ri {
+                sum_brighter_umbra += e;
+            }
+            umbra_pixels += 1;
         }
         errors.push(e);
     }
@@ -232,6 +258,12 @@ pub fn compare(
         } else {
             sum_darker / shadowed_pixels as f64
         },
+        brighter_umbra: if umbra_pixels == 0 {
+            0.0
+        } else {
+            sum_brighter_umbra / umbra_pixels as f64
+        },
+        umbra_pixels,
         mae_all: sum / nf,
         rmse: (sum_sq / nf).sqrt(),
         max_abs,

@@ -42,6 +42,9 @@ fn hand_computed_small_case() {
     let expected = ErrorReport {
         mae_shadowed: 0.375,
         darker_shadowed: 0.25,
+        // Pixel 4, the only umbra pixel, is not a receiver.
+        brighter_umbra: 0.0,
+        umbra_pixels: 0,
         mae_all: 0.21875,
         rmse: 0.08203125f64.sqrt(),
         max_abs: 0.5,
@@ -199,6 +202,29 @@ fn darker_shadowed_is_the_too_dark_part_and_old_results_load() {
     assert_eq!((dark.mae_shadowed, dark.darker_shadowed), (0.25, 0.25));
     let equal = compare(&v_ref, &v_ref, &mask).unwrap();
     assert_eq!(equal.darker_shadowed, 0.0);
+}
+
+/// Light leaking: only umbra pixels count, only where the technique is brighter, over all umbra
+/// pixels; old results load as 0.
+#[test]
+fn brighter_umbra_is_the_too_bright_part_inside_umbrae() {
+    let json = r#"{"mae_shadowed":0.25,"mae_all":0.125,"rmse":0.1,"max_abs":0.25,"p99_abs":0.25,"shadowed_pixels":1,"receiver_pixels":2,"flip_mean":null}"#;
+    let old: ErrorReport = serde_json::from_str(json).unwrap();
+    assert_eq!((old.brighter_umbra, old.umbra_pixels), (0.0, 0));
+    // Two umbra pixels (0 and 0.005), one penumbra, one lit.
+    let v_ref = [0.0, 0.005, 0.5, 1.0];
+    let mask = [true; 4];
+    let leaking = compare(&[0.5, 0.005, 0.9, 1.0], &v_ref, &mask).unwrap();
+    assert_eq!(leaking.umbra_pixels, 2);
+    assert_eq!(leaking.brighter_umbra, 0.25);
+    // Too dark in the penumbra and exact in the umbra: no leak.
+    let dark = compare(&[0.0, 0.0, 0.1, 1.0], &v_ref, &mask).unwrap();
+    assert_eq!(dark.brighter_umbra, 0.0);
+    // A NaN in the umbra counts as the worst leak.
+    let nan = compare(&[f32::NAN, 0.005, 0.5, 1.0], &v_ref, &mask).unwrap();
+    assert_eq!(nan.brighter_umbra, 0.5);
+    let lit = compare(&[1.0; 4], &[1.0; 4], &mask).unwrap();
+    assert_eq!((lit.brighter_umbra, lit.umbra_pixels), (0.0, 0));
 }
 
 fn rgb_from_gray(gray: &[u8]) -> Vec<u8> {

@@ -59,6 +59,7 @@ fn expectations() -> Expectations {
         ("stiff-behind-light", at_most(MaeShadowed, 0.061, 0.0241)),
         ("stiff-light-up", at_most(MaeShadowed, 0.027, 0.0108)),
         ("stiff-fusion", at_most(MaeShadowed, 0.13, 0.0508)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.36, 0.2800)),
         ("atty-square", at_most(MaeShadowed, 0.082, 0.0327)),
         (
             "blob-floating:triangles=20000",

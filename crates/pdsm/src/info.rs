@@ -86,6 +86,7 @@ fn expectations() -> Expectations {
         ("stiff-behind-light", at_most(MaeShadowed, 0.021, 0.0082)),
         ("stiff-light-up", at_most(MaeShadowed, 0.0083, 0.0033)),
         ("stiff-fusion", at_most(MaeShadowed, 0.031, 0.0120)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.03, 0.0120)),
         ("atty-square", at_most(MaeShadowed, 0.027, 0.0107)),
         (
             "blob-floating:triangles=20000",

@@ -111,6 +111,11 @@ pub fn infos() -> Vec<BuiltinInfo> {
             description: "stiff: three overlapping squares at different heights (occluder fusion: the exact answer is the area of the union)",
             params: vec![light_width(1.0)],
         },
+        BuiltinInfo {
+            id: "stiff-light-leak",
+            description: "stiff (light leaking): a small square just below the light, one halfway and a wide one (3 x 3) 0.15 above the ground, overlapping, seen from low down; filterable shadow maps (variance, exponential, moment) brighten the wide one's umbra",
+            params: vec![light_width(1.0)],
+        },
     ]
 }
 
@@ -180,6 +185,21 @@ pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, Scen
                 Square::at(0.5, 1.6, -0.2, 0.5),
             ],
         ),
+        "stiff-light-leak" => {
+            let mut scene = squares(
+                id,
+                down_light(Vec3::Y * 2.5, v("light_width")),
+                &[
+                    Square::at(-0.1, 2.2, 0.6, 0.5),
+                    Square::at(0.2, 1.2, 0.7, 0.8),
+                    Square::at(0.0, 0.15, 0.0, 3.0),
+                ],
+            );
+            // Low, so that it sees the ground under the wide square.
+            scene.camera.eye = Vec3::new(0.0, 0.5, 4.5);
+            scene.camera.target = Vec3::new(0.0, 0.0, 0.5);
+            scene
+        }
         _ => return Err(SceneError::UnknownScene { spec: id.into() }),
     };
     Ok(scene)

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
 
-const EXPECTED: [&str; 15] = [
+const EXPECTED: [&str; 16] = [
     "stiff-contact",
     "stiff-near-light",
     "stiff-point-light",
@@ -20,6 +20,7 @@ const EXPECTED: [&str; 15] = [
     "stiff-behind-light",
     "stiff-light-up",
     "stiff-fusion",
+    "stiff-light-leak",
 ];
 
 fn caster_depths(spec: &str) -> Vec<f32> {

@@ -1,0 +1,66 @@
+//! The `msm` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::{DEPTH_TEXEL, LAYER_TEXEL, PIXEL_ITERATION},
+    expectations::{at_most, known_failure, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{Msm, MsmSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Moment soft shadows: moment shadow map (4 moments, Hamburger) or EVSM, mip-filtered blocker search and penumbra filter",
+        "Peters and Klein 2015; Peters et al. 2016",
+        MsmSettings::param_specs(),
+        |gpu| Ok(Box::new(Msm::new(gpu, MsmSettings::default())?)),
+    )
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(&["shadow_map_size", "filter_taps"], |q| {
+        // The depth map, the moment map and its mips (4/3 of level 0), then two filtered
+        // lookups per pixel of taps² trilinear taps (8 texels each).
+        let texels = q.number("shadow_map_size").powi(2);
+        let maps = texels * (DEPTH_TEXEL + 4.0 / 3.0 * LAYER_TEXEL);
+        let taps = q.number("filter_taps").powi(2);
+        let filter = 2.0 * q.pixels * taps * 8.0 * PIXEL_ITERATION;
+        Cost::seconds(maps + filter, "shadow_map_size²")
+    }))
+    .with_expectations(expectations())
+    .with_overview(&[("variant", &["msm4", "evsm2", "evsm4"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.12, 0.0711)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.2, 0.1565)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.0027, 0.0011)),
+        ("stiff-wide-light", at_most(MaeShadowed, 0.0092, 0.0037)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.15, 0.0878)),
+        (
+            "stiff-depth-range",
+            known_failure(MaeShadowed, 0.2522, 0.025),
+        ),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.027, 0.0109)),
+        (
+            "stiff-partly-outside",
+            known_failure(MaeShadowed, 0.4217, 0.042),
+        ),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.11, 0.0468)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.1, 0.0439)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.078, 0.0314)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.032, 0.0128)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.013, 0.0053)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0453)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.32, 0.2035)),
+        ("atty-square", at_most(MaeShadowed, 0.078, 0.0314)),
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.13, 0.1087),
+        ),
+    ])
+}
