@@ -9,8 +9,11 @@ WORKBENCH="${WORKBENCH:-./target/release/workbench}"
 SWEEP="${SWEEP:-benches/shards.toml}"
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
+runs=0
 run() { # NAME SHARDS CACHE(yes|no|full)
-    local name=$1 shards=$2 cache=$3 start end
+    local name=$1 shards=$2 cache=$3 start end out
+    runs=$((runs + 1))
+    out="$WORK/run-$runs"  # parallel splits its command on spaces: no spaces in paths
     local args=()
     case $cache in
         yes) rm -rf "$WORK/cache"; args=(--reference-cache "$WORK/cache") ;;
@@ -19,7 +22,7 @@ run() { # NAME SHARDS CACHE(yes|no|full)
     start=$(date +%s.%N)
     seq 0 $((shards - 1)) | parallel --will-cite --halt now,fail=1 -j "$shards" \
         "$WORKBENCH" bench --sweep "$SWEEP" --shard "{}/$shards" --no-images "${args[@]}" \
-        --out "$WORK/$name/shard-{}" >/dev/null 2>&1
+        --out "$out/shard-{}" >/dev/null 2>&1
     end=$(date +%s.%N)
     printf '%-28s %7.1f s\n' "$name" "$(echo "$end - $start" | bc)"
 }
