@@ -33,8 +33,8 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 
 use crate::{
     report::{
-        best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms, headline_rows,
-        mae_shadowed, ms, params_text, summary_rows, BUDGETS, TARGET_MAE,
+        best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms,
+        headline_rows, mae_shadowed, ms, params_text, summary_rows, BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -228,7 +228,12 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
     let command = if results.command.is_empty() {
         "(command not recorded)".to_string()
     } else {
-        format!("`workbench {}`", results.command.join(" "))
+        let program = if results.program.is_empty() {
+            "workbench"
+        } else {
+            &results.program
+        };
+        format!("`{program} {}`", results.command.join(" "))
     };
     let load = results
         .load

@@ -870,6 +870,8 @@ pub struct RunSetup {
     pub registry: Registry,
     /// The command that makes these runs, recorded in results.json (`Results::command`).
     pub command: Vec<String>,
+    /// The binary that ran it (`Results::program`).
+    pub program: String,
     pub sweep: Option<SweepInfo>,
     pub timing: Option<TimingSource>,
     pub camera: Option<Camera>,
@@ -918,6 +920,7 @@ pub fn run_resumed(
         schema_version: results::SCHEMA_VERSION,
         adapter: bench.adapter(),
         command: setup.command.clone(),
+        program: setup.program.clone(),
         date: results::today_utc(),
         load: results::MachineLoad::now(),
         sweep: setup.sweep,

@@ -211,6 +211,10 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
                 .first()
                 .map(|i| i.results.command.clone())
                 .unwrap_or_default(),
+            program: inputs
+                .first()
+                .map(|i| i.results.program.clone())
+                .unwrap_or_default(),
             date: inputs
                 .iter()
                 .map(|i| i.results.date.clone())

@@ -20,6 +20,10 @@ pub struct Results {
     /// "stiff", "--out", "DIR"]`), so a figure can be made again (`workbench docs --rerun`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub command: Vec<String>,
+    /// The binary that ran `command` when it is not the workspace's `workbench` (a crate's own
+    /// workbench with its technique, e.g. `custom-technique`); empty: `workbench`.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub program: String,
     /// The day the runs were made (UTC, `YYYY-MM-DD`).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub date: String,

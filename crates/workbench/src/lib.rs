@@ -455,6 +455,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
     let setup = RunSetup {
         registry: registry.clone(),
         command,
+        program: program_name(),
         sweep: sweep_info,
         timing,
         camera: view.0,
@@ -670,10 +671,35 @@ fn docs(files: Vec<PathBuf>, check: bool, rerun: bool) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The running binary's file name when it is not `workbench` (a crate's own workbench), for
+/// `Results::program`; empty for `workbench`.
+fn program_name() -> String {
+    let name = std::env::current_exe()
+        .ok()
+        .and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .unwrap_or_default();
+    if name == "workbench" {
+        String::new()
+    } else {
+        name
+    }
+}
+
 /// Makes the results file `path` again: runs the benchmark command it records into a temporary
 /// folder and writes its results, without images, over `path`.
 fn rerun_results(path: &std::path::Path) -> Result<()> {
     let recorded = softshadow_bench::merge::load(path)?.results;
+    if recorded.program != program_name() {
+        let made_by = if recorded.program.is_empty() {
+            "workbench"
+        } else {
+            recorded.program.as_str()
+        };
+        bail!(
+            "{} was made by `{made_by}`, which knows techniques this binary may not: make it again with that binary's `docs --rerun` (for examples/custom-technique: `cargo run --release -p custom-technique -- docs --rerun`)",
+            path.display()
+        );
+    }
     if recorded.command.first().map(String::as_str) != Some("bench") {
         bail!(
             "{} records no `bench` command to make it again: make it with `workbench bench ... --out DIR` and copy DIR/results.json there",
