@@ -110,6 +110,7 @@ fn the_example_pcss_like_is_within_its_bound_which_hard_and_all_lit_fail() -> Re
             images: false,
             exact_samples_per_axis: Some(16),
             camera_only: false,
+            reference_cache: None,
         },
     )?;
     let mut errors = Vec::new();
