@@ -44,7 +44,7 @@ pub enum ReferenceCacheUse {
 pub fn in_dir(dir: &Path) -> DiskCache {
     DiskCache {
         dir: dir.to_path_buf(),
-        kind: "reference",
+        kind: "yardstick",
         magic: *b"SSREF001",
         version: FORMAT_VERSION,
     }
