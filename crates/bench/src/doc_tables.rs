@@ -34,7 +34,7 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 use crate::{
     report::{
         best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms,
-        headline_rows, mae_shadowed, ms, params_text, summary_rows, BUDGETS, TARGET_MAE,
+        headline_rows, mae_shadowed, ms, params_text, scenes_of, summary_rows, BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -376,17 +376,6 @@ fn summary(runs: &[Run]) -> String {
         picks.join("; ")
     );
     t
-}
-
-fn scenes_of(runs: &[Run]) -> Vec<(String, u32, u32)> {
-    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
-    for run in runs {
-        let key = (run.scene.clone(), run.width, run.height);
-        if !scenes.contains(&key) {
-            scenes.push(key);
-        }
-    }
-    scenes
 }
 
 fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, String> {

@@ -413,14 +413,7 @@ pub fn render_html(
         warnings: merged.warnings.clone(),
         ..Default::default()
     };
-    // Scenes (with size) in first-seen order.
-    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
-    for run in runs {
-        let key = (run.scene.clone(), run.width, run.height);
-        if !scenes.contains(&key) {
-            scenes.push(key);
-        }
-    }
+    let scenes = scenes_of(runs);
     summary.scenes = scenes.len();
     let adapter = &merged.results.adapter;
     let sources: Vec<String> = {
@@ -647,21 +640,34 @@ pub struct HeadlineRow {
     pub floor_ms: Option<f64>,
 }
 
+/// The scenes (with their size) of `runs`, in first-seen order.
+pub fn scenes_of(runs: &[Run]) -> Vec<(String, u32, u32)> {
+    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
+    for run in runs {
+        let key = (run.scene.clone(), run.width, run.height);
+        if !scenes.contains(&key) {
+            scenes.push(key);
+        }
+    }
+    scenes
+}
+
+/// The runs of `scene` at `width` x `height` that finished.
+fn ok_runs_in<'a>(runs: &'a [Run], scene: &str, width: u32, height: u32) -> Vec<&'a Run> {
+    runs.iter()
+        .filter(|r| {
+            r.scene == scene && r.width == width && r.height == height && r.status == Status::Ok
+        })
+        .collect()
+}
+
 /// Per scene (with its size, in the order given) and technique (by name): the lowest
 /// mae_shadowed within each budget of [`BUDGETS`] x the fastest cost-floor run's frame time on
 /// that scene, and the lowest frame time at which the technique reaches [`TARGET_MAE`].
 pub fn headline_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<HeadlineRow> {
     let mut rows = Vec::new();
     for (scene, width, height) in scenes {
-        let in_scene: Vec<&Run> = runs
-            .iter()
-            .filter(|r| {
-                &r.scene == scene
-                    && r.width == *width
-                    && r.height == *height
-                    && r.status == Status::Ok
-            })
-            .collect();
+        let in_scene = ok_runs_in(runs, scene, *width, *height);
         let floor = in_scene
             .iter()
             .filter(|r| r.technique == COST_FLOOR_TECHNIQUE)
@@ -758,7 +764,12 @@ fn median(mut values: Vec<f64>) -> Option<f64> {
 /// Per technique (by name), its standing across `scenes`, from the headline rows and each
 /// scene's Pareto front.
 pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryRow> {
-    let headline = headline_rows(runs, scenes);
+    // Per scene and size, so that one scene at two sizes is two scenes here as in the headline.
+    let per_scene: Vec<Vec<HeadlineRow>> = scenes
+        .iter()
+        .map(|key| headline_rows(runs, std::slice::from_ref(key)))
+        .collect();
+    let headline: Vec<&HeadlineRow> = per_scene.iter().flatten().collect();
     let mut techniques: Vec<&str> = headline.iter().map(|r| r.technique.as_str()).collect();
     techniques.sort();
     techniques.dedup();
@@ -776,16 +787,8 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
     let index = |t: &str| techniques.iter().position(|x| *x == t).expect("listed");
     let mut ranks: Vec<Vec<f64>> = vec![Vec::new(); techniques.len()];
     let mut within: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); BUDGETS.len()]; techniques.len()];
-    for (scene, width, height) in scenes {
-        let in_scene: Vec<&Run> = runs
-            .iter()
-            .filter(|r| {
-                &r.scene == scene
-                    && r.width == *width
-                    && r.height == *height
-                    && r.status == Status::Ok
-            })
-            .collect();
+    for ((scene, width, height), scene_rows) in scenes.iter().zip(&per_scene) {
+        let in_scene = ok_runs_in(runs, scene, *width, *height);
         let points: Vec<(&str, f64, f64)> = in_scene
             .iter()
             .filter_map(|r| Some((r.technique.as_str(), frame_time_ms(r)?, mae_shadowed(r)?)))
@@ -797,7 +800,6 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
         for t in front_techniques {
             rows[index(t)].on_front.push(scene.clone());
         }
-        let scene_rows: Vec<&HeadlineRow> = headline.iter().filter(|r| &r.scene == scene).collect();
         // `b` indexes the budget in every row's per-budget vectors.
         #[allow(clippy::needless_range_loop)]
         for b in 0..BUDGETS.len() {
@@ -814,7 +816,7 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
                     rows[k].best_within[b] += 1;
                 }
             }
-            for row in &scene_rows {
+            for row in scene_rows {
                 if row.best_within[b].is_none() {
                     ranks[index(&row.technique)].push(fitting.len() as f64 + 1.0);
                 }
