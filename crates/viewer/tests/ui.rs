@@ -377,18 +377,12 @@ fn the_timing_panel_shows_the_passes_run_and_the_cost_of_computing() -> Result<(
 
     // A camera-only change (a real drag on the image): the shadow map is still kept.
     let camera = *harness.state().camera();
-    let centre = egui::pos2(SIZE.x * 0.5, SIZE.y * 0.5);
-    harness.hover_at(centre);
-    harness.event(egui::Event::PointerButton {
-        pos: centre,
-        button: egui::PointerButton::Primary,
-        pressed: true,
-        modifiers: egui::Modifiers::NONE,
-    });
-    for step in 1..=4 {
-        harness.hover_at(centre + egui::vec2(10.0 * step as f32, 0.0));
-        harness.step();
-    }
+    let end = press_and_drag(
+        &mut harness,
+        egui::pos2(SIZE.x * 0.5, SIZE.y * 0.5),
+        10.0,
+        4,
+    );
     let app = harness.state();
     ensure!(*app.camera() != camera, "the drag orbits the camera");
     ensure!(
@@ -396,14 +390,41 @@ fn the_timing_panel_shows_the_passes_run_and_the_cost_of_computing() -> Result<(
         "camera-only frame: {:?}",
         app.passes_run()
     );
+    release(&mut harness, end);
+    Ok(())
+}
+
+/// A real drag on the image with the primary button: pressed at `start`, moved `dx` to the right
+/// `steps` times with a frame after each; returns where the pointer is (still pressed).
+fn press_and_drag(
+    harness: &mut Harness<ViewerApp>,
+    start: egui::Pos2,
+    dx: f32,
+    steps: u32,
+) -> egui::Pos2 {
+    harness.hover_at(start);
     harness.event(egui::Event::PointerButton {
-        pos: centre + egui::vec2(40.0, 0.0),
+        pos: start,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    for step in 1..=steps {
+        harness.hover_at(start + egui::vec2(dx * step as f32, 0.0));
+        harness.step();
+    }
+    start + egui::vec2(dx * steps as f32, 0.0)
+}
+
+/// Ends a drag of [`press_and_drag`] at `at`, and runs one frame.
+fn release(harness: &mut Harness<ViewerApp>, at: egui::Pos2) {
+    harness.event(egui::Event::PointerButton {
+        pos: at,
         button: egui::PointerButton::Primary,
         pressed: false,
         modifiers: egui::Modifiers::NONE,
     });
     harness.step();
-    Ok(())
 }
 
 /// Snapshot tolerance: lavapipe renders deterministically here, so the threshold is egui's
@@ -826,31 +847,19 @@ fn the_plot_keeps_points_across_an_orbit() -> Result<()> {
         "{:?}",
         harness.state().points()
     );
-    let centre = egui::pos2(250.0 + 100.0, SIZE.y * 0.5);
-    harness.hover_at(centre);
-    harness.event(egui::Event::PointerButton {
-        pos: centre,
-        button: egui::PointerButton::Primary,
-        pressed: true,
-        modifiers: egui::Modifiers::NONE,
-    });
-    for step in 1..=3 {
-        harness.hover_at(centre + egui::vec2(15.0 * step as f32, 0.0));
-        harness.step();
-    }
+    let end = press_and_drag(
+        &mut harness,
+        egui::pos2(250.0 + 100.0, SIZE.y * 0.5),
+        15.0,
+        3,
+    );
     // The reference waits while the camera moves: the new view has none of its samples (the
     // old view's full count is not shown as this one's).
     ensure!(harness.state().stale_metrics().is_some());
     harness
         .query_by_label_contains("reference 0 / 16 light samples")
         .context("the moved view's progress starts at 0")?;
-    harness.event(egui::Event::PointerButton {
-        pos: centre + egui::vec2(45.0, 0.0),
-        button: egui::PointerButton::Primary,
-        pressed: false,
-        modifiers: egui::Modifiers::NONE,
-    });
-    harness.step();
+    release(&mut harness, end);
     ensure!(
         harness.state().points_of_other_views() == 1,
         "the first view's point is kept"
