@@ -199,6 +199,19 @@ pub enum RenderError {
         /// Largest accepted edge.
         max: u32,
     },
+    #[error(
+        "a visibility of {got} values cannot be shown at {width}x{height}: render it at the \
+         renderer's size (width x height values, row-major)"
+    )]
+    /// [`crate::Renderer::show_visibility`] was given a buffer of another size.
+    VisibilitySize {
+        /// Values given.
+        got: usize,
+        /// The renderer's width.
+        width: u32,
+        /// The renderer's height.
+        height: u32,
+    },
     #[error("invalid scene: {0}")]
     /// The scene, camera or light is invalid.
     Scene(String),

@@ -252,6 +252,72 @@ impl Renderer {
         })
     }
 
+    /// Draws the G-buffer at `camera`, takes `visibility` (row-major, this renderer's size) as
+    /// the frame's visibility and shades it with `shade`: the frame of a technique that ran
+    /// elsewhere (the viewer's render worker, on a device of its own) shown and measured here as
+    /// if it had run on this renderer. Nothing is timed.
+    pub fn show_visibility(
+        &mut self,
+        scene: &SceneGpu,
+        camera: &Camera,
+        light: &AreaLight,
+        visibility: &[f32],
+        shade: ShadingMode,
+    ) -> Result<(), RenderError> {
+        puffin::profile_function!();
+        camera.validate().map_err(RenderError::Scene)?;
+        let expected = self.width as usize * self.height as usize;
+        if visibility.len() != expected {
+            return Err(RenderError::VisibilitySize {
+                got: visibility.len(),
+                width: self.width,
+                height: self.height,
+            });
+        }
+        self.stage.write_uniforms(
+            &self.gpu,
+            FrameUniforms::new(camera, light, self.width, self.height),
+        );
+        self.gpu.queue.write_texture(
+            self.visibility.texture.as_image_copy(),
+            bytemuck::cast_slice(visibility),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * self.width),
+                rows_per_image: Some(self.height),
+            },
+            self.visibility.texture.size(),
+        );
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("show_visibility"),
+            });
+        let mut passes_run = Vec::new();
+        {
+            let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
+            self.gbuffer_pass
+                .record(&mut frame, &self.gbuffer, &self.uniform_bind_group, scene);
+            self.shading.record(
+                &mut frame,
+                shade,
+                self.stage.frame_bind_group(),
+                &self.gbuffer,
+                &self.visibility,
+                &self.shaded_view,
+            );
+        }
+        self.profiler.resolve_queries(&mut encoder);
+        self.gpu.queue.submit([encoder.finish()]);
+        let _ = self.profiler.end_frame();
+        self.gpu.wait_idle()?;
+        self.gpu.take_errors()?;
+        // Drains the profiler's frame so the next timed frame reads its own queries.
+        let _ = self.collect_timings();
+        Ok(())
+    }
+
     fn collect_timings(&mut self) -> Option<GpuFrameTiming> {
         if !self.gpu.has_timestamps() {
             return None;

@@ -133,6 +133,15 @@ impl ShadowStage {
         Ok((state, changes))
     }
 
+    /// Writes `uniforms` for a frame that runs no technique here (its visibility was computed
+    /// elsewhere: [`crate::Renderer::show_visibility`]); the write lands before the next
+    /// submission. The technique states kept for [`FrameChanges`] are left as they are.
+    pub fn write_uniforms(&mut self, gpu: &Gpu, uniforms: FrameUniforms) {
+        self.last_uniforms = uniforms;
+        gpu.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&self.last_uniforms));
+    }
+
     /// Records the technique's passes into `frame`, writing `out`.
     pub fn record(
         &self,

@@ -23,11 +23,13 @@ mod files_panel;
 mod image;
 mod overlays;
 mod reference;
+mod render_worker;
 mod scene_panel;
 mod technique;
 mod technique_panel;
 mod timing_panel;
 
+pub use technique::{FRAME_WAIT, SLOW_FRAME};
 pub use technique_panel::param_widget;
 
 use std::{

@@ -148,13 +148,30 @@ impl DisplayTarget {
             format: DISPLAY_FORMAT,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT
                 | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         Self {
             view: texture.create_view(&Default::default()),
             texture,
         }
+    }
+
+    /// Overwrites the image with `rgba` (row-major bytes of its format and size), as drawn on
+    /// another device (the render worker's debug images).
+    pub fn write(&self, gpu: &Gpu, rgba: &[u8]) {
+        let size = self.texture.size();
+        gpu.queue.write_texture(
+            self.texture.as_image_copy(),
+            rgba,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * size.width),
+                rows_per_image: Some(size.height),
+            },
+            size,
+        );
     }
 }
 

@@ -249,6 +249,11 @@ impl Handler {
         let mut app = ViewerApp::new(gpu.clone(), egui_renderer.clone(), &self.options.app)?;
         // The frame is cleared to the panel colour, so the panels need not paint it.
         app.set_opaque_panels(false);
+        if self.options.frames.is_some() {
+            // `--frames N` (documentation screenshots, CI): every frame shows the technique
+            // frame it asked for, as before the render worker.
+            app.set_frame_wait(std::time::Duration::MAX);
+        }
         Ok(Running {
             window,
             surface,

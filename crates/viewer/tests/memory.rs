@@ -101,6 +101,9 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
             ..ViewerOptions::default()
         },
     )?;
+    // Each UI frame shows the technique frame it asked for (the window waits at most
+    // `FRAME_WAIT`); `a_slow_technique_frame_never_holds_the_ui` tests the window's way.
+    app.set_frame_wait(std::time::Duration::MAX);
     app.set_reference_param("samples_per_axis", ParamValue::Int(4));
     app.set_reference_param("shadow_map_size", ParamValue::Int(256));
     app.set_render_size(Some((128, 96)));

@@ -25,6 +25,9 @@ fn harness(technique: &str) -> Result<Harness<'static, ViewerApp>> {
             ..ViewerOptions::default()
         },
     )?;
+    // Each UI frame shows the technique frame it asked for (the window waits at most
+    // `FRAME_WAIT`); `a_slow_technique_frame_never_holds_the_ui` tests the window's way.
+    app.set_frame_wait(std::time::Duration::MAX);
     // A 4 x 4 reference at 256^2 converges in one frame.
     app.set_reference_param("samples_per_axis", ParamValue::Int(4));
     app.set_reference_param("shadow_map_size", ParamValue::Int(256));
@@ -599,6 +602,9 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
             ..ViewerOptions::default()
         },
     )?;
+    // Each UI frame shows the technique frame it asked for (the window waits at most
+    // `FRAME_WAIT`); `a_slow_technique_frame_never_holds_the_ui` tests the window's way.
+    app.set_frame_wait(std::time::Duration::MAX);
     app.set_reference_param("samples_per_axis", ParamValue::Int(4));
     app.set_reference_param("shadow_map_size", ParamValue::Int(256));
     let mut harness = Harness::builder()
@@ -931,10 +937,15 @@ impl softshadow_core::ShadowTechnique for Sleepy {
     }
 }
 
-/// Issue 31: a frame slower than a second is measured once, not five times (five frames of the
-/// reference technique froze the viewer for three minutes), and its point still appears.
-#[test]
-fn a_slow_frame_is_measured_once() -> Result<()> {
+/// A viewer showing `sleepy` (hard, sleeping `sleep` per frame) on atty-square, each UI frame
+/// waiting at most `frame_wait` for the technique's frame; with the counter of its cost frames.
+fn sleepy_harness(
+    sleep: std::time::Duration,
+    frame_wait: std::time::Duration,
+) -> Result<(
+    Harness<'static, ViewerApp>,
+    std::sync::Arc<std::sync::atomic::AtomicUsize>,
+)> {
     let cost_frames = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let hard = softshadow::registry()
         .get("hard")
@@ -944,13 +955,13 @@ fn a_slow_frame_is_measured_once() -> Result<()> {
     let create = hard.create.clone();
     let sleepy = softshadow_core::TechniqueInfo::new(
         "sleepy",
-        "hard, sleeping 1.1 s per frame",
+        "hard, sleeping for a while every frame",
         "test",
         hard.params.clone(),
         move |gpu| {
             Ok(Box::new(Sleepy {
                 inner: create(gpu)?,
-                sleep: std::time::Duration::from_millis(1100),
+                sleep,
                 cost_frames: counter.clone(),
                 cache_dropped: false,
             }) as Box<dyn softshadow_core::ShadowTechnique>)
@@ -970,12 +981,25 @@ fn a_slow_frame_is_measured_once() -> Result<()> {
             ..ViewerOptions::default()
         },
     )?;
+    app.set_frame_wait(frame_wait);
     app.set_reference_param("samples_per_axis", ParamValue::Int(4));
     app.set_reference_param("shadow_map_size", ParamValue::Int(256));
-    let mut harness = Harness::builder()
+    let harness = Harness::builder()
         .with_size(SIZE)
         .renderer(WgpuTestRenderer::from_render_state(render_state))
         .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
+    Ok((harness, cost_frames))
+}
+
+/// Issue 31: a frame slower than a second is measured once, not five times (five frames of the
+/// reference technique froze the viewer for three minutes), and its point still appears.
+#[test]
+fn a_slow_frame_is_measured_once() -> Result<()> {
+    // Each UI frame waits for the technique frame it asked for.
+    let (mut harness, cost_frames) = sleepy_harness(
+        std::time::Duration::from_millis(1100),
+        std::time::Duration::MAX,
+    )?;
     harness.run_steps(2);
     let frames = cost_frames.load(std::sync::atomic::Ordering::SeqCst);
     ensure!(frames == 1, "{frames} frames with the caches dropped");
@@ -992,6 +1016,78 @@ fn a_slow_frame_is_measured_once() -> Result<()> {
     harness.step();
     ensure!(harness.state().technique_id() == "hard");
     ensure!(cost_frames.load(std::sync::atomic::Ordering::SeqCst) == 1);
+    Ok(())
+}
+
+/// Issue 31: the technique's frames run on the render worker, so while a frame of many seconds
+/// runs the UI keeps drawing and answering clicks, the frame shows its progress with Cancel,
+/// Cancel stops waiting for it, and a switch to another technique is immediate. Counts UI frames
+/// and state changes, not times: the technique sleeps far longer than every step below takes.
+#[test]
+fn a_slow_technique_frame_never_holds_the_ui() -> Result<()> {
+    let (mut harness, _) = sleepy_harness(
+        std::time::Duration::from_secs(60),
+        softshadow_viewer::app::FRAME_WAIT,
+    )?;
+    // The UI draws frame after frame while the technique's first frame sleeps.
+    harness.run_steps(5);
+    ensure!(
+        harness.state().technique_frame_running(),
+        "five UI frames were drawn while the technique's first frame runs"
+    );
+    let mut ui_frames = 5;
+    while harness.state().slow_frame_seconds().is_none() {
+        harness.step();
+        ui_frames += 1;
+        ensure!(ui_frames < 2000, "the slow frame never showed its progress");
+    }
+    ensure!(harness.state().points().is_empty());
+    // A click is answered mid-frame: the view mode changes.
+    harness.get_by_label("Difference").click();
+    harness.run_steps(2);
+    ensure!(harness.state().view_mode() == ViewMode::Difference);
+    ensure!(
+        harness.state().slow_frame_seconds().is_some(),
+        "the technique's frame is still running"
+    );
+    harness
+        .query_by_label_contains("computing a frame")
+        .context("the slow frame shows its progress")?;
+    // Cancel stops waiting for it; Render again starts it over.
+    harness.get_by_label("Cancel").click();
+    harness.run_steps(2);
+    ensure!(harness.state().slow_frame_seconds().is_none());
+    ensure!(
+        harness
+            .state()
+            .cancelled_frame()
+            .is_some_and(|m| m.contains("cancelled")),
+        "{:?}",
+        harness.state().cancelled_frame()
+    );
+    harness
+        .query_by_label("Render again")
+        .context("a cancelled frame offers Render again")?;
+    harness.get_by_label("Render again").click();
+    harness.run_steps(2);
+    ensure!(harness.state().cancelled_frame().is_none());
+    // Switching away from the slow technique while its frame runs is immediate: the next
+    // technique's frame is shown and timed while the old frame still sleeps.
+    harness.state_mut().select_technique("hard");
+    harness.state_mut().set_frame_wait(std::time::Duration::MAX);
+    harness.run_steps(2);
+    ensure!(harness.state().technique_id() == "hard");
+    ensure!(harness.state().technique_error().is_none());
+    let rows: Vec<String> = harness
+        .state()
+        .timing_rows()
+        .into_iter()
+        .map(|r| r.name)
+        .collect();
+    ensure!(
+        rows.iter().any(|r| r.starts_with("hard/")),
+        "hard's frame after the switch: {rows:?}"
+    );
     Ok(())
 }
 
@@ -1021,6 +1117,9 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
             ..ViewerOptions::default()
         },
     )?;
+    // Each UI frame shows the technique frame it asked for (the window waits at most
+    // `FRAME_WAIT`); `a_slow_technique_frame_never_holds_the_ui` tests the window's way.
+    app.set_frame_wait(std::time::Duration::MAX);
     app.set_reference_param("samples_per_axis", ParamValue::Int(4));
     app.set_reference_param("shadow_map_size", ParamValue::Int(256));
     let mut harness = Harness::builder()

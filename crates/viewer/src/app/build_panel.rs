@@ -4,7 +4,7 @@
 //! [`TechniqueError::Building`] (nothing drawn, no timing kept, no plot point); this panel shows
 //! its progress with a Cancel button, and a Build again button once cancelled.
 
-use softshadow_core::{BuildControl, RenderError, ShadowTechnique, TechniqueError};
+use softshadow_core::{BuildControl, RenderError, TechniqueError};
 
 use super::ViewerApp;
 
@@ -19,13 +19,18 @@ pub(super) struct BuildState {
 }
 
 impl BuildState {
-    /// Hands a newly created technique the viewer's control and turns on background builds.
-    pub(super) fn attach(&mut self, technique: &mut dyn ShadowTechnique) {
+    /// A new control for a newly created technique (the render worker hands it over and turns
+    /// on background builds), forgetting the last technique's build.
+    pub(super) fn fresh_control(&mut self) -> BuildControl {
         self.control = BuildControl::default();
         self.running = None;
         self.cancelled = false;
-        technique.set_build_control(self.control.clone());
-        technique.set_background_build(true);
+        self.control.clone()
+    }
+
+    /// Asks a running precompute to stop (its frame was cancelled).
+    pub(super) fn cancel_control(&self) {
+        self.control.cancel();
     }
 
     /// Notes a technique frame's outcome; `true` when the frame only found the build still

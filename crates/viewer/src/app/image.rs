@@ -233,7 +233,7 @@ impl ViewerApp {
             texture_id,
         });
         self.reference.key = None;
-        self.technique.prepared = None;
+        self.technique.shown_key = None;
         self.timing.rolling.clear();
         Ok(())
     }
@@ -259,74 +259,9 @@ impl ViewerApp {
             (self.image.view_mode, self.image.split),
             &r.display,
         );
-        self.image.debug_message = None;
-        let mut debug_kind = None;
-        if self.image.view_mode == ViewMode::Debug {
-            let views = self
-                .technique
-                .active
-                .as_ref()
-                .map(|t| t.debug_views())
-                .unwrap_or_default();
-            match views.get(self.image.debug_view).or(views.first()) {
-                Some(view) => {
-                    let (w, h) = (
-                        view.texture.width().min(1024),
-                        view.texture.height().min(1024),
-                    );
-                    let stale = self
-                        .image
-                        .debug_target
-                        .as_ref()
-                        .is_none_or(|(t, _)| (t.texture.width(), t.texture.height()) != (w, h));
-                    if stale {
-                        let target = DisplayTarget::new(&self.gpu, "viewer/debug", w, h);
-                        let mut egui_renderer = self.egui_renderer.write();
-                        let id = match self.image.debug_target.take() {
-                            Some((_, id)) => {
-                                egui_renderer.update_egui_texture_from_wgpu_texture(
-                                    &self.gpu.device,
-                                    &target.view,
-                                    wgpu::FilterMode::Nearest,
-                                    id,
-                                );
-                                id
-                            }
-                            None => egui_renderer.register_native_texture(
-                                &self.gpu.device,
-                                &target.view,
-                                wgpu::FilterMode::Nearest,
-                            ),
-                        };
-                        self.image.debug_target = Some((target, id));
-                    }
-                    let (target, _) = self.image.debug_target.as_ref().expect("created above");
-                    match self.image.display.record_debug(
-                        &self.gpu,
-                        &mut encoder,
-                        &view.texture,
-                        target,
-                    ) {
-                        Ok(kind) => debug_kind = Some(kind),
-                        Err(message) => {
-                            self.image.debug_message = Some(format!("{}: {message}", view.name));
-                        }
-                    }
-                }
-                None => {
-                    self.image.debug_message =
-                        Some(format!("`{}` has no debug views", self.technique.id));
-                }
-            }
-        }
         self.gpu.queue.submit([encoder.finish()]);
-        self.image.debug_mapping = None;
-        if let Some(kind) = debug_kind {
-            match self.image.display.read_debug_mapping(&self.gpu, kind) {
-                Ok(mapping) => self.image.debug_mapping = Some(mapping),
-                Err(e) => self.report_error(format!("cannot read the debug image's range: {e}")),
-            }
-        }
+        // The debug image, its mapping and any message come with the technique's frame
+        // (`technique::show_frame`): the worker draws it on its own device.
     }
 
     /// Renders at `size` whatever the panels leave for the image (`None`: fit the image area).

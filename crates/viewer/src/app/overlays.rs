@@ -81,12 +81,11 @@ impl ViewerApp {
                 );
             }
             ViewMode::Debug => {
-                let legend = self.technique.active.as_ref().and_then(|t| {
-                    let views = t.debug_views();
-                    views
+                let legend = self.technique.worker.as_ref().and_then(|w| {
+                    w.debug_views
                         .get(self.image.debug_view)
-                        .or(views.first())
-                        .map(|v| v.legend.clone())
+                        .or(w.debug_views.first())
+                        .map(|(_, legend)| legend.clone())
                 });
                 if let Some(message) = &self.image.debug_message {
                     ui.colored_label(egui::Color32::LIGHT_RED, message);
@@ -105,10 +104,13 @@ impl ViewerApp {
             || self.messages.status.is_some()
             || self.technique.build.is_running()
             || self.build_cancelled()
+            || self.slow_frame_seconds().is_some()
+            || self.cancelled_frame().is_some()
     }
 
     fn messages_ui(&mut self, ui: &mut egui::Ui) {
         self.build_ui(ui);
+        self.slow_frame_ui(ui);
         if let Some(error) = &self.technique.error {
             ui.colored_label(egui::Color32::LIGHT_RED, error);
         }
@@ -136,6 +138,46 @@ impl ViewerApp {
             if dismissed {
                 self.messages.status = None;
             }
+        }
+    }
+
+    /// A technique frame that runs longer than [`super::technique::SLOW_FRAME`]: how long so
+    /// far against its last frame, and Cancel; after a Cancel, Render again.
+    fn slow_frame_ui(&mut self, ui: &mut egui::Ui) {
+        if let Some(seconds) = self.slow_frame_seconds() {
+            let last = self
+                .technique
+                .worker
+                .as_ref()
+                .and_then(|w| w.last_frame_ms)
+                .map(|ms| ms / 1e3);
+            ui.group(|ui| {
+                ui.label(format!("{}: computing a frame", self.technique.id));
+                let text = match last {
+                    Some(last) => format!("{seconds:.1} s of about {last:.1} s (its last frame)"),
+                    None => format!("{seconds:.1} s (its first frame)"),
+                };
+                // Progress against the last frame's time; a first frame has nothing to go by.
+                let fraction = last.map_or(0.0, |last| (seconds / last.max(1e-3)).min(0.99));
+                ui.add(egui::ProgressBar::new(fraction as f32).text(text));
+                if ui
+                    .button("Cancel")
+                    .on_hover_text(
+                        "Stop waiting for this frame: nothing is drawn until Render again (the \
+                         device finishes the frame in the background)",
+                    )
+                    .clicked()
+                {
+                    self.cancel_frame();
+                }
+            });
+        } else if let Some(message) = self.cancelled_frame().map(str::to_string) {
+            ui.group(|ui| {
+                ui.label(message);
+                if ui.button("Render again").clicked() {
+                    self.render_again();
+                }
+            });
         }
     }
 }

@@ -125,7 +125,8 @@ impl ViewerApp {
             && self.reference.progress.is_complete();
         if !converged
             || self.technique.error.is_some()
-            || self.technique.active.is_none()
+            || self.technique.params.is_none()
+            || self.technique.shown_key != Some(self.current_setting_key())
             || self.technique.build.is_running()
         {
             return;

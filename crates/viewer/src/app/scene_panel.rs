@@ -156,7 +156,7 @@ impl ViewerApp {
                 self.scene.light = scene.scene.light;
                 self.scene.orbit = Orbit::from_camera(&self.scene.camera);
                 self.scene.loaded = scene;
-                self.technique.prepared = None;
+                self.technique.shown_key = None;
                 self.release_memory();
                 self.timing.rolling.clear();
             }

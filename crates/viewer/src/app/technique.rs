@@ -1,22 +1,43 @@
-//! The active technique: switching, its parameters, and its GPU frame.
+//! The active technique: switching, its parameters, and its frames, which run on a render
+//! worker ([`super::render_worker`]) so the UI stays responsive whatever they cost.
 
-use std::collections::BTreeMap;
+use std::{collections::BTreeMap, sync::Arc, time::Duration};
 
-use softshadow_core::{scene::Fnv1a, ParamSet, ParamValue, ShadingMode, ShadowTechnique};
+use softshadow_core::{scene::Fnv1a, ParamSet, ParamValue, Scene, ShadingMode, TechniqueInfo};
 
-use super::{build_panel::BuildState, timing_panel::SLOW_COST_FRAME_MS, ViewerApp, ViewerError};
-use crate::display::ViewMode;
+use super::{
+    build_panel::BuildState,
+    render_worker::{FrameDone, FrameRequest, RenderWorker},
+    timing_panel::SLOW_COST_FRAME_MS,
+    ViewerApp,
+};
+use crate::display::{DisplayTarget, ViewMode};
+
+/// How long one UI frame waits for the technique's frame before it draws the last one again: a
+/// fast technique's frame is shown in the frame that asked for it, a slow one never holds the UI
+/// (which answers input within about this plus its own drawing).
+pub const FRAME_WAIT: Duration = Duration::from_millis(40);
+
+/// A frame running longer than this shows its progress with a Cancel button.
+pub const SLOW_FRAME: Duration = Duration::from_secs(1);
 
 /// The active technique, every technique's settings, and its last error.
-#[derive(Default)]
 pub(super) struct TechniqueState {
     pub(super) id: String,
-    /// `None` when it failed to start.
-    pub(super) active: Option<Box<dyn ShadowTechnique>>,
+    /// The thread that renders it; `None` when it failed to start or its frame was cancelled.
+    pub(super) worker: Option<RenderWorker>,
+    /// Its parameters (its specs with the values set); `None` when it failed to start.
+    pub(super) params: Option<ParamSet>,
     /// Settings per technique id, so switching back and forth keeps them.
     pub(super) settings: BTreeMap<String, BTreeMap<String, ParamValue>>,
-    /// Inputs `prepare` last ran for (scene hash, light hash).
-    pub(super) prepared: Option<(u64, u64)>,
+    /// The scene as the worker gets it (uploaded there once per scene hash).
+    scene: Option<(u64, Arc<Scene>)>,
+    /// The setting (technique, parameters, scene, light, camera, size) the shown image is of.
+    pub(super) shown_key: Option<u64>,
+    /// Why no frame is asked for (the user cancelled one) until Render again.
+    pub(super) cancelled_frame: Option<String>,
+    /// How long a UI frame waits for the technique's ([`FRAME_WAIT`] unless set).
+    pub(super) frame_wait: Duration,
     /// The last frame's failure (or its failure to start).
     pub(super) error: Option<String>,
     /// Its precompute when it builds off the UI thread ([`super::build_panel`]).
@@ -26,39 +47,66 @@ pub(super) struct TechniqueState {
 impl TechniqueState {
     pub(super) fn new(settings: BTreeMap<String, BTreeMap<String, ParamValue>>) -> Self {
         Self {
+            id: String::new(),
+            worker: None,
+            params: None,
             settings,
-            ..Self::default()
+            scene: None,
+            shown_key: None,
+            cancelled_frame: None,
+            frame_wait: FRAME_WAIT,
+            error: None,
+            build: BuildState::default(),
         }
+    }
+}
+
+/// The parameters `info` declares with `saved` values over their defaults.
+fn param_set_of(info: &TechniqueInfo, saved: &BTreeMap<String, ParamValue>) -> ParamSet {
+    ParamSet {
+        entries: info
+            .params
+            .iter()
+            .map(|spec| {
+                let value = saved
+                    .get(spec.name.as_ref())
+                    .cloned()
+                    .unwrap_or_else(|| spec.default_value());
+                (spec.clone(), value)
+            })
+            .collect(),
     }
 }
 
 impl ViewerApp {
     /// Switches the technique; its settings from earlier in the session are restored. A technique
-    /// that fails to build shows its error and leaves no active technique.
+    /// that fails to build shows its error and leaves no active technique. The old technique's
+    /// frame, if one is running, is abandoned (its worker ends when the frame does).
     pub fn select_technique(&mut self, id: &str) {
         self.technique.id = id.to_string();
-        self.technique.active = None;
+        self.technique.worker = None;
+        self.technique.params = None;
+        self.technique.shown_key = None;
+        self.technique.cancelled_frame = None;
         self.release_memory();
         self.technique.error = None;
-        self.technique.prepared = None;
         self.timing.rolling.clear();
+        let saved = self.technique.settings.get(id).cloned().unwrap_or_default();
+        let control = self.technique.build.fresh_control();
         let result = self
             .registry
             .find(id)
-            .map_err(ViewerError::from)
+            .map_err(|e| e.to_string())
             .and_then(|info| {
-                let saved: Vec<(String, ParamValue)> = self
-                    .technique
-                    .settings
-                    .get(id)
-                    .map(|m| m.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
-                    .unwrap_or_default();
-                Ok(info.create_with(&self.gpu, &saved)?)
+                let params: Vec<(String, ParamValue)> = saved.clone().into_iter().collect();
+                let worker = RenderWorker::spawn(&self.gpu, info, params, control)
+                    .map_err(|e| e.to_string())?;
+                Ok((worker, param_set_of(info, &saved)))
             });
         match result {
-            Ok(mut technique) => {
-                self.technique.build.attach(technique.as_mut());
-                self.technique.active = Some(technique);
+            Ok((worker, params)) => {
+                self.technique.worker = Some(worker);
+                self.technique.params = Some(params);
             }
             Err(e) => {
                 let message = format!("technique `{id}` failed to start: {e}");
@@ -68,13 +116,22 @@ impl ViewerApp {
         }
     }
 
-    /// Sets one parameter of the active technique (range-checked; an error is shown).
+    /// Sets one parameter of the active technique (range-checked; an error is shown). The next
+    /// frame the worker renders uses it.
     pub fn set_param(&mut self, name: &str, value: ParamValue) {
-        let Some(technique) = self.technique.active.as_mut() else {
+        let Some(params) = self.technique.params.as_mut() else {
             return;
         };
-        match technique.set_param(name, value.clone()) {
-            Ok(()) => {
+        let Some((spec, current)) = params.entries.iter_mut().find(|(s, _)| s.name == name) else {
+            self.report_error(format!(
+                "`{}` has no parameter `{name}`: see its panel for the ones it has",
+                self.technique.id
+            ));
+            return;
+        };
+        match spec.check(value) {
+            Ok(value) => {
+                *current = value.clone();
                 self.technique
                     .settings
                     .entry(self.technique.id.clone())
@@ -86,59 +143,150 @@ impl ViewerApp {
         }
     }
 
-    pub(super) fn render_technique(&mut self) {
-        puffin::profile_function!();
-        let (Some(r), Some(technique)) = (
-            self.image.renderers.as_mut(),
-            self.technique.active.as_mut(),
-        ) else {
+    /// Stops waiting for the technique's running frame (the Cancel button): its worker is
+    /// abandoned and no frame is asked for until [`ViewerApp::render_again`].
+    pub fn cancel_frame(&mut self) {
+        let Some(worker) = self.technique.worker.take() else {
             return;
         };
-        let prepared = (
-            self.scene.loaded.gpu.content_hash,
-            self.scene.light.content_hash(),
-        );
-        if self.technique.prepared != Some(prepared) {
-            let inputs = r.technique.inputs(
-                &self.scene.loaded.gpu,
-                &self.scene.camera,
-                &self.scene.light,
-            );
-            if let Err(e) = technique.prepare(&self.gpu, &inputs) {
-                self.technique.error = Some(format!("{}: {e}", self.technique.id));
+        let seconds = worker.busy_for().map_or(0.0, |d| d.as_secs_f64());
+        // A precompute running inside the technique stops too.
+        self.technique.build.cancel_control();
+        self.technique.cancelled_frame = Some(format!(
+            "{}: frame cancelled after {seconds:.1} s; nothing is drawn until Render again",
+            self.technique.id
+        ));
+        self.timing.cost.clear();
+    }
+
+    /// Starts the technique again after [`ViewerApp::cancel_frame`] (the Render again button).
+    pub fn render_again(&mut self) {
+        let id = self.technique.id.clone();
+        self.select_technique(&id);
+    }
+
+    /// Seconds the technique's running frame has taken so far, once it counts as slow
+    /// ([`SLOW_FRAME`]); `None` otherwise.
+    pub fn slow_frame_seconds(&self) -> Option<f64> {
+        self.technique
+            .worker
+            .as_ref()
+            .and_then(|w| w.busy_for())
+            .filter(|d| *d >= SLOW_FRAME)
+            .map(|d| d.as_secs_f64())
+    }
+
+    /// Whether the render worker is computing a frame of the technique.
+    pub fn technique_frame_running(&self) -> bool {
+        self.technique.worker.as_ref().is_some_and(|w| w.busy())
+    }
+
+    /// Why no frame is being rendered after a Cancel, if one was cancelled.
+    pub fn cancelled_frame(&self) -> Option<&str> {
+        self.technique.cancelled_frame.as_deref()
+    }
+
+    /// How long each UI frame waits for the technique's frame (default [`FRAME_WAIT`]). Tests
+    /// and `view --frames N` wait for every frame (`Duration::MAX`) so that each UI frame shows
+    /// the frame it asked for.
+    pub fn set_frame_wait(&mut self, wait: Duration) {
+        self.technique.frame_wait = wait;
+    }
+
+    /// Asks the worker for a frame when it is idle, and shows the frame it finishes.
+    pub(super) fn render_technique(&mut self) {
+        puffin::profile_function!();
+        if self.image.renderers.is_none() || self.technique.cancelled_frame.is_some() {
+            return;
+        }
+        let scene_hash = self.scene.loaded.gpu.content_hash;
+        if self.technique.scene.as_ref().map(|(h, _)| *h) != Some(scene_hash) {
+            self.technique.scene = Some((scene_hash, Arc::new(self.scene.loaded.scene.clone())));
+        }
+        let setting_key = self.current_setting_key();
+        let Some(worker) = self.technique.worker.as_mut() else {
+            return;
+        };
+        if !worker.busy() {
+            // The first frames of a setting pay the whole cost (as the benchmark's `timing`
+            // does); later ones may keep light-space results while only the camera moves. Not
+            // while the user drags: the camera-only frames are what keeps that interactive.
+            let invalidate = self.timing.cost.len() < self.timing.cost_frames_wanted()
+                && !self.image.interacting;
+            let r = self.image.renderers.as_ref().expect("checked above");
+            let request = FrameRequest {
+                setting_key,
+                scene: self.technique.scene.as_ref().expect("set above").1.clone(),
+                scene_hash,
+                camera: self.scene.camera,
+                light: self.scene.light,
+                size: (r.width, r.height),
+                params: self
+                    .technique
+                    .params
+                    .as_ref()
+                    .map(|p| {
+                        p.entries
+                            .iter()
+                            .map(|(s, v)| (s.name.to_string(), v.clone()))
+                            .collect()
+                    })
+                    .unwrap_or_default(),
+                invalidate,
+                debug_view: (self.image.view_mode == ViewMode::Debug)
+                    .then_some(self.image.debug_view),
+            };
+            if !worker.request(request) {
+                self.worker_stopped();
                 return;
             }
-            self.technique.prepared = Some(prepared);
         }
-        // The first frames of a setting pay the whole cost (as the benchmark's `timing` does);
-        // later ones may keep light-space results while only the camera moves. Not while the
-        // user drags: the camera-only frames are what keeps that interactive.
-        let measuring_cost =
-            self.timing.cost.len() < self.timing.cost_frames_wanted() && !self.image.interacting;
-        if measuring_cost {
-            technique.invalidate_cache();
+        match worker.receive(self.technique.frame_wait) {
+            Ok(Some(done)) => self.show_frame(done),
+            Ok(None) => {}
+            Err(()) => self.worker_stopped(),
         }
-        // Images only a debug view reads (the PDSM's centre map) are drawn only while shown.
-        let shown = (self.image.view_mode == ViewMode::Debug).then(|| {
-            let views = technique.debug_views();
-            views
-                .get(self.image.debug_view)
-                .or(views.first())
-                .map(|v| v.name.clone())
-        });
-        technique.show_debug_view(shown.flatten().as_deref());
-        match r.technique.render(
-            &self.scene.loaded.gpu,
-            &self.scene.camera,
-            &self.scene.light,
-            technique.as_mut(),
-            Some(ShadingMode::Shaded),
-        ) {
-            Ok(output) => {
+    }
+
+    fn worker_stopped(&mut self) {
+        self.technique.worker = None;
+        let message = format!(
+            "{}: its render worker stopped (a panic on its thread; the log says why); pick the \
+             technique again to restart it",
+            self.technique.id
+        );
+        self.technique.error = Some(message);
+    }
+
+    /// Shades and shows a finished frame, and counts its timings where they belong to the
+    /// current setting.
+    fn show_frame(&mut self, done: FrameDone) {
+        if done.scene_hash != self.scene.loaded.gpu.content_hash {
+            return; // Of a scene no longer open.
+        }
+        let current = done.setting_key == self.current_setting_key();
+        match done.result {
+            Ok((output, visibility)) => {
                 self.technique.build.note(Ok(()));
-                if let Some(gpu) = &output.gpu {
+                if let Some(r) = self.image.renderers.as_mut() {
+                    if (r.width, r.height) == done.size {
+                        if let Err(e) = r.technique.show_visibility(
+                            &self.scene.loaded.gpu,
+                            &done.camera,
+                            &done.light,
+                            &visibility,
+                            ShadingMode::Shaded,
+                        ) {
+                            self.report_error(format!("cannot show the frame: {e}"));
+                            return;
+                        }
+                        self.technique.shown_key = Some(done.setting_key);
+                    }
+                }
+                if let Some(gpu) = output.gpu.as_ref().filter(|_| current) {
                     self.timing.rolling.push(gpu.clone());
-                    if measuring_cost {
+                    if done.invalidated && self.timing.cost.len() < self.timing.cost_frames_wanted()
+                    {
                         self.timing.cost.push(gpu.clone());
                         self.timing.slow_cost_frames |= output.cpu_ms > SLOW_COST_FRAME_MS;
                     }
@@ -147,30 +295,72 @@ impl ViewerApp {
                 self.technique.error = None;
             }
             Err(e) if self.technique.build.note(Err(&e)) => {
-                // The precompute builds off the UI thread: nothing drawn, nothing timed.
+                // The precompute builds off the worker's thread: nothing drawn, nothing timed.
                 self.technique.error = None;
                 self.timing.rolling.clear();
                 self.timing.cost.clear();
             }
             Err(e) => {
                 // Keep running: the error is shown and the next frame tries again.
-                let _ = self.gpu.take_errors();
                 self.technique.error = Some(format!("{} failed: {e}", self.technique.id));
                 self.timing.rolling.clear();
                 self.timing.cost.clear();
             }
         }
+        self.image.debug_message = None;
+        self.image.debug_mapping = None;
+        match done.debug_image {
+            Some(Ok(image)) => {
+                self.show_debug_image(&image);
+                self.image.debug_mapping = Some(image.mapping);
+            }
+            Some(Err(message)) => self.image.debug_message = Some(message),
+            None if self.image.view_mode == ViewMode::Debug && done.debug_views.is_empty() => {
+                self.image.debug_message =
+                    Some(format!("`{}` has no debug views", self.technique.id));
+            }
+            None => {}
+        }
+    }
+
+    /// Copies a debug image drawn by the worker into the texture the image area shows.
+    fn show_debug_image(&mut self, image: &super::render_worker::DebugImage) {
+        let stale = self.image.debug_target.as_ref().is_none_or(|(t, _)| {
+            (t.texture.width(), t.texture.height()) != (image.width, image.height)
+        });
+        if stale {
+            let target = DisplayTarget::new(&self.gpu, "viewer/debug", image.width, image.height);
+            let mut egui_renderer = self.egui_renderer.write();
+            let id = match self.image.debug_target.take() {
+                Some((_, id)) => {
+                    egui_renderer.update_egui_texture_from_wgpu_texture(
+                        &self.gpu.device,
+                        &target.view,
+                        softshadow_core::wgpu::FilterMode::Nearest,
+                        id,
+                    );
+                    id
+                }
+                None => egui_renderer.register_native_texture(
+                    &self.gpu.device,
+                    &target.view,
+                    softshadow_core::wgpu::FilterMode::Nearest,
+                ),
+            };
+            self.image.debug_target = Some((target, id));
+        }
+        let (target, _) = self.image.debug_target.as_ref().expect("created above");
+        target.write(&self.gpu, &image.rgba);
     }
 
     pub(super) fn setting(&self) -> Vec<(String, ParamValue)> {
         self.technique
-            .active
+            .params
             .as_ref()
-            .map(|t| {
-                t.params()
-                    .entries
-                    .into_iter()
-                    .map(|(s, v)| (s.name.to_string(), v))
+            .map(|p| {
+                p.entries
+                    .iter()
+                    .map(|(s, v)| (s.name.to_string(), v.clone()))
                     .collect()
             })
             .unwrap_or_default()
@@ -197,7 +387,7 @@ impl ViewerApp {
 
     /// Current parameters of the active technique (`None` when it failed to build).
     pub fn technique_params(&self) -> Option<ParamSet> {
-        self.technique.active.as_ref().map(|t| t.params())
+        self.technique.params.clone()
     }
 
     /// The active technique's last render error, if its last frame failed.

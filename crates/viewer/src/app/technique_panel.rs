@@ -29,12 +29,12 @@ impl ViewerApp {
                 self.select_technique(&id);
             }
         }
-        let Some(technique) = &self.technique.active else {
+        let Some(params) = &self.technique.params else {
             return;
         };
         let mut changes = Vec::new();
-        for (spec, value) in technique.params().entries {
-            if let Some(new) = param_widget(ui, &spec, &value) {
+        for (spec, value) in &params.entries {
+            if let Some(new) = param_widget(ui, spec, value) {
                 changes.push((spec.name.to_string(), new));
             }
         }
@@ -99,9 +99,9 @@ impl ViewerApp {
                     ViewMode::Debug => {
                         let names: Vec<String> = self
                             .technique
-                            .active
+                            .worker
                             .as_ref()
-                            .map(|t| t.debug_views().into_iter().map(|v| v.name).collect())
+                            .map(|w| w.debug_views.iter().map(|(name, _)| name.clone()).collect())
                             .unwrap_or_default();
                         egui::ComboBox::from_label("Debug image")
                             .selected_text(

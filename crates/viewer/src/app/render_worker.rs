@@ -1,0 +1,375 @@
+//! The active technique runs on a thread of its own, on a device of its own, so the UI answers
+//! input whatever a frame costs (a `reference` cost frame takes 30 s and more on lavapipe).
+//!
+//! Why a second device: lavapipe runs one queue's submissions in order, so an egui frame
+//! submitted on a shared device would wait behind the technique's (docs/ARCHITECTURE.md, "The
+//! viewer's render worker"). The worker creates the technique from its
+//! [`TechniqueInfo`] (a `ShadowTechnique` is not `Send`), uploads the scene once per scene,
+//! renders the visibility at the camera, light and parameters of each [`FrameRequest`] and sends
+//! it back read out, with the shown debug image drawn by its own [`DisplayPass`]. The UI shades
+//! it on its own renderer ([`softshadow_core::Renderer::show_visibility`]), measures it against
+//! the reference and shows it.
+//!
+//! Dropping a [`RenderWorker`] abandons it: its thread finishes the frame it is in (a GPU frame
+//! cannot be interrupted), sees the request channel closed and ends, freeing its device. That is
+//! how Cancel and a switch away from a slow technique are immediate for the user.
+
+use std::{
+    sync::{mpsc, Arc},
+    thread,
+    time::{Duration, Instant},
+};
+
+use softshadow_core::{
+    readback, AreaLight, BuildControl, Camera, DebugLegend, Gpu, ParamValue, RenderError, Renderer,
+    Scene, SceneGpu, ShadowTechnique, TechniqueInfo,
+};
+
+use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
+
+/// Largest debug image edge sent back (as the display draws them).
+const DEBUG_EDGE: u32 = 1024;
+
+/// One frame the UI asks for: everything it depends on, so the worker keeps no UI state.
+pub(super) struct FrameRequest {
+    /// The UI's key of this setting (technique, parameters, scene, light, camera, size).
+    pub(super) setting_key: u64,
+    pub(super) scene: Arc<Scene>,
+    pub(super) scene_hash: u64,
+    pub(super) camera: Camera,
+    pub(super) light: AreaLight,
+    pub(super) size: (u32, u32),
+    pub(super) params: Vec<(String, ParamValue)>,
+    /// Drop the technique's caches first (a cost frame, as the benchmark's `timing`).
+    pub(super) invalidate: bool,
+    /// The debug view to draw after the frame (index into its debug views), if one is shown.
+    pub(super) debug_view: Option<usize>,
+}
+
+/// A debug image drawn by the worker, as RGBA8 bytes of the display format.
+pub(super) struct DebugImage {
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) rgba: Vec<u8>,
+    pub(super) mapping: DebugMapping,
+}
+
+/// What came of one [`FrameRequest`].
+pub(super) struct FrameDone {
+    pub(super) setting_key: u64,
+    pub(super) camera: Camera,
+    pub(super) light: AreaLight,
+    pub(super) size: (u32, u32),
+    pub(super) scene_hash: u64,
+    pub(super) invalidated: bool,
+    /// The frame's passes and times, and its visibility read out (row-major, `size`).
+    pub(super) result: Result<(softshadow_core::FrameOutput, Vec<f32>), RenderError>,
+    /// The technique's debug views after the frame: name and legend.
+    pub(super) debug_views: Vec<(String, DebugLegend)>,
+    /// The requested debug image, or why it could not be drawn.
+    pub(super) debug_image: Option<Result<DebugImage, String>>,
+}
+
+/// The technique's thread: requests go in, finished frames come out.
+pub(super) struct RenderWorker {
+    requests: mpsc::Sender<FrameRequest>,
+    frames: mpsc::Receiver<FrameDone>,
+    /// The request being rendered: when it was sent and whether it is a cost frame.
+    in_flight: Option<(Instant, u64)>,
+    /// Wall time of the last frame that came back, ms.
+    pub(super) last_frame_ms: Option<f64>,
+    /// Debug views of the last frame: name and legend.
+    pub(super) debug_views: Vec<(String, DebugLegend)>,
+}
+
+/// Why a [`RenderWorker`] could not start.
+#[derive(Debug)]
+pub(super) enum StartError {
+    Device(String),
+    Technique(String),
+}
+
+impl std::fmt::Display for StartError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StartError::Device(e) => write!(f, "cannot create the render worker's device: {e}"),
+            StartError::Technique(e) => f.write_str(e),
+        }
+    }
+}
+
+impl RenderWorker {
+    /// Starts a thread with its own device on `gpu`'s adapter and creates the technique there
+    /// with `params`; waits until it exists (its creation error is returned here).
+    pub(super) fn spawn(
+        gpu: &Gpu,
+        info: &TechniqueInfo,
+        params: Vec<(String, ParamValue)>,
+        build: BuildControl,
+    ) -> Result<Self, StartError> {
+        let instance = gpu
+            .instance
+            .clone()
+            .ok_or_else(|| StartError::Device("the viewer's GPU context has no instance".into()))?;
+        let device = pollster::block_on(Gpu::from_adapter_with(
+            instance,
+            gpu.adapter.clone(),
+            crate::MEMORY_HINTS,
+        ))
+        .map_err(|e| StartError::Device(e.to_string()))?;
+        let (request_tx, request_rx) = mpsc::channel::<FrameRequest>();
+        let (frame_tx, frame_rx) = mpsc::channel::<FrameDone>();
+        let (started_tx, started_rx) = mpsc::channel::<Result<(), String>>();
+        let info = info.clone();
+        thread::Builder::new()
+            .name(format!("render worker: {}", info.id))
+            .spawn(move || {
+                let technique = match info.create_with(&device, &params) {
+                    Ok(mut technique) => {
+                        technique.set_build_control(build);
+                        technique.set_background_build(true);
+                        let _ = started_tx.send(Ok(()));
+                        technique
+                    }
+                    Err(e) => {
+                        let _ = started_tx.send(Err(e.to_string()));
+                        return;
+                    }
+                };
+                Worker::new(device, technique).run(&request_rx, &frame_tx);
+            })
+            .map_err(|e| StartError::Device(format!("cannot start its thread: {e}")))?;
+        match started_rx.recv() {
+            Ok(Ok(())) => Ok(Self {
+                requests: request_tx,
+                frames: frame_rx,
+                in_flight: None,
+                last_frame_ms: None,
+                debug_views: Vec::new(),
+            }),
+            Ok(Err(e)) => Err(StartError::Technique(e)),
+            Err(_) => Err(StartError::Technique(
+                "the render worker stopped while creating the technique (see the log)".into(),
+            )),
+        }
+    }
+
+    /// Whether a frame is being rendered.
+    pub(super) fn busy(&self) -> bool {
+        self.in_flight.is_some()
+    }
+
+    /// How long the frame being rendered has taken so far.
+    pub(super) fn busy_for(&self) -> Option<Duration> {
+        self.in_flight.map(|(since, _)| since.elapsed())
+    }
+
+    /// Sends a request; `false` when the worker has stopped.
+    pub(super) fn request(&mut self, request: FrameRequest) -> bool {
+        let key = request.setting_key;
+        if self.requests.send(request).is_err() {
+            return false;
+        }
+        self.in_flight = Some((Instant::now(), key));
+        true
+    }
+
+    /// The finished frame, waiting at most `wait` for it. `Err` when the worker has stopped
+    /// (a panic on its thread: the log says why).
+    pub(super) fn receive(&mut self, wait: Duration) -> Result<Option<FrameDone>, ()> {
+        if self.in_flight.is_none() {
+            return Ok(None);
+        }
+        let received = if wait.is_zero() {
+            match self.frames.try_recv() {
+                Ok(done) => Ok(done),
+                Err(mpsc::TryRecvError::Empty) => return Ok(None),
+                Err(mpsc::TryRecvError::Disconnected) => Err(()),
+            }
+        } else {
+            match self.frames.recv_timeout(wait) {
+                Ok(done) => Ok(done),
+                Err(mpsc::RecvTimeoutError::Timeout) => return Ok(None),
+                Err(mpsc::RecvTimeoutError::Disconnected) => Err(()),
+            }
+        };
+        let (since, _) = self.in_flight.take().expect("checked above");
+        let done = received?;
+        self.last_frame_ms = Some(since.elapsed().as_secs_f64() * 1e3);
+        self.debug_views = done.debug_views.clone();
+        Ok(Some(done))
+    }
+}
+
+/// The worker thread's state.
+struct Worker {
+    gpu: Gpu,
+    technique: Box<dyn ShadowTechnique>,
+    scene: Option<(u64, SceneGpu)>,
+    renderer: Option<Renderer>,
+    /// Scene and light hashes `prepare` last ran for.
+    prepared: Option<(u64, u64)>,
+    display: Option<DisplayPass>,
+    debug_target: Option<DisplayTarget>,
+}
+
+impl Worker {
+    fn new(gpu: Gpu, technique: Box<dyn ShadowTechnique>) -> Self {
+        Self {
+            gpu,
+            technique,
+            scene: None,
+            renderer: None,
+            prepared: None,
+            display: None,
+            debug_target: None,
+        }
+    }
+
+    fn run(mut self, requests: &mpsc::Receiver<FrameRequest>, frames: &mpsc::Sender<FrameDone>) {
+        while let Ok(mut request) = requests.recv() {
+            // Only the newest request matters: the UI sends one at a time, but be safe.
+            while let Ok(newer) = requests.try_recv() {
+                request = newer;
+            }
+            let result = self.frame(&request);
+            let debug_image = match (&result, request.debug_view) {
+                (Ok(_), Some(index)) => self.debug_image(index),
+                _ => None,
+            };
+            let done = FrameDone {
+                setting_key: request.setting_key,
+                camera: request.camera,
+                light: request.light,
+                size: request.size,
+                scene_hash: request.scene_hash,
+                invalidated: request.invalidate,
+                result,
+                debug_views: self
+                    .technique
+                    .debug_views()
+                    .into_iter()
+                    .map(|v| (v.name, v.legend))
+                    .collect(),
+                debug_image,
+            };
+            if frames.send(done).is_err() {
+                return; // The UI dropped this worker.
+            }
+        }
+    }
+
+    fn frame(
+        &mut self,
+        request: &FrameRequest,
+    ) -> Result<(softshadow_core::FrameOutput, Vec<f32>), RenderError> {
+        if self.scene.as_ref().map(|(hash, _)| *hash) != Some(request.scene_hash) {
+            self.scene = None;
+            self.prepared = None;
+            self.scene = Some((
+                request.scene_hash,
+                SceneGpu::upload(&self.gpu, &request.scene),
+            ));
+        }
+        let (width, height) = request.size;
+        if self
+            .renderer
+            .as_ref()
+            .is_none_or(|r| (r.width, r.height) != (width, height))
+        {
+            self.renderer = None;
+            self.renderer = Some(Renderer::new(&self.gpu, width, height)?);
+            self.prepared = None;
+        }
+        let current = self.technique.params();
+        for (name, value) in &request.params {
+            if current.get(name) != Some(value) {
+                self.technique
+                    .set_param(name, value.clone())
+                    .map_err(|e| RenderError::Scene(e.to_string()))?;
+            }
+        }
+        let (_, scene) = self.scene.as_ref().expect("uploaded above");
+        let renderer = self.renderer.as_mut().expect("created above");
+        let prepared = (request.scene_hash, request.light.content_hash());
+        if self.prepared != Some(prepared) {
+            let inputs = renderer.inputs(scene, &request.camera, &request.light);
+            self.technique.prepare(&self.gpu, &inputs)?;
+            self.prepared = Some(prepared);
+        }
+        if request.invalidate {
+            self.technique.invalidate_cache();
+        }
+        // Images only a debug view reads (the PDSM's centre map) are drawn only while shown.
+        let shown = request.debug_view.map(|index| {
+            let views = self.technique.debug_views();
+            views.get(index).or(views.first()).map(|v| v.name.clone())
+        });
+        self.technique.show_debug_view(shown.flatten().as_deref());
+        let output = renderer.render(
+            scene,
+            &request.camera,
+            &request.light,
+            self.technique.as_mut(),
+            None,
+        );
+        let output = match output {
+            Ok(output) => output,
+            Err(e) => {
+                let _ = self.gpu.take_errors();
+                return Err(e);
+            }
+        };
+        let visibility = renderer.read_visibility()?;
+        Ok((output, visibility))
+    }
+
+    /// Draws debug view `index` (or the first) as the display shows it and reads it out.
+    fn debug_image(&mut self, index: usize) -> Option<Result<DebugImage, String>> {
+        let views = self.technique.debug_views();
+        let view = views.get(index).or(views.first())?;
+        Some(
+            self.draw_debug(&view.texture)
+                .map_err(|e| format!("{}: {e}", view.name)),
+        )
+    }
+
+    fn draw_debug(
+        &mut self,
+        texture: &softshadow_core::wgpu::Texture,
+    ) -> Result<DebugImage, String> {
+        if self.display.is_none() {
+            self.display = Some(DisplayPass::new(&self.gpu).map_err(|e| e.to_string())?);
+        }
+        let display = self.display.as_ref().expect("created above");
+        let (width, height) = (
+            texture.width().min(DEBUG_EDGE),
+            texture.height().min(DEBUG_EDGE),
+        );
+        if self
+            .debug_target
+            .as_ref()
+            .is_none_or(|t| (t.texture.width(), t.texture.height()) != (width, height))
+        {
+            self.debug_target = Some(DisplayTarget::new(&self.gpu, "viewer/debug", width, height));
+        }
+        let target = self.debug_target.as_ref().expect("created above");
+        let mut encoder = self.gpu.device.create_command_encoder(
+            &softshadow_core::wgpu::CommandEncoderDescriptor {
+                label: Some("viewer/debug"),
+            },
+        );
+        let kind = display.record_debug(&self.gpu, &mut encoder, texture, target)?;
+        self.gpu.queue.submit([encoder.finish()]);
+        let mapping = display
+            .read_debug_mapping(&self.gpu, kind)
+            .map_err(|e| format!("cannot read the debug image's range: {e}"))?;
+        let rgba = readback::read_texture(&self.gpu, &target.texture).map_err(|e| e.to_string())?;
+        Ok(DebugImage {
+            width,
+            height,
+            rgba,
+            mapping,
+        })
+    }
+}
