@@ -1,16 +1,24 @@
 //! The progressive reference (the yardstick) and the metrics of the technique against it: once
 //! per setting, after the reference has converged.
 
-use softshadow_core::{scene::Fnv1a, ParamValue, ShadingMode, ShadowTechnique};
-use softshadow_metrics::ErrorReport;
-use softshadow_reference::{Progress, Reference};
+use std::time::Duration;
 
-use super::{ViewerApp, ViewerError};
+use softshadow_core::{scene::Fnv1a, ParamValue, ShadingMode, ShadowTechnique, TechniqueStats};
+use softshadow_metrics::ErrorReport;
+use softshadow_reference::{Progress, Reference, ReferenceSettings};
+
+use super::{
+    render_worker::{CreateOnWorker, FrameRequest, RenderWorker},
+    ViewerApp, ViewerError, REFERENCE_BATCHES_PER_FRAME,
+};
 use crate::tradeoff::TradeoffPoint;
 
 /// The progressive reference and the metrics of the technique against it.
 pub(super) struct ReferenceState {
+    /// The reference's settings (what the panel shows and the worker's copy is set to).
     pub(super) yardstick: Reference,
+    /// The thread that accumulates it, on a device of its own ([`super::render_worker`]).
+    pub(super) worker: Option<RenderWorker>,
     /// Key of the inputs whose reference the reference renderer holds (partial or complete).
     pub(super) key: Option<u64>,
     pub(super) progress: Progress,
@@ -24,6 +32,7 @@ impl ReferenceState {
     pub(super) fn new(yardstick: Reference) -> Self {
         Self {
             yardstick,
+            worker: None,
             key: None,
             progress: Progress::default(),
             measured: None,
@@ -36,6 +45,29 @@ impl ReferenceState {
 pub(super) struct Measured {
     pub(super) key: u64,
     pub(super) report: ErrorReport,
+}
+
+/// The name of the reference's worker thread.
+const YARDSTICK_WORKER: &str = "reference (yardstick)";
+
+/// The progressive reference, created on its worker (its settings come with every request).
+fn yardstick_on_worker() -> CreateOnWorker {
+    Box::new(|gpu| {
+        let mut reference =
+            Reference::new(gpu, ReferenceSettings::default()).map_err(|e| e.to_string())?;
+        reference.set_progressive(Some(REFERENCE_BATCHES_PER_FRAME));
+        Ok(Box::new(reference) as Box<dyn ShadowTechnique>)
+    })
+}
+
+/// The reference's progress from its counters: depth maps accumulated of all it will draw
+/// (`depth_maps_done` while progressive, all of them once complete or served from its cache).
+fn progress_of(stats: &TechniqueStats) -> Progress {
+    let total = stats.get("depth_maps").copied().unwrap_or(0.0) as u32;
+    let done = stats
+        .get("depth_maps_done")
+        .map_or(total, |done| *done as u32);
+    Progress { done, total }
 }
 
 pub(super) fn rgba_to_rgb(rgba: &[u8]) -> Vec<u8> {
@@ -66,40 +98,98 @@ impl ViewerApp {
         h.finish()
     }
 
+    /// Asks the reference's worker for the next batches while the reference of the current
+    /// inputs is not complete, and shows what it finished (progressive: a partial sum over the
+    /// whole light until done).
     pub(super) fn render_reference(&mut self) {
         puffin::profile_function!();
         let key = self.current_reference_key();
-        if self.reference.key == Some(key) && self.reference.progress.is_complete() {
-            return;
-        }
-        if self.image.interacting {
-            return;
-        }
-        let Some(r) = self.image.renderers.as_mut() else {
+        let Some(r) = self.image.renderers.as_ref() else {
             return;
         };
-        match r.reference.render(
-            &self.scene.loaded.gpu,
-            &self.scene.camera,
-            &self.scene.light,
-            &mut self.reference.yardstick,
-            Some(ShadingMode::Shaded),
-        ) {
-            Ok(_) => {
-                if self.reference.key != Some(key) {
+        let size = (r.width, r.height);
+        if self.reference.worker.is_none() {
+            match RenderWorker::spawn(&self.gpu, YARDSTICK_WORKER, yardstick_on_worker()) {
+                Ok(worker) => self.reference.worker = Some(worker),
+                Err(e) => {
+                    self.report_error(format!("reference failed to start: {e}"));
+                    return;
+                }
+            }
+        }
+        let complete = self.reference.key == Some(key) && self.reference.progress.is_complete();
+        let scene_hash = self.scene.loaded.gpu.content_hash;
+        let worker = self.reference.worker.as_mut().expect("started above");
+        // Not while the camera is dragged: each frame would restart it.
+        if !worker.busy() && !complete && !self.image.interacting {
+            let request = FrameRequest {
+                setting_key: key,
+                scene: self.technique.worker_scene(&self.scene.loaded),
+                scene_hash,
+                camera: self.scene.camera,
+                light: self.scene.light,
+                size,
+                params: self
+                    .reference
+                    .yardstick
+                    .params()
+                    .entries
+                    .into_iter()
+                    .map(|(spec, value)| (spec.name.to_string(), value))
+                    .collect(),
+                invalidate: false,
+                debug_view: None,
+            };
+            if !worker.request(request) {
+                self.reference.worker = None;
+                self.report_error("the reference's render worker stopped (the log says why)");
+                return;
+            }
+        }
+        // The technique's frame has the UI frame's wait; the reference's batches are shown when
+        // they arrive (tests wait for both).
+        let wait = if self.technique.frame_wait == Duration::MAX {
+            Duration::MAX
+        } else {
+            Duration::ZERO
+        };
+        let done = match worker.receive(wait) {
+            Ok(Some(done)) => done,
+            Ok(None) => return,
+            Err(()) => {
+                self.reference.worker = None;
+                self.report_error("the reference's render worker stopped (the log says why)");
+                return;
+            }
+        };
+        if done.scene_hash != scene_hash || done.size != size {
+            return;
+        }
+        let shown = done.result.and_then(|(_, visibility)| {
+            let r = self.image.renderers.as_mut().expect("checked above");
+            r.reference.show_visibility(
+                &self.scene.loaded.gpu,
+                &done.camera,
+                &done.light,
+                &visibility,
+                ShadingMode::Shaded,
+            )
+        });
+        match shown {
+            Ok(()) => {
+                if self.reference.key != Some(done.setting_key) {
                     self.reference.restarts += 1;
                     log::info!(
                         "reference accumulation {} begun at {}x{}",
                         self.reference.restarts,
-                        r.width,
-                        r.height
+                        size.0,
+                        size.1
                     );
                 }
-                self.reference.key = Some(key);
-                self.reference.progress = self.reference.yardstick.progress();
+                self.reference.key = Some(done.setting_key);
+                self.reference.progress = progress_of(&done.stats);
             }
             Err(e) => {
-                let _ = self.gpu.take_errors();
                 self.reference.key = None;
                 self.report_error(format!("reference failed: {e}"));
             }

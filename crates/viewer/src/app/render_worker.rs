@@ -22,7 +22,7 @@ use std::{
 
 use softshadow_core::{
     readback, AreaLight, BuildControl, Camera, DebugLegend, Gpu, ParamValue, RenderError, Renderer,
-    Scene, SceneGpu, ShadowTechnique, TechniqueInfo,
+    Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
 };
 
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
@@ -54,6 +54,10 @@ pub(super) struct DebugImage {
     pub(super) mapping: DebugMapping,
 }
 
+/// Creates the worker's technique on its device (on the worker's thread).
+pub(super) type CreateOnWorker =
+    Box<dyn FnOnce(&Gpu) -> Result<Box<dyn ShadowTechnique>, String> + Send>;
+
 /// What came of one [`FrameRequest`].
 pub(super) struct FrameDone {
     pub(super) setting_key: u64,
@@ -68,6 +72,8 @@ pub(super) struct FrameDone {
     pub(super) debug_views: Vec<(String, DebugLegend)>,
     /// The requested debug image, or why it could not be drawn.
     pub(super) debug_image: Option<Result<DebugImage, String>>,
+    /// The technique's counters after the frame.
+    pub(super) stats: TechniqueStats,
 }
 
 /// The technique's thread: requests go in, finished frames come out.
@@ -99,14 +105,10 @@ impl std::fmt::Display for StartError {
 }
 
 impl RenderWorker {
-    /// Starts a thread with its own device on `gpu`'s adapter and creates the technique there
-    /// with `params`; waits until it exists (its creation error is returned here).
-    pub(super) fn spawn(
-        gpu: &Gpu,
-        info: &TechniqueInfo,
-        params: Vec<(String, ParamValue)>,
-        build: BuildControl,
-    ) -> Result<Self, StartError> {
+    /// Starts a thread named `name` with its own device on `gpu`'s adapter and creates the
+    /// technique there with `create`; waits until it exists (its creation error is returned
+    /// here).
+    pub(super) fn spawn(gpu: &Gpu, name: &str, create: CreateOnWorker) -> Result<Self, StartError> {
         let instance = gpu
             .instance
             .clone()
@@ -120,19 +122,16 @@ impl RenderWorker {
         let (request_tx, request_rx) = mpsc::channel::<FrameRequest>();
         let (frame_tx, frame_rx) = mpsc::channel::<FrameDone>();
         let (started_tx, started_rx) = mpsc::channel::<Result<(), String>>();
-        let info = info.clone();
         thread::Builder::new()
-            .name(format!("render worker: {}", info.id))
+            .name(format!("render worker: {name}"))
             .spawn(move || {
-                let technique = match info.create_with(&device, &params) {
-                    Ok(mut technique) => {
-                        technique.set_build_control(build);
-                        technique.set_background_build(true);
+                let technique = match create(&device) {
+                    Ok(technique) => {
                         let _ = started_tx.send(Ok(()));
                         technique
                     }
                     Err(e) => {
-                        let _ = started_tx.send(Err(e.to_string()));
+                        let _ = started_tx.send(Err(e));
                         return;
                     }
                 };
@@ -152,6 +151,30 @@ impl RenderWorker {
                 "the render worker stopped while creating the technique (see the log)".into(),
             )),
         }
+    }
+
+    /// A worker for a registered technique with `params`, its precompute watched by `build`
+    /// and run in the background.
+    pub(super) fn for_technique(
+        gpu: &Gpu,
+        info: &TechniqueInfo,
+        params: Vec<(String, ParamValue)>,
+        build: BuildControl,
+    ) -> Result<Self, StartError> {
+        let info = info.clone();
+        let name = info.id.to_string();
+        Self::spawn(
+            gpu,
+            &name,
+            Box::new(move |device| {
+                let mut technique = info
+                    .create_with(device, &params)
+                    .map_err(|e| e.to_string())?;
+                technique.set_build_control(build);
+                technique.set_background_build(true);
+                Ok(technique)
+            }),
+        )
     }
 
     /// Whether a frame is being rendered.
@@ -252,6 +275,7 @@ impl Worker {
                     .map(|v| (v.name, v.legend))
                     .collect(),
                 debug_image,
+                stats: self.technique.stats(),
             };
             if frames.send(done).is_err() {
                 return; // The UI dropped this worker.

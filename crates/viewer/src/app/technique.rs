@@ -61,6 +61,17 @@ impl TechniqueState {
     }
 }
 
+impl TechniqueState {
+    /// The scene as the render workers get it: shared, copied once per scene.
+    pub(super) fn worker_scene(&mut self, loaded: &super::scene_panel::LoadedScene) -> Arc<Scene> {
+        let hash = loaded.gpu.content_hash;
+        if self.scene.as_ref().map(|(h, _)| *h) != Some(hash) {
+            self.scene = Some((hash, Arc::new(loaded.scene.clone())));
+        }
+        self.scene.as_ref().expect("set above").1.clone()
+    }
+}
+
 /// The parameters `info` declares with `saved` values over their defaults.
 fn param_set_of(info: &TechniqueInfo, saved: &BTreeMap<String, ParamValue>) -> ParamSet {
     ParamSet {
@@ -99,7 +110,7 @@ impl ViewerApp {
             .map_err(|e| e.to_string())
             .and_then(|info| {
                 let params: Vec<(String, ParamValue)> = saved.clone().into_iter().collect();
-                let worker = RenderWorker::spawn(&self.gpu, info, params, control)
+                let worker = RenderWorker::for_technique(&self.gpu, info, params, control)
                     .map_err(|e| e.to_string())?;
                 Ok((worker, param_set_of(info, &saved)))
             });
@@ -200,9 +211,7 @@ impl ViewerApp {
             return;
         }
         let scene_hash = self.scene.loaded.gpu.content_hash;
-        if self.technique.scene.as_ref().map(|(h, _)| *h) != Some(scene_hash) {
-            self.technique.scene = Some((scene_hash, Arc::new(self.scene.loaded.scene.clone())));
-        }
+        let scene = self.technique.worker_scene(&self.scene.loaded);
         let setting_key = self.current_setting_key();
         let Some(worker) = self.technique.worker.as_mut() else {
             return;
@@ -216,7 +225,7 @@ impl ViewerApp {
             let r = self.image.renderers.as_ref().expect("checked above");
             let request = FrameRequest {
                 setting_key,
-                scene: self.technique.scene.as_ref().expect("set above").1.clone(),
+                scene,
                 scene_hash,
                 camera: self.scene.camera,
                 light: self.scene.light,
