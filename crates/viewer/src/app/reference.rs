@@ -109,7 +109,7 @@ impl ViewerApp {
         };
         let size = (r.width, r.height);
         if self.reference.worker.is_none() {
-            match RenderWorker::spawn(&self.gpu, YARDSTICK_WORKER, yardstick_on_worker()) {
+            match RenderWorker::spawn(&self.gpu, None, YARDSTICK_WORKER, yardstick_on_worker()) {
                 Ok(worker) => self.reference.worker = Some(worker),
                 Err(e) => {
                     self.report_error(format!("reference failed to start: {e}"));

@@ -78,7 +78,11 @@ pub(super) struct FrameDone {
 
 /// The technique's thread: requests go in, finished frames come out.
 pub(super) struct RenderWorker {
-    requests: mpsc::Sender<FrameRequest>,
+    /// `None` once retired: the thread then ends.
+    requests: Option<mpsc::Sender<FrameRequest>>,
+    /// The worker's device (a clone): reused by the next worker once this one has ended.
+    gpu: Gpu,
+    thread: Option<thread::JoinHandle<()>>,
     frames: mpsc::Receiver<FrameDone>,
     /// The request being rendered: when it was sent and whether it is a cost frame.
     in_flight: Option<(Instant, u64)>,
@@ -108,21 +112,33 @@ impl RenderWorker {
     /// Starts a thread named `name` with its own device on `gpu`'s adapter and creates the
     /// technique there with `create`; waits until it exists (its creation error is returned
     /// here).
-    pub(super) fn spawn(gpu: &Gpu, name: &str, create: CreateOnWorker) -> Result<Self, StartError> {
-        let instance = gpu
-            .instance
-            .clone()
-            .ok_or_else(|| StartError::Device("the viewer's GPU context has no instance".into()))?;
-        let device = pollster::block_on(Gpu::from_adapter_with(
-            instance,
-            gpu.adapter.clone(),
-            crate::MEMORY_HINTS,
-        ))
-        .map_err(|e| StartError::Device(e.to_string()))?;
+    /// `device` is a retired worker's device to reuse ([`RenderWorker::retire`]); without one a
+    /// new device is created.
+    pub(super) fn spawn(
+        gpu: &Gpu,
+        device: Option<Gpu>,
+        name: &str,
+        create: CreateOnWorker,
+    ) -> Result<Self, StartError> {
+        let device = match device {
+            Some(device) => device,
+            None => {
+                let instance = gpu.instance.clone().ok_or_else(|| {
+                    StartError::Device("the viewer's GPU context has no instance".into())
+                })?;
+                pollster::block_on(Gpu::from_adapter_with(
+                    instance,
+                    gpu.adapter.clone(),
+                    crate::MEMORY_HINTS,
+                ))
+                .map_err(|e| StartError::Device(e.to_string()))?
+            }
+        };
+        let worker_gpu = device.clone();
         let (request_tx, request_rx) = mpsc::channel::<FrameRequest>();
         let (frame_tx, frame_rx) = mpsc::channel::<FrameDone>();
         let (started_tx, started_rx) = mpsc::channel::<Result<(), String>>();
-        thread::Builder::new()
+        let thread = thread::Builder::new()
             .name(format!("render worker: {name}"))
             .spawn(move || {
                 let technique = match create(&device) {
@@ -140,7 +156,9 @@ impl RenderWorker {
             .map_err(|e| StartError::Device(format!("cannot start its thread: {e}")))?;
         match started_rx.recv() {
             Ok(Ok(())) => Ok(Self {
-                requests: request_tx,
+                requests: Some(request_tx),
+                gpu: worker_gpu,
+                thread: Some(thread),
                 frames: frame_rx,
                 in_flight: None,
                 last_frame_ms: None,
@@ -157,6 +175,7 @@ impl RenderWorker {
     /// and run in the background.
     pub(super) fn for_technique(
         gpu: &Gpu,
+        device: Option<Gpu>,
         info: &TechniqueInfo,
         params: Vec<(String, ParamValue)>,
         build: BuildControl,
@@ -165,6 +184,7 @@ impl RenderWorker {
         let name = info.id.to_string();
         Self::spawn(
             gpu,
+            device,
             &name,
             Box::new(move |device| {
                 let mut technique = info
@@ -175,6 +195,24 @@ impl RenderWorker {
                 Ok(technique)
             }),
         )
+    }
+
+    /// Ends the worker. An idle one ends at once, its technique's resources freed, and its device
+    /// comes back for the next worker (a new device per switch grew resident memory by about
+    /// 0.5 MiB per switch); a busy one is abandoned: its thread ends when its frame does (a
+    /// submitted GPU frame cannot be stopped) and takes its device with it.
+    pub(super) fn retire(mut self) -> Option<Gpu> {
+        self.requests = None;
+        if self.busy() {
+            return None;
+        }
+        if let Some(thread) = self.thread.take() {
+            if thread.join().is_err() {
+                return None; // It panicked: do not reuse its device.
+            }
+        }
+        let _ = self.gpu.wait_idle();
+        Some(self.gpu.clone())
     }
 
     /// Whether a frame is being rendered.
@@ -190,7 +228,10 @@ impl RenderWorker {
     /// Sends a request; `false` when the worker has stopped.
     pub(super) fn request(&mut self, request: FrameRequest) -> bool {
         let key = request.setting_key;
-        if self.requests.send(request).is_err() {
+        let Some(requests) = &self.requests else {
+            return false;
+        };
+        if requests.send(request).is_err() {
             return false;
         }
         self.in_flight = Some((Instant::now(), key));

@@ -36,6 +36,8 @@ pub(super) struct TechniqueState {
     pub(super) shown_key: Option<u64>,
     /// Why no frame is asked for (the user cancelled one) until Render again.
     pub(super) cancelled_frame: Option<String>,
+    /// The last idle worker's device, for the next one ([`RenderWorker::retire`]).
+    spare_device: Option<softshadow_core::Gpu>,
     /// How long a UI frame waits for the technique's ([`FRAME_WAIT`] unless set).
     pub(super) frame_wait: Duration,
     /// The last frame's failure (or its failure to start).
@@ -54,6 +56,7 @@ impl TechniqueState {
             scene: None,
             shown_key: None,
             cancelled_frame: None,
+            spare_device: None,
             frame_wait: FRAME_WAIT,
             error: None,
             build: BuildState::default(),
@@ -95,7 +98,9 @@ impl ViewerApp {
     /// frame, if one is running, is abandoned (its worker ends when the frame does).
     pub fn select_technique(&mut self, id: &str) {
         self.technique.id = id.to_string();
-        self.technique.worker = None;
+        if let Some(worker) = self.technique.worker.take() {
+            self.technique.spare_device = worker.retire();
+        }
         self.technique.params = None;
         self.technique.shown_key = None;
         self.technique.cancelled_frame = None;
@@ -110,8 +115,14 @@ impl ViewerApp {
             .map_err(|e| e.to_string())
             .and_then(|info| {
                 let params: Vec<(String, ParamValue)> = saved.clone().into_iter().collect();
-                let worker = RenderWorker::for_technique(&self.gpu, info, params, control)
-                    .map_err(|e| e.to_string())?;
+                let worker = RenderWorker::for_technique(
+                    &self.gpu,
+                    self.technique.spare_device.take(),
+                    info,
+                    params,
+                    control,
+                )
+                .map_err(|e| e.to_string())?;
                 Ok((worker, param_set_of(info, &saved)))
             });
         match result {
@@ -161,6 +172,7 @@ impl ViewerApp {
             return;
         };
         let seconds = worker.busy_for().map_or(0.0, |d| d.as_secs_f64());
+        self.technique.spare_device = worker.retire();
         // A precompute running inside the technique stops too.
         self.technique.build.cancel_control();
         self.technique.cancelled_frame = Some(format!(
