@@ -1,0 +1,185 @@
+// Shadow-map ray tracing (SMRT), after the description of Unreal Engine 5's virtual shadow maps
+// (no paper; docs/TECHNIQUES.md, `smrt`, says what is built and where it differs). One shadow
+// map from the light centre; per pixel `ray_count` rays from the receiver point p to points of
+// the light rectangle, each marched through the map in `samples_per_ray` steps from the light end
+// towards p. A step compares the ray's light-space depth z with the depth d of the nearest caster
+// the map holds at the ray point's slope:
+//   - in front of it (z - d <= bias), or no caster there: the step is free; it becomes the
+//     history (last free depth z_f, the surface d_f seen there and that surface's depth slope
+//     along the march, clamped to +-extrapolate_max_slope);
+//   - behind it: the map alone cannot say whether the ray crossed that caster or passed under
+//     its silhouette. The ray is occluded when
+//       (a) the caster's depth lies inside this step (z_f < d): the ray crossed its surface, or
+//       (b) the surface seen at the last free step, extrapolated along its slope, is now in
+//           front of the ray (the behind-occluder extrapolation: a caster hidden behind another
+//           one is still hit if the ray saw it before going behind);
+//     otherwise the ray goes on (it passes under the caster's silhouette: the penumbra).
+// The last step is the receiver itself, so one sample per ray is the hard shadow.
+// Light points: a rank-1 lattice (R2) rotated per pixel by interleaved gradient noise, so the
+// result is deterministic for a fixed frame. Debug permutations write the marched steps
+// (DEBUG_STEPS) or the fraction of rays the extrapolation occluded (DEBUG_EXTRAPOLATED) instead
+// of the visibility.
+#import softshadow::frame::{frame, load_surface, light_cosine}
+#import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
+#import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, linear_depth, texel_slope, in_map}
+#import softshadow::sampling::interleaved_gradient_noise
+
+// Mirrors the settings' ranges (src/lib.rs): at most 64 x 64 = 4096 steps per pixel, far under
+// lavapipe 22.3's loop budget (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+const MAX_RAYS: u32 = 64u;
+const MAX_SAMPLES: u32 = 64u;
+// Depth of "no caster on this centre ray".
+const EMPTY: f32 = 1e30;
+// Roberts' R2 sequence: the rank-1 lattice of the plastic number, low discrepancy in 2D for any
+// point count.
+const R2: vec2<f32> = vec2<f32>(0.7548776662466927, 0.5698402909980532);
+const GOLDEN: f32 = 0.6180339887498949;
+
+struct SmrtParams {
+    ray_count: u32,
+    samples_per_ray: u32,
+    _pad0: u32,
+    _pad1: u32,
+    bias_texels: f32,
+    extrapolate_max_slope: f32,
+    ray_length_scale: f32,
+    texel_dither: f32,
+    // tan of the largest ray angle from the light centre's direction (1e30: no limit).
+    max_ray_tan: f32,
+    _pad2: f32,
+    _pad3: f32,
+    _pad4: f32,
+}
+
+@group(1) @binding(0) var<uniform> view: ShadowView;
+@group(1) @binding(1) var shadow_map: texture_depth_2d;
+@group(1) @binding(2) var<uniform> params: SmrtParams;
+
+@vertex
+fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
+    return fullscreen_vertex(index);
+}
+
+// Light-space depth of the nearest caster at `slope`, EMPTY outside the map or where it is empty
+// (the map's window covers every caster, so nothing lies outside it).
+fn caster_depth(slope: vec2<f32>) -> f32 {
+    let uv = slope_to_uv(view, slope);
+    if !in_map(uv) {
+        return EMPTY;
+    }
+    let d = textureLoad(shadow_map, vec2<i32>(uv * view.size.xy), 0);
+    return select(linear_depth(view, d), EMPTY, d >= 1.0);
+}
+
+struct Trace {
+    hit: bool,
+    // The hit came from the extrapolation (b), not from a crossing (a).
+    extrapolated: bool,
+    steps: u32,
+}
+
+// One ray from `origin` (light space) to the light point (`light_point`, 0), marched from depth
+// `z_start` (its light end, at or beyond the map's near plane) to the origin's depth. `jitter`
+// in [0, 1) shifts the steps; `bias_per_depth` times a step's depth is its depth bias.
+fn trace(origin: vec3<f32>, light_point: vec2<f32>, z_start: f32, n: u32, jitter: f32, bias_per_depth: f32) -> Trace {
+    let z_p = origin.z;
+    var result = Trace(false, false, 0u);
+    // History: the last free step (the light end is free: no caster is nearer than the map's
+    // near plane).
+    var z_free = z_start;
+    var d_free = EMPTY;
+    var slope = 0.0;
+    for (var k = 0u; k < n; k = k + 1u) {
+        // Steps denser towards the receiver (contact shadows need them there), the last one at
+        // the receiver: w in (0, 1], depth z_p - (z_p - z_start) (1 - w)^2.
+        let w = select((f32(k) + jitter) / f32(n), 1.0, k + 1u == n);
+        let z = z_p - (z_p - z_start) * (1.0 - w) * (1.0 - w);
+        // The ray point at depth z: origin + t (light - origin) with z = z_p (1 - t).
+        let t = 1.0 - z / z_p;
+        let q = vec3<f32>(mix(origin.xy, light_point, t), z);
+        let d = caster_depth(view_slope(view, q));
+        let bias = bias_per_depth * z;
+        result.steps += 1u;
+        if d < EMPTY && z - d > bias {
+            let crossed = d > z_free;
+            let d_ext = select(d_free + slope * (z - z_free), EMPTY, d_free >= EMPTY);
+            let extrapolated = z - d_ext > bias;
+            if crossed || extrapolated {
+                result.hit = true;
+                result.extrapolated = !crossed;
+                break;
+            }
+        } else {
+            // Depth slope of the surface seen along the march, from two free steps that both
+            // see a caster (none across an empty texel: it has no depth).
+            let both = d < EMPTY && d_free < EMPTY && z > z_free;
+            let m = params.extrapolate_max_slope;
+            slope = select(0.0, clamp((d - d_free) / max(z - z_free, 1e-12), -m, m), both);
+            d_free = d;
+            z_free = z;
+        }
+    }
+    return result;
+}
+
+@fragment
+fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
+    let s = load_surface(vec2<i32>(in.position.xy));
+    if !s.is_receiver {
+        return vec4<f32>(1.0);
+    }
+    let z_p = s.light.z;
+    if z_p <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let near = view.eye_near_far.z;
+    // The march covers the part of the ray where casters can be: from the near plane (scaled
+    // towards the receiver by `ray_length_scale`) to the receiver.
+    // A receiver nearer than the near plane has nothing in front of it: every step lands on it.
+    let z_start = min(max(z_p - params.ray_length_scale * (z_p - near), near), z_p);
+    let texel = texel_slope(view);
+    let bias_per_depth = params.bias_texels * texel / light_cosine(s);
+    let n = clamp(params.samples_per_ray, 1u, MAX_SAMPLES);
+    let rays = clamp(params.ray_count, 1u, MAX_RAYS);
+    let half_light = frame.light_half.xy;
+    let noise = vec2<f32>(
+        interleaved_gradient_noise(in.position.xy),
+        interleaved_gradient_noise(in.position.xy + vec2<f32>(47.0, 17.0)),
+    );
+    let dither_noise = vec2<f32>(
+        interleaved_gradient_noise(in.position.xy + vec2<f32>(101.0, 61.0)),
+        interleaved_gradient_noise(in.position.xy + vec2<f32>(23.0, 131.0)),
+    );
+    var hits = 0u;
+    var extrapolated = 0u;
+    var steps = 0u;
+    for (var i = 0u; i < rays; i = i + 1u) {
+        let u = fract(noise + f32(i) * R2);
+        var light_point = (u * 2.0 - 1.0) * half_light;
+        // Largest ray angle: the light point's offset from the centre over the receiver depth
+        // is the tangent of the angle between this ray and the centre's for a receiver on the
+        // light's axis; farther light points are pulled towards the centre.
+        let offset = length(light_point);
+        let limit = params.max_ray_tan * z_p;
+        light_point *= select(1.0, limit / offset, offset > limit);
+        // Texel dither: the ray's receiver end moves by up to +-texel_dither / 2 map texels
+        // (footprints at the receiver), a different offset per ray, which turns the map's texel
+        // staircase into noise.
+        let dither = (fract(dither_noise + f32(i) * R2) - 0.5) * params.texel_dither * texel * z_p;
+        let origin = vec3<f32>(s.light.xy + dither, z_p);
+        let jitter = fract(noise.x * 0.5 + noise.y * 0.5 + f32(i) * GOLDEN);
+        let r = trace(origin, light_point, z_start, n, jitter, bias_per_depth);
+        hits += select(0u, 1u, r.hit);
+        extrapolated += select(0u, 1u, r.hit && r.extrapolated);
+        steps += r.steps;
+    }
+#ifdef DEBUG_STEPS
+    return vec4<f32>(f32(steps));
+#else
+#ifdef DEBUG_EXTRAPOLATED
+    return vec4<f32>(f32(extrapolated) / f32(rays));
+#else
+    return vec4<f32>(clamp(1.0 - f32(hits) / f32(rays), 0.0, 1.0));
+#endif
+#endif
+}
