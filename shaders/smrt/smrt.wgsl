@@ -2,13 +2,15 @@
 // (no paper; docs/TECHNIQUES.md, `smrt`, says what is built and where it differs). One shadow
 // map from the light centre; per pixel `ray_count` rays from the receiver point p to points of
 // the light rectangle, each marched through the map in `samples_per_ray` steps from the light end
-// towards p. A step compares the ray's light-space depth z with the depth d of the nearest caster
-// the map holds at the ray point's slope:
-//   - in front of it (z - d <= bias), or no caster there: the step is free; it becomes the
-//     history (last free depth z_f, the surface d_f seen there and that surface's depth slope
-//     along the march, clamped to +-extrapolate_max_slope);
-//   - behind it: the map alone cannot say whether the ray crossed that caster or passed under
-//     its silhouette. The ray is occluded when
+// towards p, uniformly in the map's slope space and clipped to its window. A step compares the
+// ray's light-space depth z with the depth d of the nearest caster the map holds at the ray
+// point's slope:
+//   - in front of it by more than the bias, or no caster there: the step is free; it becomes
+//     the history (last free depth z_f, the surface d_f seen there and that surface's depth
+//     slope along the march, clamped to +-extrapolate_max_slope);
+//   - within the bias of it: on the surface, nothing is learnt;
+//   - behind it by more than the bias: the map alone cannot say whether the ray crossed that
+//     caster or passed under its silhouette. The ray is occluded when
 //       (a) the caster's depth lies inside this step (z_f < d): the ray crossed its surface, or
 //       (b) the surface seen at the last free step, extrapolated along its slope, is now in
 //           front of the ray (the behind-occluder extrapolation: a caster hidden behind another
@@ -21,7 +23,7 @@
 // of the visibility.
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
-#import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, linear_depth, texel_slope, in_map}
+#import softshadow::shadow_view::{ShadowView, slope_to_uv, linear_depth, texel_slope, in_map}
 #import softshadow::sampling::interleaved_gradient_noise
 
 // Mirrors the settings' ranges (src/lib.rs): at most 64 x 64 = 4096 steps per pixel, far under
@@ -78,29 +80,61 @@ struct Trace {
     steps: u32,
 }
 
+// Clips the ray's parameter interval `range` to the map window along one axis, where the ray's
+// slope is `s + d * delta` and the window is [lo, hi] (Liang and Barsky's clipping).
+fn clip_axis(range: vec2<f32>, s: f32, d: f32, lo: f32, hi: f32) -> vec2<f32> {
+    if abs(d) < 1e-30 {
+        // Parallel to this axis: inside or outside for the whole ray.
+        return select(vec2<f32>(1.0, 0.0), range, s >= lo && s <= hi);
+    }
+    let a = (lo - s) / d;
+    let b = (hi - s) / d;
+    return vec2<f32>(max(range.x, min(a, b)), min(range.y, max(a, b)));
+}
+
 // One ray from `origin` (light space) to the light point (`light_point`, 0), marched from depth
-// `z_start` (its light end, at or beyond the map's near plane) to the origin's depth. `jitter`
-// in [0, 1) shifts the steps; `bias_per_depth` times a step's depth is its depth bias.
+// `z_start` (its light end, at or beyond the map's near plane) to the origin's depth, in `n`
+// steps; `jitter` in [0, 1) shifts them; `bias_per_depth` times a step's depth is its depth bias.
+//
+// In the slope space of a perspective map from `eye` the ray is a straight line: its point at
+// depth z has slope s_o + (L - eye) (1/z - 1/z_p), with s_o the origin's own slope. So the march
+// runs in inverse depth, uniformly in slope (every step moves the same number of texels, which is
+// what decides whether a caster is skipped), clipped to the map's window (outside it there are no
+// casters).
 fn trace(origin: vec3<f32>, light_point: vec2<f32>, z_start: f32, n: u32, jitter: f32, bias_per_depth: f32) -> Trace {
-    let z_p = origin.z;
     var result = Trace(false, false, 0u);
-    // History: the last free step (the light end is free: no caster is nearer than the map's
-    // near plane).
-    var z_free = z_start;
+    let eye = view.eye_near_far.xy;
+    let v_p = 1.0 / origin.z;
+    let s_o = (origin.xy - eye) * v_p;
+    let dir = light_point - eye;
+    // delta = 1/z - 1/z_p, from 0 (the receiver) to the light end.
+    var range = vec2<f32>(0.0, max(1.0 / z_start - v_p, 0.0));
+    range = clip_axis(range, s_o.x, dir.x, view.window.x, view.window.y);
+    range = clip_axis(range, s_o.y, dir.y, view.window.z, view.window.w);
+    if range.x > range.y {
+        // The ray never crosses the window: no caster lies on it.
+        return result;
+    }
+    // History: the last free step, initially the light end of the marched part: nothing lies
+    // nearer the light. At the near plane a caster may lie at that very depth (the plane is
+    // fitted to the casters), so the end is put just in front of it; at the window's border the
+    // ray enters the window at that depth and is free up to it.
+    let unclipped = range.y >= max(1.0 / z_start - v_p, 0.0);
+    var z_free = select(1.0 / (v_p + range.y), z_start * (1.0 - 1e-3), unclipped);
     var d_free = EMPTY;
     var slope = 0.0;
     for (var k = 0u; k < n; k = k + 1u) {
-        // Steps denser towards the receiver (contact shadows need them there), the last one at
-        // the receiver: w in (0, 1], depth z_p - (z_p - z_start) (1 - w)^2.
+        // From the light end towards the receiver; the last step at the receiver end.
         let w = select((f32(k) + jitter) / f32(n), 1.0, k + 1u == n);
-        let z = z_p - (z_p - z_start) * (1.0 - w) * (1.0 - w);
-        // The ray point at depth z: origin + t (light - origin) with z = z_p (1 - t).
-        let t = 1.0 - z / z_p;
-        let q = vec3<f32>(mix(origin.xy, light_point, t), z);
-        let d = caster_depth(view_slope(view, q));
+        let delta = mix(range.y, range.x, w);
+        let z = 1.0 / (v_p + delta);
+        let d = caster_depth(s_o + dir * delta);
         let bias = bias_per_depth * z;
         result.steps += 1u;
-        if d < EMPTY && z - d > bias {
+        if d < EMPTY && abs(z - d) <= bias {
+            // On the surface, within the bias (the receiver's own surface near the end, or a
+            // caster the ray grazes): neither free nor behind; nothing is learnt.
+        } else if d < EMPTY && z - d > bias {
             let crossed = d > z_free;
             let d_ext = select(d_free + slope * (z - z_free), EMPTY, d_free >= EMPTY);
             let extrapolated = z - d_ext > bias;

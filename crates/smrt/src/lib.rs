@@ -45,12 +45,12 @@ pub const EXTRAPOLATED_VIEW: &str = "extrapolated_hits";
 softshadow_core::technique_settings! {
     /// Settings of shadow-map ray tracing. The ray and sample counts are Unreal's
     /// `RayCountLocal` / `SamplesPerRayLocal` (there 7 and 8, with a temporal denoiser behind
-    /// them); here 16 rays, since nothing denoises.
+    /// them); here 32 rays, since nothing denoises.
     pub struct SmrtSettings {
         /// Shadow-map edge in texels
         shadow_map_size: u32 = 1024, in 64..=4096;
         /// Rays per pixel, to points of the light rectangle (Unreal: r.Shadow.Virtual.SMRT.RayCountLocal)
-        ray_count: u32 = 16, in 1..=64;
+        ray_count: u32 = 32, in 1..=64;
         /// Steps marched along each ray, the last at the receiver; 1 is the hard shadow (Unreal: SamplesPerRayLocal)
         samples_per_ray: u32 = 8, in 1..=64;
         /// Largest depth slope (depth per unit of ray depth) of the surface extrapolated behind an occluder (Unreal: ExtrapolateMaxSlopeLocal); 0 extrapolates at constant depth
