@@ -16,7 +16,8 @@
 //           front of the ray (the behind-occluder extrapolation: a caster hidden behind another
 //           one is still hit if the ray saw it before going behind);
 //     otherwise the ray goes on (it passes under the caster's silhouette: the penumbra).
-// The last step is the receiver itself, so one sample per ray is the hard shadow.
+// The last step is the receiver end of the ray's part inside the window (the receiver itself
+// when its slope is inside).
 // Light points: a rank-1 lattice (R2) rotated per pixel by interleaved gradient noise, so the
 // result is deterministic for a fixed frame. Debug permutations write the marched steps
 // (DEBUG_STEPS) or the fraction of rays the extrapolation occluded (DEBUG_EXTRAPOLATED) instead

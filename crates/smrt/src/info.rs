@@ -34,35 +34,39 @@ pub fn info() -> TechniqueInfo {
     .with_overview(&[("ray_count", &["8", "32"])])
 }
 
-/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md): 2.5x the
+/// value measured at the defaults (32 rays of 8 steps, 1024² map), lowered to halfway to `hard`
+/// or to no shadow where that is nearer. Ray noise is most of the error (16 rays: about 1.5x).
 fn expectations() -> Expectations {
     Expectations::new(&[
-        ("stiff-contact", at_most(MaeShadowed, 0.12, 0.05)),
-        ("stiff-near-light", at_most(MaeShadowed, 0.2, 0.08)),
-        ("stiff-point-light", at_most(MaeShadowed, 0.0027, 0.0011)),
-        ("stiff-wide-light", at_most(MaeShadowed, 0.0092, 0.0037)),
-        ("stiff-grazing", at_most(MaeShadowed, 0.15, 0.06)),
+        ("stiff-contact", at_most(MaeShadowed, 0.087, 0.0349)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.073, 0.0290)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
+        // Halfway to no shadow (0.0277).
+        ("stiff-wide-light", at_most(MaeShadowed, 0.021, 0.0150)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.079, 0.0317)),
+        // The map fitted over a caster 1e-3 from the light has texels too coarse for the other
+        // caster: no better than no shadow, as pcss and msm (docs/TECHNIQUES.md, smrt).
         (
             "stiff-depth-range",
             known_failure(MaeShadowed, 0.2522, 0.025),
         ),
-        ("stiff-zero-thickness", at_most(MaeShadowed, 0.087, 0.0347)),
-        (
-            "stiff-partly-outside",
-            known_failure(MaeShadowed, 0.4217, 0.042),
-        ),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.077, 0.0308)),
+        // Halfway to hard (0.1988).
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.16, 0.1255)),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
-        ("stiff-aspect-100", at_most(MaeShadowed, 0.14, 0.0548)),
-        ("stiff-tiny-patches", at_most(MaeShadowed, 0.22, 0.1314)),
-        ("stiff-degenerate", at_most(MaeShadowed, 0.082, 0.0327)),
-        ("stiff-behind-light", at_most(MaeShadowed, 0.061, 0.0241)),
-        ("stiff-light-up", at_most(MaeShadowed, 0.027, 0.0108)),
-        ("stiff-fusion", at_most(MaeShadowed, 0.13, 0.0508)),
-        ("stiff-light-leak", at_most(MaeShadowed, 0.36, 0.1)),
-        ("atty-square", at_most(MaeShadowed, 0.082, 0.0327)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.099, 0.0395)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.12, 0.0491)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.068, 0.0273)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.053, 0.0210)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.025, 0.0100)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0455)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.15, 0.0602)),
+        ("atty-square", at_most(MaeShadowed, 0.068, 0.0273)),
+        // Halfway to hard (0.1540).
         (
             "blob-floating:triangles=20000",
-            at_most(MaeShadowed, 0.12, 0.0829),
+            at_most(MaeShadowed, 0.1, 0.0543),
         ),
     ])
 }

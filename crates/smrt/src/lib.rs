@@ -51,7 +51,7 @@ softshadow_core::technique_settings! {
         shadow_map_size: u32 = 1024, in 64..=4096;
         /// Rays per pixel, to points of the light rectangle (Unreal: r.Shadow.Virtual.SMRT.RayCountLocal)
         ray_count: u32 = 32, in 1..=64;
-        /// Steps marched along each ray, the last at the receiver; 1 is the hard shadow (Unreal: SamplesPerRayLocal)
+        /// Steps marched along each ray, uniformly in the map's slopes, the last at the receiver end (Unreal: SamplesPerRayLocal)
         samples_per_ray: u32 = 8, in 1..=64;
         /// Largest depth slope (depth per unit of ray depth) of the surface extrapolated behind an occluder (Unreal: ExtrapolateMaxSlopeLocal); 0 extrapolates at constant depth
         extrapolate_max_slope: f32 = 1.0, in 0.0..=100.0;
