@@ -47,7 +47,7 @@ struct SmrtParams {
     extrapolate_max_slope: f32,
     ray_length_scale: f32,
     texel_dither: f32,
-    // tan of the largest ray angle from the light centre's direction (1e30: no limit).
+    // tan of the largest angle a ray spans as seen from the light (1e30: no limit).
     max_ray_tan: f32,
     _pad2: f32,
     _pad3: f32,
@@ -110,6 +110,10 @@ fn trace(origin: vec3<f32>, light_point: vec2<f32>, z_start: f32, n: u32, jitter
     let dir = light_point - eye;
     // delta = 1/z - 1/z_p, from 0 (the receiver) to the light end.
     var range = vec2<f32>(0.0, max(1.0 / z_start - v_p, 0.0));
+    // Largest angle the ray spans as seen from the light (Unreal's MaxRayAngleFromLight): its
+    // slope extent in the map, |dir| delta, at most tan(angle); the light end is cut off.
+    let unlimited = range.y;
+    range.y = min(range.y, params.max_ray_tan / max(length(dir), 1e-30));
     range = clip_axis(range, s_o.x, dir.x, view.window.x, view.window.y);
     range = clip_axis(range, s_o.y, dir.y, view.window.z, view.window.w);
     if range.x > range.y {
@@ -120,7 +124,7 @@ fn trace(origin: vec3<f32>, light_point: vec2<f32>, z_start: f32, n: u32, jitter
     // nearer the light. At the near plane a caster may lie at that very depth (the plane is
     // fitted to the casters), so the end is put just in front of it; at the window's border the
     // ray enters the window at that depth and is free up to it.
-    let unclipped = range.y >= max(1.0 / z_start - v_p, 0.0);
+    let unclipped = range.y >= unlimited;
     var z_free = select(1.0 / (v_p + range.y), z_start * (1.0 - 1e-3), unclipped);
     var d_free = EMPTY;
     var slope = 0.0;
@@ -190,13 +194,7 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     var steps = 0u;
     for (var i = 0u; i < rays; i = i + 1u) {
         let u = fract(noise + f32(i) * R2);
-        var light_point = (u * 2.0 - 1.0) * half_light;
-        // Largest ray angle: the light point's offset from the centre over the receiver depth
-        // is the tangent of the angle between this ray and the centre's for a receiver on the
-        // light's axis; farther light points are pulled towards the centre.
-        let offset = length(light_point);
-        let limit = params.max_ray_tan * z_p;
-        light_point *= select(1.0, limit / offset, offset > limit);
+        let light_point = (u * 2.0 - 1.0) * half_light;
         // Texel dither: the ray's receiver end moves by up to +-texel_dither / 2 map texels
         // (footprints at the receiver), a different offset per ray, which turns the map's texel
         // staircase into noise.

@@ -57,7 +57,7 @@ softshadow_core::technique_settings! {
         extrapolate_max_slope: f32 = 1.0, in 0.0..=100.0;
         /// Part of the ray marched, from the receiver towards the map's near plane (Unreal: RayLengthScale); below 1 misses casters near the light
         ray_length_scale: f32 = 1.0, in 0.01..=1.0;
-        /// Largest angle in degrees between a ray and the direction to the light centre (Unreal: MaxRayAngleFromLight); 90 is no limit
+        /// Largest angle in degrees a ray spans as seen from the light (its slope extent in the map), the light end cut off (Unreal: MaxRayAngleFromLight); 90 is no limit
         max_ray_angle: f32 = 90.0, in 0.0..=90.0;
         /// Per-ray dither of the receiver end, in shadow-map texels (Unreal: TexelDitherScale)
         texel_dither: f32 = 1.0, in 0.0..=8.0;
