@@ -146,5 +146,38 @@ fn smrt_keeps_its_map_while_only_the_camera_moves_and_draws_debug_views_on_deman
         "frame with the steps view shown ran {:?}",
         shown.passes_run
     );
+    // The steps view: at most 32 rays x 8 steps per pixel; umbra pixels stop every ray at its
+    // first hit, so they march fewer steps than the most any pixel marches.
+    let visibility = renderer.read_visibility()?;
+    let view = technique
+        .debug_views()
+        .into_iter()
+        .find(|v| v.name == softshadow::smrt::STEPS_VIEW)
+        .expect("listed above");
+    let steps = softshadow_core::readback::read_r32f(&gpu, &view.texture)?;
+    let most = steps.iter().cloned().fold(0.0f32, f32::max);
+    ensure!(
+        steps
+            .iter()
+            .all(|s| s.is_finite() && (0.0..=256.0).contains(s)),
+        "steps outside [0, 256]"
+    );
+    let umbra_most = visibility
+        .iter()
+        .zip(&steps)
+        .filter(|(v, _)| **v == 0.0)
+        .map(|(_, s)| *s)
+        .fold(0.0f32, f32::max);
+    ensure!(
+        umbra_most > 0.0 && umbra_most < most,
+        "umbra pixels march up to {umbra_most} steps, the most any pixel marches is {most}"
+    );
+    technique.show_debug_view(Some(softshadow::smrt::EXTRAPOLATED_VIEW));
+    renderer.render(&scene_gpu, &camera, &scene.light, technique.as_mut(), None)?;
+    let fraction = softshadow_core::readback::read_r32f(&gpu, &view.texture)?;
+    ensure!(
+        fraction.iter().all(|f| (0.0..=1.0).contains(f)),
+        "extrapolated fraction outside [0, 1]"
+    );
     Ok(())
 }
