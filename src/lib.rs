@@ -2,7 +2,7 @@
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
 //! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
-//! `pdsm`, `msm`, `reference`; all on by default).
+//! `pdsm`, `msm`, `smrt`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -36,6 +36,8 @@ pub use softshadow_pcss as pcss;
 pub use softshadow_pdsm as pdsm;
 #[cfg(feature = "reference")]
 pub use softshadow_reference as reference;
+#[cfg(feature = "smrt")]
+pub use softshadow_smrt as smrt;
 #[cfg(feature = "ssm")]
 pub use softshadow_ssm as ssm;
 
@@ -61,6 +63,8 @@ pub fn builtin_techniques() -> Vec<TechniqueInfo> {
         softshadow_pdsm::info(),
         #[cfg(feature = "msm")]
         softshadow_msm::info(),
+        #[cfg(feature = "smrt")]
+        softshadow_smrt::info(),
         #[cfg(feature = "reference")]
         softshadow_reference::info(),
     ]

@@ -1,0 +1,72 @@
+//! The `smrt` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
+//! its parameters, requirements, shaders, cost model, error bounds and overview settings.
+
+use softshadow_core::{
+    cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
+    expectations::{at_most, known_failure, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
+
+use crate::{Smrt, SmrtSettings, ID, SHADERS};
+
+/// The registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo::new(
+        ID,
+        "Shadow-map ray tracing: rays to jittered light points marched through one shadow map, behind-occluder extrapolation (Unreal Engine 5's SMRT)",
+        "Unreal Engine 5 virtual shadow maps, SMRT (no paper)",
+        SmrtSettings::param_specs(),
+        |gpu| Ok(Box::new(Smrt::new(gpu, SmrtSettings::default())?)),
+    )
+    .with_shaders(SHADERS)
+    .with_cost(CostModel::new(
+        &["shadow_map_size", "ray_count", "samples_per_ray"],
+        |q| {
+            // The map, then at most rays x samples texel reads per pixel (a ray stops at its
+            // first hit, so lit pixels pay all of them).
+            let map = q.number("shadow_map_size").powi(2) * DEPTH_TEXEL;
+            let steps = q.number("ray_count") * q.number("samples_per_ray");
+            let trace = q.pixels * steps * PIXEL_ITERATION;
+            Cost::seconds(map + trace, "shadow_map_size²")
+        },
+    ))
+    .with_expectations(expectations())
+    .with_overview(&[("ray_count", &["8", "32"])])
+}
+
+/// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md): 2.5x the
+/// value measured at the defaults (32 rays of 8 steps, 1024² map), lowered to halfway to `hard`
+/// or to no shadow where that is nearer. Ray noise is most of the error (16 rays: about 1.5x).
+fn expectations() -> Expectations {
+    Expectations::new(&[
+        ("stiff-contact", at_most(MaeShadowed, 0.087, 0.0349)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.073, 0.0290)),
+        ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
+        // Halfway to no shadow (0.0277).
+        ("stiff-wide-light", at_most(MaeShadowed, 0.021, 0.0150)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.079, 0.0317)),
+        // The map fitted over a caster 1e-3 from the light has texels too coarse for the other
+        // caster: no better than no shadow, as pcss and msm (docs/TECHNIQUES.md, smrt).
+        (
+            "stiff-depth-range",
+            known_failure(MaeShadowed, 0.2522, 0.025),
+        ),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.077, 0.0308)),
+        // Halfway to hard (0.1988).
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.16, 0.1255)),
+        ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.099, 0.0395)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.12, 0.0491)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.068, 0.0273)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.053, 0.0210)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.025, 0.0100)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0455)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.15, 0.0602)),
+        ("atty-square", at_most(MaeShadowed, 0.068, 0.0273)),
+        // Halfway to hard (0.1540).
+        (
+            "blob-floating:triangles=20000",
+            at_most(MaeShadowed, 0.1, 0.0543),
+        ),
+    ])
+}

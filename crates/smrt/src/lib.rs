@@ -1,0 +1,311 @@
+//! `smrt`: shadow-map ray tracing, after the description of Unreal Engine 5's virtual shadow
+//! maps (`r.Shadow.Virtual.SMRT.*`; there is no paper). Per pixel, `ray_count` rays from the
+//! receiver point to jittered points of the light rectangle, each marched through one shadow map
+//! from the light centre in `samples_per_ray` steps, with the behind-occluder extrapolation that
+//! lets a single map give penumbrae (docs/TECHNIQUES.md, `smrt`).
+//!
+//! Reads: the casters (one shadow map from the light centre) and the G-buffer.
+//! Writes: the visibility buffer. Passes: `smrt/shadow_map` (kept while only the camera moves),
+//! `smrt/trace` (every ray of every pixel in one fullscreen pass), and `smrt/debug` only while
+//! the viewer shows one of its debug views.
+
+#![warn(missing_docs)]
+
+use bytemuck::{Pod, Zeroable};
+use softshadow_core::{
+    fullscreen::{uniform_buffer, FullscreenPipeline},
+    shader::{DefValue, ShaderSpec},
+    shader_file,
+    shadow_map::CentreShadowMap,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
+};
+
+mod info;
+pub use info::info;
+
+/// The technique's id (command line, JSON, GUI).
+pub const ID: &str = "smrt";
+
+const DEBUG_STEPS: (&str, DefValue) = ("DEBUG_STEPS", DefValue::Bool(true));
+const DEBUG_EXTRAPOLATED: (&str, DefValue) = ("DEBUG_EXTRAPOLATED", DefValue::Bool(true));
+
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
+pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
+    path: "smrt/smrt.wgsl",
+    source: shader_file!("smrt/smrt.wgsl").1,
+    permutations: &[&[], &[DEBUG_STEPS], &[DEBUG_EXTRAPOLATED]],
+}];
+
+/// Debug view: samples marched per pixel, all rays together.
+pub const STEPS_VIEW: &str = "marched_steps";
+/// Debug view: fraction of the pixel's rays that the behind-occluder extrapolation occluded.
+pub const EXTRAPOLATED_VIEW: &str = "extrapolated_hits";
+
+softshadow_core::technique_settings! {
+    /// Settings of shadow-map ray tracing. The ray and sample counts are Unreal's
+    /// `RayCountLocal` / `SamplesPerRayLocal` (there 7 and 8, with a temporal denoiser behind
+    /// them); here 32 rays, since nothing denoises.
+    pub struct SmrtSettings {
+        /// Shadow-map edge in texels
+        shadow_map_size: u32 = 1024, in 64..=4096;
+        /// Rays per pixel, to points of the light rectangle (Unreal: r.Shadow.Virtual.SMRT.RayCountLocal)
+        ray_count: u32 = 32, in 1..=64;
+        /// Steps marched along each ray, uniformly in the map's slopes, the last at the receiver end (Unreal: SamplesPerRayLocal)
+        samples_per_ray: u32 = 8, in 1..=64;
+        /// Largest depth slope (depth per unit of ray depth) of the surface extrapolated behind an occluder (Unreal: ExtrapolateMaxSlopeLocal); 0 extrapolates at constant depth
+        extrapolate_max_slope: f32 = 1.0, in 0.0..=100.0;
+        /// Part of the ray marched, from the receiver towards the map's near plane (Unreal: RayLengthScale); below 1 misses casters near the light
+        ray_length_scale: f32 = 1.0, in 0.01..=1.0;
+        /// Largest angle in degrees a ray spans as seen from the light (its slope extent in the map), the light end cut off (Unreal: MaxRayAngleFromLight); 90 is no limit
+        max_ray_angle: f32 = 90.0, in 0.0..=90.0;
+        /// Per-ray dither of the receiver end, in shadow-map texels (Unreal: TexelDitherScale)
+        texel_dither: f32 = 1.0, in 0.0..=8.0;
+        /// Depth bias in texel footprints at each step's depth (scaled by 1/cos on slopes)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
+    }
+}
+
+/// Mirrors `SmrtParams` in `shaders/smrt/smrt.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SmrtUniform {
+    ray_count: u32,
+    samples_per_ray: u32,
+    _pad0: [u32; 2],
+    bias_texels: f32,
+    extrapolate_max_slope: f32,
+    ray_length_scale: f32,
+    texel_dither: f32,
+    max_ray_tan: f32,
+    _pad1: [f32; 3],
+}
+
+impl SmrtUniform {
+    fn new(s: &SmrtSettings) -> Self {
+        // 90 degrees (or more) is no limit; tan would be huge or negative near it.
+        let max_ray_tan = if s.max_ray_angle >= 89.99 {
+            1e30
+        } else {
+            s.max_ray_angle.max(0.0).to_radians().tan()
+        };
+        Self {
+            ray_count: s.ray_count,
+            samples_per_ray: s.samples_per_ray,
+            _pad0: [0; 2],
+            bias_texels: s.bias_texels,
+            extrapolate_max_slope: s.extrapolate_max_slope,
+            ray_length_scale: s.ray_length_scale,
+            texel_dither: s.texel_dither,
+            max_ray_tan,
+            _pad1: [0.0; 3],
+        }
+    }
+}
+
+/// The debug image (screen sized, `R32Float`), drawn only while a debug view is shown.
+struct DebugImage {
+    size: (u32, u32),
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+}
+
+/// The `smrt` technique: a [`ShadowTechnique`] with its settings.
+pub struct Smrt {
+    /// Its settings; changes take effect on the next frame.
+    pub settings: SmrtSettings,
+    shadow_map: CentreShadowMap,
+    trace: FullscreenPipeline,
+    /// The trace writing the marched steps, and the extrapolated fraction: permutations, so the
+    /// visibility pass carries no debug code (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    debug_steps: FullscreenPipeline,
+    debug_extrapolated: FullscreenPipeline,
+    layout: wgpu::BindGroupLayout,
+    params_buffer: wgpu::Buffer,
+    /// The lookup bind group, made when the map is (re)created (per-frame bind groups are CPU
+    /// time outside every pass).
+    bind_group: Option<wgpu::BindGroup>,
+    debug: Option<DebugImage>,
+    /// The debug view the viewer shows, if one of ours.
+    shown: Option<&'static str>,
+    stats: TechniqueStats,
+}
+
+impl Smrt {
+    /// Builds the technique's pipelines on `gpu` with `settings`.
+    pub fn new(gpu: &Gpu, settings: SmrtSettings) -> Result<Self, TechniqueError> {
+        let layout = CentreShadowMap::lookup_layout(gpu, "smrt/trace");
+        let pipeline = |label, defs: &[(&str, DefValue)]| {
+            FullscreenPipeline::new(gpu, label, &SHADERS[0], defs, &layout, None)
+        };
+        Ok(Self {
+            shadow_map: CentreShadowMap::new(gpu)?,
+            trace: pipeline("smrt/trace", &[])?,
+            debug_steps: pipeline("smrt/debug steps", &[DEBUG_STEPS])?,
+            debug_extrapolated: pipeline("smrt/debug extrapolated", &[DEBUG_EXTRAPOLATED])?,
+            params_buffer: uniform_buffer(gpu, "smrt/params", &SmrtUniform::zeroed()),
+            layout,
+            bind_group: None,
+            debug: None,
+            shown: None,
+            settings,
+            stats: TechniqueStats::new(),
+        })
+    }
+
+    /// Makes the debug image of `width` x `height` (again, when the size changed).
+    fn ensure_debug_image(&mut self, gpu: &Gpu, width: u32, height: u32) {
+        if self
+            .debug
+            .as_ref()
+            .is_none_or(|d| d.size != (width, height))
+        {
+            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("smrt/debug"),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::R32Float,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            self.debug = Some(DebugImage {
+                size: (width, height),
+                texture,
+                view,
+            });
+        }
+    }
+}
+
+impl ShadowTechnique for Smrt {
+    fn id(&self) -> &str {
+        ID
+    }
+
+    fn settings(&self) -> &dyn TechniqueSettings {
+        &self.settings
+    }
+
+    fn settings_mut(&mut self) -> &mut dyn TechniqueSettings {
+        &mut self.settings
+    }
+
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        let s = self.settings.clone();
+        if self
+            .shadow_map
+            .render(frame, inputs, s.shadow_map_size, "smrt/shadow_map")
+            .is_none()
+        {
+            out.write_unshadowed(frame, inputs.frame_bind_group, "smrt/no_casters")?;
+            self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
+            return Ok(());
+        }
+        gpu.queue.write_buffer(
+            &self.params_buffer,
+            0,
+            bytemuck::bytes_of(&SmrtUniform::new(&s)),
+        );
+        if self.shadow_map.rebuilt() || self.bind_group.is_none() {
+            // The map texture may be new (another size): the bind group follows it.
+            self.bind_group = Some(
+                self.shadow_map
+                    .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
+                    .expect("rendered above"),
+            );
+        }
+        let bind_group = self.bind_group.clone().expect("made above");
+        self.trace.record(
+            frame,
+            "smrt/trace",
+            inputs.frame_bind_group,
+            &bind_group,
+            &[],
+            &out.view,
+            Some(1.0),
+        );
+        // The debug image exists from the first frame (the views must be listed to be chosen;
+        // one R32Float image of the screen), but is drawn only while a view is shown.
+        self.ensure_debug_image(gpu, inputs.width, inputs.height);
+        if let Some(shown) = self.shown {
+            let pipeline = if shown == STEPS_VIEW {
+                &self.debug_steps
+            } else {
+                &self.debug_extrapolated
+            };
+            let target = &self.debug.as_ref().expect("made above").view;
+            pipeline.record(
+                frame,
+                "smrt/debug",
+                inputs.frame_bind_group,
+                &bind_group,
+                &[],
+                target,
+                Some(0.0),
+            );
+        }
+        let rays = s.ray_count.clamp(1, 64) as f64;
+        let samples = s.samples_per_ray.clamp(1, 64) as f64;
+        let pixels = inputs.width as f64 * inputs.height as f64;
+        self.stats = TechniqueStats::from([
+            ("shadow_maps".into(), 1.0),
+            ("rays_per_pixel".into(), rays),
+            ("max_steps_per_pixel".into(), rays * samples),
+            ("max_texel_reads_per_pixel".into(), rays * samples),
+            ("pixels".into(), pixels),
+        ]);
+        Ok(())
+    }
+
+    fn invalidate_cache(&mut self) {
+        self.shadow_map.invalidate();
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        self.stats.clone()
+    }
+
+    fn show_debug_view(&mut self, name: Option<&str>) {
+        self.shown = match name {
+            Some(STEPS_VIEW) => Some(STEPS_VIEW),
+            Some(EXTRAPOLATED_VIEW) => Some(EXTRAPOLATED_VIEW),
+            _ => None,
+        };
+    }
+
+    fn debug_views(&self) -> Vec<DebugView> {
+        let mut views = self.shadow_map.debug_views();
+        if let Some(debug) = &self.debug {
+            views.push(DebugView::new(
+                STEPS_VIEW,
+                &debug.texture,
+                DebugLegend::value(
+                    "samples marched per pixel, all rays (a ray stops at its first hit)",
+                ),
+            ));
+            views.push(DebugView::new(
+                EXTRAPOLATED_VIEW,
+                &debug.texture,
+                DebugLegend::value(
+                    "fraction of rays occluded by the behind-occluder extrapolation (not by crossing a surface)",
+                ),
+            ));
+        }
+        views
+    }
+}
