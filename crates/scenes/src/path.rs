@@ -851,4 +851,40 @@ mod tests {
             .to_string()
             .contains("light-sweep"));
     }
+
+    #[test]
+    fn a_scene_file_declares_paths_by_name() {
+        let text = r#"
+            [[object]]
+            plane = { size = [8, 8] }
+            casts_shadow = false
+            [[object]]
+            box = { size = [1, 1, 1] }
+            translation = [0, 1, 0]
+            dynamic = true
+            [[path]]
+            name = "lift"
+            duration = 2.0
+            [[path.object]]
+            instance = 1
+            [[path.object.key]]
+            time = 0.0
+            translation = [0, 1, 0]
+            [[path.object.key]]
+            time = 2.0
+            translation = [0, 2, 0]
+        "#;
+        let mut loaded =
+            crate::load_scene_bytes(text.as_bytes(), FilePath::new("lift.toml")).unwrap();
+        assert_eq!(loaded.paths.len(), 1);
+        let path = resolve("lift", &mut loaded.scene, &loaded.paths).unwrap();
+        let mid = path.pose(&loaded.scene, 1.0).transforms[0].1;
+        assert!((mid.w_axis.truncate() - Vec3::new(0.0, 1.5, 0.0)).length() < 1e-6);
+        // A path without a name cannot be found: refused with what to do.
+        let nameless = text.replace("name = \"lift\"", "");
+        let message = crate::load_scene_bytes(nameless.as_bytes(), FilePath::new("lift.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("has no `name`"), "{message}");
+    }
 }
