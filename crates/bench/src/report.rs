@@ -460,8 +460,11 @@ pub fn render_html(
     for w in &merged.warnings {
         let _ = write!(body, "<p class=\"warn\">warning: {}</p>", escape(w));
     }
-    body.push_str(&summary_table(runs, &scenes));
-    body.push_str(&headline_table(runs, &scenes));
+    if !runs.is_empty() {
+        // Still-frame tables; a report of runs along paths only has the motion section.
+        body.push_str(&summary_table(runs, &scenes));
+        body.push_str(&headline_table(runs, &scenes));
+    }
 
     for (scene, width, height) in &scenes {
         let in_scene: Vec<usize> = (0..runs.len())

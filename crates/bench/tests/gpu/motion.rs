@@ -469,3 +469,84 @@ fn camera_only_frames_of_orbit_skip_light_space_passes() -> Result<()> {
     }
     Ok(())
 }
+
+/// Light-sweep end to end: results.json with lag (0 for techniques that keep nothing), the
+/// per-frame exact answers read back from the cache by a second run (same errors, every frame a
+/// hit), and the report's motion section: three plots per scene and path, the animated PNG
+/// embedded, nothing fetched.
+#[test]
+fn a_light_sweep_sweep_reports_lag_reuses_cached_exact_answers_and_renders() -> Result<()> {
+    use softshadow_bench::{merge, report};
+    let registry = softshadow::registry();
+    let specs: Vec<RunSpec> = [softshadow_core::COST_FLOOR_TECHNIQUE, "pcss"]
+        .iter()
+        .map(|t| spec(t, Vec::new()))
+        .collect();
+    let cache = tempfile::tempdir()?;
+    let frames = 20;
+    let run = |dir: &std::path::Path| -> Result<softshadow_bench::Results> {
+        Ok(softshadow_bench::run_all(
+            gpu()?,
+            &registry,
+            &specs,
+            BenchOptions {
+                images: true,
+                reference_cache: Some(cache.path().to_path_buf()),
+                ..options("light-sweep", frames)
+            },
+            dir,
+            |_, _| {},
+        )?)
+    };
+    let (first_dir, second_dir) = (tempfile::tempdir()?, tempfile::tempdir()?);
+    let first = run(first_dir.path())?;
+    let second = run(second_dir.path())?;
+    for (a, b) in first.runs.iter().zip(&second.runs) {
+        ensure!(
+            a.status == Status::Ok && b.status == Status::Ok,
+            "{} {}",
+            a.message,
+            b.message
+        );
+        let (ma, mb) = (a.motion.as_ref().unwrap(), b.motion.as_ref().unwrap());
+        let lag = ma
+            .lag
+            .as_ref()
+            .context("light-sweep ends with 6 still frames at 20 frames")?;
+        ensure!(
+            lag.extra_error == 0.0 && lag.frames_to_settle == 0,
+            "{lag:?}"
+        );
+        ensure!(ma.series.error == mb.series.error && ma.series.flicker == mb.series.flicker);
+        let hits = mb.exact_cache.as_ref().context("cache counts")?;
+        ensure!(hits.hit == frames && hits.stored == 0, "{hits:?}");
+        ensure!(ma.frame_ms.light_moving.is_some() && ma.frame_ms.still.is_some());
+    }
+    let merged = merge::merge(&[merge::load(first_dir.path())?])?;
+    let (html, summary) = report::render_html(&merged, &registry)?;
+    ensure!(summary.points == 2 && summary.unplotted == 0, "{summary:?}");
+    for fetch in [
+        "<script",
+        "<link",
+        "src=\"http",
+        "href=\"http",
+        "url(http",
+        "@import",
+    ] {
+        ensure!(
+            !html.contains(fetch),
+            "the report fetches something: {fetch}"
+        );
+    }
+    let at = html
+        .find(&format!(
+            "<div class=\"plots motion\" data-scene=\"{SCENE}\" data-path=\"light-sweep\">"
+        ))
+        .context("no motion plots")?;
+    ensure!(html[at..].matches("<svg").count() == 3);
+    let animation = html
+        .find("<figure class=\"animation\"><img src=\"data:image/png;base64,")
+        .context("no animation")?;
+    ensure!(animation > at);
+    Ok(())
+}
