@@ -7,6 +7,7 @@
 pub mod doc_tables;
 pub mod expectations;
 pub mod merge;
+pub mod motion;
 pub mod output;
 pub mod reference_cache;
 pub mod report;
@@ -60,6 +61,9 @@ pub enum BenchError {
     Read { path: String, message: String },
     #[error("{0}")]
     Merge(String),
+    /// A run along a path that cannot be made (the message says what to change).
+    #[error("{0}")]
+    Motion(String),
     #[error(transparent)]
     Gpu(#[from] softshadow_core::GpuError),
     #[error(transparent)]
@@ -101,8 +105,12 @@ pub struct BenchOptions {
     /// is then kept from the first frame.
     pub camera_only: bool,
     /// A folder of reference images shared across benchmarks and shards ([`reference_cache`]):
-    /// `None` renders every reference.
+    /// `None` renders every reference. Motion runs keep their per-frame exact answers there
+    /// too ([`reference_cache::exact_in_dir`]).
     pub reference_cache: Option<PathBuf>,
+    /// Render every run along this path ([`motion`]; a built-in path's name, a path its scene
+    /// file declares, or a `.toml` path file) for `frames` frames, instead of the still frames.
+    pub path: Option<String>,
 }
 
 impl Default for BenchOptions {
@@ -116,6 +124,7 @@ impl Default for BenchOptions {
             exact_samples_per_axis: Some(DEFAULT_EXACT_SAMPLES),
             camera_only: true,
             reference_cache: None,
+            path: None,
         }
     }
 }
@@ -193,6 +202,8 @@ struct LoadedScene {
     scene: Scene,
     gpu: SceneGpu,
     warnings: Vec<String>,
+    /// Paths its scene file declares.
+    paths: Vec<softshadow_scenes::path::Path>,
 }
 
 struct ReferenceResult {
@@ -327,14 +338,42 @@ impl Bench {
             images: BTreeMap::new(),
             warnings: Vec::new(),
             expectation: None,
+            motion: None,
         };
-        if let Err(e) = self.run_inner(index, spec, out_dir, &mut run) {
+        let result = match self.options.path.clone() {
+            Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),
+            None => self.run_inner(index, spec, out_dir, &mut run),
+        };
+        if let Err(e) = result {
             run.status = Status::Error;
             run.message = e.to_string();
             // A failed run may leave GPU errors behind; clear them so the next run starts clean.
             let _ = self.gpu.take_errors();
         }
         run
+    }
+
+    /// Loads `spec`'s scene (once per benchmark) and makes a renderer of its size (once per size).
+    fn load_scene_and_renderer(&mut self, spec: &RunSpec) -> Result<(), BenchError> {
+        if !self.scenes.contains_key(&spec.scene) {
+            let loaded = softshadow_scenes::load(&spec.scene)?;
+            let gpu_scene = SceneGpu::upload(&self.gpu, &loaded.scene);
+            self.scenes.insert(
+                spec.scene.clone(),
+                LoadedScene {
+                    scene: loaded.scene,
+                    gpu: gpu_scene,
+                    warnings: loaded.warnings,
+                    paths: loaded.paths,
+                },
+            );
+        }
+        let key = (spec.width, spec.height);
+        if !self.renderers.contains_key(&key) {
+            self.renderers
+                .insert(key, Renderer::new(&self.gpu, spec.width, spec.height)?);
+        }
+        Ok(())
     }
 
     fn run_inner(
@@ -351,23 +390,8 @@ impl Bench {
             technique.set_build_control(control.clone());
         }
         run.params = technique.params().to_map();
-        if !self.scenes.contains_key(&spec.scene) {
-            let loaded = softshadow_scenes::load(&spec.scene)?;
-            let gpu_scene = SceneGpu::upload(&self.gpu, &loaded.scene);
-            self.scenes.insert(
-                spec.scene.clone(),
-                LoadedScene {
-                    scene: loaded.scene,
-                    gpu: gpu_scene,
-                    warnings: loaded.warnings,
-                },
-            );
-        }
+        self.load_scene_and_renderer(spec)?;
         let key = (spec.width, spec.height);
-        if !self.renderers.contains_key(&key) {
-            self.renderers
-                .insert(key, Renderer::new(&self.gpu, spec.width, spec.height)?);
-        }
         let timing_source = self.timing;
         let scene = &self.scenes[&spec.scene];
         run.warnings = scene.warnings.clone();
@@ -638,11 +662,15 @@ impl Bench {
                         puffin::profile_scope!("exact ground truth");
                         let positions = renderer.read_world_positions()?;
                         let mask = renderer.read_receiver_mask()?;
+                        // The exact answer of the scene as it is seen and lit here (a sweep's
+                        // `[camera]` / `[light]` replace the scene's own).
+                        let viewed = Scene {
+                            camera,
+                            light,
+                            ..scene.scene.clone()
+                        };
                         let (exact, truth) = softshadow_reference::exact_visibility(
-                            &scene.scene,
-                            &positions,
-                            &mask,
-                            samples,
+                            &viewed, &positions, &mask, samples,
                         );
                         Some((truth.to_string(), exact))
                     }
@@ -777,48 +805,68 @@ fn time_frames(
     frames: u32,
     mut render: impl FnMut(u32) -> Result<FrameOutput, RenderError>,
 ) -> Result<(results::Timing, Vec<String>), BenchError> {
-    let mut gpu_total = Vec::new();
-    let mut gpu_technique = Vec::new();
-    let mut cpu = Vec::new();
-    let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-    let mut pass_order: Vec<String> = Vec::new();
+    let mut timings = TimingAccumulator::default();
     let mut passes_run = Vec::new();
-    let mut source = TimingSource::Timestamps;
     for k in 0..frames {
         let output = render(k)?;
-        source = output.timing_source;
-        cpu.push(output.cpu_ms);
+        timings.push(&output);
+        passes_run = output.passes_run;
+    }
+    Ok((timings.finish(), passes_run))
+}
+
+/// Frame timings gathered one frame at a time and summarised as a [`results::Timing`] (only the
+/// per-frame numbers are kept, never images).
+#[derive(Default)]
+pub(crate) struct TimingAccumulator {
+    frames: u32,
+    gpu_total: Vec<f64>,
+    gpu_technique: Vec<f64>,
+    cpu: Vec<f64>,
+    per_pass: BTreeMap<String, Vec<f64>>,
+    pass_order: Vec<String>,
+    source: Option<TimingSource>,
+}
+
+impl TimingAccumulator {
+    pub(crate) fn push(&mut self, output: &FrameOutput) {
+        self.frames += 1;
+        self.source = Some(output.timing_source);
+        self.cpu.push(output.cpu_ms);
         if let Some(gpu) = &output.gpu {
-            gpu_total.push(gpu.total_ms);
-            gpu_technique.push(gpu.technique_ms());
+            self.gpu_total.push(gpu.total_ms);
+            self.gpu_technique.push(gpu.technique_ms());
             for (name, ms) in &gpu.passes {
-                per_pass.entry(name.clone()).or_default().push(*ms);
-                if !pass_order.contains(name) {
-                    pass_order.push(name.clone());
+                self.per_pass.entry(name.clone()).or_default().push(*ms);
+                if !self.pass_order.contains(name) {
+                    self.pass_order.push(name.clone());
                 }
             }
         }
-        passes_run = output.passes_run;
     }
-    let timing = results::Timing {
-        frames,
-        source,
-        frame_ms: (!gpu_total.is_empty()).then(|| results::percentiles(&gpu_total)),
-        technique_ms: (!gpu_technique.is_empty()).then(|| results::percentiles(&gpu_technique)),
-        passes: pass_order
-            .iter()
-            .map(|name| results::PassTiming {
-                name: name.clone(),
-                ms_median: results::percentile(&per_pass[name], 0.5),
-            })
-            .collect(),
-        cpu_ms: results::Median {
-            median: results::percentile(&cpu, 0.5),
-        },
-        passes_run: None,
-        warnings: Vec::new(),
-    };
-    Ok((timing, passes_run))
+
+    pub(crate) fn finish(self) -> results::Timing {
+        results::Timing {
+            frames: self.frames,
+            source: self.source.unwrap_or(TimingSource::Timestamps),
+            frame_ms: (!self.gpu_total.is_empty()).then(|| results::percentiles(&self.gpu_total)),
+            technique_ms: (!self.gpu_technique.is_empty())
+                .then(|| results::percentiles(&self.gpu_technique)),
+            passes: self
+                .pass_order
+                .iter()
+                .map(|name| results::PassTiming {
+                    name: name.clone(),
+                    ms_median: results::percentile(&self.per_pass[name], 0.5),
+                })
+                .collect(),
+            cpu_ms: results::Median {
+                median: results::percentile(&self.cpu, 0.5),
+            },
+            passes_run: None,
+            warnings: Vec::new(),
+        }
+    }
 }
 
 pub fn sanitize(text: &str) -> String {

@@ -263,6 +263,13 @@ pub fn write_merged(merged: &Merged, out_dir: &Path) -> Result<Results, BenchErr
             copied.insert(target_name.clone(), source);
             *name = target_name;
         }
+        // A run along a path names its per-frame records and animation among its images too.
+        if let Some(motion) = &mut run.motion {
+            if let Some(name) = run.images.get("frames") {
+                motion.frames_file = name.clone();
+            }
+            motion.animation = run.images.get("animation").cloned();
+        }
     }
     crate::write_results(&results, out_dir)?;
     Ok(results)

@@ -168,6 +168,61 @@ pub fn decode(payload: &[u8], pixels: usize) -> Result<CachedReference, String> 
     })
 }
 
+/// Bump when the per-frame exact answer changes in code its key cannot see (the closed form,
+/// the ray cast, the G-buffer positions it starts from): older entries are then rebuilt.
+pub const EXACT_FORMAT_VERSION: u32 = 1;
+
+/// The per-frame exact answers of motion runs ([`crate::motion`]) in `dir`: one file per frame's
+/// scene (its moved instances, light and camera), size and ray-cast samples, shared by every
+/// technique and every later run on the same path.
+pub fn exact_in_dir(dir: &Path) -> DiskCache {
+    DiskCache {
+        dir: dir.to_path_buf(),
+        kind: "exact",
+        magic: *b"SSEXA001",
+        version: EXACT_FORMAT_VERSION,
+    }
+}
+
+/// The key of one frame's exact answer: `scene` holds the frame's pose (camera, light, moved
+/// instances), so [`Scene::content_hash`] covers them.
+pub fn exact_key(scene: &Scene, width: u32, height: u32, samples_per_axis: u32) -> u64 {
+    let mut h = Fnv1a::default();
+    h.write_u64(scene.content_hash());
+    h.write_u64(u64::from(width) << 32 | u64::from(height));
+    h.write_u64(u64::from(samples_per_axis));
+    h.finish()
+}
+
+/// The payload of one frame's exact answer: its label (`closed-form`, `raycast(...)`) and
+/// visibility.
+pub fn encode_exact(label: &str, visibility: &[f32]) -> Vec<u8> {
+    let mut out = Vec::new();
+    put_str(&mut out, label);
+    put_f32s(&mut out, visibility);
+    out
+}
+
+/// Decodes [`encode_exact`]'s payload for `pixels` pixels, or says why it cannot be trusted.
+pub fn decode_exact(payload: &[u8], pixels: usize) -> Result<(String, Vec<f32>), String> {
+    let mut r = Reader::new(payload);
+    let label = take_str(&mut r)?;
+    let visibility = take_f32s(&mut r)?;
+    if r.remaining() != 0 {
+        return Err(format!("{} bytes after the payload", r.remaining()));
+    }
+    if visibility.len() != pixels {
+        return Err(format!(
+            "{} values for an image of {pixels} pixels",
+            visibility.len()
+        ));
+    }
+    if visibility.iter().any(|v| !v.is_finite()) {
+        return Err("a visibility is not finite".into());
+    }
+    Ok((label, visibility))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -184,5 +239,33 @@ mod tests {
         assert_eq!(decode(&payload, 4).unwrap(), reference);
         assert!(decode(&payload, 5).unwrap_err().contains("sizes"));
         assert!(decode(&payload[..payload.len() - 1], 4).is_err());
+    }
+
+    #[test]
+    fn an_exact_answer_round_trips_and_its_key_sees_the_pose() {
+        let payload = encode_exact("closed-form", &[0.0, 0.5, 1.0]);
+        assert_eq!(
+            decode_exact(&payload, 3).unwrap(),
+            ("closed-form".to_string(), vec![0.0, 0.5, 1.0])
+        );
+        assert!(decode_exact(&payload, 4).is_err());
+        assert!(decode_exact(&payload[..payload.len() - 2], 3).is_err());
+        let mut scene = softshadow_scenes_free_scene();
+        let key = exact_key(&scene, 64, 64, 16);
+        assert_eq!(key, exact_key(&scene, 64, 64, 16));
+        assert_ne!(key, exact_key(&scene, 64, 32, 16));
+        assert_ne!(key, exact_key(&scene, 64, 64, 8));
+        scene.light.width += 0.5;
+        assert_ne!(key, exact_key(&scene, 64, 64, 16));
+    }
+
+    fn softshadow_scenes_free_scene() -> Scene {
+        Scene {
+            name: "empty".into(),
+            meshes: Vec::new(),
+            instances: Vec::new(),
+            light: AreaLight::default(),
+            camera: Camera::default(),
+        }
     }
 }

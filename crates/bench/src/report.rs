@@ -374,7 +374,8 @@ td.l,th.l{text-align:left}\
 .strip figure{margin:0;font-size:12px}\
 .strip img{width:128px;height:128px;image-rendering:pixelated;display:block}\
 .warn{color:#a40}\
-tr.front td{background:#eef6ee}";
+tr.front td{background:#eef6ee}\
+.animation img{image-rendering:pixelated;width:512px;height:auto}";
 
 /// Writes the report of `merged` to `out` (and the runs as CSV to `csv`).
 pub fn write_report(
@@ -407,17 +408,32 @@ pub fn render_html(
     merged: &Merged,
     registry: &Registry,
 ) -> Result<(String, ReportSummary), BenchError> {
-    let runs = &merged.results.runs;
-    let styles = technique_styles(runs, registry);
+    let all_runs = &merged.results.runs;
+    let styles = technique_styles(all_runs, registry);
+    // Runs along a path have their own section; the still-frame tables and plots leave them out.
+    let still: Vec<Run> = all_runs
+        .iter()
+        .filter(|r| r.motion.is_none())
+        .cloned()
+        .collect();
+    let runs = &still;
+    let motion_runs: Vec<usize> = (0..all_runs.len())
+        .filter(|&i| all_runs[i].motion.is_some())
+        .collect();
     let mut summary = ReportSummary {
         warnings: merged.warnings.clone(),
         ..Default::default()
     };
     let scenes = scenes_of(runs);
-    summary.scenes = scenes.len();
+    let motion_scenes: Vec<Run> = motion_runs.iter().map(|&i| all_runs[i].clone()).collect();
+    summary.scenes = scenes.len()
+        + scenes_of(&motion_scenes)
+            .iter()
+            .filter(|s| !scenes.contains(s))
+            .count();
     let adapter = &merged.results.adapter;
     let sources: Vec<String> = {
-        let mut s: Vec<String> = runs
+        let mut s: Vec<String> = all_runs
             .iter()
             .filter_map(|r| Some(r.timing.as_ref()?.source.to_string()))
             .collect();
@@ -429,7 +445,7 @@ pub fn render_html(
     let _ = write!(
         body,
         "<h1>Soft shadows: error against run time</h1><p>{} runs on <b>{}</b> ({}, {}); timing: <b>{}</b>{}. Error: mae_shadowed (mean absolute visibility error over shadowed receiver pixels) against the exact answer where the run has it, else against the reference; FLIP: mean FLIP of the shaded image against the reference's.</p>",
-        runs.len(),
+        all_runs.len(),
         escape(&adapter.name),
         escape(&adapter.backend),
         escape(&adapter.driver),
@@ -444,8 +460,11 @@ pub fn render_html(
     for w in &merged.warnings {
         let _ = write!(body, "<p class=\"warn\">warning: {}</p>", escape(w));
     }
-    body.push_str(&summary_table(runs, &scenes));
-    body.push_str(&headline_table(runs, &scenes));
+    if !runs.is_empty() {
+        // Still-frame tables; a report of runs along paths only has the motion section.
+        body.push_str(&summary_table(runs, &scenes));
+        body.push_str(&headline_table(runs, &scenes));
+    }
 
     for (scene, width, height) in &scenes {
         let in_scene: Vec<usize> = (0..runs.len())
@@ -520,12 +539,304 @@ pub fn render_html(
         .map(|k| mae_points[k].run)
         .collect();
         body.push_str(&runs_table(runs, &in_scene, &front));
-        body.push_str(&image_strip(merged, &front));
+        // `front` indexes the still runs; the strip reads images through the merged runs.
+        let still_index: Vec<usize> = (0..all_runs.len())
+            .filter(|&i| all_runs[i].motion.is_none())
+            .collect();
+        let front_merged: Vec<usize> = front.iter().map(|&k| still_index[k]).collect();
+        body.push_str(&image_strip(merged, &front_merged));
+    }
+    if !motion_runs.is_empty() {
+        body.push_str(&motion_section(
+            merged,
+            &motion_runs,
+            &styles,
+            &mut summary,
+        )?);
     }
     let html = format!(
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>softshadow report</title><style>{STYLE}</style></head><body>{body}</body></html>\n"
     );
     Ok((html, summary))
+}
+
+/// Per-frame lines: `lines` holds (technique, value per frame), one colour per technique.
+pub fn series_svg(
+    lines: &[(String, Vec<f64>)],
+    styles: &BTreeMap<String, usize>,
+    caption: &str,
+    value_label: &str,
+) -> Result<String, BenchError> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let frames = lines.iter().map(|(_, v)| v.len()).max().unwrap_or(1).max(2);
+        let v_max = lines
+            .iter()
+            .flat_map(|(_, v)| v.iter().copied())
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max);
+        let v_max = if v_max > 0.0 { v_max * 1.12 } else { 0.01 };
+        let mut chart = ChartBuilder::on(&root)
+            .caption(caption, ("sans-serif", 16))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..(frames - 1) as f64, 0.0..v_max)
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("frame")
+            .y_desc(value_label)
+            .x_label_formatter(&|t| format!("{t:.0}"))
+            .y_label_formatter(&|v| format!("{v:.4}"))
+            .draw()
+            .map_err(plot_error)?;
+        for (technique, values) in lines {
+            let base = technique.split(' ').next().unwrap_or(technique);
+            let c = colour(styles.get(base).copied().unwrap_or(0));
+            chart
+                .draw_series(LineSeries::new(
+                    values
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.is_finite())
+                        .map(|(k, v)| (k as f64, *v)),
+                    c.stroke_width(2),
+                ))
+                .map_err(plot_error)?
+                .label(technique.as_str())
+                .legend(move |(x, y)| Rectangle::new([(x - 8, y - 1), (x + 8, y + 1)], c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.6))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(plot_error)?;
+        root.present().map_err(plot_error)?;
+    }
+    Ok(svg)
+}
+
+/// The runs along paths: per scene and path, error and flicker over time (one line per
+/// technique), flicker against frame time with its Pareto front, a table of the per-path
+/// summaries, and the animation of the run that flickers most (technique left, exact right).
+fn motion_section(
+    merged: &Merged,
+    motion_runs: &[usize],
+    styles: &BTreeMap<String, usize>,
+    summary: &mut ReportSummary,
+) -> Result<String, BenchError> {
+    let runs = &merged.results.runs;
+    let mut groups: Vec<(String, String, u32, u32)> = Vec::new();
+    for &i in motion_runs {
+        let r = &runs[i];
+        let key = (
+            r.scene.clone(),
+            r.motion.as_ref().map_or(String::new(), |m| m.path.clone()),
+            r.width,
+            r.height,
+        );
+        if !groups.contains(&key) {
+            groups.push(key);
+        }
+    }
+    let mut out = String::from(
+        "<h2 id=\"motion\">Motion: error and flicker along paths</h2><p>Every frame against its own exact answer. Flicker: mean over receiver pixels of |(V<sub>t</sub> - V<sub>t-1</sub>) - (E<sub>t</sub> - E<sub>t-1</sub>)|, the change the technique shows that the exact answer does not. Lag: error right after the last moving frame minus the settled error. Frame times split into frames where only the camera moved and frames where the light or a caster moved (docs/BENCHMARKS.md, \"Motion\").</p>",
+    );
+    for (scene, path, width, height) in groups {
+        let in_group: Vec<usize> = motion_runs
+            .iter()
+            .copied()
+            .filter(|&i| {
+                let r = &runs[i];
+                r.scene == scene
+                    && r.width == width
+                    && r.height == height
+                    && r.motion.as_ref().is_some_and(|m| m.path == path)
+            })
+            .collect();
+        let ok: Vec<usize> = in_group
+            .iter()
+            .copied()
+            .filter(|&i| runs[i].status == Status::Ok)
+            .collect();
+        let label = |i: usize| {
+            let r = &runs[i];
+            if ok
+                .iter()
+                .filter(|&&j| runs[j].technique == r.technique)
+                .count()
+                > 1
+            {
+                format!("{} {}", r.technique, params_text(r))
+            } else {
+                r.technique.clone()
+            }
+        };
+        let error_lines: Vec<(String, Vec<f64>)> = ok
+            .iter()
+            .filter_map(|&i| Some((label(i), runs[i].motion.as_ref()?.series.error.clone())))
+            .collect();
+        let flicker_lines: Vec<(String, Vec<f64>)> = ok
+            .iter()
+            .filter_map(|&i| {
+                let mut f = runs[i].motion.as_ref()?.series.flicker.clone();
+                // Frame 0 has no flicker: not drawn.
+                if let Some(first) = f.first_mut() {
+                    *first = f64::NAN;
+                }
+                Some((label(i), f))
+            })
+            .collect();
+        let points: Vec<PlotPoint> = ok
+            .iter()
+            .filter_map(|&i| {
+                let r = &runs[i];
+                let m = r.motion.as_ref()?;
+                let flicker = m.flicker.as_ref()?.mean;
+                Some(PlotPoint {
+                    run: i,
+                    technique: r.technique.clone(),
+                    time_ms: frame_time_ms(r)?,
+                    value: flicker,
+                    tooltip: format!(
+                        "{} {}\n{} ms, flicker {flicker:.5}, error {:.4}",
+                        r.technique,
+                        params_text(r),
+                        frame_time_ms(r).map_or("-".into(), ms),
+                        m.error.mean
+                    ),
+                })
+            })
+            .collect();
+        summary.points += points.len();
+        summary.unplotted += in_group.len() - points.len();
+        let title = format!("{scene} along {path} ({width}x{height})");
+        let _ = write!(
+            out,
+            "<h3 id=\"motion-{}-{}\">{}</h3><div class=\"plots motion\" data-scene=\"{}\" data-path=\"{}\">",
+            escape(&crate::sanitize(&scene)),
+            escape(&crate::sanitize(&path)),
+            escape(&title),
+            escape(&scene),
+            escape(&path)
+        );
+        let _ = write!(
+            out,
+            "<div class=\"plot error-series\">{}</div><div class=\"plot flicker-series\">{}</div><div class=\"plot flicker-time\">{}</div></div>",
+            series_svg(&error_lines, styles, "error over time", "mae_shadowed vs exact")?,
+            series_svg(&flicker_lines, styles, "flicker over time", "flicker")?,
+            plot_svg(&points, styles, "mean flicker against frame time", "flicker (mean)")?
+        );
+        out.push_str(&motion_table(runs, &in_group));
+        // The run that flickers most, as it moves.
+        let flicker_of = |i: usize| {
+            runs[i]
+                .motion
+                .as_ref()
+                .and_then(|m| m.flicker.as_ref())
+                .map(|f| f.mean)
+        };
+        let worst = ok
+            .iter()
+            .copied()
+            .filter(|&i| flicker_of(i).is_some())
+            .max_by(|&a, &b| {
+                flicker_of(a)
+                    .unwrap_or(0.0)
+                    .total_cmp(&flicker_of(b).unwrap_or(0.0))
+            });
+        let animation = worst.and_then(|i| {
+            let name = runs[i].motion.as_ref()?.animation.as_ref()?;
+            Some((i, std::fs::read(merged.run_dirs[i].join(name)).ok()?))
+        });
+        if let Some((i, bytes)) = animation {
+            let _ = write!(
+                out,
+                "<figure class=\"animation\"><img src=\"data:image/png;base64,{}\" alt=\"{} along {}\"><figcaption>the run that flickers most: {} {} (left) beside the exact answer (right), {} frames per second</figcaption></figure>",
+                base64::engine::general_purpose::STANDARD.encode(bytes),
+                escape(&runs[i].technique),
+                escape(&path),
+                escape(&runs[i].technique),
+                escape(&params_text(&runs[i])),
+                crate::motion::ANIMATION_FPS
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// The per-path summaries of `in_group`'s runs, least flicker first.
+fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
+    let mut t = String::from(
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frames</th><th>error mean</th><th>error p95</th><th>error max</th><th>flicker mean</th><th>flicker p95</th><th>flicker max</th><th title=\"error right after the last moving frame minus the settled error, and frames until settled\">lag</th><th>frame ms (median)</th><th>camera-only ms</th><th>light-moving ms</th><th class=\"l\">exact (frames)</th><th class=\"l\">status</th></tr>",
+    );
+    let flicker_of = |i: usize| {
+        runs[i]
+            .motion
+            .as_ref()
+            .and_then(|m| m.flicker.as_ref())
+            .map_or(f64::INFINITY, |f| f.mean)
+    };
+    let mut order = in_group.to_vec();
+    order.sort_by(|&a, &b| flicker_of(a).total_cmp(&flicker_of(b)));
+    for i in order {
+        let run = &runs[i];
+        let Some(m) = run.motion.as_ref().filter(|_| run.status == Status::Ok) else {
+            let _ = write!(
+                t,
+                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td colspan=\"12\"></td><td class=\"l\"><span class=\"warn\">error: {}</span></td></tr>",
+                escape(&run.technique),
+                escape(&params_text(run)),
+                escape(&run.message)
+            );
+            continue;
+        };
+        let four = |v: f64| format!("{v:.4}");
+        let flicker = |pick: fn(&crate::results::SeriesSummary) -> f64| {
+            m.flicker
+                .as_ref()
+                .map_or("-".into(), |s| format!("{:.5}", pick(s)))
+        };
+        let exact: Vec<String> = m
+            .exact_methods
+            .iter()
+            .map(|(method, frames)| format!("{method} ({frames})"))
+            .collect();
+        let _ = write!(
+            t,
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">ok</td></tr>",
+            escape(&run.technique),
+            escape(&params_text(run)),
+            m.frames,
+            four(m.error.mean),
+            four(m.error.p95),
+            four(m.error.max),
+            flicker(|s| s.mean),
+            flicker(|s| s.p95),
+            flicker(|s| s.max),
+            m.lag.as_ref().map_or("-".into(), |l| format!(
+                "{:+.4} ({} frames)",
+                l.extra_error, l.frames_to_settle
+            )),
+            frame_time_ms(run).map_or("-".into(), ms),
+            m.frame_ms
+                .camera_only
+                .as_ref()
+                .map_or("-".into(), |p| ms(p.median)),
+            m.frame_ms
+                .light_moving
+                .as_ref()
+                .map_or("-".into(), |p| ms(p.median)),
+            escape(&exact.join(", ")),
+        );
+    }
+    t.push_str("</table>");
+    t
 }
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {

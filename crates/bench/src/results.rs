@@ -176,6 +176,140 @@ pub struct Run {
     /// at the expectation settings: defaults at 64², against the exact answer).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub expectation: Option<crate::expectations::Verdict>,
+    /// A run along a path (`bench --path`): per-frame error against each frame's exact answer,
+    /// flicker, lag and frame times (docs/BENCHMARKS.md, "Motion"). Such a run has no
+    /// still-frame `error`; its `timing` covers every frame of the path.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<Motion>,
+}
+
+/// What a run along a path measured (docs/BENCHMARKS.md, "Motion").
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Motion {
+    /// The path as given (`orbit`, `light-sweep`, `object-move`, `still`, a name a scene file
+    /// declares, or a path file).
+    pub path: String,
+    /// Seconds the path lasts; frame `k` of `frames` is at `duration_s * k / (frames - 1)`.
+    pub duration_s: f32,
+    pub frames: u32,
+    /// Every frame's record, one JSON object a line (`motion::FrameRecord`), in the output
+    /// folder: written frame by frame, never held.
+    pub frames_file: String,
+    /// The technique's visibility beside the exact answer, every frame, as an animated PNG
+    /// (with images).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation: Option<String>,
+    /// mae_shadowed against each frame's exact answer, over the frames.
+    pub error: SeriesSummary,
+    /// mae_all against each frame's exact answer, over the frames.
+    pub error_all: SeriesSummary,
+    /// Flicker (`softshadow_metrics::flicker`) from each frame to the next, over frames 1.. ;
+    /// absent with one frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker: Option<SeriesSummary>,
+    /// Error right after the last moving frame against the settled error at the end of the path;
+    /// absent when the path does not end with at least `2 * motion::LAG_FRAMES` still frames.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lag: Option<Lag>,
+    /// Frame times by what changed since the frame before.
+    pub frame_ms: FrameTimes,
+    /// Exact method (`closed-form`, `raycast(samples_per_axis=N)`) -> frames measured against it.
+    pub exact_methods: BTreeMap<String, u32>,
+    /// Where the per-frame exact answers came from when a cache folder is set
+    /// (`--reference-cache`): frames read, computed and stored, rebuilt, not stored.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exact_cache: Option<ExactCacheCounts>,
+    /// Pass name -> frames in which it ran.
+    pub passes: BTreeMap<String, u32>,
+    /// Per-frame series for the report's plots: error (mae_shadowed), flicker (from frame k - 1
+    /// to k; 0 for frame 0), frame time, and what changed.
+    pub series: Series,
+}
+
+/// Mean, 95th percentile and maximum of a per-frame quantity.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SeriesSummary {
+    pub mean: f64,
+    pub p95: f64,
+    pub max: f64,
+}
+
+impl SeriesSummary {
+    /// The summary of `values` (`None` when empty).
+    pub fn of(values: &[f64]) -> Option<Self> {
+        if values.is_empty() {
+            return None;
+        }
+        Some(Self {
+            mean: values.iter().sum::<f64>() / values.len() as f64,
+            p95: percentile(values, 0.95),
+            max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        })
+    }
+}
+
+/// Lag of a run along a path (docs/BENCHMARKS.md, "Motion").
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Lag {
+    /// The last frame in which anything moved.
+    pub last_moving_frame: u32,
+    /// Mean error of the `LAG_FRAMES` frames after it.
+    pub error_after: f64,
+    /// Mean error of the last `LAG_FRAMES` frames (settled).
+    pub error_settled: f64,
+    /// `error_after - error_settled`: 0 for a technique that keeps nothing from earlier frames.
+    pub extra_error: f64,
+    /// Frames after the last moving one until the error is within 1% (plus 1e-6) of the settled
+    /// error.
+    pub frames_to_settle: u32,
+}
+
+/// Frame times of a run along a path, split by what changed since the frame before.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FrameTimes {
+    /// The first frame (nothing built yet).
+    pub first: f64,
+    /// Frames in which only the camera moved: light-space work may be kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_only: Option<Percentiles>,
+    /// Frames in which the light or a caster moved: light-space work is redone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_moving: Option<Percentiles>,
+    /// Frames in which nothing moved.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub still: Option<Percentiles>,
+}
+
+/// Counts of where a motion run's exact answers came from.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct ExactCacheCounts {
+    pub hit: u32,
+    pub stored: u32,
+    pub rebuilt: u32,
+    pub not_stored: u32,
+}
+
+/// What changed in a frame of a path since the frame before.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FrameKind {
+    /// The first frame.
+    First,
+    /// Nothing.
+    Still,
+    /// Only the camera.
+    Camera,
+    /// The light or a caster (and maybe the camera).
+    Light,
+}
+
+/// Per-frame series of a run along a path.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct Series {
+    pub error: Vec<f64>,
+    pub flicker: Vec<f64>,
+    pub frame_ms: Vec<f64>,
+    pub kind: Vec<FrameKind>,
 }
 
 fn timestamps() -> TimingSource {
@@ -219,7 +353,7 @@ pub struct Timing {
     pub warnings: Vec<String>,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Percentiles {
     pub median: f64,
     pub p10: f64,

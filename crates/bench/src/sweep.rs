@@ -5,6 +5,7 @@
 //! frames = 10             # optional, default 10
 //! warmup = 2              # optional, default 2
 //! scenes = ["atty-square", "blob-floating"]
+//! path = "light-sweep"    # optional: every run along this path, `frames` frames (docs/BENCHMARKS.md)
 //!
 //! [reference]             # optional: settings of the reference
 //! samples_per_axis = 16
@@ -55,6 +56,9 @@ struct SweepFile {
     camera: Option<Camera>,
     #[serde(default)]
     light: Option<AreaLight>,
+    /// Render every run along this path (`bench --path`, docs/BENCHMARKS.md "Motion").
+    #[serde(default)]
+    path: Option<String>,
     /// Every registered technique at the settings its crate gives for the overview
     /// ([`TechniqueInfo::overview`]), before the `[[technique]]` tables.
     #[serde(default)]
@@ -85,6 +89,8 @@ pub struct Sweep {
     /// Camera and light that replace every scene's own (see [`crate::Bench::set_view`]).
     pub camera: Option<Camera>,
     pub light: Option<AreaLight>,
+    /// `path = "..."`: every run along this path ([`crate::motion`]) instead of still frames.
+    pub path: Option<String>,
 }
 
 fn value_text(v: &toml::Value) -> Option<String> {
@@ -238,6 +244,7 @@ impl Sweep {
             reference_params,
             camera: file.camera,
             light: file.light,
+            path: file.path,
         })
     }
 }
@@ -342,6 +349,10 @@ impl Sweep {
         ));
         // A sweep seen from another camera or light measures something else.
         text.push_str(&format!(" camera={:?} light={:?}", self.camera, self.light));
+        // Along a path (only then, so the hashes of still sweeps stay what they were).
+        if let Some(path) = &options.path {
+            text.push_str(&format!(" path={path}"));
+        }
         format!("{:016x}", fnv1a(text.as_bytes()))
     }
 
@@ -396,6 +407,7 @@ impl Sweep {
                     reference_params: Vec::new(),
                     camera: None,
                     light: None,
+                    path: None,
                 })
             }
             _ => Err(BenchError::UnknownSuite {

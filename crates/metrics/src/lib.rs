@@ -21,7 +21,8 @@
 //!
 //! Entry points: [`compare`] (error statistics), [`stability`] (NaN/Inf/range
 //! counts), [`flip_mean`] (NVIDIA FLIP on 8-bit sRGB images),
-//! [`difference_image`] (false-colour signed-error image) and
+//! [`difference_image`] (false-colour signed-error image), [`flicker`] (the change between two
+//! frames that the exact answer does not show) and
 //! [`visibility_to_gray8`] (8-bit preview of a visibility buffer).
 
 #![warn(missing_docs)]
@@ -447,6 +448,57 @@ fn difference_colour(d: f32) -> [u8; 3] {
     } else {
         [255, 255, 255]
     }
+}
+
+/// Flicker between two frames: the mean, over pixels that show a receiver in both frames, of
+/// `|(V_t - V_t-1) - (E_t - E_t-1)|`, the change the technique shows that the exact answer `E`
+/// does not. It is 0 for an exact technique and for one whose error stays the same from frame to
+/// frame, whatever its size; a technique that adds noise of standard deviation `s`, drawn anew each
+/// frame and independent between frames, gets about `2 s / sqrt(pi)` (the mean of `|N(0, 2 s²)|`).
+/// Defined in docs/BENCHMARKS.md ("Motion").
+///
+/// A non-finite technique value in either frame scores the worst change, `1.0`, at its pixel.
+///
+/// # Errors
+///
+/// * [`MetricsError::LengthMismatch`] if the buffers of a frame differ in length, or the two
+///   frames differ in size.
+/// * [`MetricsError::NoReceivers`] if no pixel shows a receiver in both frames.
+/// * [`MetricsError::NonFiniteReference`] if an exact value is NaN or infinite on such a pixel.
+pub fn flicker(
+    previous: (&[f32], &[f32], &[bool]),
+    current: (&[f32], &[f32], &[bool]),
+) -> Result<f64, MetricsError> {
+    let (v0, e0, m0) = previous;
+    let (v1, e1, m1) = current;
+    check_lengths(v0, e0, m0)?;
+    check_lengths(v1, e1, m1)?;
+    check_lengths(v0, v1, m1)?;
+    let mut sum = 0.0f64;
+    let mut pixels = 0u64;
+    for index in 0..v1.len() {
+        if !(m0[index] && m1[index]) {
+            continue;
+        }
+        for value in [e0[index], e1[index]] {
+            if !value.is_finite() {
+                return Err(MetricsError::NonFiniteReference { index, value });
+            }
+        }
+        let change = if v0[index].is_finite() && v1[index].is_finite() {
+            let technique = f64::from(v1[index]) - f64::from(v0[index]);
+            let truth = f64::from(e1[index]) - f64::from(e0[index]);
+            (technique - truth).abs()
+        } else {
+            1.0
+        };
+        sum += change;
+        pixels += 1;
+    }
+    if pixels == 0 {
+        return Err(MetricsError::NoReceivers);
+    }
+    Ok(sum / pixels as f64)
 }
 
 /// Converts visibility to 8-bit grey for previews: `round(255 * clamp(v, 0, 1))`,

@@ -371,3 +371,38 @@ fn gray8_clamps_and_rounds() {
         vec![0, 255, 128, 0, 255, 0, 255, 0]
     );
 }
+
+/// Flicker counts the technique's change beyond the truth's: a steady error (a constant offset)
+/// gives 0, a change the truth also makes gives 0, noise gives its mean absolute change.
+#[test]
+fn flicker_counts_only_the_change_the_truth_does_not_make() {
+    let e0 = [0.5f32, 0.25, 1.0, 0.0];
+    let e1 = [0.75f32, 0.25, 1.0, 0.5];
+    let mask = [true, true, true, true];
+    // The exact answer itself: no flicker however much it changes.
+    assert_eq!(flicker((&e0, &e0, &mask), (&e1, &e1, &mask)).unwrap(), 0.0);
+    // A steady offset of 0.25 on every pixel: the error is large, the flicker 0.
+    let v0: Vec<f32> = e0.iter().map(|e| e - 0.25).collect();
+    let v1: Vec<f32> = e1.iter().map(|e| e - 0.25).collect();
+    assert_eq!(flicker((&v0, &e0, &mask), (&v1, &e1, &mask)).unwrap(), 0.0);
+    // A still technique on a changing truth: the truth's mean absolute change, 0.75 / 4.
+    assert_eq!(
+        flicker((&e0, &e0, &mask), (&e0, &e1, &mask)).unwrap(),
+        0.1875
+    );
+    // Pixels that are receivers in only one frame do not count; NaN scores 1.
+    let partial = [true, false, true, true];
+    let v1 = [0.5f32, 0.0, f32::NAN, 0.0];
+    assert_eq!(
+        flicker((&e0, &e0, &mask), (&v1, &e0, &partial)).unwrap(),
+        1.0 / 3.0
+    );
+    assert!(matches!(
+        flicker((&e0, &e0, &[false; 4]), (&e0, &e0, &mask)),
+        Err(MetricsError::NoReceivers)
+    ));
+    assert!(matches!(
+        flicker((&e0, &e0, &mask), (&e0[..3], &e0[..3], &mask[..3])),
+        Err(MetricsError::LengthMismatch { .. })
+    ));
+}

@@ -104,6 +104,15 @@ pub enum SceneError {
         path: String,
     },
 
+    /// A path (an animation over time, [`crate::path`]) that cannot be used.
+    #[error("path `{name}`: {message}")]
+    Path {
+        /// The path's name or file.
+        name: String,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
+
     /// A TOML syntax or schema error (unknown field, wrong type, missing field).
     #[error("scene file `{path}`{}: {message}", line.map(|l| format!(" line {l}")).unwrap_or_default())]
     SceneFile {

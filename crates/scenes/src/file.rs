@@ -43,6 +43,9 @@ pub struct SceneFile {
     /// The `[[object]]` array.
     #[serde(default, rename = "object")]
     pub objects: Vec<ObjectDef>,
+    /// The `[[path]]` array: animations of this scene over time ([`crate::path`]).
+    #[serde(default, rename = "path")]
+    pub paths: Vec<crate::path::PathDef>,
 }
 
 /// `[light]`: a rectangular area light. Give `direction` or `target`, not both (default: facing
@@ -132,7 +135,7 @@ pub enum ScaleDef {
 }
 
 impl ScaleDef {
-    fn to_vec3(self) -> Vec3 {
+    pub(crate) fn to_vec3(self) -> Vec3 {
         match self {
             ScaleDef::Uniform(s) => Vec3::splat(s),
             ScaleDef::PerAxis(v) => Vec3::from(v),

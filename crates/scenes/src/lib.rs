@@ -17,6 +17,7 @@ mod error;
 pub mod file;
 pub mod gltf_import;
 pub mod limits;
+pub mod path;
 pub mod primitives;
 pub mod stiff;
 
@@ -37,6 +38,8 @@ pub struct Loaded {
     /// One line each, e.g. "mesh `x` from file.glb: dropped 3 degenerate and 2 non-finite
     /// triangles".
     pub warnings: Vec<String>,
+    /// Paths the scene file declares (`[[path]]`, [`path`]); empty for other scenes.
+    pub paths: Vec<path::Path>,
 }
 
 /// Loads a scene from a builtin id (`id` or `id:key=value,...`), a `.toml` scene file or a
@@ -119,6 +122,17 @@ pub fn load_scene_bytes(bytes: &[u8], path: &Path) -> Result<Loaded, SceneError>
     let mut loaded = finalize(scene, &format!("scene file `{}`", path.display()))?;
     warnings.append(&mut loaded.warnings);
     loaded.warnings = warnings;
+    for (k, declared) in def.paths.iter().enumerate() {
+        let Some(name) = &declared.name else {
+            return Err(SceneError::Path {
+                name: format!("{} [[path]] {}", path.display(), k + 1),
+                message: "has no `name`: name it so `--path NAME` can find it".into(),
+            });
+        };
+        let made = declared.to_path(name)?;
+        made.check(&loaded.scene)?;
+        loaded.paths.push(made);
+    }
     Ok(loaded)
 }
 
@@ -144,7 +158,11 @@ pub fn finalize(mut scene: Scene, source: &str) -> Result<Loaded, SceneError> {
         origin: source.to_string(),
         message,
     })?;
-    Ok(Loaded { scene, warnings })
+    Ok(Loaded {
+        scene,
+        warnings,
+        paths: Vec::new(),
+    })
 }
 
 /// Turns a repair report into a warning such as

@@ -5,6 +5,8 @@
 //! - `workbench list [--json]`: scenes, techniques and every parameter with range and default.
 //! - `workbench bench --scene ID|FILE --technique ID [--param name=value]... --out DIR`
 //! - `workbench bench --sweep FILE --out DIR`
+//! - `workbench bench --scene ID --technique ID --path NAME|FILE --frames N --out DIR`: along a
+//!   path (error per frame, flicker, lag)
 //! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `benches/NAME.toml`)
 //! - `workbench bench --sweep FILE --shard I/N --out DIR`: shard I (0-based) of N
 //! - `workbench bench --resume DIR`: finish an interrupted benchmark (its results.json keeps every
@@ -137,9 +139,16 @@ struct BenchArgs {
     /// Image size.
     #[arg(long, default_value = "256x256", value_name = "WxH")]
     size: String,
-    /// Timed frames per run.
+    /// Timed frames per run; with --path, the frames along the path (at fixed time steps, the
+    /// first at its start and the last at its end).
     #[arg(long)]
     frames: Option<u32>,
+    /// Render every run along a path: `still`, `orbit`, `light-sweep`, `object-move` (see
+    /// `workbench list`), a `[[path]]` its scene file declares, or a .toml path file;
+    /// measures error against every frame's exact answer, flicker, lag and frame times
+    /// (docs/BENCHMARKS.md, "Motion").
+    #[arg(long, value_name = "NAME|FILE")]
+    path: Option<String>,
     /// Untimed warm-up frames per run.
     #[arg(long)]
     warmup: Option<u32>,
@@ -263,6 +272,9 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
                     "range": p.range_text(),
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
+            "paths": softshadow_scenes::path::BUILTIN_PATHS.iter().map(|(name, description)| serde_json::json!({
+                "name": name, "description": description,
+            })).collect::<Vec<_>>(),
             "techniques": techniques.iter().map(|t| serde_json::json!({
                 "id": t.id,
                 "description": t.description,
@@ -285,6 +297,12 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
                 p.range_text()
             );
         }
+    }
+    println!(
+        "\nPaths (bench --path NAME, made for any scene; or a [[path]] of a scene file, or a .toml path file):"
+    );
+    for (name, description) in softshadow_scenes::path::BUILTIN_PATHS {
+        println!("  {name:<20} {description}");
     }
     println!("\nTechniques:");
     for t in techniques {
@@ -418,7 +436,24 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
         camera_only: !args.no_camera_only,
         reference_cache: args.reference_cache.clone(),
+        path: args
+            .path
+            .clone()
+            .or_else(|| sweep.as_ref().and_then(|s| s.path.clone())),
     };
+    if let Some(path) = &options.path {
+        // A path that does not fit a scene fails here, before any GPU work.
+        if !options.error || options.exact_samples_per_axis.is_none() {
+            bail!("--path measures every frame against its exact answer: drop --no-error and --no-exact");
+        }
+        let mut scenes: Vec<&String> = specs.iter().map(|s| &s.scene).collect();
+        scenes.dedup();
+        for scene in scenes {
+            let mut loaded = softshadow_scenes::load(scene)?;
+            softshadow_scenes::path::resolve(path, &mut loaded.scene, &loaded.paths)
+                .with_context(|| format!("scene `{scene}`"))?;
+        }
+    }
     let sweep_info = sweep.as_ref().map(|sweep| SweepInfo {
         hash: sweep.hash(&options, timing),
         runs_total: sweep.runs.len(),
@@ -493,7 +528,25 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         .iter()
         .filter(|r| r.status == Status::Error)
         .count();
-    for run in &results.runs {
+    for run in results.runs.iter().filter(|r| r.motion.is_some()) {
+        let motion = run.motion.as_ref().expect("filtered");
+        println!(
+            "{:<24} {:<16} {:<12} {} frames: error mean {:.4} max {:.4}, flicker mean {}, frame median {} ms{}",
+            run.scene,
+            run.technique,
+            motion.path,
+            motion.frames,
+            motion.error.mean,
+            motion.error.max,
+            motion.flicker.as_ref().map_or("-".into(), |f| format!("{:.5}", f.mean)),
+            run.timing
+                .as_ref()
+                .and_then(|t| t.frame_ms.as_ref())
+                .map_or("-".into(), |f| format!("{:.2}", f.median)),
+            motion.lag.as_ref().map_or(String::new(), |l| format!(", lag {:+.4}", l.extra_error)),
+        );
+    }
+    for run in results.runs.iter().filter(|r| r.motion.is_none()) {
         let frame = run
             .timing
             .as_ref()

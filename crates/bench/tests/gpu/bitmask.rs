@@ -31,6 +31,7 @@ fn bench_with_error() -> Result<Bench> {
             exact_samples_per_axis: Some(16),
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?)
 }

@@ -112,6 +112,7 @@ pub fn exact_bench() -> Result<Bench> {
             exact_samples_per_axis: Some(16),
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?)
 }

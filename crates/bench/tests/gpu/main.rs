@@ -9,6 +9,7 @@ mod backprojection;
 mod bitmask;
 mod contract;
 mod light_space_cache;
+mod motion;
 mod msm;
 mod pdsm;
 mod smrt;

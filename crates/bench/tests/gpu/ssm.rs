@@ -119,6 +119,7 @@ fn bench() -> Result<Bench> {
             exact_samples_per_axis: None,
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?)
 }
@@ -181,6 +182,7 @@ fn extremes_give_finite_visibility_in_range() -> Result<()> {
             exact_samples_per_axis: None,
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?;
     let dir = tempfile::tempdir()?;

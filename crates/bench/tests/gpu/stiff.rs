@@ -36,6 +36,7 @@ fn bench(reference_samples: i64) -> Result<Bench> {
             exact_samples_per_axis: Some(16),
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?)
 }

@@ -33,6 +33,7 @@ fn bench() -> Result<Bench> {
             exact_samples_per_axis: None,
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?)
 }
@@ -331,6 +332,7 @@ fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
             exact_samples_per_axis: None,
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?;
     let spec = RunSpec {

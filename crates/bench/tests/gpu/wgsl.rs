@@ -111,6 +111,7 @@ fn the_example_pcss_like_is_within_its_bound_which_hard_and_all_lit_fail() -> Re
             exact_samples_per_axis: Some(16),
             camera_only: false,
             reference_cache: None,
+            ..Default::default()
         },
     )?;
     let mut errors = Vec::new();
