@@ -13,6 +13,9 @@ impl ViewerApp {
         let mut chosen = None;
         egui::ComboBox::from_label("Technique")
             .selected_text(self.technique.id.clone())
+            // Every technique listed without scrolling (egui's default height scrolled the last
+            // of eleven out of sight).
+            .height(f32::INFINITY)
             .show_ui(ui, |ui| {
                 for info in &self.registry {
                     if ui
