@@ -77,6 +77,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.011, 0.0041)),
         ("stiff-fusion", at_most(MaeShadowed, 0.18, 0.0683)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.35, 0.2715)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.21, 0.0877)),
         ("atty-square", at_most(MaeShadowed, 0.044, 0.0177)),
         (
             "blob-floating:triangles=20000",

@@ -18,7 +18,7 @@ use softshadow_core::{
     frame::uniform_entry,
     fullscreen::uniform_buffer,
     gbuffer::create_texture,
-    hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind},
+    hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
     shader::{self, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
@@ -71,6 +71,13 @@ softshadow_core::technique_settings! {
         primitive: Primitive = Primitive::Micropatch;
         /// Extend micro-patches to their occluding left and bottom neighbours
         gap_filling: bool = true;
+        /// Occluded area: sum (every micro-primitive backprojected and summed) or contour (only
+        /// the edges between occluding and free blocks, integrated; ignores primitive and
+        /// gap_filling)
+        visibility: Visibility = Visibility::Sum;
+        /// Depth bands gathered each at its own level, the level following the penumbra of
+        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
+        depth_bands: u32 = 1, in 1..=8;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
         /// block size)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
@@ -87,7 +94,8 @@ struct GatherUniform {
     max_patches: u32,
     bias_texels: f32,
     max_level: i32,
-    _pad: [u32; 2],
+    visibility: u32,
+    depth_bands: u32,
 }
 
 /// Mirrors `Counters` in `gather.wgsl`.
@@ -358,7 +366,8 @@ impl ShadowTechnique for Backprojection {
             max_patches,
             bias_texels: s.bias_texels.max(0.0),
             max_level: levels as i32,
-            _pad: [0; 2],
+            visibility: s.visibility.shader_value(),
+            depth_bands: s.depth_bands.clamp(1, 8),
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
