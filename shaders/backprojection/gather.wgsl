@@ -42,6 +42,11 @@ struct GatherParams {
     visibility: u32,
     // Depth bands, each gathered at its own level (1: one level for the whole area).
     depth_bands: u32,
+    // Levels a partly occluding block is split down (0: none).
+    edge_refine: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Counters {
@@ -85,8 +90,9 @@ struct Gather {
     // Depth bias at level 0, and scaled by the block edge (see `occluder_depth`).
     bias: f32,
     coarse_bias: f32,
-    // Block of this level that holds the receiver's own texel.
+    // Block of this level that holds the receiver's own texel, and that texel.
     own_block: vec2<i32>,
+    own_texel: vec2<i32>,
     level: i32,
     // Edge of a block in level-0 texels, and the map edge in texels.
     block: i32,
@@ -95,6 +101,8 @@ struct Gather {
     blocks: i32,
     // Depth band [x, y) of this gather: blocks whose minimum lies outside it belong to another.
     band: vec2<f32>,
+    // Level of the previous band's gather (-1 for the first band).
+    prev_level: i32,
 }
 
 // Backprojection factor z / (p.z - z) of an occluding depth z < p.z - bias (clamped: finite).
@@ -108,15 +116,67 @@ fn backprojection_scale(g: Gather, z: f32) -> f32 {
 // it gets the bias scaled by the block edge (no acne). Every other block is a distinct occluder
 // and keeps the level-0 bias (a scaled bias there would drop real occluders when texels are wide).
 fn occluder_depth(g: Gather, block: vec2<i32>) -> f32 {
-    let range = hierarchy_block(hsm, mssm, params.hierarchy, g.level, block);
+    return occluder_range(g, g.level, block).x;
+}
+
+// (occluding minimum depth or HIERARCHY_EMPTY, maximum depth) of `block` of level `level`, with
+// the bias rule of `occluder_depth` at that level's block size.
+fn occluder_range(g: Gather, level: i32, block: vec2<i32>) -> vec2<f32> {
+    let range = hierarchy_block(hsm, mssm, params.hierarchy, level, block);
     var bias = g.bias;
-    if all(abs(block - g.own_block) <= vec2<i32>(1)) && range.y >= g.p.z - g.coarse_bias {
-        bias = g.coarse_bias;
+    let coarse_bias = g.bias * f32(1 << u32(level));
+    let own = g.own_texel >> vec2<u32>(u32(level));
+    if level > 0 && all(abs(block - own) <= vec2<i32>(1)) && range.y >= g.p.z - coarse_bias {
+        bias = coarse_bias;
     }
+    var z = HIERARCHY_EMPTY;
     if range.x < g.p.z - bias && range.x >= g.band.x && range.x < g.band.y {
-        return range.x;
+        z = range.x;
+        if g.prev_level > level {
+            // An earlier band gathered the block of its own level that holds this one, as a whole
+            // at its minimum depth, if that minimum lies before this band: not counted twice.
+            let parent = hierarchy_block(hsm, mssm, params.hierarchy, g.prev_level, block >> vec2<u32>(u32(g.prev_level - level)));
+            if parent.x < g.band.x && parent.x < g.p.z - bias {
+                z = HIERARCHY_EMPTY;
+            }
+        }
     }
-    return HIERARCHY_EMPTY;
+    return vec2<f32>(z, range.y - (g.p.z - bias));
+}
+
+// Light area of the occluding sub-blocks of a partly occluding block (edge refinement): the block
+// split into 2^d x 2^d blocks of level g.level - d, each a patch at its own minimum depth. A block
+// that holds an occluder's edge then covers the light only where its occluding part does, rather
+// than as a whole at its minimum depth (the widening that makes coarse levels over-darken).
+fn refined_patches(g: Gather, block: vec2<i32>, d: i32) -> f32 {
+    let a = g.half_light;
+    let level = g.level - d;
+    let n = 1 << u32(d);
+    let size = 1 << u32(level);
+    var area = 0.0;
+    for (var j = 0; j < 8; j = j + 1) {
+        if j >= n {
+            break;
+        }
+        for (var i = 0; i < 8; i = i + 1) {
+            if i >= n {
+                break;
+            }
+            let sub = block * n + vec2<i32>(i, j);
+            let z = occluder_range(g, level, sub).x;
+            if z < HIERARCHY_EMPTY {
+                let k = backprojection_scale(g, z);
+                let x0 = k * (edge_s(min(sub.x * size, g.map)) * g.p.z - g.p.x);
+                let x1 = k * (edge_s(min((sub.x + 1) * size, g.map)) * g.p.z - g.p.x);
+                let y0 = k * (edge_t(min((sub.y + 1) * size, g.map)) * g.p.z - g.p.y);
+                let y1 = k * (edge_t(min(sub.y * size, g.map)) * g.p.z - g.p.y);
+                let w = max(min(x1, a.x) - max(x0, -a.x), 0.0);
+                let h = max(min(y1, a.y) - max(y0, -a.y), 0.0);
+                area += w * h;
+            }
+        }
+    }
+    return area;
 }
 
 // Slope of level-0 texel edge `e` (column edge -> s, row edge -> t).
@@ -151,8 +211,14 @@ fn micropatch_area(g: Gather, lo: vec2<i32>, count: vec2<i32>) -> f32 {
                 break;
             }
             let bx = lo.x + col;
-            let z = occluder_depth(g, vec2<i32>(bx, by));
-            if z < HIERARCHY_EMPTY {
+            let zr = occluder_range(g, g.level, vec2<i32>(bx, by));
+            let z = zr.x;
+            // Not in a full search: it stays the 2006 gather, the yardstick of the others.
+            let refine = select(min(i32(params.edge_refine), g.level), 0, params.hierarchy == HIERARCHY_NONE);
+            if z < HIERARCHY_EMPTY && refine > 0 && zr.y >= 0.0 {
+                // Partly occluding: its occluding sub-blocks only.
+                area += refined_patches(g, vec2<i32>(bx, by), refine);
+            } else if z < HIERARCHY_EMPTY {
                 let k = backprojection_scale(g, z);
                 let s0 = edge_s(bx * g.block);
                 let s1 = edge_s(min((bx + 1) * g.block, g.map));
@@ -357,6 +423,7 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
     var z_lo = search.z_star;
     var area = 0.0;
     var primitives = 0u;
+    g.prev_level = -1;
     // Depth bands (`band_end`): each gathers its own search area at the level that keeps it within
     // per_axis blocks; the last band (or a full search) takes every depth that is left.
     let bands = select(max(params.depth_bands, 1u), 1u, params.hierarchy == HIERARCHY_NONE);
@@ -374,6 +441,7 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
         g.blocks = (g.map + g.block - 1) / g.block;
         g.coarse_bias = bias * f32(g.block);
         g.own_block = own_texel >> vec2<u32>(u32(g.level));
+        g.own_texel = own_texel;
         let lo = rect.lo >> vec2<u32>(u32(g.level));
         let hi = rect.hi >> vec2<u32>(u32(g.level));
         var count: vec2<i32>;
@@ -394,6 +462,7 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
         if band == 0u {
             r.level = g.level;
         }
+        g.prev_level = g.level;
         if z_hi >= HIERARCHY_EMPTY {
             break;
         }
