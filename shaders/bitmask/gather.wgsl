@@ -48,7 +48,8 @@ struct GatherParams {
     columns: u32,
     // 1: rows take the rotated-grid offsets; 0: every sample sits at the centre of its cell.
     jittered: u32,
-    _pad0: u32,
+    // Levels a partly occluding micro-patch block is split down (0: none; issue 30).
+    edge_refine: u32,
 }
 
 struct Counters {
@@ -113,8 +114,9 @@ struct Gather {
     // Depth bias at level 0, and scaled by the block edge (see `occluder_depth`).
     bias: f32,
     coarse_bias: f32,
-    // Block of this level that holds the receiver's own texel.
+    // Block of this level that holds the receiver's own texel, and that texel.
     own_block: vec2<i32>,
+    own_texel: vec2<i32>,
     level: i32,
     // Edge of a block in level-0 texels, and the map edge in texels.
     block: i32,
@@ -295,7 +297,17 @@ fn gather_micropatches(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, ms
             }
             let bx = lo.x + col;
             let z = occluder_depth(hsm, mssm, g, vec2<i32>(bx, by));
-            if z < HIERARCHY_EMPTY {
+            // Edge refinement (as in backprojection, docs/TECHNIQUES.md "Large penumbrae"): a block
+            // whose maximum does not occlude holds an occluder's edge; only its occluding
+            // sub-blocks set bits. Not in a full search.
+            let refine = select(min(i32(params.edge_refine), g.level), 0, params.hierarchy == HIERARCHY_NONE);
+            var partial = false;
+            if z < HIERARCHY_EMPTY && refine > 0 {
+                partial = hierarchy_block(hsm, mssm, params.hierarchy, g.level, vec2<i32>(bx, by)).y >= g.p.z - g.bias;
+            }
+            if partial {
+                refined_patches(acc, hsm, mssm, g, vec2<i32>(bx, by), refine);
+            } else if z < HIERARCHY_EMPTY {
                 let k = backprojection_scale(g, z);
                 let s0 = edge_s(bx * g.block);
                 let s1 = edge_s(min((bx + 1) * g.block, g.map));
@@ -317,6 +329,40 @@ fn gather_micropatches(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, ms
                 cover_rect(acc, g, vec2<f32>(x0, y0), vec2<f32>(x1, y1));
             }
             left_z = z;
+        }
+    }
+}
+
+// The occluding sub-blocks of level g.level - d of `block`, each a patch at its own minimum depth
+// (the bias rule of `occluder_depth` at the sub-blocks' size).
+fn refined_patches(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>, d: i32) {
+    let level = g.level - d;
+    let n = 1 << u32(d);
+    let size = 1 << u32(level);
+    let own = g.own_texel >> vec2<u32>(u32(level));
+    let coarse_bias = g.bias * f32(size);
+    for (var j = 0; j < 8; j = j + 1) {
+        if j >= n {
+            break;
+        }
+        for (var i = 0; i < 8; i = i + 1) {
+            if i >= n {
+                break;
+            }
+            let sub = block * n + vec2<i32>(i, j);
+            let range = hierarchy_block(hsm, mssm, params.hierarchy, level, sub);
+            var bias = g.bias;
+            if level > 0 && all(abs(sub - own) <= vec2<i32>(1)) && range.y >= g.p.z - coarse_bias {
+                bias = coarse_bias;
+            }
+            if range.x < g.p.z - bias {
+                let k = backprojection_scale(g, range.x);
+                let x0 = k * (edge_s(min(sub.x * size, g.map)) * g.p.z - g.p.x);
+                let x1 = k * (edge_s(min((sub.x + 1) * size, g.map)) * g.p.z - g.p.x);
+                let y0 = k * (edge_t(min((sub.y + 1) * size, g.map)) * g.p.z - g.p.y);
+                let y1 = k * (edge_t(min(sub.y * size, g.map)) * g.p.z - g.p.y);
+                cover_rect(acc, g, vec2<f32>(x0, y0), vec2<f32>(x1, y1));
+            }
         }
     }
 }
@@ -413,6 +459,7 @@ fn gather_layer(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: tex
     g.coarse_bias = bias * f32(g.block);
     let own_texel = vec2<i32>(floor(clamp(view_uv(view, p), vec2<f32>(-1.0), vec2<f32>(2.0)) * f32(g.map)));
     g.own_block = own_texel >> vec2<u32>(u32(g.level));
+    g.own_texel = own_texel;
     let lo = search.rect.lo >> vec2<u32>(u32(g.level));
     let hi = search.rect.hi >> vec2<u32>(u32(g.level));
     var count: vec2<i32>;

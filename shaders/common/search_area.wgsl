@@ -38,6 +38,8 @@ struct Search {
     // (min, max) light-space depth over `rect`, as far as the hierarchy knows.
     z_range: vec2<f32>,
     kind: u32,
+    // Depth the area was projected to (`search_rect`'s z_star): no texel of it is nearer.
+    z_star: f32,
 }
 
 fn rect_is_empty(r: TexelRect) -> bool {
@@ -182,6 +184,7 @@ fn refine_search(
     var s: Search;
     var z_star = view.eye_near_far.z;
     s.rect = search_rect(view, p, half_light, z_star);
+    s.z_star = z_star;
     s.z_range = unknown_range();
     s.kind = SEARCH_GATHER;
     if rect_is_empty(s.rect) {
@@ -203,6 +206,7 @@ fn refine_search(
         }
         z_star = max(z_star, s.z_range.x);
         s.rect = search_rect(view, p, half_light, z_star);
+        s.z_star = z_star;
         if rect_is_empty(s.rect) {
             s.kind = SEARCH_LIT;
             return s;
@@ -216,4 +220,59 @@ fn refine_search(
         s.kind = SEARCH_UMBRA;
     }
     return s;
+}
+
+const VISIBILITY_SUM: u32 = 0u;
+const VISIBILITY_CONTOUR: u32 = 1u;
+
+// Antiderivative of g(y) = b - clamp(y, -b, b), the part of the light column [-b, b] above height
+// y, with G(-b) = 0.
+fn column_above_integral(y: f32, b: f32) -> f32 {
+    let c = clamp(y, -b, b);
+    return 2.0 * b * (min(y, -b) + b) + b * (c + b) - 0.5 * (c * c - b * b);
+}
+
+// Contour-based visibility (Guennebaud, Barthe & Paulin 2007): the signed light area a
+// backprojected contour edge `e0 -> e1` (light-plane coordinates, occluded side on its left)
+// contributes: the integral over x in [e0.x, e1.x] clipped to [-a, a] of the light column above
+// the edge, b - clamp(y(x), -b, b). Over a closed contour the sum is the occluded area of the light
+// [-a, a] x [-b, b]: at every x the edges the vertical line crosses enter (+) and leave (-) the
+// occluded intervals (Green's theorem in the form of a sum of signed trapezoids). Vertical edges
+// contribute nothing.
+fn contour_edge_area(e0: vec2<f32>, e1: vec2<f32>, half_light: vec2<f32>) -> f32 {
+    let a = half_light.x;
+    let b = half_light.y;
+    let dx = e1.x - e0.x;
+    if dx == 0.0 {
+        return 0.0;
+    }
+    let u = select(e1, e0, dx > 0.0);
+    let v = select(e0, e1, dx > 0.0);
+    let x0 = max(u.x, -a);
+    let x1 = min(v.x, a);
+    if !(x1 > x0) {
+        return 0.0;
+    }
+    let slope = (v.y - u.y) / (v.x - u.x);
+    let y0 = u.y + slope * (x0 - u.x);
+    let y1 = u.y + slope * (x1 - u.x);
+    var mean: f32;
+    if abs(y1 - y0) <= 1.0e-3 * b {
+        // g is linear between its kinks: the midpoint is its mean up to |y1 - y0| / 2.
+        mean = b - clamp(0.5 * (y0 + y1), -b, b);
+    } else {
+        mean = (column_above_integral(y1, b) - column_above_integral(y0, b)) / (y1 - y0);
+    }
+    return sign(dx) * (x1 - x0) * mean;
+}
+
+// Depth bands (the multi-resolution strategy of Guennebaud, Barthe & Paulin 2007, in this
+// project's form): the texels that can occlude p at depth z >= z_lo lie in the search area of
+// z_lo, whose half extent grows with 1/z - 1/p.z. The band [z_lo, z_hi) ends where that area is
+// `shrink` times smaller, so the next band's area, gathered with the same number of blocks, uses
+// blocks `shrink` times finer: the level follows the penumbra width of each depth rather than
+// that of the nearest occluder.
+fn band_end(p_z: f32, z_lo: f32, shrink: f32) -> f32 {
+    let inv = 1.0 / max(z_lo, 1.0e-12) - 1.0 / p_z;
+    return 1.0 / (1.0 / p_z + max(inv, 0.0) / shrink);
 }

@@ -59,6 +59,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.029, 0.0113)),
         ("stiff-fusion", at_most(MaeShadowed, 0.079, 0.0313)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.11, 0.0463)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.105, 0.0419)),
         ("atty-square", at_most(MaeShadowed, 0.085, 0.0338)),
         (
             "blob-floating:triangles=20000",

@@ -18,7 +18,7 @@ use softshadow_core::{
     frame::uniform_entry,
     fullscreen::uniform_buffer,
     gbuffer::create_texture,
-    hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind},
+    hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
     shader::{self, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
@@ -57,7 +57,8 @@ softshadow_core::param_choice! {
 
 softshadow_core::technique_settings! {
     /// Settings of gather backprojection. Defaults: the MSSM, 16 x 16 micro-patches at most, gap
-    /// filling on (the paper's Table 3 uses 12-20 per axis).
+    /// filling on (the paper's Table 3 uses 12-20 per axis), three depth bands and edge blocks
+    /// split two levels down (issue 30; `depth_bands = 1`, `edge_refine = 0` is the 2006 gather).
     pub struct BackprojectionSettings {
         /// Shadow-map edge in texels (the hierarchies pad it to a power of two)
         shadow_map_size: u32 = 1024, in 64..=4096;
@@ -71,6 +72,16 @@ softshadow_core::technique_settings! {
         primitive: Primitive = Primitive::Micropatch;
         /// Extend micro-patches to their occluding left and bottom neighbours
         gap_filling: bool = true;
+        /// Occluded area: sum (every micro-primitive backprojected and summed) or contour (only
+        /// the edges between occluding and free blocks, integrated; ignores primitive and
+        /// gap_filling)
+        visibility: Visibility = Visibility::Sum;
+        /// Depth bands gathered each at its own level, the level following the penumbra of
+        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
+        depth_bands: u32 = 3, in 1..=8;
+        /// Levels a partly occluding block (its maximum depth does not occlude: it holds an
+        /// occluder's edge) is split down into sub-blocks (0: none; sum visibility only)
+        edge_refine: u32 = 2, in 0..=3;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
         /// block size)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
@@ -87,7 +98,10 @@ struct GatherUniform {
     max_patches: u32,
     bias_texels: f32,
     max_level: i32,
-    _pad: [u32; 2],
+    visibility: u32,
+    depth_bands: u32,
+    edge_refine: u32,
+    _pad: [u32; 3],
 }
 
 /// Mirrors `Counters` in `gather.wgsl`.
@@ -358,7 +372,10 @@ impl ShadowTechnique for Backprojection {
             max_patches,
             bias_texels: s.bias_texels.max(0.0),
             max_level: levels as i32,
-            _pad: [0; 2],
+            visibility: s.visibility.shader_value(),
+            depth_bands: s.depth_bands.clamp(1, 8),
+            edge_refine: s.edge_refine.min(3),
+            _pad: [0; 3],
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));

@@ -75,6 +75,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.01, 0.004)),
         ("stiff-fusion", at_most(MaeShadowed, 0.15, 0.0567)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.35, 0.2726)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.21, 0.0877)),
         ("atty-square", at_most(MaeShadowed, 0.044, 0.0176)),
         (
             "blob-floating:triangles=20000",

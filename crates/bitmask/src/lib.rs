@@ -157,6 +157,9 @@ softshadow_core::technique_settings! {
         layers: u32 = 1, in 1..=4;
         /// Post-filter passes driven by the area estimate (0 = off; the paper uses 5)
         filter_passes: u32 = 0, in 0..=8;
+        /// Levels a partly occluding micro-patch block (it holds an occluder's edge) is split
+        /// down into sub-blocks (0: none; micro-patches with a hierarchy only)
+        edge_refine: u32 = 0, in 0..=3;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
         /// block size)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
@@ -178,7 +181,7 @@ struct GatherUniform {
     rows: u32,
     columns: u32,
     jittered: u32,
-    _pad: u32,
+    edge_refine: u32,
 }
 
 /// Mirrors `Counters` in `gather.wgsl`.
@@ -761,7 +764,7 @@ impl ShadowTechnique for Bitmask {
             rows: pattern.rows,
             columns: pattern.columns,
             jittered: u32::from(pattern.jittered),
-            _pad: 0,
+            edge_refine: s.edge_refine.min(3),
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));

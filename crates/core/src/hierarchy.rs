@@ -50,6 +50,30 @@ impl HierarchyKind {
     }
 }
 
+crate::param_choice! {
+    /// How a gather technique turns the occluding texels of a search area into occluded light
+    /// area (docs/TECHNIQUES.md, `backprojection`, "Contour-based visibility").
+    pub enum Visibility {
+        /// Every occluding block is a micro-primitive of its own, backprojected and summed (or
+        /// OR-ed) (Guennebaud et al. 2006).
+        Sum = "sum",
+        /// Only the contour edges between occluding and non-occluding blocks are backprojected
+        /// and the occluded area is integrated along them (Guennebaud, Barthe & Paulin 2007):
+        /// blocks inside an occluder never overlap on the light.
+        Contour = "contour",
+    }
+}
+
+impl Visibility {
+    /// The value of `VISIBILITY_*` in `search_area.wgsl`.
+    pub fn shader_value(self) -> u32 {
+        match self {
+            Visibility::Sum => 0,
+            Visibility::Contour => 1,
+        }
+    }
+}
+
 /// Edge of the padded level 0: the next power of two of the map size.
 pub fn padded_size(map_size: u32) -> u32 {
     map_size.max(1).next_power_of_two()

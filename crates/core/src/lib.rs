@@ -41,7 +41,7 @@ pub use frame::{
     Frame, FrameChanges, FrameState, FrameUniforms, SerialTimes, ShadowInputs, TimingSource,
 };
 pub use gpu::Gpu;
-pub use hierarchy::{DepthHierarchy, HierarchyKind};
+pub use hierarchy::{DepthHierarchy, HierarchyKind, Visibility};
 pub use light::{AreaLight, SlopeFrustum};
 pub use params::{
     ParamChoice, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, TechniqueSettings,

@@ -57,6 +57,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.013, 0.0053)),
         ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0453)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.32, 0.2035)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.12, 0.0489)),
         ("atty-square", at_most(MaeShadowed, 0.078, 0.0314)),
         (
             "blob-floating:triangles=20000",

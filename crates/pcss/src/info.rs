@@ -60,6 +60,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.027, 0.0108)),
         ("stiff-fusion", at_most(MaeShadowed, 0.13, 0.0508)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.36, 0.2800)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.21, 0.1008)),
         ("atty-square", at_most(MaeShadowed, 0.082, 0.0327)),
         (
             "blob-floating:triangles=20000",

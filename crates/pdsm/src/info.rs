@@ -87,6 +87,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.0083, 0.0033)),
         ("stiff-fusion", at_most(MaeShadowed, 0.031, 0.0120)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.03, 0.0120)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.043, 0.0172)),
         ("atty-square", at_most(MaeShadowed, 0.027, 0.0107)),
         (
             "blob-floating:triangles=20000",

@@ -56,6 +56,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.0015, 5.0e-04)),
         ("stiff-fusion", at_most(MaeShadowed, 0.004, 0.0016)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.0057, 0.0023)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.005, 0.0020)),
         ("atty-square", at_most(MaeShadowed, 0.004, 0.0016)),
         (
             "blob-floating:triangles=20000",

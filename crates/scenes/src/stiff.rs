@@ -116,6 +116,11 @@ pub fn infos() -> Vec<BuiltinInfo> {
             description: "stiff (light leaking): a small square just below the light, one halfway and a wide one (3 x 3) 0.15 above the ground, overlapping, seen from low down; filterable shadow maps (variance, exponential, moment) brighten the wide one's umbra",
             params: vec![light_width(1.0)],
         },
+        BuiltinInfo {
+            id: "stiff-large-light",
+            description: "stiff (large penumbrae, issue 30): a light_width x light_width/2 light 2 above the ground, a 0.6 x 0.4 rectangle 0.25 below it and a 1.0 x 0.5 rectangle 0.7 above the ground (penumbrae wider than the casters; coarse hierarchy levels over-darken)",
+            params: vec![light_width(1.2)],
+        },
     ]
 }
 
@@ -200,23 +205,40 @@ pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, Scen
             scene.camera.target = Vec3::new(0.0, 0.0, 0.5);
             scene
         }
+        "stiff-large-light" => {
+            let width = v("light_width");
+            let mut light = down_light(Vec3::Y * 2.0, width);
+            light.height = 0.5 * width;
+            squares(
+                id,
+                light,
+                &[
+                    Square::rect(-0.2, 1.75, 0.1, 0.6, 0.4),
+                    Square::rect(0.4, 0.7, -0.1, 1.0, 0.5),
+                ],
+            )
+        }
         _ => return Err(SceneError::UnknownScene { spec: id.into() }),
     };
     Ok(scene)
 }
 
-/// A two-sided horizontal square occluder, caster only.
+/// A two-sided horizontal rectangle occluder (`size` along x and z), caster only.
 #[derive(Clone, Copy)]
 struct Square {
     center: Vec3,
-    size: f32,
+    size: (f32, f32),
 }
 
 impl Square {
     fn at(x: f32, y: f32, z: f32, size: f32) -> Self {
+        Self::rect(x, y, z, size, size)
+    }
+
+    fn rect(x: f32, y: f32, z: f32, size_x: f32, size_z: f32) -> Self {
         Self {
             center: Vec3::new(x, y, z),
-            size,
+            size: (size_x, size_z),
         }
     }
 }
@@ -228,7 +250,7 @@ fn squares(id: &str, light: AreaLight, squares: &[Square]) -> Scene {
     b.ground();
     for (k, square) in squares.iter().enumerate() {
         let mesh = b.mesh(
-            primitives::two_sided_quad(square.size, square.size),
+            primitives::two_sided_quad(square.size.0, square.size.1),
             &format!("square {k}"),
         );
         b.caster(mesh, Mat4::from_translation(square.center), false);

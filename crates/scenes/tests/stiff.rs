@@ -4,7 +4,7 @@
 use glam::Vec3;
 use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
 
-const EXPECTED: [&str; 16] = [
+const EXPECTED: [&str; 17] = [
     "stiff-contact",
     "stiff-near-light",
     "stiff-point-light",
@@ -21,6 +21,7 @@ const EXPECTED: [&str; 16] = [
     "stiff-light-up",
     "stiff-fusion",
     "stiff-light-leak",
+    "stiff-large-light",
 ];
 
 fn caster_depths(spec: &str) -> Vec<f32> {

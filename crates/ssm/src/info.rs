@@ -63,6 +63,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.002, 8.0e-04)),
         ("stiff-fusion", at_most(MaeShadowed, 0.056, 0.0221)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.058, 0.0234)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.061, 0.0245)),
         ("atty-square", at_most(MaeShadowed, 0.0088, 0.0035)),
         (
             "blob-floating:triangles=20000",

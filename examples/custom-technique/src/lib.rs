@@ -112,6 +112,11 @@ fn expectations() -> Expectations {
             "stiff-light-leak",
             known_failure(MaeShadowed, 0.4202, 0.042),
         ),
+        // Worse than no shadow (0.3359): a fixed kernel cannot follow penumbrae wider than the casters.
+        (
+            "stiff-large-light",
+            known_failure(MaeShadowed, 0.3805, 0.038),
+        ),
         ("atty-square", at_most(MaeShadowed, 0.196, 0.1847)),
         (
             "blob-floating:triangles=20000",

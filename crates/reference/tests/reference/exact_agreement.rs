@@ -25,6 +25,7 @@ const RECTANGLE_SCENES: &[&str] = &[
     "stiff-tiny-patches",
     "stiff-degenerate",
     "stiff-fusion",
+    "stiff-large-light",
     "stiff-behind-light",
     "stiff-light-up",
     "pdsm-quads",
