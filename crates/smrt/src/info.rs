@@ -62,6 +62,7 @@ fn expectations() -> Expectations {
         ("stiff-light-up", at_most(MaeShadowed, 0.025, 0.0100)),
         ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0455)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.15, 0.0602)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.15, 0.0614)),
         ("atty-square", at_most(MaeShadowed, 0.068, 0.0273)),
         // Halfway to hard (0.1540).
         (
