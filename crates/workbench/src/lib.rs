@@ -298,12 +298,6 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
             );
         }
     }
-    println!(
-        "\nPaths (bench --path NAME, made for any scene; or a [[path]] of a scene file, or a .toml path file):"
-    );
-    for (name, description) in softshadow_scenes::path::BUILTIN_PATHS {
-        println!("  {name:<20} {description}");
-    }
     println!("\nTechniques:");
     for t in techniques {
         println!("  {:<20} {} [{}]", t.id, t.description, t.source);
@@ -322,6 +316,12 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
                 p.range_text()
             );
         }
+    }
+    println!(
+        "\nPaths (bench --path NAME, made for any scene; or a [[path]] of a scene file, or a .toml path file):"
+    );
+    for (name, description) in softshadow_scenes::path::BUILTIN_PATHS {
+        println!("  {name:<20} {description}");
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -140,6 +140,19 @@ fn list_text_names_every_technique_with_its_parameters_and_every_stiff_scene() -
         "only {} stiff cases: {stiff:?}",
         stiff.len()
     );
+    // The built-in paths come last (docs/SCENES.md, "Paths").
+    let (techniques, paths) = techniques
+        .split_once("\nPaths ")
+        .context("no `Paths` section after the techniques")?;
+    let listed_paths: Vec<String> = entries(paths).into_iter().map(|e| e.0).collect();
+    let builtin_paths: Vec<String> = softshadow_scenes::path::BUILTIN_PATHS
+        .iter()
+        .map(|(name, _)| name.to_string())
+        .collect();
+    ensure!(
+        listed_paths == builtin_paths,
+        "list shows paths {listed_paths:?}, the built-in ones are {builtin_paths:?}"
+    );
     let listed = entries(techniques);
     let registry = softshadow::registry();
     ensure!(
