@@ -2,7 +2,7 @@
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
 //! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
-//! `pdsm`, `msm`, `reference`; all on by default).
+//! `pdsm`, `msm`, `raytraced`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -34,6 +34,8 @@ pub use softshadow_msm as msm;
 pub use softshadow_pcss as pcss;
 #[cfg(feature = "pdsm")]
 pub use softshadow_pdsm as pdsm;
+#[cfg(feature = "raytraced")]
+pub use softshadow_raytraced as raytraced;
 #[cfg(feature = "reference")]
 pub use softshadow_reference as reference;
 #[cfg(feature = "ssm")]
@@ -61,6 +63,8 @@ pub fn builtin_techniques() -> Vec<TechniqueInfo> {
         softshadow_pdsm::info(),
         #[cfg(feature = "msm")]
         softshadow_msm::info(),
+        #[cfg(feature = "raytraced")]
+        softshadow_raytraced::info(),
         #[cfg(feature = "reference")]
         softshadow_reference::info(),
     ]

@@ -11,6 +11,7 @@ mod contract;
 mod light_space_cache;
 mod msm;
 mod pdsm;
+mod raytraced;
 mod ssm;
 mod stiff;
 mod stress;
