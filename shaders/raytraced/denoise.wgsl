@@ -70,11 +70,11 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
             let uv = vec2<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y);
             let prev = vec2<i32>(floor(uv * frame.screen.xy));
             if in_frame(prev) {
-                let then = textureLoad(input_c, prev, 0);
+                let prior = textureLoad(input_c, prev, 0);
                 let footprint = max(pixel_footprint(pixel, s.world), 1e-6);
-                let same_point = length(then.xyz - s.world) <= 2.0 * footprint;
+                let same_point = length(prior.xyz - s.world) <= 2.0 * footprint;
                 let history = textureLoad(input_b, prev, 0);
-                if then.w > 0.5 && same_point && history.y >= 1.0 {
+                if prior.w > 0.5 && same_point && history.y >= 1.0 {
                     frames = min(history.y + 1.0, f32(params.max_history));
                     visible = mix(history.x, raw, 1.0 / frames);
                 }
@@ -135,7 +135,7 @@ fn penumbra(@builtin(global_invocation_id) id: vec3<u32>) {
 // has lowered the noise), each weighted by a Gaussian of its distance, by how far it lies off the
 // pixel's tangent plane (depth) and by the agreement of the normals. Writes the visibility buffer.
 @compute @workgroup_size(8, 8)
-fn filter(@builtin(global_invocation_id) id: vec3<u32>) {
+fn spatial_filter(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = vec2<i32>(id.xy);
     if !in_frame(pixel) {
         return;
@@ -151,12 +151,12 @@ fn filter(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let footprint = max(pixel_footprint(pixel, s.world), 1e-6);
-    let step = radius / 3.0;
+    let tap_step = radius / 3.0;
     var sum = 0.0;
     var weight = 0.0;
     for (var j = -3; j <= 3; j++) {
         for (var i = -3; i <= 3; i++) {
-            let offset = vec2<f32>(f32(i), f32(j)) * step;
+            let offset = vec2<f32>(f32(i), f32(j)) * tap_step;
             let q = pixel + vec2<i32>(round(offset));
             if !in_frame(q) {
                 continue;

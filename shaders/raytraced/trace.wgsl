@@ -57,15 +57,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     var lit = 0u;
     var hit_sum = 0.0;
     var hits = 0u;
+    // Declared once, outside the loop: a `ray_query` declared inside a loop body makes lavapipe
+    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/ARCHITECTURE.md, "Ray queries").
+    var rq: ray_query;
     for (var i = 0u; i < params.rays; i++) {
         // Frame k continues the sequence where frame k - 1 ended.
         let index = f32(params.frame_index * params.rays + i);
         let u = fract(rotation + index * R2);
         let on_light = vec2<f32>((2.0 * u.x - 1.0) * frame.light_half.x, (2.0 * u.y - 1.0) * frame.light_half.y);
-        let target = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
-        let dir = target - s.world;
-        var rq: ray_query;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, s.world, dir));
+        let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
+        let dir = light_point - s.world;
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, s.world, dir));
         rayQueryProceed(&rq);
         let hit = rayQueryGetCommittedIntersection(&rq);
         if hit.kind == RAY_QUERY_INTERSECTION_NONE {

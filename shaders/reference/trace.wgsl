@@ -56,12 +56,14 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let n = params.samples_per_axis;
     var count = 0u;
+    // Declared once, outside the loop: a `ray_query` declared inside a loop body makes lavapipe
+    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/ARCHITECTURE.md, "Ray queries").
+    var rq: ray_query;
     for (var i = 0u; i < n; i++) {
         let u = (vec2<f32>(f32(i), f32(params.row)) + jitter(k, i, params.row)) / f32(n);
         let on_light = vec2<f32>((2.0 * u.x - 1.0) * params.half.x, (2.0 * u.y - 1.0) * params.half.y);
-        let target = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
-        var rq: ray_query;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, target - p));
+        let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, light_point - p));
         rayQueryProceed(&rq);
         if rayQueryGetCommittedIntersection(&rq).kind == RAY_QUERY_INTERSECTION_NONE {
             count += 1u;

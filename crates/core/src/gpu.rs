@@ -214,6 +214,18 @@ impl Gpu {
         // raised it (as wgpu's own default handler does), so it fails the test that caused it
         // even where no `take_errors` would have looked (docs/STABILITY.md).
         let panic_on_error = std::env::var("SOFTSHADOW_GPU_ERRORS").is_ok_and(|v| v == "panic");
+        // A lost device raises no uncaptured error; say so where it happens (a driver failing
+        // a pipeline, say), not at the next resource that comes out invalid.
+        let lost_sink = errors.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if reason != wgpu::DeviceLostReason::Destroyed {
+                log::error!("wgpu device lost ({reason:?}): {message}");
+                eprintln!("wgpu device lost ({reason:?}): {message}");
+                if let Ok(mut e) = lost_sink.lock() {
+                    e.push(format!("device lost: {message}"));
+                }
+            }
+        });
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
             if panic_on_error {
                 panic!("wgpu error (SOFTSHADOW_GPU_ERRORS=panic): {error}");

@@ -258,10 +258,10 @@ impl Raytraced {
             ))
         };
         Ok(Self {
-            trace: pipeline(&SHADERS[0], &trace_layout, "trace")?,
             temporal: pipeline(&SHADERS[1], &denoise_layout, "temporal")?,
             penumbra: pipeline(&SHADERS[1], &denoise_layout, "penumbra")?,
-            filter: pipeline(&SHADERS[1], &denoise_layout, "filter")?,
+            filter: pipeline(&SHADERS[1], &denoise_layout, "spatial_filter")?,
+            trace: pipeline(&SHADERS[0], &trace_layout, "trace")?,
             trace_layout,
             denoise_layout,
             trace_params: uniform_buffer(gpu, "raytraced/trace params", &TraceParams::zeroed()),

@@ -201,7 +201,7 @@ fn a_moved_dynamic_instance_moves_its_ray_traced_shadow() -> Result<()> {
     let before = case.frame(&mut t)?;
     let old_exact = case.exact.clone();
     // Move the caster sideways by a third of the scene, re-upload, recompute the exact answer.
-    let shift = 0.3 * (case.scene_gpu.bounds.max - case.scene_gpu.bounds.min).x;
+    let shift = 0.5 * (case.scene_gpu.caster_bounds.max - case.scene_gpu.caster_bounds.min).x;
     scene.instances[caster].transform =
         softshadow_core::glam::Mat4::from_translation(Vec3::new(shift, 0.0, 0.0))
             * scene.instances[caster].transform;
@@ -209,6 +209,16 @@ fn a_moved_dynamic_instance_moves_its_ray_traced_shadow() -> Result<()> {
     case.scene_gpu = SceneGpu::upload(&gpu, &case.scene);
     let positions = case.renderer.read_world_positions()?;
     case.exact = softshadow_reference::exact_visibility(&case.scene, &positions, &case.mask, 16).0;
+    let shadowed = case
+        .exact
+        .iter()
+        .zip(&case.mask)
+        .filter(|(v, m)| **m && **v < 1.0)
+        .count();
+    ensure!(
+        shadowed > 50,
+        "the moved shadow is off screen ({shadowed} pixels)"
+    );
     let after = case.frame(&mut t)?;
     let built = t.stats().get("accel_structures_built").copied();
     let v = case.renderer.read_visibility()?;
@@ -253,5 +263,35 @@ fn without_ray_queries_the_technique_says_what_to_install() -> Result<()> {
             .is_none(),
         "ray queries missing on the default device"
     );
+    Ok(())
+}
+
+/// The ray-traced exact answer (`softshadow_reference::traced`) equals the closed form on
+/// atty-square and two stiff rectangle cases within 1e-3 mean (over the receivers) at 32 x 32
+/// samples per pixel. Measured: atty-square mae_all 0.0006 (mae_shadowed 0.0016).
+#[test]
+fn the_ray_traced_reference_equals_the_closed_form() -> Result<()> {
+    let gpu = gpu()?;
+    for name in ["atty-square", "stiff-wide-light", "stiff-aspect-100"] {
+        let case = Case::new(&gpu, name)?;
+        let positions = case.renderer.read_world_positions()?;
+        let traced = softshadow_reference::traced::visibility_image(
+            &gpu,
+            &case.scene,
+            &positions,
+            &case.mask,
+            32,
+        )?;
+        let report = compare(&traced, &case.exact, &case.mask)?;
+        eprintln!(
+            "{name}: traced 32x32 vs closed form: mae_all {:.5}, mae_shadowed {:.5}, max_abs {:.4}",
+            report.mae_all, report.mae_shadowed, report.max_abs
+        );
+        ensure!(
+            report.mae_all <= 1e-3,
+            "{name}: mean error {:.5} over 1e-3",
+            report.mae_all
+        );
+    }
     Ok(())
 }
