@@ -295,3 +295,46 @@ fn the_ray_traced_reference_equals_the_closed_form() -> Result<()> {
     }
     Ok(())
 }
+
+/// Measures `raytraced` at its defaults on every stiff case and paper scene (the values its
+/// info.rs states), with `hard` and all-lit beside it. Run by hand:
+/// `cargo test --workspace --test gpu raytraced::measure -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement, not a check: the stiff suite checks the bounds"]
+fn measure_the_expectation_values() -> Result<()> {
+    use softshadow_bench::{RunSpec, Sweep};
+    let mut bench = crate::common::exact_bench()?;
+    let suite = Sweep::suite("stiff", bench.registry())?;
+    let mut specs: Vec<RunSpec> = suite
+        .runs
+        .iter()
+        .filter(|s| s.technique == softshadow_raytraced::ID || s.technique == "hard")
+        .cloned()
+        .collect();
+    for scene in ["atty-square", "blob-floating:triangles=20000"] {
+        for technique in [softshadow_raytraced::ID, "hard"] {
+            specs.push(RunSpec {
+                scene: scene.into(),
+                technique: technique.into(),
+                params: Default::default(),
+                width: softshadow_core::expectations::EXPECTATION_SIZE,
+                height: softshadow_core::expectations::EXPECTATION_SIZE,
+            });
+        }
+    }
+    for spec in &specs {
+        let run = crate::common::run_checked(&mut bench, spec)?;
+        let report = crate::common::vs_exact(&run)?;
+        let all_lit = crate::common::all_lit_vs_exact(&run)?;
+        eprintln!(
+            "MEASURED {} {} mae_shadowed {:.4} max_abs {:.4} all_lit {:.4} {:.4}",
+            spec.technique,
+            spec.scene,
+            report.mae_shadowed,
+            report.max_abs,
+            all_lit.mae_shadowed,
+            all_lit.max_abs
+        );
+    }
+    Ok(())
+}
