@@ -1,7 +1,11 @@
 //! The `raytraced` descriptor: what the workspace knows about the technique ([`TechniqueInfo`]):
 //! its parameters, requirements, shaders, cost model, error bounds and overview settings.
 
-use softshadow_core::{cost::rates::PIXEL_ITERATION, Cost, CostModel, Expectations, TechniqueInfo};
+use softshadow_core::{
+    cost::rates::PIXEL_ITERATION,
+    expectations::{at_most, ErrorMetric::*},
+    Cost, CostModel, Expectations, TechniqueInfo,
+};
 
 use crate::{Raytraced, RaytracedSettings, ID, SHADERS};
 
