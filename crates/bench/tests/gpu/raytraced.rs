@@ -338,3 +338,46 @@ fn measure_the_expectation_values() -> Result<()> {
     }
     Ok(())
 }
+
+/// Acceleration-structure build time against triangle count and shadow rays per second on this
+/// device (docs/BENCHMARKS.md, "Ray queries"). Run by hand:
+/// `cargo test --release --workspace --test gpu raytraced::measure_speed -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement of speed, not a check (no time is asserted)"]
+fn measure_speed() -> Result<()> {
+    let gpu = gpu()?;
+    for triangles in [1_000, 10_000, 100_000, 1_000_000] {
+        let scene = softshadow_scenes::load(&format!("blob-floating:triangles={triangles}"))?.scene;
+        let scene_gpu = SceneGpu::upload(&gpu, &scene);
+        gpu.wait_idle()?;
+        let mut times = Vec::new();
+        for _ in 0..3 {
+            let mut accel = softshadow_core::SceneAccel::new();
+            let start = std::time::Instant::now();
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            accel.build(&gpu, &mut encoder, &scene_gpu)?;
+            gpu.queue.submit([encoder.finish()]);
+            gpu.wait_idle()?;
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        times.sort_by(f64::total_cmp);
+        // Rays: 64² ground points under the blob, 16 x 16 samples each (1 M rays).
+        let mut renderer = Renderer::new(&gpu, 64, 64)?;
+        let mut hard = softshadow_hard::Hard::new(&gpu, Default::default())?;
+        renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut hard, None)?;
+        let positions = renderer.read_world_positions()?;
+        let mask = renderer.read_receiver_mask()?;
+        let start = std::time::Instant::now();
+        softshadow_reference::traced::visibility_image(&gpu, &scene, &positions, &mask, 16)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let rays = mask.iter().filter(|m| **m).count() as f64 * 256.0;
+        eprintln!(
+            "SPEED {} caster triangles: BLAS+TLAS build median {:.1} ms (of {times:.1?}); {:.2} M rays in {seconds:.2} s with the build: {:.2} M rays/s",
+            scene_gpu.caster_triangle_count,
+            times[1],
+            rays / 1e6,
+            rays / 1e6 / (seconds - times[1] / 1e3).max(1e-3)
+        );
+    }
+    Ok(())
+}
