@@ -146,6 +146,23 @@ fn spatial_filter(@builtin(global_invocation_id) id: vec3<u32>) {
     if params.spatial == 1u && s.is_receiver && s.light.z > 0.0 {
         radius = textureLoad(input_b, pixel, 0).x / sqrt(max(centre.y, 1.0));
     }
+    // Pixel-level classification (FidelityFX's tile classification, per pixel): where the 5 x 5
+    // neighbourhood all agrees on fully lit or fully shadowed, there is nothing to denoise, and
+    // blurring would only carry the penumbra into the umbra and onto lit ground.
+    if radius >= 0.5 && (centre.x == 0.0 || centre.x == 1.0) {
+        var uniform_area = true;
+        for (var dy = -2; dy <= 2; dy++) {
+            for (var dx = -2; dx <= 2; dx++) {
+                let q = pixel + vec2<i32>(dx, dy);
+                if in_frame(q) && load_surface(q).is_receiver {
+                    uniform_area = uniform_area && textureLoad(input_a, q, 0).x == centre.x;
+                }
+            }
+        }
+        if uniform_area {
+            radius = 0.0;
+        }
+    }
     if radius < 0.5 {
         textureStore(output_v, pixel, vec4<f32>(centre.x));
         return;

@@ -3,7 +3,7 @@
 
 use softshadow_core::{
     cost::rates::PIXEL_ITERATION,
-    expectations::{at_most, ErrorMetric::*},
+    expectations::{at_most, known_failure, ErrorMetric::*},
     Cost, CostModel, Expectations, TechniqueInfo,
 };
 
@@ -34,33 +34,38 @@ pub fn info() -> TechniqueInfo {
 }
 
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md), at the
-/// default settings (4 rays per pixel, spatial filter on, temporal accumulation on but without a
-/// history: the stiff suite draws one frame with the caches dropped), 64², the exact answer a
-/// 16 x 16 ray cast or the closed form. Each bound is 1.5x the measured value plus 0.005, or just
-/// under the all-lit or `hard` answer where that is lower (stiff-wide-light). Measured with
+/// default settings (4 rays per pixel, spatial filter off, temporal accumulation on but without a
+/// history: the stiff suite draws one frame with the caches dropped, so these are 4 raw rays), 64²,
+/// the exact answer a 16 x 16 ray cast or the closed form. Each bound is 1.5x the measured value
+/// plus 0.005, or just under the all-lit or `hard` answer where that is lower. Measured with
 /// `cargo test --workspace --test gpu raytraced::measure -- --ignored --nocapture`.
 fn expectations() -> Expectations {
     Expectations::new(&[
-        ("stiff-contact", at_most(MaeShadowed, 0.087, 0.0547)),
-        ("stiff-near-light", at_most(MaeShadowed, 0.036, 0.0211)),
+        ("stiff-contact", at_most(MaeShadowed, 0.13, 0.0835)),
+        ("stiff-near-light", at_most(MaeShadowed, 0.089, 0.0561)),
         ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
-        ("stiff-wide-light", at_most(MaeShadowed, 0.024, 0.0133)),
-        ("stiff-grazing", at_most(MaeShadowed, 0.131, 0.0846)),
-        ("stiff-depth-range", at_most(MaeShadowed, 0.04, 0.0235)),
-        ("stiff-zero-thickness", at_most(MaeShadowed, 0.104, 0.0666)),
-        ("stiff-partly-outside", at_most(MaeShadowed, 0.129, 0.0830)),
+        // Four rays' noise over this faint penumbra costs more than drawing no shadow
+        // (all-lit 0.0277); 32 frames of accumulation bring it to 0.0016 (tests/gpu/raytraced.rs).
+        (
+            "stiff-wide-light",
+            known_failure(MaeShadowed, 0.0475, 0.005),
+        ),
+        ("stiff-grazing", at_most(MaeShadowed, 0.121, 0.0775)),
+        ("stiff-depth-range", at_most(MaeShadowed, 0.089, 0.0560)),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.153, 0.0990)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.135, 0.0871)),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
-        ("stiff-aspect-100", at_most(MaeShadowed, 0.137, 0.0884)),
-        ("stiff-tiny-patches", at_most(MaeShadowed, 0.049, 0.0298)),
-        ("stiff-degenerate", at_most(MaeShadowed, 0.101, 0.0645)),
-        ("stiff-behind-light", at_most(MaeShadowed, 0.101, 0.0643)),
-        ("stiff-light-up", at_most(MaeShadowed, 0.063, 0.0390)),
-        ("stiff-fusion", at_most(MaeShadowed, 0.105, 0.0668)),
-        ("stiff-light-leak", at_most(MaeShadowed, 0.144, 0.0929)),
-        ("atty-square", at_most(MaeShadowed, 0.101, 0.0645)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.159, 0.1027)),
+        ("stiff-tiny-patches", at_most(MaeShadowed, 0.203, 0.1325)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.134, 0.0860)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.114, 0.0727)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.052, 0.0317)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.161, 0.1043)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.152, 0.0985)),
+        ("atty-square", at_most(MaeShadowed, 0.134, 0.0860)),
         (
             "blob-floating:triangles=20000",
-            at_most(MaeShadowed, 0.067, 0.0417),
+            at_most(MaeShadowed, 0.121, 0.0776),
         ),
     ])
 }

@@ -63,7 +63,7 @@ softshadow_core::technique_settings! {
         /// Frames the temporal accumulation averages at most
         max_history: u32 = 32, in 1..=1024;
         /// Spatial filter sized by the penumbra estimate, guided by depth and normal
-        spatial: bool = true;
+        spatial: bool = false;
         /// Largest spatial filter radius, pixels
         max_radius: f32 = 12.0, in 1.0..=64.0;
     }
@@ -500,7 +500,11 @@ impl ShadowTechnique for Raytraced {
         self.history_valid = temporal;
         self.current = cur;
         self.prev_view_proj = inputs.uniforms.view_proj();
-        self.frame_index = self.frame_index.wrapping_add(1);
+        // The sequence goes on only while frames are averaged: without accumulation a new
+        // pattern each frame would only flicker, and a still frame stays the same image.
+        if temporal {
+            self.frame_index = self.frame_index.wrapping_add(1);
+        }
         let pixels = f64::from(width) * f64::from(height);
         self.stats = TechniqueStats::from([
             ("rays_per_pixel".into(), f64::from(rays)),
