@@ -2,7 +2,7 @@
 //!
 //! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
 //! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
-//! `pdsm`, `msm`, `smrt`, `reference`; all on by default).
+//! `pdsm`, `msm`, `smrt`, `raytraced`, `reference`; all on by default).
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -34,6 +34,8 @@ pub use softshadow_msm as msm;
 pub use softshadow_pcss as pcss;
 #[cfg(feature = "pdsm")]
 pub use softshadow_pdsm as pdsm;
+#[cfg(feature = "raytraced")]
+pub use softshadow_raytraced as raytraced;
 #[cfg(feature = "reference")]
 pub use softshadow_reference as reference;
 #[cfg(feature = "smrt")]
@@ -65,6 +67,8 @@ pub fn builtin_techniques() -> Vec<TechniqueInfo> {
         softshadow_msm::info(),
         #[cfg(feature = "smrt")]
         softshadow_smrt::info(),
+        #[cfg(feature = "raytraced")]
+        softshadow_raytraced::info(),
         #[cfg(feature = "reference")]
         softshadow_reference::info(),
     ]

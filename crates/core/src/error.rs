@@ -135,7 +135,7 @@ pub enum TechniqueError {
     Param(#[from] ParamError),
     /// The device lacks features or limits the technique declares in its
     /// [`Requirements`](crate::Requirements).
-    #[error("technique `{technique}` needs device features {missing:?} and limits [{limits}], which the device on `{adapter}` lacks: request them when creating the device (`required_features` / `required_limits`, see `Requirements::all`), or use an adapter that has them (lavapipe does)")]
+    #[error("technique `{technique}` needs device features {missing:?} and limits [{limits}], which the device on `{adapter}` lacks: {hint}")]
     MissingFeatures {
         /// The technique's id.
         technique: String,
@@ -145,6 +145,8 @@ pub enum TechniqueError {
         missing: wgpu::Features,
         /// Limits the device falls short of (`name: needs N, device has M`; empty if none).
         limits: String,
+        /// What to do about it ([`crate::technique::missing_hint`]).
+        hint: String,
     },
     #[error("technique `{technique}` cannot run on scene `{scene}`: {reason}")]
     /// The scene is outside what the technique handles.

@@ -12,7 +12,19 @@ pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES)
     .union(wgpu::Features::FLOAT32_BLENDABLE)
     .union(wgpu::Features::PIPELINE_STATISTICS_QUERY)
-    .union(wgpu::Features::SHADER_F16);
+    .union(wgpu::Features::SHADER_F16)
+    .union(crate::accel::RAY_QUERY);
+
+/// The optional features `adapter` offers, less ray queries when [`crate::accel::NO_RAY_QUERY_ENV`]
+/// is `1`: what [`Gpu::from_adapter`] requests, and what `workbench list` checks techniques
+/// against without creating a device.
+pub fn offered_features(adapter: &wgpu::Adapter) -> wgpu::Features {
+    let mut features = adapter.features() & OPTIONAL_FEATURES;
+    if std::env::var(crate::accel::NO_RAY_QUERY_ENV).is_ok_and(|v| v == "1") {
+        features = features - crate::accel::RAY_QUERY;
+    }
+    features
+}
 
 /// Adapter facts that go into reports.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -134,21 +146,61 @@ impl Gpu {
         adapter: wgpu::Adapter,
         memory_hints: wgpu::MemoryHints,
     ) -> Result<Self, GpuError> {
-        let features = adapter.features() & OPTIONAL_FEATURES;
+        Self::from_adapter_without(instance, adapter, memory_hints, wgpu::Features::empty()).await
+    }
+
+    /// [`Gpu::new_headless`] on a device created without `excluded` even where the adapter
+    /// offers them: how tests see what a technique does on an adapter without a feature (ray
+    /// queries) without another machine.
+    pub fn new_headless_without(excluded: wgpu::Features) -> Result<Self, GpuError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(Self::pick_adapter(&instance, None))?;
+        pollster::block_on(Self::from_adapter_without(
+            instance,
+            adapter,
+            wgpu::MemoryHints::default(),
+            excluded,
+        ))
+    }
+
+    /// [`Gpu::from_adapter_with`] less the optional features in `excluded`.
+    pub async fn from_adapter_without(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        memory_hints: wgpu::MemoryHints,
+        excluded: wgpu::Features,
+    ) -> Result<Self, GpuError> {
+        let features = offered_features(&adapter) - excluded;
         let adapter_limits = adapter.limits();
-        let limits = wgpu::Limits {
+        let mut limits = wgpu::Limits {
             max_texture_dimension_2d: adapter_limits.max_texture_dimension_2d,
             max_texture_array_layers: adapter_limits.max_texture_array_layers,
             max_buffer_size: adapter_limits.max_buffer_size,
             max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
             ..wgpu::Limits::default()
         };
+        let ray_query = features.contains(crate::accel::RAY_QUERY);
+        if ray_query {
+            // The adapter's own acceleration-structure limits: wgpu's
+            // `using_minimum_supported_acceleration_structure_values` asks for 2^28 BLAS
+            // primitives, which lavapipe (2^24 - 1) refuses.
+            limits = limits.using_acceleration_structure_values(adapter_limits);
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("softshadow device"),
                 required_features: features,
                 required_limits: limits,
                 memory_hints,
+                experimental_features: if ray_query {
+                    // SAFETY: wgpu asks callers of its EXPERIMENTAL_* features to accept that
+                    // its implementation may still have bugs; only the ray-query techniques use
+                    // the feature, and their results are checked against exact answers.
+                    unsafe { wgpu::ExperimentalFeatures::enabled() }
+                } else {
+                    wgpu::ExperimentalFeatures::disabled()
+                },
                 ..Default::default()
             })
             .await
@@ -162,6 +214,18 @@ impl Gpu {
         // raised it (as wgpu's own default handler does), so it fails the test that caused it
         // even where no `take_errors` would have looked (docs/STABILITY.md).
         let panic_on_error = std::env::var("SOFTSHADOW_GPU_ERRORS").is_ok_and(|v| v == "panic");
+        // A lost device raises no uncaptured error; say so where it happens (a driver failing
+        // a pipeline, say), not at the next resource that comes out invalid.
+        let lost_sink = errors.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if reason != wgpu::DeviceLostReason::Destroyed {
+                log::error!("wgpu device lost ({reason:?}): {message}");
+                eprintln!("wgpu device lost ({reason:?}): {message}");
+                if let Ok(mut e) = lost_sink.lock() {
+                    e.push(format!("device lost: {message}"));
+                }
+            }
+        });
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
             if panic_on_error {
                 panic!("wgpu error (SOFTSHADOW_GPU_ERRORS=panic): {error}");
@@ -256,6 +320,20 @@ impl Gpu {
     /// Features the device was created with.
     pub fn features(&self) -> wgpu::Features {
         self.device.features()
+    }
+
+    /// Whether the device has ray queries ([`crate::accel`]).
+    pub fn has_ray_query(&self) -> bool {
+        self.features().contains(crate::accel::RAY_QUERY)
+    }
+
+    /// The optional features of the adapter [`Gpu::new_headless`] would pick, without creating a
+    /// device (what `workbench list` checks techniques against).
+    pub fn headless_adapter_features() -> Result<(String, wgpu::Features), GpuError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(Self::pick_adapter(&instance, None))?;
+        Ok((adapter.get_info().name, offered_features(&adapter)))
     }
 
     /// Whether the device has timestamp queries (GPU pass timing).

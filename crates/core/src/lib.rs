@@ -7,6 +7,7 @@
 
 #![warn(missing_docs)]
 
+pub mod accel;
 pub mod background;
 pub mod camera;
 pub mod cost;
@@ -33,6 +34,7 @@ pub mod stage;
 pub mod technique;
 pub mod visibility;
 
+pub use accel::SceneAccel;
 pub use camera::Camera;
 pub use cost::{Cost, CostModel, CostQuery};
 pub use error::{GpuError, ParamError, RenderError, TechniqueError};

@@ -184,6 +184,12 @@ impl SceneGpu {
             }
         }
         let device = &gpu.device;
+        // Ray-query techniques build acceleration structures from these buffers (crate::accel).
+        let blas_input = if gpu.has_ray_query() {
+            wgpu::BufferUsages::BLAS_INPUT
+        } else {
+            wgpu::BufferUsages::empty()
+        };
         let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("scene vertices"),
             contents: if vertices.is_empty() {
@@ -191,14 +197,14 @@ impl SceneGpu {
             } else {
                 bytemuck::cast_slice(&vertices)
             },
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE | blas_input,
         });
         let make = |label: &str, indices: &[u32]| {
             (!indices.is_empty()).then(|| IndexList {
                 buffer: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some(label),
                     contents: bytemuck::cast_slice(indices),
-                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
+                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE | blas_input,
                 }),
                 count: indices.len() as u32,
             })

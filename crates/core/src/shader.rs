@@ -110,7 +110,11 @@ pub const CORE_SHADERS: &[ShaderSpec] = &[
 ];
 
 fn composer() -> Result<Composer, GpuError> {
-    let mut composer = Composer::default();
+    // naga_oil validates the composed module with its own capabilities, which lack ray queries
+    // by default; wgpu validates again against what the device has (crate::accel).
+    let mut composer = Composer::default().with_capabilities(
+        naga::valid::Capabilities::default() | naga::valid::Capabilities::RAY_QUERY,
+    );
     // Modules import each other, so add them in dependency order (the list above is ordered).
     for (path, source) in COMMON_MODULES {
         composer

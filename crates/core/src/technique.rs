@@ -532,8 +532,34 @@ pub fn check_requirements(
         Err(TechniqueError::MissingFeatures {
             technique: id.into(),
             adapter: gpu.summary().name,
+            hint: missing_hint(missing).into(),
             missing,
             limits: limits.join("; "),
+        })
+    }
+}
+
+/// What to do when a device lacks `missing`: what to install for ray queries
+/// ([`crate::accel::RAY_QUERY_HINT`]), else how to request the features.
+pub fn missing_hint(missing: wgpu::Features) -> &'static str {
+    if missing.contains(crate::accel::RAY_QUERY) {
+        crate::accel::RAY_QUERY_HINT
+    } else {
+        "request them when creating the device (`required_features` / `required_limits`, see `Requirements::all`), or use an adapter that has them (lavapipe does)"
+    }
+}
+
+impl TechniqueInfo {
+    /// `None` when a device with `features` can run the technique at its default settings, else
+    /// one line saying why not and what to install (`workbench list`, the viewer, results.json).
+    pub fn unavailable_on(&self, features: wgpu::Features) -> Option<String> {
+        let missing = self.requirements.features - features;
+        (!missing.is_empty()).then(|| {
+            if missing.contains(crate::accel::RAY_QUERY) {
+                crate::accel::RAY_QUERY_HINT.to_string()
+            } else {
+                format!("this adapter lacks {missing:?}")
+            }
         })
     }
 }

@@ -7,6 +7,8 @@
 //! - [`exact`]: closed-form visibility for rectangles parallel to the light.
 //! - [`raycast`]: CPU ray-cast visibility (BVH over the casters, N x N stratified light samples)
 //!   for any scene.
+//! - [`traced`]: the same estimate as the ray cast, traced on the device with ray queries (more
+//!   samples affordable; needs `EXPERIMENTAL_RAY_QUERY`).
 //! - [`exact_visibility`]: the closed form where it applies, else the ray cast, and which one.
 //!
 //! Reads: the casters and the G-buffer. Writes: the visibility buffer.
@@ -15,6 +17,7 @@
 
 pub mod exact;
 pub mod raycast;
+pub mod traced;
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
@@ -50,6 +53,7 @@ pub const SHADERS: &[ShaderSpec] = &[
         source: shader_file!("reference/resolve.wgsl").1,
         permutations: &[&[]],
     },
+    traced::SHADER,
 ];
 
 /// Depth maps per accumulation pass (`MAX_BATCH` in `accumulate.wgsl`).
@@ -83,6 +87,12 @@ pub enum GroundTruth {
         /// Light samples per axis.
         samples_per_axis: u32,
     },
+    /// [`traced::visibility_image`] (ray queries on the device) with this many light samples per
+    /// axis.
+    RayTraced {
+        /// Light samples per axis.
+        samples_per_axis: u32,
+    },
 }
 
 impl std::fmt::Display for GroundTruth {
@@ -92,6 +102,9 @@ impl std::fmt::Display for GroundTruth {
             Self::ClosedForm => write!(f, "closed-form"),
             Self::RayCast { samples_per_axis } => {
                 write!(f, "raycast(samples_per_axis={samples_per_axis})")
+            }
+            Self::RayTraced { samples_per_axis } => {
+                write!(f, "raytraced(samples_per_axis={samples_per_axis})")
             }
         }
     }

@@ -262,6 +262,21 @@ pub fn main_with(extra: Vec<TechniqueInfo>) -> ExitCode {
 fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
     let scenes = softshadow_scenes::builtin_scenes();
     let techniques = registry;
+    // What the adapter `bench` and `view` would pick offers, without creating a device: a
+    // technique needing more is listed as unavailable, with what to install. Only asked when some
+    // technique needs an optional feature (listing needs no GPU otherwise).
+    let needs_features = techniques
+        .iter()
+        .any(|t| !t.requirements.features.is_empty());
+    let offered = needs_features.then(softshadow_core::Gpu::headless_adapter_features);
+    let unavailable = |t: &TechniqueInfo| -> Option<String> {
+        match &offered {
+            None => None,
+            Some(Ok((_, features))) => t.unavailable_on(*features),
+            Some(Err(e)) if !t.requirements.features.is_empty() => Some(e.to_string()),
+            Some(Err(_)) => None,
+        }
+    };
     if json {
         let value = serde_json::json!({
             "scenes": scenes.iter().map(|s| serde_json::json!({
@@ -280,6 +295,7 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
                 "description": t.description,
                 "source": t.source,
                 "params": t.params,
+                "unavailable": unavailable(t),
             })).collect::<Vec<_>>(),
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -300,7 +316,12 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
     }
     println!("\nTechniques:");
     for t in techniques {
-        println!("  {:<20} {} [{}]", t.id, t.description, t.source);
+        // Unavailable on this adapter: said on the technique's own line (one line, what to
+        // install), so a parameter line is never mistaken for it.
+        let why = unavailable(t)
+            .map(|why| format!(" (unavailable: {why})"))
+            .unwrap_or_default();
+        println!("  {:<20} {} [{}]{why}", t.id, t.description, t.source);
         for p in &t.params {
             let default = match &p.kind {
                 ParamKind::Float { default, .. } => default.to_string(),

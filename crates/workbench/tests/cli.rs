@@ -592,3 +592,75 @@ fn bench_and_a_sweep_take_a_wgsl_file_as_a_technique() -> Result<()> {
     ensure!(!out.exists(), "a broken technique file wrote output");
     Ok(())
 }
+
+/// On an adapter without ray queries (forced with `SOFTSHADOW_NO_RAY_QUERY=1`), `list` says on
+/// the ray-traced technique's line that it is unavailable and what to install, `list --json`
+/// gives the same line as `unavailable`, and `bench` records the run as an error with that line
+/// in results.json and exits 3 (a run failed), as documented.
+#[test]
+fn without_ray_queries_list_and_bench_say_what_to_install() -> Result<()> {
+    let info = softshadow::raytraced::info();
+    let id = info.id.as_ref();
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_workbench"))
+            .args(args)
+            .env("SOFTSHADOW_NO_RAY_QUERY", "1")
+            .output()
+            .expect("the workbench binary runs")
+    };
+    let o = run(&["list"]);
+    ensure!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout)?;
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with(id))
+        .context("no line for the technique")?;
+    ensure!(
+        line.contains("unavailable: ") && line.contains("Mesa 24.1"),
+        "{line}"
+    );
+    let o = run(&["list", "--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout)?;
+    let entry = v["techniques"]
+        .as_array()
+        .and_then(|a| a.iter().find(|t| t["id"] == id))
+        .context("technique in list --json")?;
+    ensure!(
+        entry["unavailable"]
+            .as_str()
+            .is_some_and(|m| m.contains("Mesa 24.1")),
+        "{entry}"
+    );
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out");
+    let o = run(&[
+        "bench",
+        "--scene",
+        "atty-square",
+        "--technique",
+        id,
+        "--size",
+        "32x32",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--no-images",
+        "--no-camera-only",
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    ensure!(
+        o.status.code() == Some(3),
+        "exit {:?}: {}",
+        o.status.code(),
+        stderr(&o)
+    );
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
+    let message = v["runs"][0]["message"].as_str().unwrap_or_default();
+    ensure!(
+        v["runs"][0]["status"] == "error" && message.contains("Mesa 24.1"),
+        "{message}"
+    );
+    Ok(())
+}

@@ -12,6 +12,7 @@ mod light_space_cache;
 mod motion;
 mod msm;
 mod pdsm;
+mod raytraced;
 mod smrt;
 mod ssm;
 mod stiff;

@@ -17,10 +17,23 @@ impl ViewerApp {
             // of eleven out of sight).
             .height(f32::INFINITY)
             .show_ui(ui, |ui| {
+                let features = self.gpu.features();
                 for info in &self.registry {
+                    // A technique this device cannot run (no ray queries, say) stays listed,
+                    // marked, with why and what to install; choosing it shows the same message.
+                    let (label, hover) = match info.unavailable_on(features) {
+                        Some(why) => (
+                            format!("{} (unavailable)", info.id),
+                            format!("{} [{}]\nunavailable: {why}", info.description, info.source),
+                        ),
+                        None => (
+                            info.id.to_string(),
+                            format!("{} [{}]", info.description, info.source),
+                        ),
+                    };
                     if ui
-                        .selectable_label(self.technique.id == info.id, info.id.as_ref())
-                        .on_hover_text(format!("{} [{}]", info.description, info.source))
+                        .selectable_label(self.technique.id == info.id, label)
+                        .on_hover_text(hover)
                         .clicked()
                     {
                         chosen = Some(info.id.to_string());

@@ -1,0 +1,237 @@
+//! The ray-traced exact answer: the CPU ray cast's estimate ([`crate::raycast`]) computed on the
+//! device with ray queries (`Features::EXPERIMENTAL_RAY_QUERY`), so it affords more samples.
+//!
+//! **What it computes.** For each receiver point, the fraction of `N x N` stratified, jittered
+//! points of the light for which the open segment from the point meets no caster triangle (the
+//! same segment epsilons as the CPU ray cast). Per sample it is exact on any triangle mesh: no
+//! depth map, no bias; its only error is the sampling error of `N x N` strata (`O(1/N)` at a
+//! penumbra point, see [`crate::raycast`]). Points behind the light are 0, points that see no
+//! receiver 1.
+//!
+//! **Cost.** One dispatch per row of light samples (`N` dispatches of `N` rays per point), each
+//! a segment test with terminate-on-first-hit; lavapipe traces about 0.5-1 M rays/s on 2 cores
+//! (docs/BENCHMARKS.md, "Ray queries"), so `64²` points at `32 x 32` samples take a few seconds.
+
+use bytemuck::{Pod, Zeroable};
+use softshadow_core::{
+    accel::AccelError,
+    glam::Vec3,
+    readback::read_buffer,
+    shader::{self, ShaderSpec},
+    shader_file, wgpu, Gpu, GpuError, Scene, SceneAccel, SceneGpu,
+};
+use thiserror::Error;
+use wgpu::util::DeviceExt;
+
+/// The compute shader.
+pub const SHADER: ShaderSpec = ShaderSpec {
+    path: "reference/trace.wgsl",
+    source: shader_file!("reference/trace.wgsl").1,
+    permutations: &[&[]],
+};
+
+/// Jitter seed of [`visibility_image`].
+pub const IMAGE_SEED: u32 = 1;
+
+/// The ray-traced exact answer could not be computed.
+#[derive(Debug, Error)]
+pub enum TracedError {
+    /// No ray queries on the device, or the scene's casters exceed its limits.
+    #[error(transparent)]
+    Accel(#[from] AccelError),
+    /// A GPU problem.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// Bad input.
+    #[error("{0}")]
+    Input(String),
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    world_to_light: [[f32; 4]; 4],
+    light_to_world: [[f32; 4]; 4],
+    half: [f32; 2],
+    samples_per_axis: u32,
+    row: u32,
+    count: u32,
+    seed: u32,
+    _pad: [u32; 2],
+}
+
+/// The visible fraction of the light at every point of `positions` (`None` or not a receiver:
+/// 1.0), from `samples_per_axis`² stratified, jittered light samples traced on `gpu` (see the
+/// [module docs](self)).
+pub fn visibility_image(
+    gpu: &Gpu,
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    receiver: &[bool],
+    samples_per_axis: u32,
+) -> Result<Vec<f32>, TracedError> {
+    if positions.len() != receiver.len() {
+        return Err(TracedError::Input(format!(
+            "{} positions but {} receiver flags: give one of each per pixel",
+            positions.len(),
+            receiver.len()
+        )));
+    }
+    if samples_per_axis == 0 {
+        return Err(TracedError::Input(
+            "samples_per_axis is 0: give at least 1".into(),
+        ));
+    }
+    let count = positions.len();
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let points: Vec<[f32; 4]> = positions
+        .iter()
+        .zip(receiver)
+        .map(|(p, &r)| match p {
+            Some(p) if r && p.is_finite() => [p.x, p.y, p.z, 1.0],
+            _ => [0.0; 4],
+        })
+        .collect();
+    let device = &gpu.device;
+    let scene_gpu = SceneGpu::upload(gpu, scene);
+    if !scene_gpu.has_casters() {
+        return Ok(points
+            .iter()
+            .map(|p| {
+                let lit = p[3] < 0.5
+                    || scene
+                        .light
+                        .view()
+                        .transform_point3(Vec3::new(p[0], p[1], p[2]))
+                        .z
+                        > 0.0;
+                if lit {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect());
+    }
+    let mut accel = SceneAccel::new();
+    let mut encoder = device.create_command_encoder(&Default::default());
+    accel.build(gpu, &mut encoder, &scene_gpu)?;
+    gpu.queue.submit([encoder.finish()]);
+
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("reference/trace"),
+        entries: &[
+            softshadow_core::frame::uniform_entry(0, wgpu::ShaderStages::COMPUTE, false),
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::AccelerationStructure {
+                    vertex_return: false,
+                },
+                count: None,
+            },
+            storage_entry(2, true),
+            storage_entry(3, false),
+        ],
+    });
+    let module = shader::create_module(gpu, &SHADER, &[])?;
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("reference/trace"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("reference/trace"),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some("trace"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let points_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("reference/trace points"),
+        contents: bytemuck::cast_slice(&points),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let lit_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("reference/trace lit"),
+        contents: bytemuck::cast_slice(&vec![0f32; count]),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    });
+    let half = scene.light.half_extent();
+    let view = scene.light.view();
+    // One uniform buffer per row: rows are dispatched in one submission.
+    let groups = (count as u32).div_ceil(64);
+    let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
+    let tlas = accel.tlas().expect("built above");
+    for row in 0..samples_per_axis {
+        let params = Params {
+            world_to_light: view.to_cols_array_2d(),
+            light_to_world: view.inverse().to_cols_array_2d(),
+            half: [half.x, half.y],
+            samples_per_axis,
+            row,
+            count: count as u32,
+            seed: IMAGE_SEED,
+            _pad: [0; 2],
+        };
+        let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("reference/trace params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("reference/trace"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: tlas.as_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: points_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: lit_buffer.as_entire_binding(),
+                },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+    }
+    let bytes = read_buffer(gpu, &lit_buffer, 0, (count * 4) as u64)?;
+    let lit: &[f32] = bytemuck::cast_slice(&bytes);
+    let total = (samples_per_axis * samples_per_axis) as f32;
+    Ok(points
+        .iter()
+        .zip(lit)
+        .map(|(p, &l)| if p[3] < 0.5 { 1.0 } else { l / total })
+        .collect())
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}

@@ -1,0 +1,73 @@
+// The ray-traced exact answer (crates/reference/src/traced.rs): for each receiver point, one row
+// of N stratified, jittered light samples per dispatch (row `params.row` of the N x N grid), each
+// an exact segment test against the casters' triangles with a ray query; the lit count is added
+// to the point's running sum. Segment ends as the CPU ray cast's (raycast.rs).
+enable wgpu_ray_query;
+
+struct TraceParams {
+    world_to_light: mat4x4<f32>,
+    light_to_world: mat4x4<f32>,
+    // Half width and height of the light.
+    half: vec2<f32>,
+    samples_per_axis: u32,
+    row: u32,
+    count: u32,
+    seed: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: TraceParams;
+@group(0) @binding(1) var casters: acceleration_structure;
+// xyz: world position; w: 1 for a receiver point, 0 for a pixel that sees none.
+@group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
+// Lit samples so far (summed over rows).
+@group(0) @binding(3) var<storage, read_write> lit: array<f32>;
+
+const SEGMENT_EPSILON: f32 = 1e-4;
+const LIGHT_END_EPSILON: f32 = 1e-6;
+
+// A hash of three integers to [0, 1)^2: the jitter of one sample of one point.
+fn jitter(a: u32, b: u32, c: u32) -> vec2<f32> {
+    var h = a * 0x9e3779b9u ^ (b * 0x85ebca6bu) ^ (c * 0xc2b2ae35u) ^ params.seed;
+    h = (h ^ (h >> 16u)) * 0x7feb352du;
+    h = (h ^ (h >> 15u)) * 0x846ca68bu;
+    h = h ^ (h >> 16u);
+    var g = h * 747796405u + 2891336453u;
+    g = (g ^ (g >> 16u)) * 0x7feb352du;
+    g = g ^ (g >> 15u);
+    return vec2<f32>(f32(h >> 8u), f32(g >> 8u)) / 16777216.0;
+}
+
+@compute @workgroup_size(64)
+fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x + id.y * 65535u * 64u;
+    if k >= params.count {
+        return;
+    }
+    let point = points[k];
+    if point.w < 0.5 {
+        return;
+    }
+    let p = point.xyz;
+    if (params.world_to_light * vec4<f32>(p, 1.0)).z <= 0.0 {
+        // Behind the one-sided light: never lit.
+        return;
+    }
+    let n = params.samples_per_axis;
+    var count = 0u;
+    // Declared once, outside the loop: a `ray_query` declared inside a loop body makes lavapipe
+    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/ARCHITECTURE.md, "Ray queries").
+    var rq: ray_query;
+    for (var i = 0u; i < n; i++) {
+        let u = (vec2<f32>(f32(i), f32(params.row)) + jitter(k, i, params.row)) / f32(n);
+        let on_light = vec2<f32>((2.0 * u.x - 1.0) * params.half.x, (2.0 * u.y - 1.0) * params.half.y);
+        let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, light_point - p));
+        rayQueryProceed(&rq);
+        if rayQueryGetCommittedIntersection(&rq).kind == RAY_QUERY_INTERSECTION_NONE {
+            count += 1u;
+        }
+    }
+    lit[k] += f32(count);
+}
