@@ -13,8 +13,9 @@
 //! renderers, the display pass, view mode and render size: `ImageState`), `reference` (the
 //! progressive reference and the metrics against it: `ReferenceState`), `timing_panel`
 //! (`TimingState`), `error_panel` (metrics and the error-against-time plot: `PlotState`) and
-//! `files_panel` (`FilesState`). This file holds the app, the frame's order and the queries the
-//! window and the tests use.
+//! `files_panel` (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
+//! `render_worker` (the threads the technique and the reference render on). This file holds the
+//! app, the frame's order and the queries the window and the tests use.
 
 mod build_panel;
 mod error_panel;
@@ -27,10 +28,12 @@ mod render_worker;
 mod scene_panel;
 mod technique;
 mod technique_panel;
+mod timeline;
 mod timing_panel;
 
 pub use technique::{FRAME_WAIT, SLOW_FRAME};
 pub use technique_panel::param_widget;
+pub use timeline::{LiveMetrics, DEFAULT_STEPS, LIVE_WINDOW};
 
 use std::{
     path::{Path, PathBuf},
@@ -118,6 +121,8 @@ pub struct ViewerApp {
     image: image::ImageState,
     /// The progressive reference and the metrics against it ([`reference`]).
     reference: reference::ReferenceState,
+    /// The path being played ([`timeline`]).
+    timeline: timeline::TimelineState,
     /// Frame and pass timings ([`timing_panel`]).
     timing: timing_panel::TimingState,
     /// The error-against-time plot's points and options ([`error_panel`]).
@@ -191,6 +196,7 @@ impl ViewerApp {
                 state.as_ref().map_or(0.5, |s| s.split),
             ),
             reference: reference::ReferenceState::new(reference),
+            timeline: Default::default(),
             timing: Default::default(),
             plot: Default::default(),
             files: Default::default(),
@@ -353,6 +359,7 @@ impl ViewerApp {
             self.report_error(format!("cannot render at {width}x{height}: {e}"));
             return;
         }
+        self.apply_path_pose();
         self.scene.orbit.apply(&mut self.scene.camera);
         let setting_key = self.current_setting_key();
         if self.timing.setting_key != Some(setting_key) {
@@ -383,6 +390,11 @@ impl ViewerApp {
             .show(ui, |ui| self.view_ui(ui));
         ui.collapsing("Light", |ui| self.light_ui(ui));
         ui.collapsing("Camera", |ui| self.camera_ui(ui));
+        ui.collapsing("Path", |ui| self.timeline_ui(ui))
+            .header_response
+            .on_hover_text(
+                "Play, scrub and record the scene along a path, with live error and flicker",
+            );
         ui.collapsing("Files", |ui| self.files_ui(ui));
     }
 }

@@ -38,10 +38,8 @@ fn harness(technique: &str) -> Result<Harness<'static, ViewerApp>> {
     Ok(harness)
 }
 
-#[test]
-fn the_technique_picker_switches_the_technique_and_the_timing_table_follows() -> Result<()> {
-    let mut harness = harness("hard")?;
-    harness.run_steps(3);
+/// `hard` is the active technique and its passes are in the timing table's rows.
+fn ensure_hard_was_timed(harness: &Harness<ViewerApp>) -> Result<()> {
     ensure!(harness.state().technique_id() == "hard");
     let rows: Vec<String> = harness
         .state()
@@ -53,6 +51,14 @@ fn the_technique_picker_switches_the_technique_and_the_timing_table_follows() ->
         rows.iter().any(|r| r.starts_with("hard/")),
         "timings of hard: {rows:?}"
     );
+    Ok(())
+}
+
+#[test]
+fn the_technique_picker_switches_the_technique_and_the_timing_table_follows() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.run_steps(3);
+    ensure_hard_was_timed(&harness)?;
     harness
         .query_by_label("hard/lookup")
         .context("the table lists hard's pass")?;
@@ -1076,18 +1082,8 @@ fn a_slow_technique_frame_never_holds_the_ui() -> Result<()> {
     harness.state_mut().select_technique("hard");
     harness.state_mut().set_frame_wait(std::time::Duration::MAX);
     harness.run_steps(2);
-    ensure!(harness.state().technique_id() == "hard");
     ensure!(harness.state().technique_error().is_none());
-    let rows: Vec<String> = harness
-        .state()
-        .timing_rows()
-        .into_iter()
-        .map(|r| r.name)
-        .collect();
-    ensure!(
-        rows.iter().any(|r| r.starts_with("hard/")),
-        "hard's frame after the switch: {rows:?}"
-    );
+    ensure_hard_was_timed(&harness)?;
     Ok(())
 }
 
@@ -1196,5 +1192,100 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
         .mae_shadowed;
     ensure!(kept == second, "the image changed: {kept} against {second}");
     ensure!(app.points().len() == 2, "{:?}", app.points());
+    Ok(())
+}
+
+/// Issue 28: the timeline plays a path over the open scene: the caster moves step by step, each
+/// shown frame is measured against its exact answer (error, and flicker against the frame
+/// before), Record writes technique beside exact, and closing the path restores the scene. On
+/// the `still` path a deterministic technique's flicker is exactly 0.
+#[test]
+fn the_timeline_plays_a_path_with_live_error_and_flicker_and_records_it() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.state_mut().set_render_size(Some((96, 64)));
+    harness.run_steps(2);
+    let light = *harness.state().light();
+
+    harness.state_mut().open_path(Some("still"));
+    harness.state_mut().set_path_steps(4);
+    harness.state_mut().set_playing(true);
+    harness.run_steps(6);
+    let live = harness.state().live_metrics();
+    ensure!(
+        live.len() >= 4,
+        "live metrics of the still path (looping): {live:?}"
+    );
+    ensure!(
+        live.iter().filter_map(|m| m.flicker).all(|f| f == 0.0),
+        "hard flickers on a still path: {live:?}"
+    );
+
+    // object-move: atty-square's caster (made dynamic) slides over the floor; it stays parallel
+    // to the light, so every frame has a closed form (light-sweep turns the light: none).
+    harness.state_mut().open_path(Some("object-move"));
+    harness.state_mut().set_path_steps(6);
+    harness.state_mut().set_path_looping(false);
+    let folder = tempfile::tempdir()?;
+    let recorded = folder.path().join("frames");
+    harness
+        .state_mut()
+        .record_path(Some(recorded.to_str().context("utf-8 temp path")?));
+    // Paused frames count once per step.
+    harness.get_by_label("Path").click();
+    harness.run_steps(3);
+    harness.state_mut().set_playing(true);
+    harness.run_steps(8);
+    let (name, step, steps) = harness
+        .state()
+        .path_position()
+        .context("the path stays open")?;
+    ensure!(
+        name == "object-move" && (step, steps) == (5, 6),
+        "{name} {step}/{steps}: played to its end without looping; live {:?}, errors {:?}, technique error {:?}",
+        harness.state().live_metrics(),
+        harness.state().errors(),
+        harness.state().technique_error()
+    );
+    let live = harness.state().live_metrics();
+    ensure!(
+        live.len() == 6,
+        "one measurement per step: {live:?} ({:?})",
+        harness.state().live_message()
+    );
+    ensure!(
+        live.iter()
+            .all(|m| m.mae_shadowed.is_finite() && m.mae_shadowed > 0.0),
+        "{live:?}"
+    );
+    ensure!(
+        live.iter().filter_map(|m| m.flicker).any(|f| f > 0.0),
+        "hard's hard edge moves unlike the exact penumbra as the caster slides: {live:?}"
+    );
+    harness
+        .query_by_label_contains("flicker")
+        .context("the timeline shows the live flicker")?;
+    harness.state_mut().record_path(None);
+    let frame = image::open(recorded.join("frame-0000.png"))?;
+    ensure!(
+        (frame.width(), frame.height()) == (192, 64),
+        "technique beside exact: {}x{}",
+        frame.width(),
+        frame.height()
+    );
+    ensure!(
+        harness
+            .state()
+            .status()
+            .is_some_and(|s| s.starts_with("recorded")),
+        "{:?}",
+        harness.state().status()
+    );
+
+    harness.state_mut().open_path(None);
+    harness.run_steps(1);
+    ensure!(
+        *harness.state().light() == light,
+        "closing the path restores the light"
+    );
     Ok(())
 }

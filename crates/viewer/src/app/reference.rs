@@ -121,7 +121,8 @@ impl ViewerApp {
         let scene_hash = self.scene.loaded.gpu.content_hash;
         let worker = self.reference.worker.as_mut().expect("started above");
         // Not while the camera is dragged: each frame would restart it.
-        if !worker.busy() && !complete && !self.image.interacting {
+        // Nor while a path plays: every step would restart it.
+        if !worker.busy() && !complete && !self.image.interacting && !self.timeline.playing {
             let request = FrameRequest {
                 setting_key: key,
                 scene: self.technique.worker_scene(&self.scene.loaded),
@@ -139,6 +140,7 @@ impl ViewerApp {
                     .collect(),
                 invalidate: false,
                 debug_view: None,
+                exact: None,
             };
             if !worker.request(request) {
                 self.reference.worker = None;

@@ -25,6 +25,7 @@ use softshadow_core::{
     Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
 };
 
+use super::timeline::LiveMetrics;
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
 
 /// Largest debug image edge sent back (as the display draws them).
@@ -44,6 +45,9 @@ pub(super) struct FrameRequest {
     pub(super) invalidate: bool,
     /// The debug view to draw after the frame (index into its debug views), if one is shown.
     pub(super) debug_view: Option<usize>,
+    /// Measure the frame against its exact answer (closed form) and, within the same run of
+    /// a path (this id), the frame before it: the timeline's live error and flicker.
+    pub(super) exact: Option<u64>,
 }
 
 /// A debug image drawn by the worker, as RGBA8 bytes of the display format.
@@ -74,6 +78,10 @@ pub(super) struct FrameDone {
     pub(super) debug_image: Option<Result<DebugImage, String>>,
     /// The technique's counters after the frame.
     pub(super) stats: TechniqueStats,
+    /// With [`FrameRequest::exact`]: the live metrics, or why there are none.
+    pub(super) live: Option<Result<LiveMetrics, String>>,
+    /// With [`FrameRequest::exact`]: the frame's exact answer (row-major).
+    pub(super) exact: Option<Vec<f32>>,
 }
 
 /// The technique's thread: requests go in, finished frames come out.
@@ -265,6 +273,9 @@ impl RenderWorker {
     }
 }
 
+/// A frame measured for the timeline: its path run, visibility, exact answer and receiver mask.
+type MeasuredFrame = (u64, Vec<f32>, Vec<f32>, Vec<bool>);
+
 /// The worker thread's state.
 struct Worker {
     gpu: Gpu,
@@ -275,6 +286,8 @@ struct Worker {
     prepared: Option<(u64, u64)>,
     display: Option<DisplayPass>,
     debug_target: Option<DisplayTarget>,
+    /// The last measured frame, for flicker.
+    previous: Option<MeasuredFrame>,
 }
 
 impl Worker {
@@ -287,6 +300,7 @@ impl Worker {
             prepared: None,
             display: None,
             debug_target: None,
+            previous: None,
         }
     }
 
@@ -300,6 +314,21 @@ impl Worker {
             let debug_image = match (&result, request.debug_view) {
                 (Ok(_), Some(index)) => self.debug_image(index),
                 _ => None,
+            };
+            let (live, exact) = match (&result, request.exact) {
+                (Ok((_, visibility)), Some(run)) => {
+                    match self.live_metrics(&request, run, visibility) {
+                        Ok((metrics, exact)) => (Some(Ok(metrics)), Some(exact)),
+                        Err(message) => {
+                            self.previous = None;
+                            (Some(Err(message)), None)
+                        }
+                    }
+                }
+                _ => {
+                    self.previous = None;
+                    (None, None)
+                }
             };
             let done = FrameDone {
                 setting_key: request.setting_key,
@@ -317,6 +346,8 @@ impl Worker {
                     .collect(),
                 debug_image,
                 stats: self.technique.stats(),
+                live,
+                exact,
             };
             if frames.send(done).is_err() {
                 return; // The UI dropped this worker.
@@ -387,6 +418,50 @@ impl Worker {
         };
         let visibility = renderer.read_visibility()?;
         Ok((output, visibility))
+    }
+
+    /// The frame's error against its exact answer (closed form) and its flicker against the
+    /// frame measured before it; the exact answer with them.
+    fn live_metrics(
+        &mut self,
+        request: &FrameRequest,
+        run: u64,
+        visibility: &[f32],
+    ) -> Result<(LiveMetrics, Vec<f32>), String> {
+        let renderer = self.renderer.as_ref().ok_or("no frame rendered")?;
+        let positions = renderer.read_world_positions().map_err(|e| e.to_string())?;
+        let mask = renderer.read_receiver_mask().map_err(|e| e.to_string())?;
+        let lit_as_shown = Scene {
+            camera: request.camera,
+            light: request.light,
+            ..(*request.scene).clone()
+        };
+        let exact = softshadow_reference::exact::visibility_image(&lit_as_shown, &positions, &mask)
+            .ok_or(
+                "no live error: this scene has casters that are not rectangles parallel to the \
+                 light, so its exact answer is a ray cast (run `workbench bench --path` for it)",
+            )?;
+        let report =
+            softshadow_metrics::compare(visibility, &exact, &mask).map_err(|e| e.to_string())?;
+        let flicker = match &self.previous {
+            Some((previous_run, v0, e0, m0))
+                if *previous_run == run && v0.len() == visibility.len() =>
+            {
+                Some(
+                    softshadow_metrics::flicker((v0, e0, m0), (visibility, &exact, &mask))
+                        .map_err(|e| e.to_string())?,
+                )
+            }
+            _ => None,
+        };
+        self.previous = Some((run, visibility.to_vec(), exact.clone(), mask));
+        Ok((
+            LiveMetrics {
+                mae_shadowed: report.mae_shadowed,
+                flicker,
+            },
+            exact,
+        ))
     }
 
     /// Draws debug view `index` (or the first) as the display shows it and reads it out.

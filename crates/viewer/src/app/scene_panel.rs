@@ -130,6 +130,8 @@ pub(super) struct LoadedScene {
     pub(super) scene: Scene,
     pub(super) gpu: SceneGpu,
     pub(super) warnings: Vec<String>,
+    /// Paths the scene file declares (the timeline offers them beside the built-ins).
+    pub(super) paths: Vec<softshadow_scenes::path::Path>,
 }
 
 pub(super) fn load_scene(gpu: &Gpu, spec: &str) -> Result<LoadedScene, ViewerError> {
@@ -140,6 +142,7 @@ pub(super) fn load_scene(gpu: &Gpu, spec: &str) -> Result<LoadedScene, ViewerErr
         gpu: scene_gpu,
         scene: loaded.scene,
         warnings: loaded.warnings,
+        paths: loaded.paths,
     })
 }
 
@@ -156,6 +159,7 @@ impl ViewerApp {
                 self.scene.light = scene.scene.light;
                 self.scene.orbit = Orbit::from_camera(&self.scene.camera);
                 self.scene.loaded = scene;
+                self.timeline = Default::default();
                 self.technique.shown_key = None;
                 self.release_memory();
                 self.timing.rolling.clear();

@@ -225,6 +225,7 @@ impl ViewerApp {
         let scene_hash = self.scene.loaded.gpu.content_hash;
         let scene = self.technique.worker_scene(&self.scene.loaded);
         let setting_key = self.current_setting_key();
+        let params = self.setting();
         let Some(worker) = self.technique.worker.as_mut() else {
             return;
         };
@@ -233,7 +234,8 @@ impl ViewerApp {
             // does); later ones may keep light-space results while only the camera moves. Not
             // while the user drags: the camera-only frames are what keeps that interactive.
             let invalidate = self.timing.cost.len() < self.timing.cost_frames_wanted()
-                && !self.image.interacting;
+                && !self.image.interacting
+                && !self.timeline.playing;
             let r = self.image.renderers.as_ref().expect("checked above");
             let request = FrameRequest {
                 setting_key,
@@ -242,20 +244,11 @@ impl ViewerApp {
                 camera: self.scene.camera,
                 light: self.scene.light,
                 size: (r.width, r.height),
-                params: self
-                    .technique
-                    .params
-                    .as_ref()
-                    .map(|p| {
-                        p.entries
-                            .iter()
-                            .map(|(s, v)| (s.name.to_string(), v.clone()))
-                            .collect()
-                    })
-                    .unwrap_or_default(),
+                params,
                 invalidate,
                 debug_view: (self.image.view_mode == ViewMode::Debug)
                     .then_some(self.image.debug_view),
+                exact: self.timeline.exact_run(),
             };
             if !worker.request(request) {
                 self.worker_stopped();
@@ -286,6 +279,7 @@ impl ViewerApp {
             return; // Of a scene no longer open.
         }
         let current = done.setting_key == self.current_setting_key();
+        let shown_ok = done.result.is_ok();
         match done.result {
             Ok((output, visibility)) => {
                 self.technique.build.note(Ok(()));
@@ -327,6 +321,9 @@ impl ViewerApp {
                 self.timing.rolling.clear();
                 self.timing.cost.clear();
             }
+        }
+        if current && shown_ok {
+            self.path_frame_shown(done.live, done.exact.as_deref());
         }
         self.image.debug_message = None;
         self.image.debug_mapping = None;
