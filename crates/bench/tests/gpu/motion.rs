@@ -28,7 +28,10 @@ const SCENE: &str = "atty-square";
 
 /// Techniques that change their answer from frame to frame on purpose (a per-frame sample
 /// pattern, history), with why: their flicker on a still path is what they trade, not a bug.
-const TEMPORAL: &[(&str, &str)] = &[];
+const TEMPORAL: &[(&str, &str)] = &[(
+    "raytraced",
+    "its rays go to other light points every frame and blend into a history: on a still path its answer changes while the history settles",
+)];
 
 fn options(path: &str, frames: u32) -> BenchOptions {
     BenchOptions {
