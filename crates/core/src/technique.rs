@@ -372,6 +372,10 @@ pub struct TechniqueInfo {
     /// The settings the overview sweep (`benches/overview.toml`) runs it at: parameter name and
     /// the values to try, as text (each list multiplies, as in a sweep file). Empty: its defaults.
     pub overview: Vec<(Cow<'static, str>, Vec<Cow<'static, str>>)>,
+    /// Why its answer changes from frame to frame with nothing moving (a per-frame sample
+    /// pattern, a history), if it does: its flicker on a still path is what it trades, not a
+    /// fault. `None`: the same inputs give the same frame.
+    pub varies_per_frame: Option<Cow<'static, str>>,
 }
 
 impl TechniqueInfo {
@@ -399,6 +403,7 @@ impl TechniqueInfo {
             cost: CostModel::unmodelled(),
             expectations: Expectations::default(),
             overview: Vec::new(),
+            varies_per_frame: None,
         }
     }
 
@@ -437,6 +442,12 @@ impl TechniqueInfo {
                 )
             })
             .collect();
+        self
+    }
+
+    /// Its answer changes from frame to frame with nothing moving, for this reason.
+    pub fn with_varies_per_frame(mut self, why: &'static str) -> Self {
+        self.varies_per_frame = Some(Cow::Borrowed(why));
         self
     }
 

@@ -31,6 +31,10 @@ pub fn info() -> TechniqueInfo {
     }))
     .with_expectations(expectations())
     .with_overview(&[("rays_per_pixel", &["1", "4"])])
+    .with_varies_per_frame(
+        "its rays go to other light points every frame and blend into a history: on a still \
+         path its answer changes while the history settles",
+    )
 }
 
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md), at the

@@ -26,13 +26,6 @@ use crate::common::gpu;
 const SIZE: u32 = 64;
 const SCENE: &str = "atty-square";
 
-/// Techniques that change their answer from frame to frame on purpose (a per-frame sample
-/// pattern, history), with why: their flicker on a still path is what they trade, not a bug.
-const TEMPORAL: &[(&str, &str)] = &[(
-    "raytraced",
-    "its rays go to other light points every frame and blend into a history: on a still path its answer changes while the history settles",
-)];
-
 fn options(path: &str, frames: u32) -> BenchOptions {
     BenchOptions {
         frames,
@@ -84,7 +77,7 @@ fn a_still_path_gives_zero_flicker_for_every_deterministic_technique() -> Result
     let registry = softshadow::registry();
     let mut bench = Bench::new(gpu()?, registry.clone(), options("still", 3))?;
     for info in registry.iter() {
-        if let Some((_, why)) = TEMPORAL.iter().find(|(id, _)| *id == info.id) {
+        if let Some(why) = &info.varies_per_frame {
             eprintln!("{}: skipped, it uses time on purpose ({why})", info.id);
             continue;
         }
@@ -93,7 +86,7 @@ fn a_still_path_gives_zero_flicker_for_every_deterministic_technique() -> Result
         let flicker = motion.flicker.as_ref().context("three frames")?;
         ensure!(
             flicker.max == 0.0,
-            "{}: flicker {flicker:?} on a path where nothing moves; if it changes its answer per frame on purpose, list it in TEMPORAL with why",
+            "{}: flicker {flicker:?} on a path where nothing moves; if it changes its answer per frame on purpose, its descriptor says so (`TechniqueInfo::with_varies_per_frame`)",
             info.id
         );
         ensure!(frames[1..].iter().all(|f| f.kind == FrameKind::Still));
