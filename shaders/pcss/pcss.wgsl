@@ -7,7 +7,10 @@
 //   3. Percentage-closer filtering over that extent (at least `min_filter_texels`).
 // Both kernels are rotated (Vogel) or jittered (grid) per pixel by interleaved gradient noise.
 // The grid is the KERNEL_GRID permutation, not a uniform flag (docs/ARCHITECTURE.md, "Lavapipe's
-// branches").
+// branches"). The TEMPORAL permutation (setting `temporal`) moves the noise every frame as Bevy's
+// temporal shadow filtering does (the pixel offset by 5.588238 per frame, a cycle of 64 frames),
+// so successive frames sample other points of the kernel and `pcss/temporal` averages them
+// (shaders/pcss/temporal.wgsl); without it this file is the plain PCSS, unchanged.
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, linear_depth, texel_slope, in_map}
@@ -19,7 +22,8 @@ const MAX_FILTER_SAMPLES: u32 = 256u;
 struct PcssParams {
     blocker_samples: u32,
     filter_samples: u32,
-    _pad0: u32,
+    // Frame index of the temporal mode (read by the TEMPORAL permutation only).
+    frame_index: u32,
     _pad1: u32,
     bias_texels: f32,
     min_filter_texels: f32,
@@ -85,7 +89,11 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let half_light = frame.light_half.xy;
     let near = view.eye_near_far.z;
     let bias = params.bias_texels * texel_slope(view) * z_r / light_cosine(s);
+#ifdef TEMPORAL
+    let noise = interleaved_gradient_noise(in.position.xy + 5.588238 * f32(params.frame_index % 64u));
+#else
     let noise = interleaved_gradient_noise(in.position.xy);
+#endif
 
     // 1. Blocker search.
     let search = half_light * max(z_r - near, 0.0) / (z_r * near);

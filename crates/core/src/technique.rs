@@ -376,6 +376,10 @@ pub struct TechniqueInfo {
     /// pattern, a history), if it does: its flicker on a still path is what it trades, not a
     /// fault. `None`: the same inputs give the same frame.
     pub varies_per_frame: Option<Cow<'static, str>>,
+    /// The setting under which [`Self::varies_per_frame`] holds, as parameter name and value
+    /// text (`("temporal", "true")`); `None`: at every setting. Read it through
+    /// [`Self::varies_per_frame_at`].
+    pub varies_per_frame_when: Option<(Cow<'static, str>, Cow<'static, str>)>,
 }
 
 impl TechniqueInfo {
@@ -404,6 +408,7 @@ impl TechniqueInfo {
             expectations: Expectations::default(),
             overview: Vec::new(),
             varies_per_frame: None,
+            varies_per_frame_when: None,
         }
     }
 
@@ -449,6 +454,41 @@ impl TechniqueInfo {
     pub fn with_varies_per_frame(mut self, why: &'static str) -> Self {
         self.varies_per_frame = Some(Cow::Borrowed(why));
         self
+    }
+
+    /// Its answer changes from frame to frame with nothing moving, for this reason, only while
+    /// parameter `param` has the value written `value` (a mode its defaults leave off).
+    pub fn with_varies_per_frame_when(
+        mut self,
+        param: &'static str,
+        value: &'static str,
+        why: &'static str,
+    ) -> Self {
+        self.varies_per_frame = Some(Cow::Borrowed(why));
+        self.varies_per_frame_when = Some((Cow::Borrowed(param), Cow::Borrowed(value)));
+        self
+    }
+
+    /// Why its answer changes from frame to frame with nothing moving at these settings
+    /// (`params` over its defaults, as a run gives them), or `None` when the same inputs give
+    /// the same frame.
+    pub fn varies_per_frame_at(&self, params: &[(String, ParamValue)]) -> Option<&str> {
+        let why = self.varies_per_frame.as_deref()?;
+        let Some((param, value)) = &self.varies_per_frame_when else {
+            return Some(why);
+        };
+        let set = params
+            .iter()
+            .rev()
+            .find(|(name, _)| name == param)
+            .map(|(_, v)| v.clone())
+            .or_else(|| {
+                self.params
+                    .iter()
+                    .find(|s| s.name == *param)
+                    .map(ParamSpec::default_value)
+            })?;
+        (set.to_string() == *value).then_some(why)
     }
 
     /// Builds the technique on `gpu` with its default settings.

@@ -30,6 +30,12 @@ pub fn info() -> TechniqueInfo {
     ))
     .with_expectations(expectations())
     .with_overview(&[("filter_samples", &["16", "64"])])
+    .with_varies_per_frame_when(
+        "temporal",
+        "true",
+        "the temporal mode rotates its kernel every frame and blends the frames into a history: \
+         on a still path its answer changes while the history settles",
+    )
 }
 
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).

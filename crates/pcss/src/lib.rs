@@ -3,17 +3,27 @@
 //! Reads: the casters (one shadow map from the light centre) and the G-buffer.
 //! Writes: the visibility buffer. Passes: `pcss/shadow_map`, `pcss/filter` (blocker search,
 //! penumbra estimate and percentage-closer filtering in one fullscreen pass).
+//!
+//! With the setting `temporal` (off by default), the temporal mode engines ship (Bevy's
+//! `ShadowFilteringMethod::Temporal`): `pcss/filter` rotates its kernel by another angle every
+//! frame and draws into a texture of its own, and `pcss/temporal` blends it into a history
+//! reprojected with the previous camera, rejected where the pixel saw another surface and
+//! clipped to this frame's neighbourhood (docs/TECHNIQUES.md, `pcss`, "Temporal mode"). Off,
+//! the technique is plain PCSS, bit for bit.
 
 #![warn(missing_docs)]
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
+    frame::{texture_entry, uniform_entry},
     fullscreen::{uniform_buffer, FullscreenPipeline},
-    shader::{DefValue, ShaderSpec},
+    gbuffer::create_texture,
+    glam::Mat4,
+    shader::{self, DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
-    TechniqueStats, VisibilityBuffer,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
@@ -23,11 +33,26 @@ pub use info::info;
 pub const ID: &str = "pcss";
 
 /// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
-pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
-    path: "pcss/pcss.wgsl",
-    source: shader_file!("pcss/pcss.wgsl").1,
-    permutations: &[&[], &[("KERNEL_GRID", DefValue::Bool(true))]],
-}];
+pub const SHADERS: &[ShaderSpec] = &[
+    ShaderSpec {
+        path: "pcss/pcss.wgsl",
+        source: shader_file!("pcss/pcss.wgsl").1,
+        permutations: &[
+            &[],
+            &[("KERNEL_GRID", DefValue::Bool(true))],
+            &[("TEMPORAL", DefValue::Bool(true))],
+            &[
+                ("KERNEL_GRID", DefValue::Bool(true)),
+                ("TEMPORAL", DefValue::Bool(true)),
+            ],
+        ],
+    },
+    ShaderSpec {
+        path: "pcss/temporal.wgsl",
+        source: shader_file!("pcss/temporal.wgsl").1,
+        permutations: &[&[]],
+    },
+];
 
 softshadow_core::param_choice! {
     /// Filter kernel shape.
@@ -56,6 +81,12 @@ softshadow_core::technique_settings! {
         bias_texels: f32 = 1.5, in 0.0..=16.0;
         /// Smallest filter half extent in texels
         min_filter_texels: f32 = 1.0, in 0.0..=8.0;
+        /// Temporal mode: the kernel rotates every frame and a reprojected history averages the frames
+        temporal: bool = false;
+        /// Temporal mode: frames averaged at most (the current frame weighs at least 1 / this)
+        max_history: u32 = 16, in 1..=256;
+        /// Temporal mode: the history is clipped to this frame's 3x3 mean +- this many standard deviations
+        clamp_sigma: f32 = 1.0, in 0.0..=16.0;
     }
 }
 
@@ -65,10 +96,174 @@ softshadow_core::technique_settings! {
 struct PcssUniform {
     blocker_samples: u32,
     filter_samples: u32,
-    _pad0: [u32; 2],
+    /// Frame index of the temporal mode (read by the `TEMPORAL` permutation only).
+    frame_index: u32,
+    _pad0: u32,
     bias_texels: f32,
     min_filter_texels: f32,
     _pad1: [f32; 2],
+}
+
+/// Mirrors `TemporalParams` in `shaders/pcss/temporal.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct TemporalUniform {
+    prev_view_proj: [[f32; 4]; 4],
+    history_valid: u32,
+    max_history: u32,
+    clamp_sigma: f32,
+    _pad: u32,
+}
+
+/// What the temporal mode needs from the device: three storage textures in its pass.
+pub fn temporal_requirements() -> Requirements {
+    Requirements {
+        limits: MinLimits {
+            max_storage_textures_per_shader_stage: 3,
+            ..MinLimits::default()
+        },
+        ..Requirements::default()
+    }
+}
+
+/// Per-size textures of the temporal mode.
+struct TemporalTargets {
+    width: u32,
+    height: u32,
+    /// This frame's rotated PCSS (`R32Float`, drawn by `pcss/filter`).
+    raw: wgpu::Texture,
+    /// Frames averaged and visibility (`Rg32Float`), ping-pong.
+    history: [wgpu::Texture; 2],
+    /// World point and receiver flag the history saw (`Rgba32Float`), ping-pong.
+    position: [wgpu::Texture; 2],
+}
+
+impl TemporalTargets {
+    fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
+        let storage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
+        let make = |label: &str, format| create_texture(gpu, label, width, height, format, storage);
+        Self {
+            width,
+            height,
+            raw: create_texture(
+                gpu,
+                "pcss/raw",
+                width,
+                height,
+                wgpu::TextureFormat::R32Float,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            ),
+            history: [
+                make("pcss/history 0", wgpu::TextureFormat::Rg32Float),
+                make("pcss/history 1", wgpu::TextureFormat::Rg32Float),
+            ],
+            position: [
+                make("pcss/position 0", wgpu::TextureFormat::Rgba32Float),
+                make("pcss/position 1", wgpu::TextureFormat::Rgba32Float),
+            ],
+        }
+    }
+
+    /// Bytes of the textures per pixel: raw 4, history 2 x 8, position 2 x 16.
+    const BYTES_PER_PIXEL: u64 = 4 + 16 + 32;
+}
+
+/// The temporal mode's pipelines, history and state, made on its first frame (plain PCSS never
+/// builds them).
+struct Temporal {
+    filter_vogel: FullscreenPipeline,
+    filter_grid: FullscreenPipeline,
+    resolve: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    params_buffer: wgpu::Buffer,
+    targets: Option<TemporalTargets>,
+    /// The history texture written last (`history[current]`).
+    current: usize,
+    /// The history holds a frame usable by the next one.
+    history_valid: bool,
+    /// Frames averaged since the history was last dropped, capped at `max_history`.
+    history_frames: u32,
+    /// Rotates the kernel: goes on every temporal frame.
+    frame_index: u32,
+    prev_view_proj: Mat4,
+}
+
+impl Temporal {
+    fn new(gpu: &Gpu, filter_layout: &wgpu::BindGroupLayout) -> Result<Self, TechniqueError> {
+        softshadow_core::technique::check_requirements(gpu, ID, &temporal_requirements())?;
+        let device = &gpu.device;
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let float = wgpu::TextureSampleType::Float { filterable: false };
+        let storage = |binding, format| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: compute,
+            ty: wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format,
+                view_dimension: wgpu::TextureViewDimension::D2,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("pcss/temporal"),
+            entries: &[
+                uniform_entry(0, compute, false),
+                texture_entry(1, compute, float),
+                texture_entry(2, compute, float),
+                texture_entry(3, compute, float),
+                storage(4, wgpu::TextureFormat::Rg32Float),
+                storage(5, wgpu::TextureFormat::Rgba32Float),
+                storage(6, wgpu::TextureFormat::R32Float),
+            ],
+        });
+        let module = shader::create_module(gpu, &SHADERS[1], &[])?;
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("pcss/temporal"),
+            bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
+            immediate_size: 0,
+        });
+        let resolve = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("pcss/temporal"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("temporal"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let temporal = ("TEMPORAL", DefValue::Bool(true));
+        let grid = ("KERNEL_GRID", DefValue::Bool(true));
+        Ok(Self {
+            filter_vogel: FullscreenPipeline::new(
+                gpu,
+                "pcss/filter temporal",
+                &SHADERS[0],
+                &[temporal.clone()],
+                filter_layout,
+                None,
+            )?,
+            filter_grid: FullscreenPipeline::new(
+                gpu,
+                "pcss/filter grid temporal",
+                &SHADERS[0],
+                &[grid, temporal],
+                filter_layout,
+                None,
+            )?,
+            resolve,
+            layout,
+            params_buffer: uniform_buffer(gpu, "pcss/temporal params", &TemporalUniform::zeroed()),
+            targets: None,
+            current: 0,
+            history_valid: false,
+            history_frames: 0,
+            frame_index: 0,
+            prev_view_proj: Mat4::IDENTITY,
+        })
+    }
+}
+
+fn view(t: &wgpu::Texture) -> wgpu::TextureView {
+    t.create_view(&Default::default())
 }
 
 /// The `pcss` technique: a [`ShadowTechnique`] with its settings.
@@ -82,6 +277,8 @@ pub struct Pcss {
     filter_grid: FullscreenPipeline,
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
+    /// The temporal mode, once it has run.
+    temporal: Option<Temporal>,
     stats: TechniqueStats,
 }
 
@@ -110,6 +307,7 @@ impl Pcss {
             params_buffer: uniform_buffer(gpu, "pcss/params", &PcssUniform::zeroed()),
             layout,
             settings,
+            temporal: None,
             stats: TechniqueStats::new(),
         })
     }
@@ -135,20 +333,35 @@ impl ShadowTechnique for Pcss {
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
-        let s = &self.settings;
         if self
             .shadow_map
-            .render(frame, inputs, s.shadow_map_size, "pcss/shadow_map")
+            .render(
+                frame,
+                inputs,
+                self.settings.shadow_map_size,
+                "pcss/shadow_map",
+            )
             .is_none()
         {
             out.write_unshadowed(frame, inputs.frame_bind_group, "pcss/no_casters")?;
+            if let Some(t) = &mut self.temporal {
+                t.history_valid = false;
+            }
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         }
+        if self.settings.temporal && self.temporal.is_none() {
+            self.temporal = Some(Temporal::new(gpu, &self.layout)?);
+        }
+        let s = &self.settings;
+        // Only the temporal mode's frames move the kernel; plain PCSS draws frame 0's pattern
+        // through the permutation without TEMPORAL, which does not read it.
+        let temporal = self.temporal.as_mut().filter(|_| s.temporal);
         let uniform = PcssUniform {
             blocker_samples: s.blocker_samples,
             filter_samples: s.filter_samples,
-            _pad0: [0; 2],
+            frame_index: temporal.as_ref().map_or(0, |t| t.frame_index),
+            _pad0: 0,
             bias_texels: s.bias_texels,
             min_filter_texels: s.min_filter_texels,
             _pad1: [0.0; 2],
@@ -159,21 +372,8 @@ impl ShadowTechnique for Pcss {
             .shadow_map
             .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
             .expect("rendered above");
-        let filter = match s.kernel {
-            Kernel::Vogel => &self.filter_vogel,
-            Kernel::Grid => &self.filter_grid,
-        };
-        filter.record(
-            frame,
-            "pcss/filter",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
-            &out.view,
-            Some(1.0),
-        );
         let pixels = inputs.width as f64 * inputs.height as f64;
-        self.stats = TechniqueStats::from([
+        let mut stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
             (
                 "max_texel_reads_per_pixel".into(),
@@ -181,11 +381,118 @@ impl ShadowTechnique for Pcss {
             ),
             ("pixels".into(), pixels),
         ]);
+        let Some(t) = temporal else {
+            let filter = match s.kernel {
+                Kernel::Vogel => &self.filter_vogel,
+                Kernel::Grid => &self.filter_grid,
+            };
+            filter.record(
+                frame,
+                "pcss/filter",
+                inputs.frame_bind_group,
+                &bind_group,
+                &[],
+                &out.view,
+                Some(1.0),
+            );
+            self.stats = stats;
+            return Ok(());
+        };
+
+        // The temporal mode. The history is a mean over one size and one setting: a change of
+        // either drops it. A moved light or caster keeps it (as a TAA history is kept): the
+        // neighbourhood clip is what rejects the stale part, and what it lets through is the
+        // lag the motion runs measure. A moved camera keeps it too (reprojection follows).
+        let (width, height) = (inputs.width, inputs.height);
+        if t.targets
+            .as_ref()
+            .is_none_or(|x| x.width != width || x.height != height)
+        {
+            t.targets = Some(TemporalTargets::new(gpu, width, height));
+            t.history_valid = false;
+        }
+        if inputs.changes.size || inputs.changes.params {
+            t.history_valid = false;
+        }
+        let targets = t.targets.as_ref().expect("made above");
+        let filter = match s.kernel {
+            Kernel::Vogel => &t.filter_vogel,
+            Kernel::Grid => &t.filter_grid,
+        };
+        let raw = view(&targets.raw);
+        filter.record(
+            frame,
+            "pcss/filter",
+            inputs.frame_bind_group,
+            &bind_group,
+            &[],
+            &raw,
+            Some(1.0),
+        );
+        gpu.queue.write_buffer(
+            &t.params_buffer,
+            0,
+            bytemuck::bytes_of(&TemporalUniform {
+                prev_view_proj: t.prev_view_proj.to_cols_array_2d(),
+                history_valid: u32::from(t.history_valid),
+                max_history: s.max_history.max(1),
+                clamp_sigma: s.clamp_sigma,
+                _pad: 0,
+            }),
+        );
+        let (prev, cur) = (t.current, 1 - t.current);
+        let views = [
+            &raw,
+            &view(&targets.history[prev]),
+            &view(&targets.position[prev]),
+            &view(&targets.history[cur]),
+            &view(&targets.position[cur]),
+            &out.view,
+        ];
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: t.params_buffer.as_entire_binding(),
+        }];
+        for (k, v) in views.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: k as u32 + 1,
+                resource: wgpu::BindingResource::TextureView(v),
+            });
+        }
+        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pcss/temporal"),
+            layout: &t.layout,
+            entries: &entries,
+        });
+        frame.compute_pass("pcss/temporal", |pass| {
+            pass.set_pipeline(&t.resolve);
+            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
+            pass.set_bind_group(1, &group, &[]);
+            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+        });
+        t.history_frames = if t.history_valid {
+            (t.history_frames + 1).min(s.max_history.max(1))
+        } else {
+            1
+        };
+        t.history_valid = true;
+        t.current = cur;
+        t.prev_view_proj = inputs.uniforms.view_proj();
+        t.frame_index = t.frame_index.wrapping_add(1);
+        stats.insert("history_frames".into(), f64::from(t.history_frames));
+        stats.insert(
+            "texture_bytes".into(),
+            pixels * TemporalTargets::BYTES_PER_PIXEL as f64,
+        );
+        self.stats = stats;
         Ok(())
     }
 
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
+        if let Some(t) = &mut self.temporal {
+            t.history_valid = false;
+        }
     }
 
     fn stats(&self) -> TechniqueStats {
@@ -193,6 +500,31 @@ impl ShadowTechnique for Pcss {
     }
 
     fn debug_views(&self) -> Vec<DebugView> {
-        self.shadow_map.debug_views()
+        let mut views = self.shadow_map.debug_views();
+        if let Some(targets) = self
+            .temporal
+            .as_ref()
+            .filter(|_| self.settings.temporal)
+            .and_then(|t| t.targets.as_ref().map(|x| (x, t.current)))
+        {
+            let (x, current) = targets;
+            views.push(DebugView::new(
+                "history frames",
+                &x.history[current],
+                DebugLegend::Value {
+                    meaning: "frames averaged at this pixel".into(),
+                    notes: vec![
+                        "1: history rejected (another surface, off screen) or dropped".into(),
+                        "technique-wide count: stats `history_frames`".into(),
+                    ],
+                },
+            ));
+            views.push(DebugView::new(
+                "this frame",
+                &x.raw,
+                DebugLegend::value("visibility of this frame's rotated kernel, before blending"),
+            ));
+        }
+        views
     }
 }

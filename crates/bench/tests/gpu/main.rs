@@ -11,6 +11,7 @@ mod contract;
 mod light_space_cache;
 mod motion;
 mod msm;
+mod pcss;
 mod pdsm;
 mod raytraced;
 mod smrt;
