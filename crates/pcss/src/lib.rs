@@ -382,6 +382,10 @@ impl ShadowTechnique for Pcss {
             ("pixels".into(), pixels),
         ]);
         let Some(t) = temporal else {
+            // A history made before `temporal` was switched off is stale when it is switched on.
+            if let Some(t) = &mut self.temporal {
+                t.history_valid = false;
+            }
             let filter = match s.kernel {
                 Kernel::Vogel => &self.filter_vogel,
                 Kernel::Grid => &self.filter_grid,
