@@ -237,7 +237,7 @@ impl Temporal {
                 gpu,
                 "pcss/filter temporal",
                 &SHADERS[0],
-                &[temporal.clone()],
+                &[temporal],
                 filter_layout,
                 None,
             )?,
