@@ -203,7 +203,7 @@ fn temporal_pcss_settles_below_plain_pcss_on_a_still_path() -> Result<()> {
     ensure!(flicker.mean > 0.0, "the kernel turns every frame");
 
     // Measured (loaded machine; errors do not depend on the load): plain 0.0557, temporal
-    // settled 0.0373 (16 frames; plain PCSS at 16 + 16 samples: 0.0373), flicker 0.0022.
+    // settled 0.0373 (16 frames; plain PCSS at 16 + 16 samples: 0.0373), flicker 0.0025.
     // The bound is the 1.1x rule over the measured value.
     let bound = 0.041;
     ensure!(
@@ -222,7 +222,7 @@ fn temporal_pcss_settles_below_plain_pcss_on_a_still_path() -> Result<()> {
     let hard_error = vs_exact(&hard)?.mae_shadowed;
     let all_lit = all_lit_vs_exact(&hard)?.mae_shadowed;
     eprintln!("bound {bound}: hard {hard_error:.4}, all lit {all_lit:.4}");
-    // Measured: hard 0.2, all lit 0.5 (see the eprintln above).
+    // Measured: hard 0.2063, all lit 0.4339.
     ensure!(hard_error > bound && all_lit > bound);
     Ok(())
 }
