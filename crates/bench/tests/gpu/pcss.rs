@@ -244,6 +244,22 @@ fn temporal_pcss_lags_behind_a_light_sweep_and_reports_it() -> Result<()> {
         lag.extra_error > 0.0 && lag.frames_to_settle > 0,
         "no lag: {lag:?}"
     );
+    // The neighbourhood clip is the rejection: without it in effect (16 standard deviations)
+    // the old light's shadow stays in the history longer. Measured: extra error 0.0046 at the
+    // default 1, 0.0114 at 16.
+    let (unclipped, _) = run_path(&mut bench, &few(true, &["clamp_sigma=16"]))?;
+    let unclipped_lag = unclipped
+        .motion
+        .as_ref()
+        .and_then(|m| m.lag.clone())
+        .context("lag")?;
+    eprintln!("without the clip: {unclipped_lag:?}");
+    ensure!(
+        unclipped_lag.extra_error > 1.5 * lag.extra_error,
+        "the clip rejects nothing: {} against {}",
+        unclipped_lag.extra_error,
+        lag.extra_error
+    );
     let json = serde_json::to_value(&run)?;
     let reported = &json["motion"]["lag"];
     ensure!(
@@ -255,11 +271,22 @@ fn temporal_pcss_lags_behind_a_light_sweep_and_reports_it() -> Result<()> {
 }
 
 /// The temporal mode keeps the shadow map while only the camera moves (`orbit`), as plain PCSS
-/// does, runs its resolve every frame, and keeps its history through the camera's motion.
+/// does, runs its resolve every frame, and keeps its history through the camera's motion, where
+/// reprojection makes it better than plain PCSS at the same samples, not worse.
 #[test]
 fn camera_only_frames_of_temporal_pcss_keep_the_shadow_map() -> Result<()> {
-    let mut bench = path_bench("orbit", 4)?;
+    let frames = 8;
+    let mut bench = path_bench("orbit", frames)?;
     let (run, records) = run_path(&mut bench, &few(true, &[]))?;
+    let (plain, _) = run_path(&mut bench, &few(false, &[]))?;
+    let error = |r: &Run| r.motion.as_ref().map(|m| m.error.mean).unwrap_or(f64::NAN);
+    eprintln!(
+        "orbit, {FEW} samples, {frames} frames: error plain {:.4}, temporal {:.4}",
+        error(&plain),
+        error(&run)
+    );
+    // Measured: plain 0.0550, temporal 0.0438.
+    ensure!(error(&run) < error(&plain));
     ensure!(records[0].passes_run.iter().any(|p| p == "pcss/shadow_map"));
     for r in &records[1..] {
         ensure!(r.kind == FrameKind::Camera, "{:?}", r.kind);
@@ -272,7 +299,7 @@ fn camera_only_frames_of_temporal_pcss_keep_the_shadow_map() -> Result<()> {
         ensure!(r.passes_run.iter().any(|p| p == "pcss/temporal"));
     }
     ensure!(
-        run.stats.get("history_frames") == Some(&4.0),
+        run.stats.get("history_frames") == Some(&f64::from(frames)),
         "{:?}",
         run.stats
     );
