@@ -75,7 +75,7 @@ pub enum BenchError {
 }
 
 /// One benchmark run: a scene, a technique with settings, a resolution.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RunSpec {
     pub scene: String,
     pub technique: String,
@@ -83,6 +83,9 @@ pub struct RunSpec {
     pub params: Vec<(String, ParamValue)>,
     pub width: u32,
     pub height: u32,
+    /// The path this run follows (`bench --path`, a sweep's `path` or `paths`; docs/BENCHMARKS.md
+    /// "Motion"); `None`: [`BenchOptions::path`], and without that a still frame.
+    pub path: Option<String>,
 }
 
 /// Options shared by all runs.
@@ -108,8 +111,9 @@ pub struct BenchOptions {
     /// `None` renders every reference. Motion runs keep their per-frame exact answers there
     /// too ([`reference_cache::exact_in_dir`]).
     pub reference_cache: Option<PathBuf>,
-    /// Render every run along this path ([`motion`]; a built-in path's name, a path its scene
-    /// file declares, or a `.toml` path file) for `frames` frames, instead of the still frames.
+    /// Render every run whose [`RunSpec::path`] is `None` along this path ([`motion`]; a
+    /// built-in path's name, a path its scene file declares, or a `.toml` path file) for
+    /// `frames` frames, instead of the still frames.
     pub path: Option<String>,
 }
 
@@ -340,7 +344,7 @@ impl Bench {
             expectation: None,
             motion: None,
         };
-        let result = match self.options.path.clone() {
+        let result = match spec.path.clone().or_else(|| self.options.path.clone()) {
             Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),
             None => self.run_inner(index, spec, out_dir, &mut run),
         };

@@ -44,6 +44,7 @@ fn spec(technique: &str, params: Vec<(String, ParamValue)>) -> RunSpec {
         params,
         width: SIZE,
         height: SIZE,
+        path: None,
     }
 }
 
