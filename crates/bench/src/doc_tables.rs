@@ -38,7 +38,8 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 use crate::{
     report::{
         best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms,
-        headline_rows, mae_shadowed, ms, params_text, scenes_of, summary_rows, BUDGETS, TARGET_MAE,
+        headline_rows, mae_shadowed, ms, params_text, scenes_of, still_flicker_text, summary_rows,
+        BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -61,6 +62,7 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("darker_shadowed", "of it too dark"),
     ("brighter_umbra", "too bright in umbra"),
     ("flip", "FLIP"),
+    ("still_flicker", "still flicker"),
     ("exact", "exact answer"),
     ("reference_vs_exact", "reference vs exact (mae_shadowed)"),
     ("all_lit_vs_exact", "no shadow vs exact (mae_shadowed)"),
@@ -316,16 +318,24 @@ fn headline(runs: &[Run]) -> String {
     for b in BUDGETS {
         let _ = write!(t, " <= {b}x `{COST_FLOOR_TECHNIQUE}` |");
     }
-    let _ = writeln!(t, " cost to mae_shadowed <= {TARGET_MAE} |");
+    let _ = writeln!(
+        t,
+        " cost to mae_shadowed <= {TARGET_MAE} | still flicker (largest) |"
+    );
     t.push_str("|---|---|");
-    t.push_str(&"---|".repeat(BUDGETS.len() + 1));
+    t.push_str(&"---|".repeat(BUDGETS.len() + 2));
     t.push('\n');
     for row in headline_rows(runs, &scenes) {
         let _ = write!(t, "| `{}` | `{}` |", row.scene, row.technique);
         for best in &row.best_within {
             let _ = write!(t, " {} |", best.map_or("-".into(), |b| format!("{b:.4}")));
         }
-        let _ = writeln!(t, " {} |", row.cost_text());
+        let _ = writeln!(
+            t,
+            " {} | {} |",
+            row.cost_text(),
+            still_flicker_text(row.still_flicker)
+        );
     }
     t
 }
@@ -453,6 +463,7 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                 "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "brighter_umbra" => brighter_umbra(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
+                "still_flicker" => still_flicker_text(run.still_flicker),
                 "reference_vs_exact" => run
                     .error
                     .as_ref()

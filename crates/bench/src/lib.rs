@@ -337,6 +337,7 @@ impl Bench {
             reference_cache: None,
             error: None,
             stability: None,
+            still_flicker: None,
             stats: BTreeMap::new(),
             passes_run: Vec::new(),
             images: BTreeMap::new(),
@@ -494,6 +495,20 @@ impl Bench {
         let shaded = output::rgba_to_rgb(&renderer.read_shaded()?);
         let mask = renderer.read_receiver_mask()?;
         run.stability = Some(softshadow_metrics::stability(&visibility));
+        // One more frame with nothing changed, as a renderer's next frame: what a still picture
+        // shows changing (the exact answer does not change, so it stands in for both).
+        renderer.render(
+            &scene.gpu,
+            &camera,
+            &light,
+            technique.as_mut(),
+            Some(ShadingMode::Shaded),
+        )?;
+        let next = renderer.read_visibility()?;
+        run.still_flicker = Some(softshadow_metrics::flicker(
+            (&visibility, &visibility, &mask),
+            (&next, &visibility, &mask),
+        )?);
 
         let stem = format!("{index:03}_{}_{}", sanitize(&spec.scene), spec.technique);
         if self.options.images {

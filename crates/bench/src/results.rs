@@ -164,6 +164,13 @@ pub struct Run {
     pub reference_cache: Option<crate::reference_cache::ReferenceCacheUse>,
     pub error: Option<ErrorFields>,
     pub stability: Option<Stability>,
+    /// Flicker on a still frame (docs/BENCHMARKS.md, "Motion"): the mean over receiver pixels of
+    /// |V_next - V_last| between the run's last frame and one more frame in which nothing
+    /// changed (caches kept, as a renderer's next frame). 0 for a deterministic technique; the
+    /// per-frame noise of one that changes its answer every frame (`varies_per_frame`), or the
+    /// change of one that keeps accumulating.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub still_flicker: Option<f64>,
     pub stats: BTreeMap<String, f64>,
     pub passes_run: Vec<String>,
     /// kind (`visibility`, `reference`, `shaded`, `reference_shaded`, `difference`) -> file name in the

@@ -100,6 +100,42 @@ fn a_still_path_gives_zero_flicker_for_every_deterministic_technique() -> Result
     Ok(())
 }
 
+#[test]
+fn the_still_bench_measures_zero_still_flicker_for_deterministic_techniques_and_more_for_the_others(
+) -> Result<()> {
+    let registry = softshadow::registry();
+    let options = BenchOptions {
+        frames: 1,
+        warmup: 1,
+        images: false,
+        camera_only: false,
+        error: false,
+        ..Default::default()
+    };
+    let mut bench = Bench::new(gpu()?, registry.clone(), options)?;
+    let dir = tempfile::tempdir()?;
+    for info in registry.iter() {
+        let run = bench.run(0, &spec(&info.id, fast_params(&info.id)), dir.path());
+        ensure!(run.status == Status::Ok, "{}: {}", info.id, run.message);
+        let flicker = run
+            .still_flicker
+            .context("a still run measures its flicker")?;
+        match &info.varies_per_frame {
+            None => ensure!(
+                flicker == 0.0,
+                "{}: still flicker {flicker} between two frames in which nothing moved; if it changes its answer per frame on purpose, its descriptor says so",
+                info.id
+            ),
+            Some(why) => ensure!(
+                flicker > 0.0,
+                "{}: says it varies per frame ({why}) but two still frames are identical",
+                info.id
+            ),
+        }
+    }
+    Ok(())
+}
+
 // A test technique: `hard`, plus noise of amplitude `a` drawn anew every frame (+a or -a with
 // equal chance, independently per pixel and frame), added with a blend pass. Between two frames
 // a pixel's noise changes by 0 (half the time) or 2a: the flicker it predicts is exactly a in
