@@ -273,14 +273,16 @@ impl RenderWorker {
     }
 }
 
-/// Light rays the ray-traced exact answer of one timeline step may trace: on lavapipe (2 cores,
-/// about 0.5-1 M rays/s) a few seconds a step, measured in docs/BENCHMARKS.md, "Motion".
-pub(super) const LIVE_TRACED_RAYS: usize = 1 << 21;
+/// Light rays the ray-traced exact answer of one timeline step may trace: about a second a step
+/// on lavapipe with 2 loaded cores (1.3 s for 4 x 4 samples over atty-square's receivers at the
+/// viewer's 700x800, measured; docs/BENCHMARKS.md, "Motion"), so 3 or 4 samples per axis at the
+/// viewer's full size, 11 at 256², the maximum at 128².
+pub(super) const LIVE_TRACED_RAYS: usize = 1 << 23;
 
 /// Light samples per axis of a live ray-traced exact answer over `receivers` receiver pixels:
 /// as many as [`LIVE_TRACED_RAYS`] allows, at least 2 (4 rays a pixel: a coarse answer, its
-/// error `O(1/N)` at a penumbra point; the screen says which N) and at most 16 (256 rays, the
-/// CPU ray cast's default).
+/// error up to about `1/N` at a penumbra point; the panel says which N and suggests a smaller
+/// render size) and at most 16 (256 rays, the CPU ray cast's default).
 pub(super) fn traced_samples_per_axis(receivers: usize) -> u32 {
     let per_pixel = LIVE_TRACED_RAYS / receivers.max(1);
     ((per_pixel as f64).sqrt().floor() as u32).clamp(2, 16)
@@ -552,5 +554,20 @@ impl Worker {
             rgba,
             mapping,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_live_traced_samples_follow_the_ray_budget_within_their_bounds() {
+        // The viewer's full size (700x800, most pixels receivers), 256², the UI test's 96x64.
+        assert_eq!(traced_samples_per_axis(560_000), 3);
+        assert_eq!(traced_samples_per_axis(256 * 256), 11);
+        assert_eq!(traced_samples_per_axis(96 * 64), 16);
+        assert_eq!(traced_samples_per_axis(0), 16);
+        assert_eq!(traced_samples_per_axis(usize::MAX), 2);
     }
 }

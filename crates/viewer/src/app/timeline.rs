@@ -27,6 +27,9 @@ use crate::{
 /// Frames of the rolling window the live error and flicker are averaged over.
 pub const LIVE_WINDOW: usize = 30;
 
+/// Below this many light samples per axis the panel calls a live ray-traced exact answer coarse.
+pub const COARSE_TRACED_SAMPLES: u32 = 8;
+
 /// Frames a path is played in unless the user says otherwise.
 pub const DEFAULT_STEPS: u32 = 60;
 
@@ -590,6 +593,15 @@ impl ViewerApp {
                  elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
                  penumbra point for N x N samples) is part of the error and flicker shown",
             );
+            if let LiveExact::Traced { samples_per_axis } = last.exact {
+                if samples_per_axis < COARSE_TRACED_SAMPLES {
+                    ui.small(format!(
+                        "coarse: its own error reaches about {:.2} at a penumbra pixel; a \
+                         smaller render size affords more samples",
+                        1.0 / samples_per_axis as f64
+                    ));
+                }
+            }
         }
     }
 }
