@@ -1277,10 +1277,32 @@ fn the_timeline_plays_a_path_with_live_error_and_flicker_and_records_it() -> Res
         harness
             .state()
             .status()
-            .is_some_and(|s| s.starts_with("recorded")),
-        "{:?}",
-        harness.state().status()
+            .is_some_and(|s| s.starts_with("recorded") && s.contains("animation.png")),
+        "{:?} {:?}",
+        harness.state().status(),
+        harness.state().errors()
     );
+    // Stop joins the frames into one animated PNG, every frame in it.
+    let written = std::fs::read_dir(&recorded)?
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.file_name().to_string_lossy().starts_with("frame-"))
+        })
+        .count() as u32;
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(
+        recorded.join("animation.png"),
+    )?));
+    let reader = decoder.read_info()?;
+    let control = reader
+        .info()
+        .animation_control
+        .context("animation.png is animated")?;
+    ensure!(
+        written >= 6 && control.num_frames == written,
+        "{} animation frames of {written} PNG frames",
+        control.num_frames
+    );
+    ensure!((reader.info().width, reader.info().height) == (192, 64));
 
     // The steps' GPU timings, split as the benchmark splits them: object-move slides the caster
     // (light-space work redone), then holds it (still steps keep that work), never moving only

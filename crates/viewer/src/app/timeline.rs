@@ -1,7 +1,8 @@
 //! The timeline (issue 28): plays a path (docs/SCENES.md, "Paths") over the open scene: play,
 //! pause, scrub, loop; the error and the flicker against the exact answer of every frame shown
-//! live over a rolling window; Record writes each played frame, technique beside the exact
-//! answer, as PNG files.
+//! live over a rolling window, with the GPU pass times of the played steps split by what moved;
+//! Record writes each played frame, technique beside the exact answer, as PNG files, and on
+//! Stop one animated PNG of them.
 //!
 //! A played path steps at fixed times (`steps` frames from its start to its end, as
 //! `bench --path NAME --frames N` does) and moves on only once the technique's frame of the
@@ -26,6 +27,9 @@ use crate::{
 
 /// Frames of the rolling window the live error and flicker are averaged over.
 pub const LIVE_WINDOW: usize = 30;
+
+/// The animated PNG Record writes beside the frames when it stops.
+pub const ANIMATION_FILE: &str = "animation.png";
 
 /// Below this many light samples per axis the panel calls a live ray-traced exact answer coarse.
 pub const COARSE_TRACED_SAMPLES: u32 = 8;
@@ -258,7 +262,8 @@ impl ViewerApp {
             .collect()
     }
 
-    /// Writes every played frame (technique beside the exact answer) as PNG into `folder`.
+    /// Writes every played frame (technique beside the exact answer) as PNG into `folder`;
+    /// `None` stops and joins the frames into one animated PNG there ([`ANIMATION_FILE`]).
     pub fn record_path(&mut self, folder: Option<&str>) {
         match folder {
             Some(folder) => match std::fs::create_dir_all(folder) {
@@ -270,8 +275,21 @@ impl ViewerApp {
             },
             None => {
                 if let Some(frames) = self.timeline.recording.take() {
-                    let folder = shown_path(std::path::Path::new(&self.timeline.record_folder));
-                    self.confirm(format!("recorded {frames} frames in {folder}"));
+                    let dir = PathBuf::from(&self.timeline.record_folder);
+                    let folder = shown_path(&dir);
+                    if frames == 0 {
+                        self.confirm(format!("recorded no frames in {folder}"));
+                        return;
+                    }
+                    match write_animation(&dir, frames) {
+                        Ok(()) => self.confirm(format!(
+                            "recorded {frames} frames in {folder} (and {ANIMATION_FILE} at {} fps)",
+                            softshadow_bench::motion::ANIMATION_FPS
+                        )),
+                        Err(e) => self.report_error(format!(
+                            "recorded {frames} frames in {folder}, but not {ANIMATION_FILE}: {e}"
+                        )),
+                    }
                 }
             }
         }
@@ -475,7 +493,8 @@ impl ViewerApp {
             } else if ui
                 .button("Record")
                 .on_hover_text(
-                    "Write every played frame, technique beside the exact answer, as PNG",
+                    "Write every played frame, technique beside the exact answer, as PNG; on Stop, \
+                     also one animated PNG of them",
                 )
                 .clicked()
             {
@@ -604,4 +623,54 @@ impl ViewerApp {
             }
         }
     }
+}
+
+/// Joins the `frames` PNG files Record wrote in `folder` into one animated PNG,
+/// [`ANIMATION_FILE`], looping, at the bench's [`softshadow_bench::motion::ANIMATION_FPS`]; one
+/// frame is read at a time, so a long recording needs the memory of one frame. Frames of
+/// another size than the first (the render size changed while recording) make it an error
+/// (the PNG frames stay), and a half-written file is removed.
+fn write_animation(folder: &std::path::Path, frames: u32) -> Result<(), String> {
+    let out = folder.join(ANIMATION_FILE);
+    let frame_path = |i: u32| folder.join(format!("frame-{i:04}.png"));
+    let read = |i: u32| -> Result<image::RgbaImage, String> {
+        let path = frame_path(i);
+        image::open(&path)
+            .map(|f| f.to_rgba8())
+            .map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let write = || -> Result<(), String> {
+        let first = read(0)?;
+        let (width, height) = first.dimensions();
+        let file = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+        let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder
+            .set_animated(frames, 0)
+            .and_then(|()| encoder.set_frame_delay(1, softshadow_bench::motion::ANIMATION_FPS))
+            .map_err(|e| e.to_string())?;
+        let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+        writer
+            .write_image_data(first.as_raw())
+            .map_err(|e| e.to_string())?;
+        for i in 1..frames {
+            let frame = read(i)?;
+            if frame.dimensions() != (width, height) {
+                return Err(format!(
+                    "frame {i} is {}x{}, the first {width}x{height}: the render size changed \
+                     while recording (keep it fixed for an animation)",
+                    frame.width(),
+                    frame.height()
+                ));
+            }
+            writer
+                .write_image_data(frame.as_raw())
+                .map_err(|e| e.to_string())?;
+        }
+        writer.finish().map_err(|e| e.to_string())
+    };
+    write().inspect_err(|_| {
+        let _ = std::fs::remove_file(&out);
+    })
 }
