@@ -14,6 +14,7 @@ pub mod report;
 pub mod results;
 pub mod stress;
 pub mod sweep;
+pub mod video_metric;
 
 use std::{
     collections::{BTreeMap, HashMap},

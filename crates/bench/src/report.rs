@@ -773,7 +773,7 @@ fn motion_section(
 /// The per-path summaries of `in_group`'s runs, least flicker first.
 fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frames</th><th>error mean</th><th>error p95</th><th>error max</th><th>flicker mean</th><th>flicker p95</th><th>flicker max</th><th title=\"error right after the last moving frame minus the settled error, and frames until settled\">lag</th><th>frame ms (median)</th><th>camera-only ms</th><th>light-moving ms</th><th class=\"l\">exact (frames)</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frames</th><th>error mean</th><th>error p95</th><th>error max</th><th>flicker mean</th><th>flicker p95</th><th>flicker max</th><th title=\"ColorVideoVDP of the sequence against the sequence of exact answers, shown as grey on a 24-inch FHD display at the frame rate of the path: 10 = no visible difference (docs/BENCHMARKS.md, Motion)\">JOD</th><th title=\"error right after the last moving frame minus the settled error, and frames until settled\">lag</th><th>frame ms (median)</th><th>camera-only ms</th><th>light-moving ms</th><th class=\"l\">exact (frames)</th><th class=\"l\">status</th></tr>",
     );
     let flicker_of = |i: usize| {
         runs[i]
@@ -789,7 +789,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
         let Some(m) = run.motion.as_ref().filter(|_| run.status == Status::Ok) else {
             let _ = write!(
                 t,
-                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td colspan=\"12\"></td><td class=\"l\"><span class=\"warn\">error: {}</span></td></tr>",
+                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td colspan=\"13\"></td><td class=\"l\"><span class=\"warn\">error: {}</span></td></tr>",
                 escape(&run.technique),
                 escape(&params_text(run)),
                 escape(&run.message)
@@ -809,7 +809,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
             .collect();
         let _ = write!(
             t,
-            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">ok</td></tr>",
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">ok</td></tr>",
             escape(&run.technique),
             escape(&params_text(run)),
             m.frames,
@@ -819,6 +819,9 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
             flicker(|s| s.mean),
             flicker(|s| s.p95),
             flicker(|s| s.max),
+            m.video_quality
+                .as_ref()
+                .map_or("-".into(), |q| format!("{:.2}", q.jod)),
             m.lag.as_ref().map_or("-".into(), |l| format!(
                 "{:+.4} ({} frames)",
                 l.extra_error, l.frames_to_settle
