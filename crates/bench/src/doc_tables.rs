@@ -22,6 +22,10 @@
 //!   is on the Pareto front, its median lowest error within each budget, its mean rank.
 //! - `runs FILE columns=a,b,.. [technique=ID] [scene=SCENE]`: one row per run, the columns named
 //!   (see [`COLUMNS`]).
+//! - `motion FILE scene=SCENE`: runs along paths (docs/BENCHMARKS.md "Motion"), one row per
+//!   technique and settings, per path its mean error, mean flicker, lag (where a run has one)
+//!   and the median frame time of the frames the path is about (light moving, else camera only,
+//!   else still) over the cost floor's on the same path.
 
 use std::{
     collections::BTreeMap,
@@ -34,7 +38,8 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 use crate::{
     report::{
         best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms,
-        headline_rows, mae_shadowed, ms, params_text, scenes_of, summary_rows, BUDGETS, TARGET_MAE,
+        headline_rows, mae_shadowed, ms, params_text, scenes_of, still_flicker_text, summary_rows,
+        BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -57,6 +62,7 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("darker_shadowed", "of it too dark"),
     ("brighter_umbra", "too bright in umbra"),
     ("flip", "FLIP"),
+    ("still_flicker", "still flicker"),
     ("exact", "exact answer"),
     ("reference_vs_exact", "reference vs exact (mae_shadowed)"),
     ("all_lit_vs_exact", "no shadow vs exact (mae_shadowed)"),
@@ -219,9 +225,10 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         "headline" => headline(&results.runs),
         "summary" => summary(&results.runs),
         "runs" => runs_table(&results.runs, &options)?,
+        "motion" => motion_table(&results.runs, &options)?,
         other => {
             return Err(format!(
-                "unknown table kind `{other}`: use stiff-matrix, headline, summary or runs"
+                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs or motion"
             ))
         }
     };
@@ -311,16 +318,24 @@ fn headline(runs: &[Run]) -> String {
     for b in BUDGETS {
         let _ = write!(t, " <= {b}x `{COST_FLOOR_TECHNIQUE}` |");
     }
-    let _ = writeln!(t, " cost to mae_shadowed <= {TARGET_MAE} |");
+    let _ = writeln!(
+        t,
+        " cost to mae_shadowed <= {TARGET_MAE} | still flicker (largest) |"
+    );
     t.push_str("|---|---|");
-    t.push_str(&"---|".repeat(BUDGETS.len() + 1));
+    t.push_str(&"---|".repeat(BUDGETS.len() + 2));
     t.push('\n');
     for row in headline_rows(runs, &scenes) {
         let _ = write!(t, "| `{}` | `{}` |", row.scene, row.technique);
         for best in &row.best_within {
             let _ = write!(t, " {} |", best.map_or("-".into(), |b| format!("{b:.4}")));
         }
-        let _ = writeln!(t, " {} |", row.cost_text());
+        let _ = writeln!(
+            t,
+            " {} | {} |",
+            row.cost_text(),
+            still_flicker_text(row.still_flicker)
+        );
     }
     t
 }
@@ -448,6 +463,7 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                 "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "brighter_umbra" => brighter_umbra(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
+                "still_flicker" => still_flicker_text(run.still_flicker),
                 "reference_vs_exact" => run
                     .error
                     .as_ref()
@@ -470,6 +486,162 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                 _ => unreachable!("columns checked above"),
             };
             let _ = write!(t, " {} |", value.replace('|', "\\|"));
+        }
+        t.push('\n');
+    }
+    Ok(t)
+}
+
+/// The frame time a path is about: light-moving frames, else camera-only ones, else still ones
+/// (median ms), and which kind it was.
+fn path_frame_ms(run: &Run) -> Option<(&'static str, f64)> {
+    let times = &run.motion.as_ref()?.frame_ms;
+    times
+        .light_moving
+        .as_ref()
+        .map(|p| ("light moving", p.median))
+        .or_else(|| {
+            times
+                .camera_only
+                .as_ref()
+                .map(|p| ("camera only", p.median))
+        })
+        .or_else(|| times.still.as_ref().map(|p| ("still", p.median)))
+}
+
+/// A ratio to about three significant figures (0.742, 5.34, 130, 1030).
+fn three_figures(x: f64) -> String {
+    match x.abs() {
+        a if a >= 100.0 => format!("{x:.0}"),
+        a if a >= 10.0 => format!("{x:.1}"),
+        a if a >= 1.0 => format!("{x:.2}"),
+        _ => format!("{x:.3}"),
+    }
+}
+
+fn motion_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, String> {
+    for key in options.keys() {
+        if *key != "scene" {
+            return Err(format!(
+                "unknown option `{key}`: a `motion` table takes scene=SCENE"
+            ));
+        }
+    }
+    let scene = *options
+        .get("scene")
+        .ok_or("a `motion` table needs scene=SCENE")?;
+    let on_scene: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.scene == scene && r.motion.is_some())
+        .collect();
+    if on_scene.is_empty() {
+        return Err(format!("no run along a path on `{scene}` in the results"));
+    }
+    let paths = ordered(
+        on_scene
+            .iter()
+            .filter_map(|r| r.motion.as_ref().map(|m| m.path.as_str())),
+    );
+    // Settings that differ between a technique's runs here name its rows (all runs record
+    // every parameter; the ones they share would only repeat the defaults).
+    let varying = |r: &Run| -> String {
+        let same_technique: Vec<&Run> = on_scene
+            .iter()
+            .copied()
+            .filter(|o| o.technique == r.technique)
+            .collect();
+        r.params
+            .iter()
+            .filter(|(name, value)| {
+                same_technique
+                    .iter()
+                    .any(|o| o.params.get(*name) != Some(*value))
+            })
+            .map(|(name, value)| format!("{name}={value}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let row_of = |r: &Run| (r.technique.clone(), varying(r));
+    let mut rows: Vec<(String, String)> = Vec::new();
+    for run in &on_scene {
+        if !rows.contains(&row_of(run)) {
+            rows.push(row_of(run));
+        }
+    }
+    let find = |row: &(String, String), path: &str| {
+        on_scene
+            .iter()
+            .copied()
+            .find(|r| row_of(r) == *row && r.motion.as_ref().is_some_and(|m| m.path == path))
+    };
+    // A lag column only where some run keeps history (a non-zero lag).
+    let has_lag = |path: &str| {
+        on_scene.iter().any(|r| {
+            r.motion.as_ref().is_some_and(|m| {
+                m.path == path && m.lag.as_ref().is_some_and(|l| l.frames_to_settle > 0)
+            })
+        })
+    };
+    let floor_ms = |run: &Run, path: &str| {
+        on_scene
+            .iter()
+            .filter(|r| {
+                r.technique == COST_FLOOR_TECHNIQUE
+                    && (r.width, r.height) == (run.width, run.height)
+                    && r.motion.as_ref().is_some_and(|m| m.path == path)
+            })
+            .filter_map(|r| path_frame_ms(r).map(|(_, ms)| ms))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut t = String::from("| technique | settings that differ |");
+    let mut columns = 2;
+    for path in &paths {
+        let _ = write!(t, " error {path} | flicker {path} |");
+        columns += 2;
+        if has_lag(path) {
+            let _ = write!(t, " lag {path} (extra error, frames) |");
+            columns += 1;
+        }
+    }
+    for path in &paths {
+        let kind = on_scene
+            .iter()
+            .filter(|r| r.motion.as_ref().is_some_and(|m| m.path == *path))
+            .find_map(|r| path_frame_ms(r).map(|(kind, _)| kind))
+            .unwrap_or("still");
+        let _ = write!(t, " {kind} frame / `{COST_FLOOR_TECHNIQUE}`'s ({path}) |");
+        columns += 1;
+    }
+    t.push_str("\n|");
+    t.push_str(&"---|".repeat(columns));
+    t.push('\n');
+    let dash = || "-".to_string();
+    for row in &rows {
+        let _ = write!(t, "| `{}` | {} |", row.0, row.1.replace('|', "\\|"));
+        for path in &paths {
+            let run = find(row, path);
+            let motion = run.and_then(|r| r.motion.as_ref());
+            let error = motion.map_or_else(dash, |m| format!("{:.4}", m.error.mean));
+            let flicker = motion
+                .and_then(|m| m.flicker.as_ref())
+                .map_or_else(dash, |f| format!("{:.4}", f.mean));
+            let _ = write!(t, " {error} | {flicker} |");
+            if has_lag(path) {
+                let lag = motion.and_then(|m| m.lag.as_ref()).map_or_else(dash, |l| {
+                    format!("{:.4}, {}", l.extra_error, l.frames_to_settle)
+                });
+                let _ = write!(t, " {lag} |");
+            }
+        }
+        for path in &paths {
+            let ratio = find(row, path)
+                .and_then(|r| {
+                    let (_, ms) = path_frame_ms(r)?;
+                    let floor = floor_ms(r, path);
+                    floor.is_finite().then(|| ms / floor)
+                })
+                .map_or_else(dash, three_figures);
+            let _ = write!(t, " {ratio} |");
         }
         t.push('\n');
     }

@@ -14,6 +14,7 @@ pub mod report;
 pub mod results;
 pub mod stress;
 pub mod sweep;
+pub mod video_metric;
 
 use std::{
     collections::{BTreeMap, HashMap},
@@ -75,7 +76,7 @@ pub enum BenchError {
 }
 
 /// One benchmark run: a scene, a technique with settings, a resolution.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RunSpec {
     pub scene: String,
     pub technique: String,
@@ -83,6 +84,9 @@ pub struct RunSpec {
     pub params: Vec<(String, ParamValue)>,
     pub width: u32,
     pub height: u32,
+    /// The path this run follows (`bench --path`, a sweep's `path` or `paths`; docs/BENCHMARKS.md
+    /// "Motion"); `None`: [`BenchOptions::path`], and without that a still frame.
+    pub path: Option<String>,
 }
 
 /// Options shared by all runs.
@@ -108,8 +112,9 @@ pub struct BenchOptions {
     /// `None` renders every reference. Motion runs keep their per-frame exact answers there
     /// too ([`reference_cache::exact_in_dir`]).
     pub reference_cache: Option<PathBuf>,
-    /// Render every run along this path ([`motion`]; a built-in path's name, a path its scene
-    /// file declares, or a `.toml` path file) for `frames` frames, instead of the still frames.
+    /// Render every run whose [`RunSpec::path`] is `None` along this path ([`motion`]; a
+    /// built-in path's name, a path its scene file declares, or a `.toml` path file) for
+    /// `frames` frames, instead of the still frames.
     pub path: Option<String>,
 }
 
@@ -333,6 +338,7 @@ impl Bench {
             reference_cache: None,
             error: None,
             stability: None,
+            still_flicker: None,
             stats: BTreeMap::new(),
             passes_run: Vec::new(),
             images: BTreeMap::new(),
@@ -340,7 +346,7 @@ impl Bench {
             expectation: None,
             motion: None,
         };
-        let result = match self.options.path.clone() {
+        let result = match spec.path.clone().or_else(|| self.options.path.clone()) {
             Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),
             None => self.run_inner(index, spec, out_dir, &mut run),
         };
@@ -490,6 +496,20 @@ impl Bench {
         let shaded = output::rgba_to_rgb(&renderer.read_shaded()?);
         let mask = renderer.read_receiver_mask()?;
         run.stability = Some(softshadow_metrics::stability(&visibility));
+        // One more frame with nothing changed, as a renderer's next frame: what a still picture
+        // shows changing (the exact answer does not change, so it stands in for both).
+        renderer.render(
+            &scene.gpu,
+            &camera,
+            &light,
+            technique.as_mut(),
+            Some(ShadingMode::Shaded),
+        )?;
+        let next = renderer.read_visibility()?;
+        run.still_flicker = Some(softshadow_metrics::flicker(
+            (&visibility, &visibility, &mask),
+            (&next, &visibility, &mask),
+        )?);
 
         let stem = format!("{index:03}_{}_{}", sanitize(&spec.scene), spec.technique);
         if self.options.images {

@@ -244,6 +244,7 @@ impl Bench {
             None
         };
 
+        let mut video = crate::video_metric::Sequences::new(width, height, frames);
         let mut gpu_scene: Option<SceneGpu> = None;
         let mut previous: Option<Previous> = None;
         let mut series = Series::default();
@@ -363,6 +364,7 @@ impl Bench {
             if let Some(animation) = &mut animation {
                 animation.frame(width, &visibility, &exact)?;
             }
+            video.push(&visibility, &exact);
             for pass in &output.passes_run {
                 *passes.entry(pass.clone()).or_default() += 1;
             }
@@ -414,6 +416,16 @@ impl Bench {
                 .collect();
             (!ms.is_empty()).then(|| results::percentiles(&ms))
         };
+        let video_quality = {
+            puffin::profile_scope!("perceptual video metric of a path run");
+            match video.score(crate::video_metric::path_fps(path.duration, frames)) {
+                Ok(score) => Some(score),
+                Err(why) => {
+                    run.warnings.push(why);
+                    None
+                }
+            }
+        };
         let motion = Motion {
             path: path_spec.to_string(),
             duration_s: path.duration,
@@ -434,6 +446,7 @@ impl Bench {
             exact_cache: cache_counts,
             passes,
             series,
+            video_quality,
         };
         run.timing = Some(timings.finish());
         run.passes_run = last_passes;

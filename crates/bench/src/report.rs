@@ -773,7 +773,7 @@ fn motion_section(
 /// The per-path summaries of `in_group`'s runs, least flicker first.
 fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frames</th><th>error mean</th><th>error p95</th><th>error max</th><th>flicker mean</th><th>flicker p95</th><th>flicker max</th><th title=\"error right after the last moving frame minus the settled error, and frames until settled\">lag</th><th>frame ms (median)</th><th>camera-only ms</th><th>light-moving ms</th><th class=\"l\">exact (frames)</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frames</th><th>error mean</th><th>error p95</th><th>error max</th><th>flicker mean</th><th>flicker p95</th><th>flicker max</th><th title=\"ColorVideoVDP of the sequence against the sequence of exact answers, shown as grey on a 24-inch FHD display at the frame rate of the path: 10 = no visible difference (docs/BENCHMARKS.md, Motion)\">JOD</th><th title=\"error right after the last moving frame minus the settled error, and frames until settled\">lag</th><th>frame ms (median)</th><th>camera-only ms</th><th>light-moving ms</th><th class=\"l\">exact (frames)</th><th class=\"l\">status</th></tr>",
     );
     let flicker_of = |i: usize| {
         runs[i]
@@ -789,7 +789,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
         let Some(m) = run.motion.as_ref().filter(|_| run.status == Status::Ok) else {
             let _ = write!(
                 t,
-                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td colspan=\"12\"></td><td class=\"l\"><span class=\"warn\">error: {}</span></td></tr>",
+                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td colspan=\"13\"></td><td class=\"l\"><span class=\"warn\">error: {}</span></td></tr>",
                 escape(&run.technique),
                 escape(&params_text(run)),
                 escape(&run.message)
@@ -809,7 +809,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
             .collect();
         let _ = write!(
             t,
-            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">ok</td></tr>",
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">ok</td></tr>",
             escape(&run.technique),
             escape(&params_text(run)),
             m.frames,
@@ -819,6 +819,9 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
             flicker(|s| s.mean),
             flicker(|s| s.p95),
             flicker(|s| s.max),
+            m.video_quality
+                .as_ref()
+                .map_or("-".into(), |q| format!("{:.2}", q.jod)),
             m.lag.as_ref().map_or("-".into(), |l| format!(
                 "{:+.4} ({} frames)",
                 l.extra_error, l.frames_to_settle
@@ -841,7 +844,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th class=\"l\">vs</th><th>FLIP</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th class=\"l\">vs</th><th>FLIP</th><th title=\"mean over receiver pixels of the change between the run's last frame and one more in which nothing moved\">still flicker</th><th class=\"l\">status</th></tr>",
     );
     let mut order = in_scene.to_vec();
     order.sort_by(|&a, &b| {
@@ -871,7 +874,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
         };
         let _ = write!(
             t,
-            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             if front.contains(&i) { " class=\"front\"" } else { "" },
             escape(&run.technique),
             escape(&params_text(run)),
@@ -886,6 +889,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
             brighter_umbra(run).map_or("-".into(), |v| format!("{v:.4}")),
             if run.error.is_some() { mae_against(run) } else { "-" },
             flip(run).map_or("-".into(), |v| format!("{v:.4}")),
+            still_flicker_text(run.still_flicker),
             status
         );
     }
@@ -949,6 +953,9 @@ pub struct HeadlineRow {
     pub cost_to_target_ms: Option<f64>,
     /// The fastest cost-floor frame time on the scene, ms (`None`: no cost-floor run).
     pub floor_ms: Option<f64>,
+    /// The largest still-frame flicker ([`crate::results::Run::still_flicker`]) of the
+    /// technique's settings on the scene (`None`: no run measured one).
+    pub still_flicker: Option<f64>,
 }
 
 /// The scenes (with their size) of `runs`, in first-seen order.
@@ -1015,6 +1022,11 @@ pub fn headline_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<Headlin
                 best_within,
                 cost_to_target_ms: cost.is_finite().then_some(cost),
                 floor_ms: floor.is_finite().then_some(floor),
+                still_flicker: in_scene
+                    .iter()
+                    .filter(|r| r.technique == technique)
+                    .filter_map(|r| r.still_flicker)
+                    .reduce(f64::max),
             });
         }
     }
@@ -1215,11 +1227,14 @@ fn summary_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
 }
 
 fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
-    let mut t = format!("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Last column: the fastest setting with mae_shadowed &le; {TARGET_MAE}.</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
+    let mut t = format!("<h2>Headline: lowest error at matched time budgets</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on the same scene; a dash: no setting of the technique fits the budget. Cost column: the fastest setting with mae_shadowed &le; {TARGET_MAE}. Still flicker: the largest, over its settings, of the change between two frames in which nothing moved (0: its picture holds still).</p><table><tr><th class=\"l\">scene</th><th class=\"l\">technique</th>");
     for b in BUDGETS {
         let _ = write!(t, "<th>&le; {b}x {COST_FLOOR_TECHNIQUE}</th>");
     }
-    let _ = write!(t, "<th>cost to mae &le; {TARGET_MAE}</th></tr>");
+    let _ = write!(
+        t,
+        "<th>cost to mae &le; {TARGET_MAE}</th><th title=\"mean over receiver pixels of the change between two frames in which nothing moved, the largest over its settings\">still flicker</th></tr>"
+    );
     for row in headline_rows(runs, scenes) {
         let _ = write!(
             t,
@@ -1234,10 +1249,24 @@ fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
                 best.map_or("-".into(), |b| format!("{b:.4}"))
             );
         }
-        let _ = write!(t, "<td>{}</td></tr>", escape(&row.cost_text()));
+        let _ = write!(
+            t,
+            "<td>{}</td><td>{}</td></tr>",
+            escape(&row.cost_text()),
+            still_flicker_text(row.still_flicker)
+        );
     }
     t.push_str("</table>");
     t
+}
+
+/// A still-frame flicker as text: exactly 0 says so, a dash for none measured.
+pub fn still_flicker_text(flicker: Option<f64>) -> String {
+    match flicker {
+        None => "-".into(),
+        Some(f) if f == 0.0 => "0".into(),
+        Some(f) => format!("{f:.5}"),
+    }
 }
 
 fn csv_field(text: &str) -> String {
@@ -1251,7 +1280,7 @@ fn csv_field(text: &str) -> String {
 /// The runs as one flat CSV (one row per run), for pandas or R.
 pub fn runs_csv(merged: &Merged) -> String {
     let mut out = String::from(
-        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,message\n",
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,still_flicker,message\n",
     );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for run in &merged.results.runs {
@@ -1292,6 +1321,7 @@ pub fn runs_csv(merged: &Merged) -> String {
             num(error.map(|e| e.report.mae_all)),
             num(error.map(|e| e.report.rmse)),
             num(flip(run)),
+            num(run.still_flicker),
             csv_field(&run.message),
         ];
         out.push_str(&row.join(","));

@@ -164,6 +164,13 @@ pub struct Run {
     pub reference_cache: Option<crate::reference_cache::ReferenceCacheUse>,
     pub error: Option<ErrorFields>,
     pub stability: Option<Stability>,
+    /// Flicker on a still frame (docs/BENCHMARKS.md, "Motion"): the mean over receiver pixels of
+    /// |V_next - V_last| between the run's last frame and one more frame in which nothing
+    /// changed (caches kept, as a renderer's next frame). 0 for a deterministic technique; the
+    /// per-frame noise of one that changes its answer every frame (`varies_per_frame`), or the
+    /// change of one that keeps accumulating.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub still_flicker: Option<f64>,
     pub stats: BTreeMap<String, f64>,
     pub passes_run: Vec<String>,
     /// kind (`visibility`, `reference`, `shaded`, `reference_shaded`, `difference`) -> file name in the
@@ -224,6 +231,29 @@ pub struct Motion {
     /// Per-frame series for the report's plots: error (mae_shadowed), flicker (from frame k - 1
     /// to k; 0 for frame 0), frame time, and what changed.
     pub series: Series,
+    /// A perceptual video metric of the whole sequence against the exact answers' (beside the
+    /// plain measures above, never instead of them); absent, with a warning of the run saying
+    /// why, when it could not be computed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub video_quality: Option<VideoQuality>,
+}
+
+/// The perceptual video metric of a run along a path (`video_metric`; docs/BENCHMARKS.md,
+/// "Motion").
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct VideoQuality {
+    /// The metric and the crate version that computed it.
+    pub metric: String,
+    /// Just-objectionable differences: 10 when the technique's sequence cannot be told from the
+    /// exact answers', lower the more visible the difference (1 JOD apart: 75% of observers
+    /// prefer the higher).
+    pub jod: f64,
+    /// The display model the grey-level sequences were shown on.
+    pub display: String,
+    /// Frames per second they were played at (the path's own rate).
+    pub fps: f64,
+    /// CPU seconds the metric took.
+    pub cpu_s: f64,
 }
 
 /// Mean, 95th percentile and maximum of a per-frame quantity.

@@ -6,6 +6,7 @@
 //! warmup = 2              # optional, default 2
 //! scenes = ["atty-square", "blob-floating"]
 //! path = "light-sweep"    # optional: every run along this path, `frames` frames (docs/BENCHMARKS.md)
+//! paths = ["orbit", "light-sweep"]  # or: every run along each of these paths (not with `path`)
 //!
 //! [reference]             # optional: settings of the reference
 //! samples_per_axis = 16
@@ -59,6 +60,9 @@ struct SweepFile {
     /// Render every run along this path (`bench --path`, docs/BENCHMARKS.md "Motion").
     #[serde(default)]
     path: Option<String>,
+    /// Render every run along each of these paths (the runs multiply; not with `path`).
+    #[serde(default)]
+    paths: Vec<String>,
     /// Every registered technique at the settings its crate gives for the overview
     /// ([`TechniqueInfo::overview`]), before the `[[technique]]` tables.
     #[serde(default)]
@@ -89,8 +93,6 @@ pub struct Sweep {
     /// Camera and light that replace every scene's own (see [`crate::Bench::set_view`]).
     pub camera: Option<Camera>,
     pub light: Option<AreaLight>,
-    /// `path = "..."`: every run along this path ([`crate::motion`]) instead of still frames.
-    pub path: Option<String>,
 }
 
 fn value_text(v: &toml::Value) -> Option<String> {
@@ -165,6 +167,18 @@ impl Sweep {
         if let Some(light) = &file.light {
             light.validate().map_err(|e| err(format!("[light]: {e}")))?;
         }
+        // Each run once per path (a still frame when the sweep names none).
+        let paths: Vec<Option<String>> = match (file.path, file.paths.is_empty()) {
+            (Some(_), false) => {
+                return Err(err(
+                    "both `path` and `paths`: give one path with `path` or a list with `paths`"
+                        .into(),
+                ))
+            }
+            (Some(path), true) => vec![Some(path)],
+            (None, false) => file.paths.into_iter().map(Some).collect(),
+            (None, true) => vec![None],
+        };
         let mut reference_params = Vec::new();
         if !file.reference.is_empty() {
             let yardstick = registry.yardstick()?;
@@ -220,20 +234,23 @@ impl Sweep {
                 GridError::Param(e) => BenchError::from(e),
                 GridError::Message(message) => err(message),
             })?;
-            if runs.len() + combos.len() * file.scenes.len() > MAX_SWEEP_RUNS {
+            if runs.len() + combos.len() * file.scenes.len() * paths.len() > MAX_SWEEP_RUNS {
                 return Err(err(format!(
                     "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
                 )));
             }
-            for scene in &file.scenes {
-                for combo in &combos {
-                    runs.push(RunSpec {
-                        scene: scene.clone(),
-                        technique: info.id.to_string(),
-                        params: combo.clone(),
-                        width,
-                        height,
-                    });
+            for path in &paths {
+                for scene in &file.scenes {
+                    for combo in &combos {
+                        runs.push(RunSpec {
+                            scene: scene.clone(),
+                            technique: info.id.to_string(),
+                            params: combo.clone(),
+                            width,
+                            height,
+                            path: path.clone(),
+                        });
+                    }
                 }
             }
         }
@@ -244,7 +261,6 @@ impl Sweep {
             reference_params,
             camera: file.camera,
             light: file.light,
-            path: file.path,
         })
     }
 }
@@ -328,13 +344,18 @@ impl Sweep {
         for run in &self.runs {
             let params: Vec<String> = run.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
             text.push_str(&format!(
-                "{}|{}|{}x{}|{}\n",
+                "{}|{}|{}x{}|{}",
                 run.scene,
                 run.technique,
                 run.width,
                 run.height,
                 params.join(",")
             ));
+            // Along a path (only then, so the hashes of still sweeps stay what they were).
+            if let Some(path) = &run.path {
+                text.push_str(&format!("|path={path}"));
+            }
+            text.push('\n');
         }
         text.push_str(&format!(
             "frames={} warmup={} error={} images={} exact={:?} camera_only={} timing={:?} reference={:?}",
@@ -349,11 +370,24 @@ impl Sweep {
         ));
         // A sweep seen from another camera or light measures something else.
         text.push_str(&format!(" camera={:?} light={:?}", self.camera, self.light));
-        // Along a path (only then, so the hashes of still sweeps stay what they were).
+        // The runs' default path (only when set, as above).
         if let Some(path) = &options.path {
             text.push_str(&format!(" path={path}"));
         }
         format!("{:016x}", fnv1a(text.as_bytes()))
+    }
+
+    /// Every run along `path` instead of the path (or paths) the file names (`bench --path`):
+    /// runs that differ only in their path become one.
+    pub fn set_path(&mut self, path: &str) {
+        let mut runs: Vec<RunSpec> = Vec::with_capacity(self.runs.len());
+        for mut run in std::mem::take(&mut self.runs) {
+            run.path = Some(path.to_string());
+            if !runs.contains(&run) {
+                runs.push(run);
+            }
+        }
+        self.runs = runs;
     }
 
     /// The runs of `shard` with their index in the whole sweep: round robin over the expanded
@@ -397,6 +431,7 @@ impl Sweep {
                             params: Vec::new(),
                             width: EXPECTATION_SIZE,
                             height: EXPECTATION_SIZE,
+                            path: None,
                         })
                     })
                     .collect();
@@ -407,7 +442,6 @@ impl Sweep {
                     reference_params: Vec::new(),
                     camera: None,
                     light: None,
-                    path: None,
                 })
             }
             _ => Err(BenchError::UnknownSuite {
@@ -501,6 +535,42 @@ mod tests {
 
     /// The sweep hash is FNV-1a (64 bits) as published: the empty input gives the offset basis,
     /// "a" and "foobar" the reference vectors.
+    #[test]
+    fn paths_multiply_the_runs_and_path_on_the_command_line_replaces_them() {
+        let text = "scenes = [\"atty-square\", \"balls-3x3x3\"]\npaths = [\"orbit\", \"light-sweep\"]\n[[technique]]\nid = \"pcss\"\n";
+        let mut sweep = Sweep::parse(text, &registry()).unwrap();
+        let paths: Vec<Option<&str>> = sweep.runs.iter().map(|r| r.path.as_deref()).collect();
+        assert_eq!(
+            paths,
+            [
+                Some("orbit"),
+                Some("orbit"),
+                Some("light-sweep"),
+                Some("light-sweep")
+            ]
+        );
+        sweep.set_path("still");
+        assert_eq!(
+            sweep.runs.len(),
+            2,
+            "runs that differ only in their path become one"
+        );
+        assert!(sweep
+            .runs
+            .iter()
+            .all(|r| r.path.as_deref() == Some("still")));
+
+        let both = format!("path = \"orbit\"\n{text}");
+        let message = Sweep::parse(&both, &registry()).unwrap_err().to_string();
+        assert!(message.contains("both `path` and `paths`"), "{message}");
+        let still = Sweep::parse(
+            &text.replace("paths = [\"orbit\", \"light-sweep\"]\n", ""),
+            &registry(),
+        )
+        .unwrap();
+        assert!(still.runs.iter().all(|r| r.path.is_none()));
+    }
+
     #[test]
     fn fnv1a_matches_the_published_vectors() {
         assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);

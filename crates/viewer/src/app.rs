@@ -33,7 +33,10 @@ mod timing_panel;
 
 pub use technique::{FRAME_WAIT, SLOW_FRAME};
 pub use technique_panel::param_widget;
-pub use timeline::{LiveMetrics, DEFAULT_STEPS, LIVE_WINDOW};
+pub use timeline::{
+    LiveExact, LiveMetrics, PathTimings, ANIMATION_FILE, COARSE_TRACED_SAMPLES, DEFAULT_STEPS,
+    LIVE_WINDOW,
+};
 
 use std::{
     path::{Path, PathBuf},

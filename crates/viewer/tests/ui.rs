@@ -5,8 +5,9 @@
 use anyhow::{ensure, Context, Result};
 use egui::accesskit::Role;
 use egui_kittest::{kittest::Queryable, wgpu::WgpuTestRenderer, Harness, SnapshotOptions};
+use softshadow_bench::results::FrameKind;
 use softshadow_core::{wgpu, Gpu, ParamValue};
-use softshadow_viewer::{ViewMode, ViewerApp, ViewerOptions};
+use softshadow_viewer::{app::LiveExact, ViewMode, ViewerApp, ViewerOptions};
 
 /// A small window: the image area is about 300 x 400 pixels, so every frame stays cheap.
 const SIZE: egui::Vec2 = egui::vec2(860.0, 420.0);
@@ -1276,9 +1277,112 @@ fn the_timeline_plays_a_path_with_live_error_and_flicker_and_records_it() -> Res
         harness
             .state()
             .status()
-            .is_some_and(|s| s.starts_with("recorded")),
-        "{:?}",
-        harness.state().status()
+            .is_some_and(|s| s.starts_with("recorded") && s.contains("animation.png")),
+        "{:?} {:?}",
+        harness.state().status(),
+        harness.state().errors()
+    );
+    // Stop joins the frames into one animated PNG, every frame in it.
+    let written = std::fs::read_dir(&recorded)?
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.file_name().to_string_lossy().starts_with("frame-"))
+        })
+        .count() as u32;
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(
+        recorded.join("animation.png"),
+    )?));
+    let reader = decoder.read_info()?;
+    let control = reader
+        .info()
+        .animation_control
+        .context("animation.png is animated")?;
+    ensure!(
+        written >= 6 && control.num_frames == written,
+        "{} animation frames of {written} PNG frames",
+        control.num_frames
+    );
+    ensure!((reader.info().width, reader.info().height) == (192, 64));
+
+    // The steps' GPU timings, split as the benchmark splits them: object-move slides the caster
+    // (light-space work redone), then holds it (still steps keep that work), never moving only
+    // the camera.
+    let timings = harness.state().path_timings();
+    let light_moving = timings
+        .iter()
+        .find(|t| t.kind == FrameKind::Light)
+        .context("object-move has light-moving steps")?;
+    ensure!(
+        light_moving.steps >= 4 && light_moving.total_ms > 0.0 && !light_moving.passes.is_empty(),
+        "object-move's step timings: {timings:?}"
+    );
+    ensure!(
+        timings.iter().all(|t| t.kind != FrameKind::Camera),
+        "{timings:?}"
+    );
+    if let Some(still) = timings.iter().find(|t| t.kind == FrameKind::Still) {
+        ensure!(
+            still.passes.len() < light_moving.passes.len(),
+            "a still step keeps the light-space passes a moving caster redoes: {timings:?}"
+        );
+    }
+    harness
+        .query_by_label_contains("light moving ms")
+        .context("the timing panel shows the path's table")?;
+
+    // light-sweep turns the light away from parallel to the caster: no closed form. With ray
+    // queries the live error is measured against the GPU ray-traced exact answer and the panel
+    // says so; without them it says why there is none.
+    harness.state_mut().open_path(Some("light-sweep"));
+    harness.state_mut().set_path_steps(3);
+    harness.state_mut().set_playing(true);
+    harness.run_steps(5);
+    let live = harness.state().live_metrics();
+    let ray_queries = Gpu::headless_adapter_features()?
+        .1
+        .contains(softshadow_core::accel::RAY_QUERY);
+    if ray_queries {
+        ensure!(
+            live.len() >= 2
+                && live
+                    .iter()
+                    .all(|m| m.mae_shadowed.is_finite() && m.mae_shadowed > 0.0),
+            "live metrics along light-sweep: {live:?} ({:?})",
+            harness.state().live_message()
+        );
+        ensure!(
+            live.iter()
+                .any(|m| matches!(m.exact, LiveExact::Traced { .. })),
+            "light-sweep's tilted frames use the ray-traced exact answer: {live:?}"
+        );
+        eprintln!(
+            "live ray-traced exact answers at 96x64: {:?}",
+            live.iter()
+                .map(|m| (m.exact.to_string(), m.exact_ms))
+                .collect::<Vec<_>>()
+        );
+        harness
+            .query_by_label_contains("ray traced on the GPU")
+            .context("the timeline says which exact answer it used")?;
+    } else {
+        ensure!(
+            harness
+                .state()
+                .live_message()
+                .is_some_and(|m| m.contains("no ray queries")),
+            "{:?}",
+            harness.state().live_message()
+        );
+    }
+    // orbit turns only the camera: camera-only steps, never mixed into the light-moving ones.
+    harness.state_mut().open_path(Some("orbit"));
+    harness.state_mut().set_path_steps(4);
+    harness.state_mut().set_playing(true);
+    harness.run_steps(5);
+    let timings = harness.state().path_timings();
+    ensure!(
+        timings.iter().all(|t| t.kind == FrameKind::Camera) && !timings.is_empty(),
+        "orbit's steps move only the camera: {timings:?}"
     );
 
     harness.state_mut().open_path(None);

@@ -389,11 +389,15 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
     // Everything that can be checked without a GPU is checked first, so bad input fails fast
     // and writes nothing. A technique given as a .wgsl file joins the registry first.
     let registry = &with_technique_files(registry, &args)?;
-    let sweep = match (&args.sweep, &args.suite) {
+    let mut sweep = match (&args.sweep, &args.suite) {
         (Some(path), _) => Some(Sweep::load(path, registry)?),
         (None, Some(name)) => Some(load_suite(registry, name)?),
         (None, None) => None,
     };
+    // `--path` replaces the path (or paths) a sweep names.
+    if let (Some(sweep), Some(path)) = (&mut sweep, &args.path) {
+        sweep.set_path(path);
+    }
     let shard = args
         .shard
         .as_deref()
@@ -434,6 +438,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
             params,
             width,
             height,
+            path: args.path.clone(),
         };
         softshadow_bench::validate(registry, &spec)?;
         (vec![spec], None, None, Vec::new(), (None, None))
@@ -457,23 +462,27 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
         camera_only: !args.no_camera_only,
         reference_cache: args.reference_cache.clone(),
-        path: args
-            .path
-            .clone()
-            .or_else(|| sweep.as_ref().and_then(|s| s.path.clone())),
+        // Each run names its own path (`RunSpec::path`).
+        path: None,
     };
-    if let Some(path) = &options.path {
-        // A path that does not fit a scene fails here, before any GPU work.
-        if !options.error || options.exact_samples_per_axis.is_none() {
-            bail!("--path measures every frame against its exact answer: drop --no-error and --no-exact");
+    if specs.iter().any(|s| s.path.is_some())
+        && (!options.error || options.exact_samples_per_axis.is_none())
+    {
+        bail!(
+            "--path measures every frame against its exact answer: drop --no-error and --no-exact"
+        );
+    }
+    // A path that does not fit a scene fails here, before any GPU work.
+    let mut checked: Vec<(&str, &str)> = Vec::new();
+    for spec in &specs {
+        let Some(path) = &spec.path else { continue };
+        if checked.contains(&(spec.scene.as_str(), path.as_str())) {
+            continue;
         }
-        let mut scenes: Vec<&String> = specs.iter().map(|s| &s.scene).collect();
-        scenes.dedup();
-        for scene in scenes {
-            let mut loaded = softshadow_scenes::load(scene)?;
-            softshadow_scenes::path::resolve(path, &mut loaded.scene, &loaded.paths)
-                .with_context(|| format!("scene `{scene}`"))?;
-        }
+        checked.push((&spec.scene, path));
+        let mut loaded = softshadow_scenes::load(&spec.scene)?;
+        softshadow_scenes::path::resolve(path, &mut loaded.scene, &loaded.paths)
+            .with_context(|| format!("scene `{}`, path `{path}`", spec.scene))?;
     }
     let sweep_info = sweep.as_ref().map(|sweep| SweepInfo {
         hash: sweep.hash(&options, timing),

@@ -66,6 +66,7 @@ fn the_stiff_suite_and_the_paper_scenes_meet_the_bounds_the_crate_states() -> Re
                 params: Vec::new(),
                 width: EXPECTATION_SIZE,
                 height: EXPECTATION_SIZE,
+                path: None,
             });
         }
     }

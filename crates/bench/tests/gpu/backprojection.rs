@@ -281,6 +281,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
                     params: parse_params(&softshadow::registry(), "backprojection", &texts)?,
                     width: 48,
                     height: 48,
+                    path: None,
                 };
                 run_checked(&mut bench, &spec)?;
             }

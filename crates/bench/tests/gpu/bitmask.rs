@@ -49,6 +49,7 @@ fn run(
         params: parse_params(&softshadow::registry(), technique, params)?,
         width: size,
         height: size,
+        path: None,
     };
     run_checked(bench, &spec)
 }
@@ -500,6 +501,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
                     params: parse_params(&softshadow::registry(), "bitmask", &params)?,
                     width: 48,
                     height: 48,
+                    path: None,
                 };
                 run_checked(&mut bench, &spec)?;
             }

@@ -135,6 +135,7 @@ pub fn exact_errors(
             params: softshadow_bench::parse_params(bench.registry(), technique, &texts)?,
             width: size,
             height: size,
+            path: None,
         };
         let run = run_checked(bench, &spec)?;
         let report = vs_exact(&run)?.clone();

@@ -667,6 +667,7 @@ fn a_benchmark_run_reports_the_cold_build_beside_the_cached_frames() -> Result<(
         )?,
         width: 32,
         height: 32,
+        path: None,
     };
     let run = bench.run(0, &spec, out.path());
     ensure!(run.status == Status::Ok, "{}", run.message);

@@ -320,6 +320,7 @@ fn measure_the_expectation_values() -> Result<()> {
                 params: Default::default(),
                 width: softshadow_core::expectations::EXPECTATION_SIZE,
                 height: softshadow_core::expectations::EXPECTATION_SIZE,
+                path: None,
             });
         }
     }

@@ -132,6 +132,7 @@ fn run(bench: &mut Bench, scene: &str, params: &[&str]) -> Result<Run> {
         params: parse_params(&softshadow::registry(), "ssm", &texts)?,
         width: 96,
         height: 96,
+        path: None,
     };
     run_checked(bench, &spec)
 }
@@ -223,6 +224,7 @@ fn extremes_give_finite_visibility_in_range() -> Result<()> {
                 params: parse_params(&softshadow::registry(), "ssm", &texts)?,
                 width: 64,
                 height: 64,
+                path: None,
             };
             run_checked(&mut bench, &spec)?;
         }

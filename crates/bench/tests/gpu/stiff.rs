@@ -106,6 +106,7 @@ fn degenerate_input_is_repaired_with_a_warning_in_the_results() -> Result<()> {
         params: vec![],
         width: SIZE,
         height: SIZE,
+        path: None,
     };
     let run = run_checked(&mut bench, &spec)?;
     let warnings = run.warnings.join("\n");
@@ -130,6 +131,7 @@ fn the_reference_converges_to_the_exact_answer() -> Result<()> {
             params: vec![],
             width: SIZE,
             height: SIZE,
+            path: None,
         };
         let run = run_checked(&mut bench, &spec)?;
         let error = run.error.as_ref().context("error block")?;

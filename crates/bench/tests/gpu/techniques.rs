@@ -46,6 +46,7 @@ fn run(bench: &mut Bench, scene: &str, technique: &str, params: &[&str]) -> Resu
         params: parse_params(bench.registry(), technique, &texts)?,
         width: 96,
         height: 96,
+        path: None,
     };
     run_checked(bench, &spec)
 }
@@ -111,6 +112,7 @@ fn every_technique_stays_within_its_bound_on_the_square_and_the_blob() -> Result
                 params: vec![],
                 width: EXPECTATION_SIZE,
                 height: EXPECTATION_SIZE,
+                path: None,
             };
             let run = bench.run(runs.len(), &spec, dir.path());
             ensure!(
@@ -169,6 +171,7 @@ fn a_failing_run_is_recorded_and_the_next_one_still_runs() -> Result<()> {
         params: vec![],
         width: 64,
         height: 64,
+        path: None,
     };
     let failed = bench.run(0, &bad, dir.path());
     assert_eq!(failed.status, Status::Error);
@@ -345,6 +348,7 @@ fn the_reference_is_timed_doing_its_work_not_its_cache() -> Result<()> {
         )?,
         width: 64,
         height: 64,
+        path: None,
     };
     let run = run_checked(&mut bench, &spec)?;
     ensure!(

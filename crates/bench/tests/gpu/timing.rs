@@ -128,6 +128,7 @@ fn backprojection_full_search(bench: &mut Bench) -> Result<softshadow_bench::Run
         )?,
         width: 64,
         height: 64,
+        path: None,
     };
     run_checked(bench, &spec)
 }

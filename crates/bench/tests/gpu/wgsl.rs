@@ -122,6 +122,7 @@ fn the_example_pcss_like_is_within_its_bound_which_hard_and_all_lit_fail() -> Re
             params: Vec::new(),
             width: 64,
             height: 64,
+            path: None,
         };
         let run = run_checked(&mut bench, &spec)?;
         errors.push(vs_exact(&run)?.mae_shadowed);

@@ -25,7 +25,7 @@ use softshadow_core::{
     Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
 };
 
-use super::timeline::LiveMetrics;
+use super::timeline::{LiveExact, LiveMetrics};
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
 
 /// Largest debug image edge sent back (as the display draws them).
@@ -273,6 +273,21 @@ impl RenderWorker {
     }
 }
 
+/// Light rays the ray-traced exact answer of one timeline step may trace: about a second a step
+/// on lavapipe with 2 loaded cores (1.3 s for 4 x 4 samples over atty-square's receivers at the
+/// viewer's 700x800, measured; docs/BENCHMARKS.md, "Motion"), so 3 or 4 samples per axis at the
+/// viewer's full size, 11 at 256², the maximum at 128².
+pub(super) const LIVE_TRACED_RAYS: usize = 1 << 23;
+
+/// Light samples per axis of a live ray-traced exact answer over `receivers` receiver pixels:
+/// as many as [`LIVE_TRACED_RAYS`] allows, at least 2 (4 rays a pixel: a coarse answer, its
+/// error up to about `1/N` at a penumbra point; the panel says which N and suggests a smaller
+/// render size) and at most 16 (256 rays, the CPU ray cast's default).
+pub(super) fn traced_samples_per_axis(receivers: usize) -> u32 {
+    let per_pixel = LIVE_TRACED_RAYS / receivers.max(1);
+    ((per_pixel as f64).sqrt().floor() as u32).clamp(2, 16)
+}
+
 /// A frame measured for the timeline: its path run, visibility, exact answer and receiver mask.
 type MeasuredFrame = (u64, Vec<f32>, Vec<f32>, Vec<bool>);
 
@@ -420,8 +435,10 @@ impl Worker {
         Ok((output, visibility))
     }
 
-    /// The frame's error against its exact answer (closed form) and its flicker against the
-    /// frame measured before it; the exact answer with them.
+    /// The frame's error against its exact answer and its flicker against the frame measured
+    /// before it; the exact answer with them. The exact answer is the closed form where the
+    /// scene has one, else the GPU ray-traced one on an adapter with ray queries (its sample
+    /// count from [`traced_samples_per_axis`]).
     fn live_metrics(
         &mut self,
         request: &FrameRequest,
@@ -436,11 +453,35 @@ impl Worker {
             light: request.light,
             ..(*request.scene).clone()
         };
-        let exact = softshadow_reference::exact::visibility_image(&lit_as_shown, &positions, &mask)
-            .ok_or(
-                "no live error: this scene has casters that are not rectangles parallel to the \
-                 light, so its exact answer is a ray cast (run `workbench bench --path` for it)",
-            )?;
+        let started = Instant::now();
+        let (exact, method) =
+            match softshadow_reference::exact::visibility_image(&lit_as_shown, &positions, &mask) {
+                Some(exact) => (exact, LiveExact::ClosedForm),
+                None if self.gpu.has_ray_query() => {
+                    let receivers = mask.iter().filter(|&&m| m).count();
+                    let samples_per_axis = traced_samples_per_axis(receivers);
+                    let exact = softshadow_reference::traced::visibility_image(
+                        &self.gpu,
+                        &lit_as_shown,
+                        &positions,
+                        &mask,
+                        samples_per_axis,
+                    )
+                    .map_err(|e| {
+                        format!("no live error: the ray-traced exact answer failed: {e}")
+                    })?;
+                    (exact, LiveExact::Traced { samples_per_axis })
+                }
+                None => {
+                    return Err(
+                        "no live error: this scene has casters that are not rectangles parallel \
+                         to the light, and this adapter has no ray queries for the ray-traced \
+                         exact answer (run `workbench bench --path` for the CPU ray cast)"
+                            .into(),
+                    )
+                }
+            };
+        let exact_ms = started.elapsed().as_secs_f64() * 1e3;
         let report =
             softshadow_metrics::compare(visibility, &exact, &mask).map_err(|e| e.to_string())?;
         let flicker = match &self.previous {
@@ -459,6 +500,8 @@ impl Worker {
             LiveMetrics {
                 mae_shadowed: report.mae_shadowed,
                 flicker,
+                exact: method,
+                exact_ms,
             },
             exact,
         ))
@@ -511,5 +554,20 @@ impl Worker {
             rgba,
             mapping,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_live_traced_samples_follow_the_ray_budget_within_their_bounds() {
+        // The viewer's full size (700x800, most pixels receivers), 256², the UI test's 96x64.
+        assert_eq!(traced_samples_per_axis(560_000), 3);
+        assert_eq!(traced_samples_per_axis(256 * 256), 11);
+        assert_eq!(traced_samples_per_axis(96 * 64), 16);
+        assert_eq!(traced_samples_per_axis(0), 16);
+        assert_eq!(traced_samples_per_axis(usize::MAX), 2);
     }
 }

@@ -280,8 +280,10 @@ impl ViewerApp {
         }
         let current = done.setting_key == self.current_setting_key();
         let shown_ok = done.result.is_ok();
+        let mut path_timing = None;
         match done.result {
             Ok((output, visibility)) => {
+                path_timing = output.gpu.clone();
                 self.technique.build.note(Ok(()));
                 if let Some(r) = self.image.renderers.as_mut() {
                     if (r.width, r.height) == done.size {
@@ -323,7 +325,7 @@ impl ViewerApp {
             }
         }
         if current && shown_ok {
-            self.path_frame_shown(done.live, done.exact.as_deref());
+            self.path_frame_shown(done.live, done.exact.as_deref(), path_timing.as_ref());
         }
         self.image.debug_message = None;
         self.image.debug_mapping = None;

@@ -1,25 +1,38 @@
 //! The timeline (issue 28): plays a path (docs/SCENES.md, "Paths") over the open scene: play,
 //! pause, scrub, loop; the error and the flicker against the exact answer of every frame shown
-//! live over a rolling window; Record writes each played frame, technique beside the exact
-//! answer, as PNG files.
+//! live over a rolling window, with the GPU pass times of the played steps split by what moved;
+//! Record writes each played frame, technique beside the exact answer, as PNG files, and on
+//! Stop one animated PNG of them.
 //!
 //! A played path steps at fixed times (`steps` frames from its start to its end, as
 //! `bench --path NAME --frames N` does) and moves on only once the technique's frame of the
 //! current step is shown, so every step is rendered and measured whatever a frame costs. The
-//! exact answer of each frame is the closed form, computed on the render worker
-//! (`render_worker`); a scene without one shows no live error (the benchmark's path runs use the
-//! ray cast there).
+//! exact answer of each frame is computed on the render worker (`render_worker`): the closed
+//! form where the scene has one, else the GPU ray-traced answer on an adapter with ray queries
+//! (as many light samples as a step can afford; the panel says which method and how many); on
+//! an adapter without ray queries such a frame shows no live error (the benchmark's path runs
+//! use the CPU ray cast there).
 
 use std::{collections::VecDeque, path::PathBuf};
 
-use softshadow_core::{Scene, SceneGpu};
-use softshadow_scenes::path::{self, Path, BUILTIN_PATHS};
+use softshadow_bench::results::FrameKind;
+use softshadow_core::{GpuFrameTiming, Scene, SceneGpu};
+use softshadow_scenes::path::{self, Path, Pose, BUILTIN_PATHS};
 
-use super::{shown_path, ViewerApp};
-use crate::orbit::Orbit;
+use super::{format_ms, shown_path, ViewerApp};
+use crate::{
+    orbit::Orbit,
+    timing::{PassRow, RollingTimings},
+};
 
 /// Frames of the rolling window the live error and flicker are averaged over.
 pub const LIVE_WINDOW: usize = 30;
+
+/// The animated PNG Record writes beside the frames when it stops.
+pub const ANIMATION_FILE: &str = "animation.png";
+
+/// Below this many light samples per axis the panel calls a live ray-traced exact answer coarse.
+pub const COARSE_TRACED_SAMPLES: u32 = 8;
 
 /// Frames a path is played in unless the user says otherwise.
 pub const DEFAULT_STEPS: u32 = 60;
@@ -31,7 +44,53 @@ pub struct LiveMetrics {
     pub mae_shadowed: f64,
     /// Flicker against the frame before it (`None` for the first frame of a run).
     pub flicker: Option<f64>,
+    /// How the frame's exact answer was computed.
+    pub exact: LiveExact,
+    /// Wall time of computing it on the render worker, ms.
+    pub exact_ms: f64,
 }
+
+/// The exact answer a live measurement used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LiveExact {
+    /// The closed form (rectangles parallel to the light).
+    ClosedForm,
+    /// The GPU ray-traced answer (`softshadow_reference::traced`) with this many stratified
+    /// light samples per axis.
+    Traced { samples_per_axis: u32 },
+}
+
+impl std::fmt::Display for LiveExact {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LiveExact::ClosedForm => f.write_str("closed form"),
+            LiveExact::Traced {
+                samples_per_axis: n,
+            } => {
+                write!(f, "ray traced on the GPU, {n}x{n} light samples a pixel")
+            }
+        }
+    }
+}
+
+/// GPU pass times of the path's steps of one kind (what changed since the step before), as the
+/// benchmark's motion summary splits them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathTimings {
+    /// Camera-only, light (or caster) moving, or still steps.
+    pub kind: FrameKind,
+    /// Steps the medians rest on (the last [`crate::timing::WINDOW`] of this kind).
+    pub steps: usize,
+    /// Per pass, the median over those steps (a pass a step left out counts 0 there).
+    pub passes: Vec<PassRow>,
+    /// Median of the technique's own passes.
+    pub technique_ms: f64,
+    /// Median of the whole frame's passes.
+    pub total_ms: f64,
+}
+
+/// The kinds a played step's timings are split into, in the order the panel shows them.
+const TIMED_KINDS: [FrameKind; 3] = [FrameKind::Camera, FrameKind::Light, FrameKind::Still];
 
 /// The path being played and where it is.
 pub(super) struct TimelineState {
@@ -49,6 +108,12 @@ pub(super) struct TimelineState {
     measured: Option<u32>,
     /// Counts path runs (see [`TimelineState::exact_run`]).
     run: u64,
+    /// The pose of the step applied before the current one, and what changed from it to the
+    /// current one (`None` for the first step of a path: nothing to compare with).
+    last_pose: Option<Pose>,
+    step_kind: Option<FrameKind>,
+    /// GPU timings of the steps played, one window per kind of [`TIMED_KINDS`] (each step once).
+    timings: [RollingTimings; 3],
     /// Live metrics of the last frames played, newest last.
     pub(super) live: VecDeque<LiveMetrics>,
     /// Why there are no live metrics (no closed form, or the worker's error).
@@ -69,6 +134,9 @@ impl Default for TimelineState {
             applied: None,
             measured: None,
             run: 0,
+            last_pose: None,
+            step_kind: None,
+            timings: Default::default(),
             live: VecDeque::new(),
             live_message: None,
             record_folder: "viewer-path".into(),
@@ -107,6 +175,9 @@ impl ViewerApp {
         self.timeline.applied = None;
         self.timeline.measured = None;
         self.timeline.run += 1;
+        self.timeline.last_pose = None;
+        self.timeline.step_kind = None;
+        self.timeline.timings = Default::default();
         let Some(spec) = spec else {
             return;
         };
@@ -174,7 +245,25 @@ impl ViewerApp {
         self.timeline.live.iter().copied().collect()
     }
 
-    /// Writes every played frame (technique beside the exact answer) as PNG into `folder`.
+    /// GPU pass times of the steps played so far, split by what changed since the step before
+    /// (only the kinds played).
+    pub fn path_timings(&self) -> Vec<PathTimings> {
+        TIMED_KINDS
+            .iter()
+            .zip(&self.timeline.timings)
+            .filter(|(_, t)| !t.is_empty())
+            .map(|(&kind, t)| PathTimings {
+                kind,
+                steps: t.len(),
+                passes: t.rows(),
+                technique_ms: t.technique_ms().unwrap_or(0.0),
+                total_ms: t.total_ms().unwrap_or(0.0),
+            })
+            .collect()
+    }
+
+    /// Writes every played frame (technique beside the exact answer) as PNG into `folder`;
+    /// `None` stops and joins the frames into one animated PNG there ([`ANIMATION_FILE`]).
     pub fn record_path(&mut self, folder: Option<&str>) {
         match folder {
             Some(folder) => match std::fs::create_dir_all(folder) {
@@ -186,8 +275,21 @@ impl ViewerApp {
             },
             None => {
                 if let Some(frames) = self.timeline.recording.take() {
-                    let folder = shown_path(std::path::Path::new(&self.timeline.record_folder));
-                    self.confirm(format!("recorded {frames} frames in {folder}"));
+                    let dir = PathBuf::from(&self.timeline.record_folder);
+                    let folder = shown_path(&dir);
+                    if frames == 0 {
+                        self.confirm(format!("recorded no frames in {folder}"));
+                        return;
+                    }
+                    match write_animation(&dir, frames) {
+                        Ok(()) => self.confirm(format!(
+                            "recorded {frames} frames in {folder} (and {ANIMATION_FILE} at {} fps)",
+                            softshadow_bench::motion::ANIMATION_FPS
+                        )),
+                        Err(e) => self.report_error(format!(
+                            "recorded {frames} frames in {folder}, but not {ANIMATION_FILE}: {e}"
+                        )),
+                    }
                 }
             }
         }
@@ -204,6 +306,16 @@ impl ViewerApp {
             return;
         };
         let pose = path.pose(base, time);
+        // What the render worker's renderer will find changed since the step it drew before.
+        self.timeline.step_kind =
+            self.timeline
+                .last_pose
+                .as_ref()
+                .map(|before| match Path::changes(before, &pose) {
+                    (true, _) => FrameKind::Light,
+                    (false, true) => FrameKind::Camera,
+                    (false, false) => FrameKind::Still,
+                });
         self.scene.camera = pose.camera;
         self.scene.light = pose.light;
         self.scene.orbit = Orbit::from_camera(&pose.camera);
@@ -213,6 +325,7 @@ impl ViewerApp {
             self.scene.loaded.gpu = SceneGpu::upload(&self.gpu, &moved);
             self.scene.loaded.scene = moved;
         }
+        self.timeline.last_pose = Some(pose);
         self.timeline.applied = Some(step);
     }
 
@@ -222,6 +335,7 @@ impl ViewerApp {
         &mut self,
         live: Option<Result<LiveMetrics, String>>,
         exact: Option<&[f32]>,
+        timing: Option<&GpuFrameTiming>,
     ) {
         let step = self.timeline.step;
         if self.timeline.active.is_none() || self.timeline.applied != Some(step) {
@@ -229,6 +343,11 @@ impl ViewerApp {
         }
         if self.timeline.measured != Some(step) {
             self.timeline.measured = Some(step);
+            if let (Some(kind), Some(timing)) = (self.timeline.step_kind, timing) {
+                if let Some(i) = TIMED_KINDS.iter().position(|k| *k == kind) {
+                    self.timeline.timings[i].push(timing.clone());
+                }
+            }
             self.note_step(live, exact);
         }
         if self.timeline.playing {
@@ -374,7 +493,8 @@ impl ViewerApp {
             } else if ui
                 .button("Record")
                 .on_hover_text(
-                    "Write every played frame, technique beside the exact answer, as PNG",
+                    "Write every played frame, technique beside the exact answer, as PNG; on Stop, \
+                     also one animated PNG of them",
                 )
                 .clicked()
             {
@@ -382,6 +502,76 @@ impl ViewerApp {
                 self.record_path(Some(&folder));
             }
         });
+    }
+
+    /// The timing panel's table of the path's steps: per pass, the median over the last steps
+    /// of each kind (camera only, light or caster moving, still), as `bench --path` splits its
+    /// frame times. Nothing without a path or before a step was timed.
+    pub(super) fn path_timing_ui(&self, ui: &mut egui::Ui) {
+        if self.timeline.active.is_none() {
+            return;
+        }
+        let groups = self.path_timings();
+        if groups.is_empty() {
+            ui.small("along the path: GPU timings appear as steps are played");
+            return;
+        }
+        let kind_name = |kind: FrameKind| match kind {
+            FrameKind::Camera => "camera only",
+            FrameKind::Light => "light moving",
+            FrameKind::Still => "still",
+            FrameKind::First => "first",
+        };
+        ui.small(format!(
+            "along the path: median of the last steps of each kind ({})",
+            groups
+                .iter()
+                .map(|g| format!("{} {}", g.steps, kind_name(g.kind)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+        .on_hover_text(
+            "Each step of the path is timed once, as it is first shown, and counted by what \
+             changed since the step before: light-space work is redone when the light or a \
+             caster moves and may be kept while only the camera moves (FrameChanges), as \
+             `bench --path`'s camera-only / light-moving frame times",
+        );
+        // Every pass any kind ran, in the order first seen.
+        let mut names: Vec<&str> = Vec::new();
+        for g in &groups {
+            for p in &g.passes {
+                if !names.contains(&p.name.as_str()) {
+                    names.push(&p.name);
+                }
+            }
+        }
+        egui::Grid::new("path timings")
+            .striped(true)
+            .show(ui, |ui| {
+                ui.strong("pass");
+                for g in &groups {
+                    ui.strong(format!("{} ms", kind_name(g.kind)));
+                }
+                ui.end_row();
+                for name in names {
+                    ui.label(name);
+                    for g in &groups {
+                        let ms = g.passes.iter().find(|p| p.name == name);
+                        ui.label(ms.map_or("-".into(), |p| format_ms(p.median_ms)));
+                    }
+                    ui.end_row();
+                }
+                ui.strong("technique");
+                for g in &groups {
+                    ui.strong(format_ms(g.technique_ms));
+                }
+                ui.end_row();
+                ui.strong("frame (GPU passes)");
+                for g in &groups {
+                    ui.strong(format_ms(g.total_ms));
+                }
+                ui.end_row();
+            });
     }
 
     fn live_ui(&mut self, ui: &mut egui::Ui) {
@@ -406,11 +596,81 @@ impl ViewerApp {
         };
         ui.label(format!("error {error:.4}, flicker {flicker}"))
             .on_hover_text(format!(
-                "Means over the last {} frames played, against each frame's exact answer \
-                 (closed form): error = mae_shadowed; flicker = mean over receiver pixels of \
+                "Means over the last {} frames played, against each frame's exact answer: \
+                 error = mae_shadowed; flicker = mean over receiver pixels of \
                  |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
                  does not (docs/BENCHMARKS.md, \"Motion\")",
                 live.len()
             ));
+        if let Some(last) = live.back() {
+            ui.small(format!(
+                "exact answer: {} ({:.0} ms a frame)",
+                last.exact, last.exact_ms
+            ))
+            .on_hover_text(
+                "The closed form where every caster is a rectangle parallel to the light; \
+                 elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
+                 penumbra point for N x N samples) is part of the error and flicker shown",
+            );
+            if let LiveExact::Traced { samples_per_axis } = last.exact {
+                if samples_per_axis < COARSE_TRACED_SAMPLES {
+                    ui.small(format!(
+                        "coarse: its own error reaches about {:.2} at a penumbra pixel; a \
+                         smaller render size affords more samples",
+                        1.0 / samples_per_axis as f64
+                    ));
+                }
+            }
+        }
     }
+}
+
+/// Joins the `frames` PNG files Record wrote in `folder` into one animated PNG,
+/// [`ANIMATION_FILE`], looping, at the bench's [`softshadow_bench::motion::ANIMATION_FPS`]; one
+/// frame is read at a time, so a long recording needs the memory of one frame. Frames of
+/// another size than the first (the render size changed while recording) make it an error
+/// (the PNG frames stay), and a half-written file is removed.
+fn write_animation(folder: &std::path::Path, frames: u32) -> Result<(), String> {
+    let out = folder.join(ANIMATION_FILE);
+    let frame_path = |i: u32| folder.join(format!("frame-{i:04}.png"));
+    let read = |i: u32| -> Result<image::RgbaImage, String> {
+        let path = frame_path(i);
+        image::open(&path)
+            .map(|f| f.to_rgba8())
+            .map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let write = || -> Result<(), String> {
+        let first = read(0)?;
+        let (width, height) = first.dimensions();
+        let file = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+        let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder
+            .set_animated(frames, 0)
+            .and_then(|()| encoder.set_frame_delay(1, softshadow_bench::motion::ANIMATION_FPS))
+            .map_err(|e| e.to_string())?;
+        let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+        writer
+            .write_image_data(first.as_raw())
+            .map_err(|e| e.to_string())?;
+        for i in 1..frames {
+            let frame = read(i)?;
+            if frame.dimensions() != (width, height) {
+                return Err(format!(
+                    "frame {i} is {}x{}, the first {width}x{height}: the render size changed \
+                     while recording (keep it fixed for an animation)",
+                    frame.width(),
+                    frame.height()
+                ));
+            }
+            writer
+                .write_image_data(frame.as_raw())
+                .map_err(|e| e.to_string())?;
+        }
+        writer.finish().map_err(|e| e.to_string())
+    };
+    write().inspect_err(|_| {
+        let _ = std::fs::remove_file(&out);
+    })
 }

@@ -138,9 +138,16 @@ impl ViewerApp {
             }
         }
 
+        // A played path makes every step a new setting: its own table, split by what moved.
+        self.path_timing_ui(ui);
         let rows = self.timing.rolling.rows();
         if rows.is_empty() {
-            ui.label("no GPU timings yet");
+            ui.label(if self.timeline.playing {
+                "no GPU timings of one setting while the path plays (each step is a new one): \
+                 see the path's table above"
+            } else {
+                "no GPU timings yet"
+            });
             return;
         }
         ui.small(format!(
