@@ -1264,7 +1264,7 @@ fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
 pub fn still_flicker_text(flicker: Option<f64>) -> String {
     match flicker {
         None => "-".into(),
-        Some(f) if f == 0.0 => "0".into(),
+        Some(0.0) => "0".into(),
         Some(f) => format!("{f:.5}"),
     }
 }
