@@ -162,12 +162,18 @@ struct BenchArgs {
     /// Skip the reference and the error metrics (timings only).
     #[arg(long)]
     no_error: bool,
-    /// Skip the exact ground truth (closed form or CPU ray cast) and `error.reference_vs_exact`.
+    /// Skip the exact ground truth (closed form, ray-traced or CPU ray cast) and
+    /// `error.reference_vs_exact`.
     #[arg(long)]
     no_exact: bool,
-    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form).
+    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form, on
+    /// a device without ray queries).
     #[arg(long, default_value_t = softshadow_bench::DEFAULT_EXACT_SAMPLES)]
     exact_samples: u32,
+    /// Light samples per axis of the ray-traced ground truth (scenes without a closed form, on a
+    /// device with ray queries); 0 uses the CPU ray cast there too.
+    #[arg(long, default_value_t = softshadow_bench::DEFAULT_TRACED_SAMPLES)]
+    traced_samples: u32,
     /// Do not write images.
     #[arg(long)]
     no_images: bool,
@@ -455,6 +461,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         reference_params,
         images: !args.no_images,
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
+        traced_samples_per_axis: (args.traced_samples > 0).then_some(args.traced_samples),
         camera_only: !args.no_camera_only,
         reference_cache: args.reference_cache.clone(),
         path: args

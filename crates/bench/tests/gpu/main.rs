@@ -21,3 +21,4 @@ mod sweeps;
 mod techniques;
 mod timing;
 mod wgsl;
+mod yardsticks;
