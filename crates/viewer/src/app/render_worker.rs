@@ -26,6 +26,12 @@ use softshadow_core::{
 };
 
 use super::timeline::LiveMetrics;
+use softshadow_reference::GroundTruth;
+
+/// Light samples per axis of the timeline's ray-traced exact answer: the benchmark's ray-cast
+/// default (16 x 16, own error about 0.004 mae_shadowed; docs/BENCHMARKS.md, "The exact answer"),
+/// not its ray-traced 32 x 32, which costs 4x per played step at the viewer's image sizes.
+const LIVE_TRACED_SAMPLES: u32 = 16;
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
 
 /// Largest debug image edge sent back (as the display draws them).
@@ -420,7 +426,8 @@ impl Worker {
         Ok((output, visibility))
     }
 
-    /// The frame's error against its exact answer (closed form) and its flicker against the
+    /// The frame's error against its exact answer (closed form, else ray-traced with
+    /// [`LIVE_TRACED_SAMPLES`] where the device has ray queries) and its flicker against the
     /// frame measured before it; the exact answer with them.
     fn live_metrics(
         &mut self,
@@ -436,11 +443,37 @@ impl Worker {
             light: request.light,
             ..(*request.scene).clone()
         };
-        let exact = softshadow_reference::exact::visibility_image(&lit_as_shown, &positions, &mask)
-            .ok_or(
-                "no live error: this scene has casters that are not rectangles parallel to the \
-                 light, so its exact answer is a ray cast (run `workbench bench --path` for it)",
-            )?;
+        let (exact, truth) =
+            match softshadow_reference::exact::visibility_image(&lit_as_shown, &positions, &mask) {
+                Some(exact) => (exact, GroundTruth::ClosedForm),
+                None if self
+                    .gpu
+                    .features()
+                    .contains(softshadow_core::accel::RAY_QUERY) =>
+                {
+                    let samples_per_axis = LIVE_TRACED_SAMPLES;
+                    let exact = softshadow_reference::traced::visibility_image(
+                        &self.gpu,
+                        &lit_as_shown,
+                        &positions,
+                        &mask,
+                        samples_per_axis,
+                    )
+                    .map_err(|e| {
+                        format!("no live error: the ray-traced exact answer failed: {e}")
+                    })?;
+                    (exact, GroundTruth::RayTraced { samples_per_axis })
+                }
+                None => {
+                    return Err(
+                        "no live error: this scene has casters that are not rectangles parallel \
+                         to the light and the device has no ray queries (Mesa 24.1 or newer, or a \
+                         GPU), so its exact answer is a CPU ray cast: run `workbench bench --path` \
+                         for it"
+                            .into(),
+                    )
+                }
+            };
         let report =
             softshadow_metrics::compare(visibility, &exact, &mask).map_err(|e| e.to_string())?;
         let flicker = match &self.previous {
@@ -459,6 +492,7 @@ impl Worker {
             LiveMetrics {
                 mae_shadowed: report.mae_shadowed,
                 flicker,
+                exact: truth,
             },
             exact,
         ))

@@ -6,9 +6,9 @@
 //! A played path steps at fixed times (`steps` frames from its start to its end, as
 //! `bench --path NAME --frames N` does) and moves on only once the technique's frame of the
 //! current step is shown, so every step is rendered and measured whatever a frame costs. The
-//! exact answer of each frame is the closed form, computed on the render worker
-//! (`render_worker`); a scene without one shows no live error (the benchmark's path runs use the
-//! ray cast there).
+//! exact answer of each frame is computed on the render worker (`render_worker`): the closed form
+//! where it applies, else the ray-traced answer (16 x 16 samples) on a device with ray queries; a
+//! scene with neither shows no live error (the benchmark's path runs use the CPU ray cast there).
 
 use std::{collections::VecDeque, path::PathBuf};
 
@@ -31,6 +31,8 @@ pub struct LiveMetrics {
     pub mae_shadowed: f64,
     /// Flicker against the frame before it (`None` for the first frame of a run).
     pub flicker: Option<f64>,
+    /// The exact answer it was measured against.
+    pub exact: softshadow_reference::GroundTruth,
 }
 
 /// The path being played and where it is.
@@ -404,10 +406,11 @@ impl ViewerApp {
                 flickers.iter().sum::<f64>() / flickers.len() as f64
             )
         };
+        let exact = live.back().map(|m| m.exact.to_string()).unwrap_or_default();
         ui.label(format!("error {error:.4}, flicker {flicker}"))
             .on_hover_text(format!(
                 "Means over the last {} frames played, against each frame's exact answer \
-                 (closed form): error = mae_shadowed; flicker = mean over receiver pixels of \
+                 (the last: {exact}): error = mae_shadowed; flicker = mean over receiver pixels of \
                  |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
                  does not (docs/BENCHMARKS.md, \"Motion\")",
                 live.len()
