@@ -91,7 +91,7 @@ fn expectations() -> Expectations {
         ("atty-square", at_most(MaeShadowed, 0.027, 0.0107)),
         (
             "blob-floating:triangles=20000",
-            at_most(MaeShadowed, 0.098, 0.0317),
+            at_most(MaeShadowed, 0.079, 0.0317),
         ),
     ])
 }
