@@ -6,8 +6,9 @@
 //! depend on: the scene's content (geometry, flags), the camera and light it is seen with, the
 //! size, the reference's settings and shader sources (with the common modules they import) and
 //! the exact answer's method and samples per axis (`raytraced(samples_per_axis=32)`,
-//! `raycast(samples_per_axis=16)`: the one the device would use). A file that cannot be trusted is never used: the
-//! reference is rendered again and the run says why ([`ReferenceCacheUse::Rebuilt`]).
+//! `raycast(samples_per_axis=16)`: the one the device would use). A file that cannot be trusted
+//! is never used: the reference is rendered again and the run says why
+//! ([`ReferenceCacheUse::Rebuilt`]).
 //!
 //! Payload layout (little endian): reference label (u32 length, UTF-8), visibility count u32,
 //! visibility f32s, shaded RGB count u32, bytes, then a u32 flag for the exact answer and, when
