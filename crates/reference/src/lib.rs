@@ -875,4 +875,40 @@ mod ground_truth_tests {
             assert!(v[0] < 1.0 && v[1] == 1.0, "{id}: {v:?}");
         }
     }
+
+    /// Without a device `exact_answer` gives the closed form or the ray cast (never the traced
+    /// answer), with a sampling error of 0 for the closed form and a positive one for the ray
+    /// cast's penumbra; the sampled method it would use needs ray queries on a device.
+    #[test]
+    fn exact_answer_without_a_device_and_its_sampling_error() {
+        let method = ExactMethod {
+            raycast_samples_per_axis: 8,
+            traced_samples_per_axis: Some(32),
+        };
+        assert_eq!(
+            method.sampled_on(None),
+            GroundTruth::RayCast {
+                samples_per_axis: 8
+            }
+        );
+        let positions = [
+            Some(Vec3::new(0.0, 0.0, 0.0)),
+            Some(Vec3::new(1e4, 0.0, 1e4)),
+        ];
+        let square = softshadow_scenes::builtin("atty-square", &[]).unwrap();
+        let closed = exact_answer(None, &square, &positions, &[true, true], method);
+        assert_eq!(closed.truth, GroundTruth::ClosedForm);
+        assert_eq!(closed.sampling_error(&[true, true]), Some(0.0));
+        let blob = softshadow_scenes::builtin("blob-floating", &[]).unwrap();
+        // Ground points across the blob's penumbra.
+        let ground: Vec<Option<Vec3>> = (0..64)
+            .map(|i| Some(Vec3::new(-1.5 + 3.0 * i as f32 / 63.0, 0.0, 0.0)))
+            .collect();
+        let mask = vec![true; ground.len()];
+        let cast = exact_answer(None, &blob, &ground, &mask, method);
+        assert_eq!(cast.truth, method.sampled_on(None));
+        assert!(cast.fallback.is_none());
+        let error = cast.sampling_error(&mask).unwrap();
+        assert!(error > 0.0 && error < 0.1, "{error}");
+    }
 }

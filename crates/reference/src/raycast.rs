@@ -851,6 +851,33 @@ mod tests {
         CasterBvh::from_triangles(vec![[a, b, c], [a, c, d]])
     }
 
+    /// The collapsed-strata error: 0 where every pair agrees (lit; an edge between two pairs),
+    /// positive where the edge runs through a pair (the overestimate: the answer 1/2 is exact
+    /// there too), `NaN` with one sample per axis; the formula sqrt(D n / (2 pairs)) / n.
+    #[test]
+    fn the_sampling_error_counts_disagreeing_pairs() {
+        let bvh = half_plane();
+        let square = light(1.0, 1.0);
+        let lit = Vec3::new(40.0, 0.0, 0.0);
+        assert_eq!(visibility_and_error(&bvh, &square, 4, lit, 1), (1.0, 0.0));
+        // N = 4: the edge falls between columns 1 and 2, two pairs apart.
+        assert_eq!(
+            visibility_and_error(&bvh, &square, 4, Vec3::ZERO, 1),
+            (0.5, 0.0)
+        );
+        // N = 6: it falls between columns 2 and 3, inside the pair (2, 3) of every row.
+        let (v, e) = visibility_and_error(&bvh, &square, 6, Vec3::ZERO, 1);
+        assert_eq!(v, 0.5);
+        assert!((e - 6f64.sqrt() / 36.0).abs() < 1e-12, "{e}");
+        assert!(visibility_and_error(&bvh, &square, 1, Vec3::ZERO, 1)
+            .1
+            .is_nan());
+        // Odd N: the unpaired last column scales D by n / (2 pairs) = 25 / 20.
+        assert!(
+            (collapsed_strata_error(4.0, 5) - (4.0f64 * 25.0 / 20.0).sqrt() / 25.0).abs() < 1e-12
+        );
+    }
+
     /// Seen from the origin, the occluder's edge x = 0 at half the light's height lines up with
     /// the light's centre line: the strata of one half of the light are hidden, whatever the
     /// jitter, so the estimate is exactly 1/2 for an even sample count; no occluder, all lit.
