@@ -271,3 +271,85 @@ fn measure_the_traced_sample_count() -> Result<()> {
     }
     Ok(())
 }
+
+/// The bench names the exact answer each run used and its sampling error: the closed form (0) on
+/// atty-square; on the blob the ray-traced answer (32 x 32) on this device, the 16 x 16 CPU ray
+/// cast on a device without ray queries (a larger error, about twice); and along a path every
+/// frame's method is counted and the sampling errors summarised.
+#[test]
+fn the_bench_names_its_exact_answer_and_its_sampling_error() -> Result<()> {
+    use softshadow_bench::{Bench, BenchOptions, RunSpec};
+    let options = || BenchOptions {
+        frames: 1,
+        warmup: 0,
+        images: false,
+        camera_only: false,
+        reference_params: vec![(
+            "samples_per_axis".into(),
+            softshadow_core::ParamValue::Int(2),
+        )],
+        ..Default::default()
+    };
+    let spec = |scene: &str| RunSpec {
+        scene: scene.into(),
+        technique: softshadow_core::COST_FLOOR_TECHNIQUE.into(),
+        params: vec![],
+        width: 32,
+        height: 32,
+    };
+    let exact = |run: &softshadow_bench::Run| {
+        let error = run.error.as_ref().expect("error metrics");
+        (error.exact.clone(), error.exact_sampling_error)
+    };
+    let blob = "blob-floating:triangles=2000";
+    let mut bench = Bench::new(gpu()?, softshadow::registry(), options())?;
+    let run = crate::common::run_checked(&mut bench, &spec("atty-square"))?;
+    ensure!(
+        exact(&run) == (Some("closed-form".into()), Some(0.0)),
+        "{:?}",
+        exact(&run)
+    );
+    let run = crate::common::run_checked(&mut bench, &spec(blob))?;
+    let (method, traced_error) = exact(&run);
+    ensure!(
+        method.as_deref() == Some("raytraced(samples_per_axis=32)"),
+        "{method:?}"
+    );
+    let traced_error = traced_error.unwrap_or(0.0);
+    ensure!(traced_error > 0.0 && traced_error < 0.01, "{traced_error}");
+
+    let without = Gpu::new_headless_without(softshadow_core::accel::RAY_QUERY)?;
+    let mut bench = Bench::new(without, softshadow::registry(), options())?;
+    let run = crate::common::run_checked(&mut bench, &spec(blob))?;
+    let (method, cast_error) = exact(&run);
+    ensure!(
+        method.as_deref() == Some("raycast(samples_per_axis=16)"),
+        "{method:?}"
+    );
+    let cast_error = cast_error.unwrap_or(0.0);
+    eprintln!("sampling error: traced 32 {traced_error:.4}, ray cast 16 {cast_error:.4}");
+    ensure!(
+        cast_error > 1.5 * traced_error,
+        "{cast_error} vs {traced_error}"
+    );
+
+    let mut bench = Bench::new(
+        gpu()?,
+        softshadow::registry(),
+        BenchOptions {
+            frames: 2,
+            path: Some("light-sweep".into()),
+            ..options()
+        },
+    )?;
+    let run = crate::common::run_checked(&mut bench, &spec(blob))?;
+    let motion = run.motion.as_ref().expect("a path run");
+    ensure!(
+        motion.exact_methods.get("raytraced(samples_per_axis=32)") == Some(&2),
+        "{:?}",
+        motion.exact_methods
+    );
+    let summary = motion.exact_sampling_error.as_ref().expect("estimated");
+    ensure!(summary.mean > 0.0 && summary.max < 0.01, "{summary:?}");
+    Ok(())
+}
