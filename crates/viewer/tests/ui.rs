@@ -1289,3 +1289,32 @@ fn the_timeline_plays_a_path_with_live_error_and_flicker_and_records_it() -> Res
     );
     Ok(())
 }
+
+/// A path frame without a closed form (light-sweep turns the light away from atty-square's
+/// caster) is measured against the ray-traced exact answer on a device with ray queries (issue
+/// 26), and the timeline says so.
+#[test]
+fn the_timeline_measures_a_frame_without_a_closed_form_against_the_ray_traced_answer() -> Result<()>
+{
+    let mut harness = harness("hard")?;
+    harness.state_mut().set_render_size(Some((48, 32)));
+    harness.run_steps(2);
+    harness.state_mut().open_path(Some("light-sweep"));
+    harness.state_mut().set_path_steps(3);
+    harness.state_mut().set_path_looping(false);
+    harness.state_mut().set_playing(true);
+    harness.run_steps(6);
+    let live = harness.state().live_metrics();
+    ensure!(
+        !live.is_empty(),
+        "no live metrics: {:?}",
+        harness.state().live_message()
+    );
+    ensure!(live.iter().all(|m| m.mae_shadowed.is_finite()), "{live:?}");
+    ensure!(
+        live.iter()
+            .any(|m| m.exact.to_string() == "raytraced(samples_per_axis=16)"),
+        "no frame measured against the ray-traced answer: {live:?}"
+    );
+    Ok(())
+}
