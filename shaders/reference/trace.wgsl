@@ -23,6 +23,9 @@ struct TraceParams {
 @group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
 // Lit samples so far (summed over rows).
 @group(0) @binding(3) var<storage, read_write> lit: array<f32>;
+// Pairs of strata (columns 2k and 2k + 1 of a row) whose samples disagree, summed over rows: the
+// collapsed-strata estimate of the sampling error (raycast.rs, `visibility_and_error`).
+@group(0) @binding(4) var<storage, read_write> disagree: array<f32>;
 
 const SEGMENT_EPSILON: f32 = 1e-4;
 const LIGHT_END_EPSILON: f32 = 1e-6;
@@ -56,6 +59,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let n = params.samples_per_axis;
     var count = 0u;
+    var pairs_apart = 0u;
+    var even_lit = false;
     // Declared once, outside the loop: a `ray_query` declared inside a loop body makes lavapipe
     // (Mesa 25.0.7) fail the pipeline and lose the device (docs/ARCHITECTURE.md, "Ray queries").
     var rq: ray_query;
@@ -65,9 +70,16 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
         rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, light_point - p));
         rayQueryProceed(&rq);
-        if rayQueryGetCommittedIntersection(&rq).kind == RAY_QUERY_INTERSECTION_NONE {
+        let hit = rayQueryGetCommittedIntersection(&rq).kind != RAY_QUERY_INTERSECTION_NONE;
+        if !hit {
             count += 1u;
+        }
+        if (i & 1u) == 0u {
+            even_lit = !hit;
+        } else if even_lit == hit {
+            pairs_apart += 1u;
         }
     }
     lit[k] += f32(count);
+    disagree[k] += f32(pairs_apart);
 }

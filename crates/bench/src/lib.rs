@@ -103,8 +103,14 @@ pub struct BenchOptions {
     pub images: bool,
     /// Exact ground truth for `error.vs_exact` and `error.reference_vs_exact` (only with
     /// `error`): `None` skips it; `Some(n)` uses the closed form when every caster is a rectangle
-    /// parallel to the light, else the CPU ray-cast reference with `n x n` light samples.
+    /// parallel to the light, else the ray-traced answer with
+    /// [`traced_samples_per_axis`](Self::traced_samples_per_axis) where the device has ray
+    /// queries, else the CPU ray cast with `n x n` light samples
+    /// (`softshadow_reference::exact_answer`).
     pub exact_samples_per_axis: Option<u32>,
+    /// Light samples per axis of the ray-traced exact answer where the device has ray queries;
+    /// `None` always uses the CPU ray cast.
+    pub traced_samples_per_axis: Option<u32>,
     /// Also time frames in which only the camera moves (`timing_camera_only`): light-space work
     /// is then kept from the first frame.
     pub camera_only: bool,
@@ -127,6 +133,7 @@ impl Default for BenchOptions {
             reference_params: Vec::new(),
             images: true,
             exact_samples_per_axis: Some(DEFAULT_EXACT_SAMPLES),
+            traced_samples_per_axis: Some(DEFAULT_TRACED_SAMPLES),
             camera_only: true,
             reference_cache: None,
             path: None,
@@ -137,6 +144,22 @@ impl Default for BenchOptions {
 /// Light samples per axis of the ray-cast ground truth by default: its own error is then about
 /// 0.001 (mean) on penumbra pixels (docs/TECHNIQUES.md, `reference`).
 pub const DEFAULT_EXACT_SAMPLES: u32 = 16;
+
+/// Light samples per axis of the ray-traced ground truth by default (where the device has ray
+/// queries), chosen by measurement of time against agreement with the closed form
+/// (docs/BENCHMARKS.md, "The exact answer").
+pub const DEFAULT_TRACED_SAMPLES: u32 = 32;
+
+impl BenchOptions {
+    /// The exact method these options ask for, if any.
+    pub fn exact_method(&self) -> Option<softshadow_reference::ExactMethod> {
+        self.exact_samples_per_axis
+            .map(|n| softshadow_reference::ExactMethod {
+                raycast_samples_per_axis: n,
+                traced_samples_per_axis: self.traced_samples_per_axis,
+            })
+    }
+}
 
 /// Parses `WIDTHxHEIGHT`.
 pub fn parse_size(text: &str) -> Result<(u32, u32), BenchError> {
@@ -219,12 +242,15 @@ struct ReferenceResult {
     exact: Option<ExactResult>,
     /// Where it came from, when a reference cache is set.
     cache_use: Option<ReferenceCacheUse>,
+    /// Why the exact answer is not the one asked for (the ray-traced answer failed), if so.
+    exact_warning: Option<String>,
 }
 
 /// The exact ground truth of one scene and size, and the reference's error against it.
 struct ExactResult {
     visibility: Vec<f32>,
     label: String,
+    sampling_error: Option<f64>,
     reference_vs_exact: ErrorReport,
     /// An answer with no shadow at all (V = 1) against the exact one: the error a technique that
     /// draws nothing would get, the floor every bound must stay below.
@@ -525,6 +551,9 @@ impl Bench {
         if self.options.error {
             let reference = self.reference_for(spec, out_dir)?;
             run.reference_cache = reference.cache_use.clone();
+            if let Some(why) = &reference.exact_warning {
+                run.warnings.push(why.clone());
+            }
             if let Some(ReferenceCacheUse::Rebuilt(why) | ReferenceCacheUse::NotStored(why)) =
                 &run.reference_cache
             {
@@ -538,6 +567,7 @@ impl Bench {
                 spec.width,
                 spec.height,
             )?);
+            let exact_sampling_error = reference.exact.as_ref().and_then(|e| e.sampling_error);
             let (exact, vs_exact, reference_vs_exact, all_lit_vs_exact) = match &reference.exact {
                 Some(exact) => (
                     Some(exact.label.clone()),
@@ -555,6 +585,7 @@ impl Bench {
                 reference: reference.label.clone(),
                 report,
                 exact,
+                exact_sampling_error,
                 vs_exact,
                 reference_vs_exact,
                 all_lit_vs_exact,
@@ -631,6 +662,8 @@ impl Bench {
             .collect();
         let label = format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","));
         let pixels = (spec.width * spec.height) as usize;
+        let method = self.options.exact_method();
+        let sampled = method.map(|m| m.sampled_on(Some(&self.gpu)).to_string());
 
         let cache = self.options.reference_cache.as_deref().map(|dir| {
             let key = ReferenceKey {
@@ -641,12 +674,13 @@ impl Bench {
                 height: spec.height,
                 label: &label,
                 shaders,
-                exact_samples_per_axis: self.options.exact_samples_per_axis,
+                exact_method: sampled.as_deref(),
             };
             (reference_cache::in_dir(dir), key.hash())
         });
         let mut cache_use = None;
         let mut cached = None;
+        let mut exact_warning = None;
         if let Some((cache, key)) = &cache {
             match cache.load(*key).and_then(|payload| {
                 payload
@@ -677,8 +711,9 @@ impl Bench {
                 )?;
                 let visibility = renderer.read_visibility()?;
                 let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
-                let exact = match self.options.exact_samples_per_axis {
-                    Some(samples) => {
+                let mut exact_sampling_error = None;
+                let exact = match method {
+                    Some(method) => {
                         puffin::profile_scope!("exact ground truth");
                         let positions = renderer.read_world_positions()?;
                         let mask = renderer.read_receiver_mask()?;
@@ -689,10 +724,16 @@ impl Bench {
                             light,
                             ..scene.scene.clone()
                         };
-                        let (exact, truth) = softshadow_reference::exact_visibility(
-                            &viewed, &positions, &mask, samples,
+                        let answer = softshadow_reference::exact_answer(
+                            Some(&self.gpu),
+                            &viewed,
+                            &positions,
+                            &mask,
+                            method,
                         );
-                        Some((truth.to_string(), exact))
+                        exact_sampling_error = answer.sampling_error(&mask);
+                        exact_warning = answer.fallback;
+                        Some((answer.truth.to_string(), answer.visibility))
                     }
                     None => None,
                 };
@@ -701,6 +742,7 @@ impl Bench {
                     visibility,
                     shaded_rgb,
                     exact,
+                    exact_sampling_error,
                 };
                 if let Some((cache, key)) = &cache {
                     if let Err(e) = cache.store(*key, &reference_cache::encode(&made)) {
@@ -725,6 +767,7 @@ impl Bench {
                 Some(ExactResult {
                     visibility: exact,
                     label,
+                    sampling_error: cached.exact_sampling_error,
                     reference_vs_exact,
                     all_lit_vs_exact,
                 })
@@ -770,6 +813,7 @@ impl Bench {
             images,
             exact,
             cache_use,
+            exact_warning,
         })
     }
 }

@@ -52,8 +52,12 @@ pub struct FrameRecord {
     pub cpu_ms: f64,
     /// The passes the frame ran.
     pub passes_run: Vec<String>,
-    /// The exact method of this frame (`closed-form`, `raycast(samples_per_axis=N)`).
+    /// The exact method of this frame (`closed-form`, `raytraced(samples_per_axis=N)`,
+    /// `raycast(samples_per_axis=N)`).
     pub exact: String,
+    /// Its exact answer's sampling error (`ErrorFields::exact_sampling_error`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exact_sampling_error: Option<f64>,
     /// Where its exact answer came from when a cache folder is set.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exact_cache: Option<reference_cache::ReferenceCacheUse>,
@@ -172,11 +176,7 @@ impl Bench {
         run: &mut Run,
     ) -> Result<(), BenchError> {
         crate::check_size(spec.width, spec.height)?;
-        let Some(samples) = self
-            .options
-            .exact_samples_per_axis
-            .filter(|_| self.options.error)
-        else {
+        let Some(method) = self.options.exact_method().filter(|_| self.options.error) else {
             return Err(BenchError::Motion(
                 "a run along a path measures every frame against its exact answer: drop --no-error and --no-exact".into(),
             ));
@@ -251,6 +251,8 @@ impl Bench {
         let mut error_all = Vec::new();
         let mut timings = TimingAccumulator::default();
         let mut exact_methods: BTreeMap<String, u32> = BTreeMap::new();
+        let mut sampling_errors = Vec::new();
+        let sampled = method.sampled_on(Some(&gpu)).to_string();
         let mut cache_counts = cache.as_ref().map(|_| ExactCacheCounts::default());
         let mut passes: BTreeMap<String, u32> = BTreeMap::new();
         let mut last_passes = Vec::new();
@@ -291,7 +293,7 @@ impl Bench {
             let mask = renderer.read_receiver_mask()?;
 
             // This frame's exact answer: from the cache, or computed (and stored).
-            let key = reference_cache::exact_key(&scene, width, height, samples);
+            let key = reference_cache::exact_key(&scene, width, height, &sampled);
             let mut cache_use = None;
             let mut found = None;
             if let Some(cache) = &cache {
@@ -308,7 +310,11 @@ impl Bench {
                     }
                 }
             }
-            let (exact_label, exact) = match found {
+            let reference_cache::CachedExact {
+                label: exact_label,
+                visibility: exact,
+                sampling_error,
+            } = match found {
                 Some(hit) => {
                     cache_use = Some(reference_cache::ReferenceCacheUse::Hit);
                     hit
@@ -316,11 +322,25 @@ impl Bench {
                 None => {
                     puffin::profile_scope!("exact answer of a path frame");
                     let positions = renderer.read_world_positions()?;
-                    let (exact, truth) =
-                        softshadow_reference::exact_visibility(&scene, &positions, &mask, samples);
-                    let label = truth.to_string();
+                    let answer = softshadow_reference::exact_answer(
+                        Some(&gpu),
+                        &scene,
+                        &positions,
+                        &mask,
+                        method,
+                    );
+                    if let Some(why) = &answer.fallback {
+                        if !run.warnings.contains(why) {
+                            run.warnings.push(why.clone());
+                        }
+                    }
+                    let made = reference_cache::CachedExact {
+                        label: answer.truth.to_string(),
+                        sampling_error: answer.sampling_error(&mask),
+                        visibility: answer.visibility,
+                    };
                     if let Some(cache) = &cache {
-                        let payload = reference_cache::encode_exact(&label, &exact);
+                        let payload = reference_cache::encode_exact(&made);
                         if let Err(e) = cache.store(key, &payload) {
                             cache_use = Some(reference_cache::ReferenceCacheUse::NotStored(
                                 format!(
@@ -330,9 +350,12 @@ impl Bench {
                             ));
                         }
                     }
-                    (label, exact)
+                    made
                 }
             };
+            if let Some(e) = sampling_error {
+                sampling_errors.push(e);
+            }
             if let (Some(counts), Some(used)) = (&mut cache_counts, &cache_use) {
                 match used {
                     reference_cache::ReferenceCacheUse::Hit => counts.hit += 1,
@@ -378,6 +401,7 @@ impl Bench {
                 cpu_ms: output.cpu_ms,
                 passes_run: output.passes_run.clone(),
                 exact: exact_label,
+                exact_sampling_error: sampling_error,
                 exact_cache: cache_use,
             };
             serde_json::to_writer(&mut lines, &record).map_err(|e| write_error(&frames_path, e))?;
@@ -443,6 +467,7 @@ impl Bench {
                 still: by_kind(FrameKind::Still),
             },
             exact_methods,
+            exact_sampling_error: SeriesSummary::of(&sampling_errors),
             exact_cache: cache_counts,
             passes,
             series,

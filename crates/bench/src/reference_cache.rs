@@ -5,12 +5,15 @@
 //! writing the same entry at once never leave a torn file). The key hashes everything the images
 //! depend on: the scene's content (geometry, flags), the camera and light it is seen with, the
 //! size, the reference's settings and shader sources (with the common modules they import) and
-//! the exact answer's samples per axis. A file that cannot be trusted is never used: the
-//! reference is rendered again and the run says why ([`ReferenceCacheUse::Rebuilt`]).
+//! the exact answer's method and samples per axis (`raytraced(samples_per_axis=32)`,
+//! `raycast(samples_per_axis=16)`: the one the device would use). A file that cannot be trusted
+//! is never used: the reference is rendered again and the run says why
+//! ([`ReferenceCacheUse::Rebuilt`]).
 //!
 //! Payload layout (little endian): reference label (u32 length, UTF-8), visibility count u32,
 //! visibility f32s, shaded RGB count u32, bytes, then a u32 flag for the exact answer and, when
-//! set, its label and visibility in the same encodings.
+//! set, its label and visibility in the same encodings and its sampling error (f64; NaN for
+//! none).
 
 use std::path::Path;
 
@@ -24,7 +27,7 @@ use softshadow_core::{
 
 /// Bump when the layout changes, or when the reference or the exact answer changes what they
 /// compute in code the key cannot see (the CPU ray cast): older files are then rebuilt.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Where a run's reference images came from, in results.json (`reference_cache`).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -61,8 +64,9 @@ pub struct ReferenceKey<'a> {
     pub label: &'a str,
     /// The reference technique's shaders.
     pub shaders: &'a [ShaderSpec],
-    /// `BenchOptions::exact_samples_per_axis`.
-    pub exact_samples_per_axis: Option<u32>,
+    /// The sampled exact method the bench would use where the closed form does not apply
+    /// (`softshadow_reference::ExactMethod::sampled_on`, as text), `None` without an exact answer.
+    pub exact_method: Option<&'a str>,
 }
 
 impl ReferenceKey<'_> {
@@ -82,7 +86,10 @@ impl ReferenceKey<'_> {
             h.write_bytes(name.as_bytes());
             h.write_bytes(source.as_bytes());
         }
-        h.write_u64(self.exact_samples_per_axis.map_or(u64::MAX, u64::from));
+        match self.exact_method {
+            Some(method) => h.write_bytes(method.as_bytes()),
+            None => h.write_u64(u64::MAX),
+        }
         h.finish()
     }
 }
@@ -95,6 +102,8 @@ pub struct CachedReference {
     pub shaded_rgb: Vec<u8>,
     /// The exact answer's label and visibility.
     pub exact: Option<(String, Vec<f32>)>,
+    /// The exact answer's sampling error (`softshadow_reference::ExactAnswer::sampling_error`).
+    pub exact_sampling_error: Option<f64>,
 }
 
 fn put_str(out: &mut Vec<u8>, text: &str) {
@@ -131,10 +140,18 @@ pub fn encode(reference: &CachedReference) -> Vec<u8> {
             out.extend_from_slice(&1u32.to_le_bytes());
             put_str(&mut out, label);
             put_f32s(&mut out, visibility);
+            let error = reference.exact_sampling_error.unwrap_or(f64::NAN);
+            out.extend_from_slice(&error.to_le_bytes());
         }
         None => out.extend_from_slice(&0u32.to_le_bytes()),
     }
     out
+}
+
+fn take_f64(r: &mut Reader) -> Result<Option<f64>, String> {
+    let bytes: [u8; 8] = r.take(8)?.try_into().expect("took 8 bytes");
+    let value = f64::from_le_bytes(bytes);
+    Ok((!value.is_nan()).then_some(value))
 }
 
 /// Decodes a payload written by [`encode`] for an image of `pixels` pixels, or says why it
@@ -145,9 +162,12 @@ pub fn decode(payload: &[u8], pixels: usize) -> Result<CachedReference, String> 
     let visibility = take_f32s(&mut r)?;
     let shaded_len = r.u32()? as usize;
     let shaded_rgb = r.take(shaded_len)?.to_vec();
-    let exact = match r.u32()? {
-        0 => None,
-        1 => Some((take_str(&mut r)?, take_f32s(&mut r)?)),
+    let (exact, exact_sampling_error) = match r.u32()? {
+        0 => (None, None),
+        1 => (
+            Some((take_str(&mut r)?, take_f32s(&mut r)?)),
+            take_f64(&mut r)?,
+        ),
         flag => return Err(format!("bad exact-answer flag {flag}")),
     };
     if r.remaining() != 0 {
@@ -165,15 +185,16 @@ pub fn decode(payload: &[u8], pixels: usize) -> Result<CachedReference, String> 
         visibility,
         shaded_rgb,
         exact,
+        exact_sampling_error,
     })
 }
 
 /// Bump when the per-frame exact answer changes in code its key cannot see (the closed form,
 /// the ray cast, the G-buffer positions it starts from): older entries are then rebuilt.
-pub const EXACT_FORMAT_VERSION: u32 = 1;
+pub const EXACT_FORMAT_VERSION: u32 = 2;
 
 /// The per-frame exact answers of motion runs ([`crate::motion`]) in `dir`: one file per frame's
-/// scene (its moved instances, light and camera), size and ray-cast samples, shared by every
+/// scene (its moved instances, light and camera), size and exact method, shared by every
 /// technique and every later run on the same path.
 pub fn exact_in_dir(dir: &Path) -> DiskCache {
     DiskCache {
@@ -185,29 +206,42 @@ pub fn exact_in_dir(dir: &Path) -> DiskCache {
 }
 
 /// The key of one frame's exact answer: `scene` holds the frame's pose (camera, light, moved
-/// instances), so [`Scene::content_hash`] covers them.
-pub fn exact_key(scene: &Scene, width: u32, height: u32, samples_per_axis: u32) -> u64 {
+/// instances), so [`Scene::content_hash`] covers them. `method` is the sampled method the frame
+/// would use where the closed form does not apply (`raytraced(samples_per_axis=32)`, ...).
+pub fn exact_key(scene: &Scene, width: u32, height: u32, method: &str) -> u64 {
     let mut h = Fnv1a::default();
     h.write_u64(scene.content_hash());
     h.write_u64(u64::from(width) << 32 | u64::from(height));
-    h.write_u64(u64::from(samples_per_axis));
+    h.write_bytes(method.as_bytes());
     h.finish()
 }
 
-/// The payload of one frame's exact answer: its label (`closed-form`, `raycast(...)`) and
-/// visibility.
-pub fn encode_exact(label: &str, visibility: &[f32]) -> Vec<u8> {
+/// One frame's exact answer as the cache keeps it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CachedExact {
+    /// `closed-form`, `raytraced(...)` or `raycast(...)`.
+    pub label: String,
+    pub visibility: Vec<f32>,
+    /// Its sampling error (`softshadow_reference::ExactAnswer::sampling_error`).
+    pub sampling_error: Option<f64>,
+}
+
+/// The payload of one frame's exact answer: its label, visibility and sampling error (f64,
+/// NaN for none).
+pub fn encode_exact(exact: &CachedExact) -> Vec<u8> {
     let mut out = Vec::new();
-    put_str(&mut out, label);
-    put_f32s(&mut out, visibility);
+    put_str(&mut out, &exact.label);
+    put_f32s(&mut out, &exact.visibility);
+    out.extend_from_slice(&exact.sampling_error.unwrap_or(f64::NAN).to_le_bytes());
     out
 }
 
 /// Decodes [`encode_exact`]'s payload for `pixels` pixels, or says why it cannot be trusted.
-pub fn decode_exact(payload: &[u8], pixels: usize) -> Result<(String, Vec<f32>), String> {
+pub fn decode_exact(payload: &[u8], pixels: usize) -> Result<CachedExact, String> {
     let mut r = Reader::new(payload);
     let label = take_str(&mut r)?;
     let visibility = take_f32s(&mut r)?;
+    let sampling_error = take_f64(&mut r)?;
     if r.remaining() != 0 {
         return Err(format!("{} bytes after the payload", r.remaining()));
     }
@@ -220,7 +254,11 @@ pub fn decode_exact(payload: &[u8], pixels: usize) -> Result<(String, Vec<f32>),
     if visibility.iter().any(|v| !v.is_finite()) {
         return Err("a visibility is not finite".into());
     }
-    Ok((label, visibility))
+    Ok(CachedExact {
+        label,
+        visibility,
+        sampling_error,
+    })
 }
 
 #[cfg(test)]
@@ -234,6 +272,7 @@ mod tests {
             visibility: vec![0.0, 0.25, 0.5, 1.0],
             shaded_rgb: (0..12).collect(),
             exact: Some(("closed form".into(), vec![0.0, 0.2, 0.6, 1.0])),
+            exact_sampling_error: Some(0.004),
         };
         let payload = encode(&reference);
         assert_eq!(decode(&payload, 4).unwrap(), reference);
@@ -243,20 +282,30 @@ mod tests {
 
     #[test]
     fn an_exact_answer_round_trips_and_its_key_sees_the_pose() {
-        let payload = encode_exact("closed-form", &[0.0, 0.5, 1.0]);
-        assert_eq!(
-            decode_exact(&payload, 3).unwrap(),
-            ("closed-form".to_string(), vec![0.0, 0.5, 1.0])
-        );
+        let exact = CachedExact {
+            label: "raytraced(samples_per_axis=32)".into(),
+            visibility: vec![0.0, 0.5, 1.0],
+            sampling_error: Some(0.003),
+        };
+        let payload = encode_exact(&exact);
+        assert_eq!(decode_exact(&payload, 3).unwrap(), exact);
         assert!(decode_exact(&payload, 4).is_err());
         assert!(decode_exact(&payload[..payload.len() - 2], 3).is_err());
         let mut scene = softshadow_scenes_free_scene();
-        let key = exact_key(&scene, 64, 64, 16);
-        assert_eq!(key, exact_key(&scene, 64, 64, 16));
-        assert_ne!(key, exact_key(&scene, 64, 32, 16));
-        assert_ne!(key, exact_key(&scene, 64, 64, 8));
+        let (rt, rc) = (
+            "raytraced(samples_per_axis=32)",
+            "raycast(samples_per_axis=32)",
+        );
+        let key = exact_key(&scene, 64, 64, rt);
+        assert_eq!(key, exact_key(&scene, 64, 64, rt));
+        assert_ne!(key, exact_key(&scene, 64, 32, rt));
+        assert_ne!(key, exact_key(&scene, 64, 64, rc));
+        assert_ne!(
+            key,
+            exact_key(&scene, 64, 64, "raytraced(samples_per_axis=16)")
+        );
         scene.light.width += 0.5;
-        assert_ne!(key, exact_key(&scene, 64, 64, 16));
+        assert_ne!(key, exact_key(&scene, 64, 64, rt));
     }
 
     fn softshadow_scenes_free_scene() -> Scene {

@@ -220,8 +220,13 @@ pub struct Motion {
     pub lag: Option<Lag>,
     /// Frame times by what changed since the frame before.
     pub frame_ms: FrameTimes,
-    /// Exact method (`closed-form`, `raycast(samples_per_axis=N)`) -> frames measured against it.
+    /// Exact method (`closed-form`, `raytraced(samples_per_axis=N)`,
+    /// `raycast(samples_per_axis=N)`) -> frames measured against it.
     pub exact_methods: BTreeMap<String, u32>,
+    /// The per-frame exact answers' sampling error (`ErrorFields::exact_sampling_error`), over
+    /// the frames; absent when no frame's could be estimated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exact_sampling_error: Option<SeriesSummary>,
     /// Where the per-frame exact answers came from when a cache folder is set
     /// (`--reference-cache`): frames read, computed and stored, rebuilt, not stored.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -409,11 +414,18 @@ pub struct ErrorFields {
     pub reference: String,
     #[serde(flatten)]
     pub report: ErrorReport,
-    /// The exact ground truth used for the two fields below: `closed-form` (every caster is a
-    /// rectangle parallel to the light) or `raycast(samples_per_axis=N)`. Absent when the
-    /// benchmark ran without it (`--no-exact`).
+    /// The exact ground truth used for the fields below: `closed-form` (every caster is a
+    /// rectangle parallel to the light), `raytraced(samples_per_axis=N)` (ray queries on the
+    /// device) or `raycast(samples_per_axis=N)` (the CPU ray cast). Absent when the benchmark ran
+    /// without it (`--no-exact`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exact: Option<String>,
+    /// The exact answer's own sampling error: the mean, over the receiver pixels it shadows, of
+    /// each pixel's collapsed-strata standard-error estimate (docs/BENCHMARKS.md, "The exact
+    /// answer"); 0 for the closed form. Absent without an exact answer, with one sample per
+    /// axis, or in results written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exact_sampling_error: Option<f64>,
     /// The technique against the exact ground truth.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vs_exact: Option<ErrorReport>,

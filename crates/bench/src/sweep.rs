@@ -374,6 +374,11 @@ impl Sweep {
         if let Some(path) = &options.path {
             text.push_str(&format!(" path={path}"));
         }
+        // The ray-traced exact answer's samples (only when not the default, so the hashes of
+        // sweeps run at the default stay what they were).
+        if options.traced_samples_per_axis != Some(crate::DEFAULT_TRACED_SAMPLES) {
+            text.push_str(&format!(" traced={:?}", options.traced_samples_per_axis));
+        }
         format!("{:016x}", fnv1a(text.as_bytes()))
     }
 

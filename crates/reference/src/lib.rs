@@ -9,7 +9,9 @@
 //!   for any scene.
 //! - [`traced`]: the same estimate as the ray cast, traced on the device with ray queries (more
 //!   samples affordable; needs `EXPERIMENTAL_RAY_QUERY`).
-//! - [`exact_visibility`]: the closed form where it applies, else the ray cast, and which one.
+//! - [`exact_visibility`]: the closed form where it applies, else the ray cast, and which one;
+//!   [`exact_answer`]: the same with the ray-traced answer where the device has ray queries, and
+//!   each answer's sampling error.
 //!
 //! Reads: the casters and the G-buffer. Writes: the visibility buffer.
 
@@ -124,6 +126,128 @@ pub fn exact_visibility(
             raycast::visibility_image(scene, positions, receiver, samples_per_axis),
             GroundTruth::RayCast { samples_per_axis },
         ),
+    }
+}
+
+/// How [`exact_answer`] computes the exact answer where the closed form does not apply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ExactMethod {
+    /// Light samples per axis of the CPU ray cast ([`raycast`]): the fallback.
+    pub raycast_samples_per_axis: u32,
+    /// Light samples per axis of the ray-traced answer ([`traced`]), used when the device has ray
+    /// queries; `None` never uses it.
+    pub traced_samples_per_axis: Option<u32>,
+}
+
+impl ExactMethod {
+    /// The sampled answer [`exact_answer`] gives on `gpu` where the closed form does not apply:
+    /// [`GroundTruth::RayTraced`] when the device has ray queries and a traced sample count is
+    /// set, else [`GroundTruth::RayCast`]. (A scene whose casters exceed the device's
+    /// acceleration-structure limits still falls back to the ray cast; [`ExactAnswer::fallback`]
+    /// says so.)
+    pub fn sampled_on(&self, gpu: Option<&Gpu>) -> GroundTruth {
+        match (self.traced_samples_per_axis, gpu) {
+            (Some(samples_per_axis), Some(gpu))
+                if gpu.features().contains(softshadow_core::accel::RAY_QUERY) =>
+            {
+                GroundTruth::RayTraced { samples_per_axis }
+            }
+            _ => GroundTruth::RayCast {
+                samples_per_axis: self.raycast_samples_per_axis,
+            },
+        }
+    }
+}
+
+/// An exact answer with what made it (see [`exact_answer`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExactAnswer {
+    /// Per-pixel visibility, row-major (1 at non-receivers).
+    pub visibility: Vec<f32>,
+    /// The method that gave it.
+    pub truth: GroundTruth,
+    /// Per-pixel standard-error estimate of a sampled answer (collapsed strata,
+    /// [`raycast::visibility_and_error`]); all 0 for the closed form.
+    pub standard_error: Vec<f32>,
+    /// Why the ray-traced answer was asked for and not used (the ray cast was), if so.
+    pub fallback: Option<String>,
+}
+
+impl ExactAnswer {
+    /// The answer's sampling error as results.json records it: the mean of the per-pixel
+    /// standard-error estimate over the receiver pixels the answer shadows (`V < 1`, the pixels
+    /// `mae_shadowed` averages over); 0 for the closed form or with no shadowed pixel, `None`
+    /// when it cannot be estimated (one sample per axis).
+    pub fn sampling_error(&self, receiver: &[bool]) -> Option<f64> {
+        let mut sum = 0.0f64;
+        let mut count = 0u64;
+        for ((&v, &e), &r) in self
+            .visibility
+            .iter()
+            .zip(&self.standard_error)
+            .zip(receiver)
+        {
+            if r && v < 1.0 {
+                if !e.is_finite() {
+                    return None;
+                }
+                sum += e as f64;
+                count += 1;
+            }
+        }
+        Some(if count == 0 { 0.0 } else { sum / count as f64 })
+    }
+}
+
+/// The exact visibility of each receiver pixel and how it was had: the closed form where every
+/// caster is a rectangle parallel to the light; else, when `gpu` has ray queries and
+/// `method.traced_samples_per_axis` is set, the ray-traced answer ([`traced`]); else (or when
+/// tracing fails: [`ExactAnswer::fallback`] says why) the CPU ray cast ([`raycast`]).
+pub fn exact_answer(
+    gpu: Option<&Gpu>,
+    scene: &softshadow_core::Scene,
+    positions: &[Option<softshadow_core::glam::Vec3>],
+    receiver: &[bool],
+    method: ExactMethod,
+) -> ExactAnswer {
+    if let Some(visibility) = exact::visibility_image(scene, positions, receiver) {
+        let standard_error = vec![0.0; visibility.len()];
+        return ExactAnswer {
+            visibility,
+            truth: GroundTruth::ClosedForm,
+            standard_error,
+            fallback: None,
+        };
+    }
+    let mut fallback = None;
+    if let (GroundTruth::RayTraced { samples_per_axis }, Some(gpu)) = (method.sampled_on(gpu), gpu)
+    {
+        match traced::visibility_image_and_error(gpu, scene, positions, receiver, samples_per_axis)
+        {
+            Ok((visibility, standard_error)) => {
+                return ExactAnswer {
+                    visibility,
+                    truth: GroundTruth::RayTraced { samples_per_axis },
+                    standard_error,
+                    fallback: None,
+                }
+            }
+            Err(e) => {
+                fallback = Some(format!(
+                    "the ray-traced exact answer failed ({e}): the CPU ray cast with {n} x {n} samples was used instead",
+                    n = method.raycast_samples_per_axis
+                ))
+            }
+        }
+    }
+    let samples_per_axis = method.raycast_samples_per_axis;
+    let (visibility, standard_error) =
+        raycast::visibility_image_and_error(scene, positions, receiver, samples_per_axis);
+    ExactAnswer {
+        visibility,
+        truth: GroundTruth::RayCast { samples_per_axis },
+        standard_error,
+        fallback,
     }
 }
 
@@ -750,5 +874,41 @@ mod ground_truth_tests {
             assert_eq!(truth, expected, "{id}");
             assert!(v[0] < 1.0 && v[1] == 1.0, "{id}: {v:?}");
         }
+    }
+
+    /// Without a device `exact_answer` gives the closed form or the ray cast (never the traced
+    /// answer), with a sampling error of 0 for the closed form and a positive one for the ray
+    /// cast's penumbra; the sampled method it would use needs ray queries on a device.
+    #[test]
+    fn exact_answer_without_a_device_and_its_sampling_error() {
+        let method = ExactMethod {
+            raycast_samples_per_axis: 8,
+            traced_samples_per_axis: Some(32),
+        };
+        assert_eq!(
+            method.sampled_on(None),
+            GroundTruth::RayCast {
+                samples_per_axis: 8
+            }
+        );
+        let positions = [
+            Some(Vec3::new(0.0, 0.0, 0.0)),
+            Some(Vec3::new(1e4, 0.0, 1e4)),
+        ];
+        let square = softshadow_scenes::builtin("atty-square", &[]).unwrap();
+        let closed = exact_answer(None, &square, &positions, &[true, true], method);
+        assert_eq!(closed.truth, GroundTruth::ClosedForm);
+        assert_eq!(closed.sampling_error(&[true, true]), Some(0.0));
+        let blob = softshadow_scenes::builtin("blob-floating", &[]).unwrap();
+        // Ground points across the blob's penumbra.
+        let ground: Vec<Option<Vec3>> = (0..64)
+            .map(|i| Some(Vec3::new(-1.5 + 3.0 * i as f32 / 63.0, 0.0, 0.0)))
+            .collect();
+        let mask = vec![true; ground.len()];
+        let cast = exact_answer(None, &blob, &ground, &mask, method);
+        assert_eq!(cast.truth, method.sampled_on(None));
+        assert!(cast.fallback.is_none());
+        let error = cast.sampling_error(&mask).unwrap();
+        assert!(error > 0.0 && error < 0.1, "{error}");
     }
 }

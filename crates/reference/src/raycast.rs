@@ -386,13 +386,32 @@ pub fn visibility(
     point: Vec3,
     seed: u64,
 ) -> f64 {
+    visibility_and_error(bvh, light, samples_per_axis, point, seed).0
+}
+
+/// [`visibility`] and an estimate of its standard error from the same samples, by collapsed
+/// strata (Cochran, *Sampling Techniques*, 3rd ed., section 5A.12): with one sample per stratum
+/// the variance of the stratified mean cannot be estimated within a stratum, so strata are
+/// paired (columns `2k` and `2k + 1` of each row) and the variance is estimated as
+/// `sum over pairs (y_a - y_b)^2 / n^2` for `n = N^2` samples, i.e. `sqrt(D) / n` for `D` pairs
+/// whose two samples disagree (an unpaired last column with odd `N` scales `D` by
+/// `n / (2 * pairs)`). It overestimates (a shadow edge that runs between the two strata of a
+/// pair makes them disagree without any sampling error), so it is an upper estimate. `NaN` when
+/// no strata can be paired (`N = 1`); 0 where every sample agrees (lit, umbra, behind the light).
+pub fn visibility_and_error(
+    bvh: &CasterBvh,
+    light: &AreaLight,
+    samples_per_axis: u32,
+    point: Vec3,
+    seed: u64,
+) -> (f64, f64) {
     let (x, y, z) = light.basis();
     let depth = (point - light.center).dot(z);
     if !point.is_finite() || depth.is_nan() || depth <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     if bvh.nodes.is_empty() {
-        return 1.0;
+        return (1.0, 0.0);
     }
     let half: Vec2 = light.half_extent();
     let n = if half.x > 0.0 || half.y > 0.0 {
@@ -401,14 +420,36 @@ pub fn visibility(
         1
     };
     let mut visible = 0u32;
-    for s in crate::stratified_samples(n, half, Some(seed ^ hash_point(point))) {
+    let mut disagree = 0u32;
+    let mut even = false;
+    for (k, s) in crate::stratified_samples(n, half, Some(seed ^ hash_point(point))).enumerate() {
         let sample = light.center + x * s.x + y * s.y;
         let dir = sample - point;
-        if !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON) {
-            visible += 1;
+        let lit = !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON);
+        visible += lit as u32;
+        let column = k as u32 % n;
+        if column % 2 == 0 {
+            even = lit;
+        } else if lit != even {
+            disagree += 1;
         }
     }
-    visible as f64 / (n * n) as f64
+    let total = (n * n) as f64;
+    (
+        visible as f64 / total,
+        collapsed_strata_error(disagree as f64, n),
+    )
+}
+
+/// The collapsed-strata standard error of a mean over `n x n` strata whose pairs (columns
+/// `2k`, `2k + 1` of each row) disagree `disagree` times (see [`visibility_and_error`]).
+pub fn collapsed_strata_error(disagree: f64, n: u32) -> f64 {
+    let pairs = (n * (n / 2)) as f64;
+    if pairs == 0.0 {
+        return f64::NAN;
+    }
+    let total = (n * n) as f64;
+    (disagree * total / (2.0 * pairs)).sqrt() / total
 }
 
 /// Per-pixel visibility of `scene` (row-major, like `positions`), computed in parallel with
@@ -422,17 +463,30 @@ pub fn visibility_image(
     receiver_mask: &[bool],
     samples_per_axis: u32,
 ) -> Vec<f32> {
+    visibility_image_and_error(scene, positions, receiver_mask, samples_per_axis).0
+}
+
+/// [`visibility_image`] and each pixel's standard-error estimate ([`visibility_and_error`];
+/// 0 where the pixel is not a receiver).
+pub fn visibility_image_and_error(
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    receiver_mask: &[bool],
+    samples_per_axis: u32,
+) -> (Vec<f32>, Vec<f32>) {
     let bvh = CasterBvh::from_scene(scene);
     positions
         .par_iter()
         .enumerate()
         .map(|(i, p)| match p {
             Some(p) if receiver_mask.get(i).copied().unwrap_or(false) => {
-                visibility(&bvh, &scene.light, samples_per_axis, *p, IMAGE_SEED) as f32
+                let (v, e) =
+                    visibility_and_error(&bvh, &scene.light, samples_per_axis, *p, IMAGE_SEED);
+                (v as f32, e as f32)
             }
-            _ => 1.0,
+            _ => (1.0, 0.0),
         })
-        .collect()
+        .unzip()
 }
 
 fn hash_point(p: Vec3) -> u64 {
@@ -795,6 +849,33 @@ mod tests {
             Vec3::new(-50.0, 50.0, 2.0),
         );
         CasterBvh::from_triangles(vec![[a, b, c], [a, c, d]])
+    }
+
+    /// The collapsed-strata error: 0 where every pair agrees (lit; an edge between two pairs),
+    /// positive where the edge runs through a pair (the overestimate: the answer 1/2 is exact
+    /// there too), `NaN` with one sample per axis; the formula sqrt(D n / (2 pairs)) / n.
+    #[test]
+    fn the_sampling_error_counts_disagreeing_pairs() {
+        let bvh = half_plane();
+        let square = light(1.0, 1.0);
+        let lit = Vec3::new(40.0, 0.0, 0.0);
+        assert_eq!(visibility_and_error(&bvh, &square, 4, lit, 1), (1.0, 0.0));
+        // N = 4: the edge falls between columns 1 and 2, two pairs apart.
+        assert_eq!(
+            visibility_and_error(&bvh, &square, 4, Vec3::ZERO, 1),
+            (0.5, 0.0)
+        );
+        // N = 6: it falls between columns 2 and 3, inside the pair (2, 3) of every row.
+        let (v, e) = visibility_and_error(&bvh, &square, 6, Vec3::ZERO, 1);
+        assert_eq!(v, 0.5);
+        assert!((e - 6f64.sqrt() / 36.0).abs() < 1e-12, "{e}");
+        assert!(visibility_and_error(&bvh, &square, 1, Vec3::ZERO, 1)
+            .1
+            .is_nan());
+        // Odd N: the unpaired last column scales D by n / (2 pairs) = 25 / 20.
+        assert!(
+            (collapsed_strata_error(4.0, 5) - (4.0f64 * 25.0 / 20.0).sqrt() / 25.0).abs() < 1e-12
+        );
     }
 
     /// Seen from the origin, the occluder's edge x = 0 at half the light's height lines up with

@@ -70,6 +70,19 @@ pub fn visibility_image(
     receiver: &[bool],
     samples_per_axis: u32,
 ) -> Result<Vec<f32>, TracedError> {
+    Ok(visibility_image_and_error(gpu, scene, positions, receiver, samples_per_axis)?.0)
+}
+
+/// [`visibility_image`] and each pixel's standard-error estimate from the same samples (collapsed
+/// strata, as [`crate::raycast::visibility_and_error`]; 0 where the pixel is not a receiver or
+/// every pair of samples agrees, `NaN` at receivers with one sample per axis).
+pub fn visibility_image_and_error(
+    gpu: &Gpu,
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    receiver: &[bool],
+    samples_per_axis: u32,
+) -> Result<(Vec<f32>, Vec<f32>), TracedError> {
     if positions.len() != receiver.len() {
         return Err(TracedError::Input(format!(
             "{} positions but {} receiver flags: give one of each per pixel",
@@ -84,7 +97,7 @@ pub fn visibility_image(
     }
     let count = positions.len();
     if count == 0 {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), Vec::new()));
     }
     let points: Vec<[f32; 4]> = positions
         .iter()
@@ -97,7 +110,7 @@ pub fn visibility_image(
     let device = &gpu.device;
     let scene_gpu = SceneGpu::upload(gpu, scene);
     if !scene_gpu.has_casters() {
-        return Ok(points
+        let lit: Vec<f32> = points
             .iter()
             .map(|p| {
                 let lit = p[3] < 0.5
@@ -113,7 +126,9 @@ pub fn visibility_image(
                     0.0
                 }
             })
-            .collect());
+            .collect();
+        let errors = vec![0.0; lit.len()];
+        return Ok((lit, errors));
     }
     let mut accel = SceneAccel::new();
     let mut encoder = device.create_command_encoder(&Default::default());
@@ -134,6 +149,7 @@ pub fn visibility_image(
             },
             storage_entry(2, true),
             storage_entry(3, false),
+            storage_entry(4, false),
         ],
     });
     let module = shader::create_module(gpu, &SHADER, &[])?;
@@ -157,6 +173,11 @@ pub fn visibility_image(
     });
     let lit_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("reference/trace lit"),
+        contents: bytemuck::cast_slice(&vec![0f32; count]),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    });
+    let disagree_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("reference/trace disagree"),
         contents: bytemuck::cast_slice(&vec![0f32; count]),
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
     });
@@ -202,6 +223,10 @@ pub fn visibility_image(
                     binding: 3,
                     resource: lit_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: disagree_buffer.as_entire_binding(),
+                },
             ],
         });
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -215,12 +240,23 @@ pub fn visibility_image(
     }
     let bytes = read_buffer(gpu, &lit_buffer, 0, (count * 4) as u64)?;
     let lit: &[f32] = bytemuck::cast_slice(&bytes);
+    let bytes = read_buffer(gpu, &disagree_buffer, 0, (count * 4) as u64)?;
+    let disagree: &[f32] = bytemuck::cast_slice(&bytes);
     let total = (samples_per_axis * samples_per_axis) as f32;
     Ok(points
         .iter()
-        .zip(lit)
-        .map(|(p, &l)| if p[3] < 0.5 { 1.0 } else { l / total })
-        .collect())
+        .zip(lit.iter().zip(disagree))
+        .map(|(p, (&l, &d))| {
+            if p[3] < 0.5 {
+                (1.0, 0.0)
+            } else {
+                (
+                    l / total,
+                    crate::raycast::collapsed_strata_error(d as f64, samples_per_axis) as f32,
+                )
+            }
+        })
+        .unzip())
 }
 
 fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {

@@ -5,7 +5,8 @@
 //!
 //! Most cases use only rectangles parallel to the light, so the benchmark can score them against
 //! the exact closed form (`softshadow_reference::exact`); the others (contact, grazing light,
-//! occluder crossing the light plane) are scored against the CPU ray-cast reference.
+//! occluder crossing the light plane) are scored against a sampled exact answer (ray-traced with
+//! ray queries, else the CPU ray cast).
 //!
 //! Conventions as in [`crate::builtin`](mod@crate::builtin): an 8 x 8 receiver-only ground at
 //! y = 0, casters are not receivers unless said, lights face the ground.

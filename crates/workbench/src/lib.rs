@@ -48,6 +48,8 @@ struct Cli {
     command: Option<Command>,
 }
 
+// Parsed once per process: the size of the bench's arguments costs nothing worth a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// List scenes, techniques and their parameters.
@@ -162,12 +164,18 @@ struct BenchArgs {
     /// Skip the reference and the error metrics (timings only).
     #[arg(long)]
     no_error: bool,
-    /// Skip the exact ground truth (closed form or CPU ray cast) and `error.reference_vs_exact`.
+    /// Skip the exact ground truth (closed form, ray-traced or CPU ray cast) and
+    /// `error.reference_vs_exact`.
     #[arg(long)]
     no_exact: bool,
-    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form).
+    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form, on
+    /// a device without ray queries).
     #[arg(long, default_value_t = softshadow_bench::DEFAULT_EXACT_SAMPLES)]
     exact_samples: u32,
+    /// Light samples per axis of the ray-traced ground truth (scenes without a closed form, on a
+    /// device with ray queries); 0 uses the CPU ray cast there too.
+    #[arg(long, default_value_t = softshadow_bench::DEFAULT_TRACED_SAMPLES)]
+    traced_samples: u32,
     /// Do not write images.
     #[arg(long)]
     no_images: bool,
@@ -460,6 +468,7 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         reference_params,
         images: !args.no_images,
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
+        traced_samples_per_axis: (args.traced_samples > 0).then_some(args.traced_samples),
         camera_only: !args.no_camera_only,
         reference_cache: args.reference_cache.clone(),
         // Each run names its own path (`RunSpec::path`).

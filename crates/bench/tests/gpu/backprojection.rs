@@ -306,7 +306,7 @@ fn bad_settings_are_rejected_with_the_range() -> Result<()> {
     Ok(())
 }
 
-/// A curved caster (`blob-floating`, 20k triangles) against the exact answer (16 x 16 ray cast)
+/// A curved caster (`blob-floating`, 20k triangles) against the exact answer (ray-traced 32 x 32)
 /// at 64^2, with and without gap filling: micro-patches of a sloped surface seen from the light
 /// centre leave gaps between neighbours at different depths, which let light through from the
 /// light's edge; gap filling extends each patch to its occluding neighbours and closes them.

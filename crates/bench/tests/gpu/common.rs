@@ -94,7 +94,8 @@ pub fn all_lit_vs_exact(run: &Run) -> Result<ErrorReport> {
 }
 
 /// A bench measuring against the exact answer (closed form where the casters are rectangles
-/// parallel to the light, else a 16 x 16 ray cast), one frame per run; the yardstick reference
+/// parallel to the light, else the 32 x 32 ray-traced answer, or a 16 x 16 CPU ray cast on a
+/// device without ray queries), one frame per run; the yardstick reference
 /// (`error.report`) is not used by the tests that take this, so it is small (4 x 4 at 256^2).
 pub fn exact_bench() -> Result<Bench> {
     Ok(Bench::new(

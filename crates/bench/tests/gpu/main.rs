@@ -22,3 +22,4 @@ mod sweeps;
 mod techniques;
 mod timing;
 mod wgsl;
+mod yardsticks;

@@ -4,7 +4,8 @@
 //! reference towards the exact answer as its sample count grows, every technique towards `hard`
 //! as the light shrinks.
 //!
-//! Small images (64^2, the expectation size), an 8 x 8 yardstick reference and a 16 x 16 ray cast
+//! Small images (64^2, the expectation size), an 8 x 8 yardstick reference and the ray-traced
+//! exact answer (32 x 32; a 16 x 16 CPU ray cast without ray queries)
 //! keep this near a minute on lavapipe; techniques, the `reference` technique included (32 x 32),
 //! run with their defaults. `workbench bench --suite stiff` makes the same runs and verdicts.
 
