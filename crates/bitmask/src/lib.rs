@@ -160,6 +160,9 @@ softshadow_core::technique_settings! {
         /// Levels a partly occluding micro-patch block (it holds an occluder's edge) is split
         /// down into sub-blocks (0: none; micro-patches with a hierarchy only)
         edge_refine: u32 = 0, in 0..=3;
+        /// Depth bands gathered each at its own level, the level following the penumbra of
+        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
+        depth_bands: u32 = 1, in 1..=8;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
         /// block size)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
@@ -182,6 +185,8 @@ struct GatherUniform {
     columns: u32,
     jittered: u32,
     edge_refine: u32,
+    depth_bands: u32,
+    _pad: [u32; 3],
 }
 
 /// Mirrors `Counters` in `gather.wgsl`.
@@ -765,6 +770,8 @@ impl ShadowTechnique for Bitmask {
             columns: pattern.columns,
             jittered: u32::from(pattern.jittered),
             edge_refine: s.edge_refine.min(3),
+            depth_bands: s.depth_bands.clamp(1, 8),
+            _pad: [0; 3],
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));

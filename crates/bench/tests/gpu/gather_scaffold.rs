@@ -1,0 +1,143 @@
+//! Issue 30, item 5: `backprojection` and `bitmask` share one gather scaffold
+//! (`shaders/common/gather.wgsl`). The move must not change an image the old settings make: the
+//! checksums below are those of the visibility images before the move (Mesa 25.0.7's lavapipe,
+//! 64², 256² map), and every setting that existed before must still give them bit for bit.
+//! Another driver compiles the shaders differently, so the comparison runs on that driver only.
+
+use crate::common::gpu;
+use anyhow::{ensure, Result};
+use softshadow_backprojection::{Backprojection, BackprojectionSettings};
+use softshadow_bitmask::{Bitmask, BitmaskSettings};
+use softshadow_core::{Renderer, SceneGpu, ShadowTechnique};
+
+const SIZE: u32 = 64;
+
+/// FNV-1a over the bits of every value.
+fn checksum(v: &[f32]) -> u64 {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for x in v {
+        for b in x.to_bits().to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x100000001b3);
+        }
+    }
+    h
+}
+
+/// (scene, technique, settings as on the command line).
+const CASES: &[(&str, &str, &[&str])] = &[
+    ("stiff-large-light", "backprojection", &[]),
+    ("stiff-large-light", "backprojection", &["hierarchy=none"]),
+    (
+        "stiff-large-light",
+        "backprojection",
+        &["primitive=microquad"],
+    ),
+    (
+        "stiff-large-light",
+        "backprojection",
+        &["visibility=contour"],
+    ),
+    (
+        "stiff-large-light",
+        "backprojection",
+        &["depth_bands=1", "edge_refine=0", "hierarchy=hsm"],
+    ),
+    ("stiff-large-light", "bitmask", &[]),
+    ("stiff-large-light", "bitmask", &["hierarchy=none"]),
+    ("stiff-large-light", "bitmask", &["primitive=microquad"]),
+    (
+        "stiff-large-light",
+        "bitmask",
+        &["layers=2", "filter_passes=2"],
+    ),
+    ("blob-floating:triangles=2000", "backprojection", &[]),
+    (
+        "blob-floating:triangles=2000",
+        "backprojection",
+        &["hierarchy=none"],
+    ),
+    ("blob-floating:triangles=2000", "bitmask", &[]),
+    (
+        "blob-floating:triangles=2000",
+        "bitmask",
+        &["hierarchy=none"],
+    ),
+];
+
+/// Checksums before the move, in the order of `CASES`.
+const BEFORE: &[u64] = &[
+    0x592c72940ae656f6,
+    0xe8029a5ba3706165,
+    0xaafe46ef53a534b1,
+    0xc05a556bdeffec3a,
+    0xf2e75425712c1b84,
+    0xc38b70f09896ddf9,
+    0x503d910e5730d294,
+    0x5b4d82c9413d3ac,
+    0x66d0f2db569f4c47,
+    0x413bd4883c4ef9d8,
+    0xd001da9495882f06,
+    0x52d0f7f665c1fed8,
+    0x1fe6d327d07fbc27,
+];
+
+fn technique(
+    gpu: &softshadow_core::Gpu,
+    id: &str,
+    params: &[&str],
+) -> Result<Box<dyn ShadowTechnique>> {
+    let mut t: Box<dyn ShadowTechnique> = if id == "backprojection" {
+        Box::new(Backprojection::new(
+            gpu,
+            BackprojectionSettings {
+                shadow_map_size: 256,
+                ..Default::default()
+            },
+        )?)
+    } else {
+        Box::new(Bitmask::new(
+            gpu,
+            BitmaskSettings {
+                shadow_map_size: 256,
+                ..Default::default()
+            },
+        )?)
+    };
+    let registry = softshadow::registry();
+    let texts: Vec<String> = params.iter().map(|s| s.to_string()).collect();
+    for (name, value) in softshadow_bench::parse_params(&registry, id, &texts)? {
+        t.set_param(&name, value)?;
+    }
+    Ok(t)
+}
+
+#[test]
+fn the_shared_gather_scaffold_keeps_every_old_image_bit_for_bit() -> Result<()> {
+    let gpu = gpu()?;
+    let summary = gpu.summary();
+    let mut sums = Vec::new();
+    for (scene, id, params) in CASES {
+        let scene = softshadow_scenes::load(scene)?.scene;
+        let scene_gpu = SceneGpu::upload(&gpu, &scene);
+        let mut renderer = Renderer::new(&gpu, SIZE, SIZE)?;
+        let mut t = technique(&gpu, id, params)?;
+        renderer.render(&scene_gpu, &scene.camera, &scene.light, t.as_mut(), None)?;
+        sums.push(checksum(&renderer.read_visibility()?));
+    }
+    eprintln!("checksums: {sums:#x?}");
+    if summary.mesa_version() != Some((25, 0)) {
+        eprintln!(
+            "not Mesa 25.0's lavapipe ({}): not compared",
+            summary.driver
+        );
+        return Ok(());
+    }
+    for (i, case) in CASES.iter().enumerate() {
+        ensure!(
+            sums[i] == BEFORE[i],
+            "{case:?}: the image changed with the scaffold"
+        );
+    }
+    Ok(())
+}
