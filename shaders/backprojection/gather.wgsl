@@ -12,7 +12,9 @@
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::shadow_view::{ShadowView, texel_slope}
 #import softshadow::search_area::{HIERARCHY_NONE, SEARCH_LIT, SEARCH_UMBRA, refine_search}
-#import softshadow::gather::{GatherSettings, gather_setup, gather_search_area}
+#import softshadow::gather::{
+    GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, penumbra_pixels, upsample_coarse,
+}
 
 // `hierarchy = none` gathers level-0 texels over the unrefined area, up to this many per axis:
 // softshadow_core::hierarchy::full_search_patches(1) (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
@@ -23,6 +25,7 @@ const CLASS_NONE: u32 = 0u;
 const CLASS_LIT: u32 = 1u;
 const CLASS_UMBRA: u32 = 2u;
 const CLASS_BACKPROJECTED: u32 = 3u;
+const CLASS_UPSAMPLED: u32 = 4u;
 
 struct GatherParams {
     hierarchy: u32,
@@ -38,9 +41,11 @@ struct GatherParams {
     depth_bands: u32,
     // Levels a partly occluding block is split down (0: none).
     edge_refine: u32,
+    // Adaptive screen resolution: 1 (off), 2 or 4 (coarse pixels per axis), and the penumbra
+    // width in screen pixels from which a pixel is interpolated from the coarse pass.
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 struct Counters {
@@ -51,8 +56,9 @@ struct Counters {
     // Micro-primitives processed, as a 64-bit count (low word, high word).
     primitives_lo: atomic<u32>,
     primitives_hi: atomic<u32>,
+    // Pixels interpolated from the coarse pass (adaptive screen resolution).
+    upsampled: atomic<u32>,
     _pad0: u32,
-    _pad1: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;
@@ -63,12 +69,17 @@ struct Counters {
 @group(1) @binding(5) var classification: texture_storage_2d<rgba8unorm, write>;
 @group(1) @binding(6) var level_map: texture_storage_2d<r32float, write>;
 @group(1) @binding(7) var<storage, read_write> counters: Counters;
+// Adaptive screen resolution: the coarse pass's (V, unused) per coarse pixel, read by the
+// full-resolution pass; written by the coarse pass (each pass binds a stand-in for the other).
+@group(1) @binding(8) var coarse_in: texture_2d<f32>;
+@group(1) @binding(9) var coarse_out: texture_storage_2d<rg32float, write>;
 
 var<workgroup> group_receivers: atomic<u32>;
 var<workgroup> group_lit: atomic<u32>;
 var<workgroup> group_umbra: atomic<u32>;
 var<workgroup> group_backprojected: atomic<u32>;
 var<workgroup> group_primitives: atomic<u32>;
+var<workgroup> group_upsampled: atomic<u32>;
 
 struct PixelResult {
     v: f32,
@@ -77,7 +88,9 @@ struct PixelResult {
     primitives: u32,
 }
 
-fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
+// `coarse`: the coarse pass of adaptive screen resolution (a narrow penumbra is left to the
+// full-resolution pass: ADAPTIVE_INVALID).
+fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
     var r: PixelResult;
     r.v = 1.0;
     r.kind = CLASS_NONE;
@@ -110,6 +123,22 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
         r.v = 0.0;
         r.kind = CLASS_UMBRA;
         return r;
+    }
+    if params.adaptive_factor > 1u {
+        // A wide penumbra (by the nearest blocker found) is interpolated from the coarse pass.
+        let wide = penumbra_pixels(s, pixel, search.z_range.x, half_light) >= params.adaptive_pixels;
+        if coarse && !wide {
+            r.v = ADAPTIVE_INVALID;
+            return r;
+        }
+        if !coarse && wide {
+            let u = upsample_coarse(coarse_in, pixel, i32(params.adaptive_factor), s);
+            if u.z > 0.0 {
+                r.v = clamp(u.x, 0.0, 1.0);
+                r.kind = CLASS_UPSAMPLED;
+                return r;
+            }
+        }
     }
     var per_axis = i32(params.max_patches);
     if params.hierarchy == HIERARCHY_NONE {
@@ -155,6 +184,9 @@ fn class_colour(r: PixelResult) -> vec4<f32> {
             let t = clamp(f32(r.primitives) / full, 0.0, 1.0);
             return vec4<f32>(1.0 - t, 0.15, t, 1.0);
         }
+        case CLASS_UPSAMPLED: {
+            return vec4<f32>(0.1, 0.8, 0.2, 1.0);
+        }
         default: {
             return vec4<f32>(0.0);
         }
@@ -172,12 +204,13 @@ fn gather(
         atomicStore(&group_umbra, 0u);
         atomicStore(&group_backprojected, 0u);
         atomicStore(&group_primitives, 0u);
+        atomicStore(&group_upsampled, 0u);
     }
     workgroupBarrier();
     let size = vec2<u32>(frame.screen.xy);
     if all(id.xy < size) {
         let pixel = vec2<i32>(id.xy);
-        let r = shade_pixel(pixel);
+        let r = shade_pixel(pixel, false);
         textureStore(visibility, pixel, vec4<f32>(r.v, 0.0, 0.0, 0.0));
         textureStore(classification, pixel, class_colour(r));
         textureStore(level_map, pixel, vec4<f32>(f32(r.level), 0.0, 0.0, 0.0));
@@ -194,6 +227,9 @@ fn gather(
             atomicAdd(&group_backprojected, 1u);
             atomicAdd(&group_primitives, r.primitives);
         }
+        if r.kind == CLASS_UPSAMPLED {
+            atomicAdd(&group_upsampled, 1u);
+        }
     }
     workgroupBarrier();
     if local == 0u {
@@ -201,10 +237,23 @@ fn gather(
         atomicAdd(&counters.lit, atomicLoad(&group_lit));
         atomicAdd(&counters.umbra, atomicLoad(&group_umbra));
         atomicAdd(&counters.backprojected, atomicLoad(&group_backprojected));
+        atomicAdd(&counters.upsampled, atomicLoad(&group_upsampled));
         let added = atomicLoad(&group_primitives);
         let before = atomicAdd(&counters.primitives_lo, added);
         if before > 0xffffffffu - added {
             atomicAdd(&counters.primitives_hi, 1u);
         }
+    }
+}
+
+// The coarse pass of adaptive screen resolution: pixel id * factor of the full image, its V where
+// it is lit, umbra or has a wide penumbra, ADAPTIVE_INVALID elsewhere.
+@compute @workgroup_size(8, 8)
+fn gather_coarse(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = textureDimensions(coarse_out);
+    let pixel = vec2<i32>(id.xy * max(params.adaptive_factor, 1u));
+    if all(id.xy < dims) && all(pixel < vec2<i32>(frame.screen.xy)) {
+        let r = shade_pixel(pixel, true);
+        textureStore(coarse_out, id.xy, vec4<f32>(r.v, 0.0, 0.0, 0.0));
     }
 }

@@ -17,10 +17,12 @@
 // 32 rows of 8 samples, offsets 3/8, 7/8, 1/8, 5/8 of a tile repeating every four rows.
 // Counters (receivers, lit, umbra, backprojected pixels, primitives, most primitives in a pixel,
 // set bits) are summed per workgroup and added to a storage buffer that the CPU reads.
-#import softshadow::frame::{frame, load_surface, light_cosine}
+#import softshadow::frame::{Surface, frame, load_surface, light_cosine}
 #import softshadow::shadow_view::{ShadowView, texel_slope}
 #import softshadow::search_area::{SEARCH_LIT, SEARCH_UMBRA, VISIBILITY_SUM, refine_search}
-#import softshadow::gather::{Gather, GatherSettings, gather_setup, gather_search_area}
+#import softshadow::gather::{
+    Gather, GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, penumbra_pixels, upsample_coarse,
+}
 
 // Words of the occlusion bitmask: 2 (8x8), 8 (16x16, 16x16-jittered) or 32 (32x32). One pipeline
 // per size keeps the small masks in few registers (paper sec. 6).
@@ -47,9 +49,11 @@ struct GatherParams {
     edge_refine: u32,
     // Depth bands, each gathered at its own level (issue 30; 1: one level per layer).
     depth_bands: u32,
+    // Adaptive screen resolution: 1 (off), 2 or 4 (coarse pixels per axis), and the penumbra
+    // width in screen pixels from which a pixel is interpolated from the coarse pass.
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 struct Counters {
@@ -64,9 +68,10 @@ struct Counters {
     // Set bits over the backprojected pixels, as a 64-bit count.
     set_bits_lo: atomic<u32>,
     set_bits_hi: atomic<u32>,
+    // Pixels interpolated from the coarse pass (adaptive screen resolution).
+    upsampled: atomic<u32>,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;
@@ -83,6 +88,10 @@ struct Counters {
 @group(1) @binding(11) var area_map: texture_storage_2d<r32float, write>;
 @group(1) @binding(12) var level_map: texture_storage_2d<r32float, write>;
 @group(1) @binding(13) var<storage, read_write> counters: Counters;
+// Adaptive screen resolution: the coarse pass's (V, A) per coarse pixel, read by the
+// full-resolution pass; written by the coarse pass (each pass binds a stand-in for the other).
+@group(1) @binding(14) var coarse_in: texture_2d<f32>;
+@group(1) @binding(15) var coarse_out: texture_storage_2d<rg32float, write>;
 
 var<workgroup> group_receivers: atomic<u32>;
 var<workgroup> group_lit: atomic<u32>;
@@ -91,11 +100,15 @@ var<workgroup> group_backprojected: atomic<u32>;
 var<workgroup> group_primitives: atomic<u32>;
 var<workgroup> group_primitives_max: atomic<u32>;
 var<workgroup> group_set_bits: atomic<u32>;
+var<workgroup> group_upsampled: atomic<u32>;
 
 const CLASS_NONE: u32 = 0u;
 const CLASS_LIT: u32 = 1u;
 const CLASS_UMBRA: u32 = 2u;
 const CLASS_BACKPROJECTED: u32 = 3u;
+// Adaptive screen resolution: interpolated from the coarse pass, or left to the full pass.
+const CLASS_UPSAMPLED: u32 = 4u;
+const CLASS_SKIPPED: u32 = 5u;
 
 struct PixelResult {
     v: f32,
@@ -263,8 +276,13 @@ struct LayerResult {
     primitives: u32,
 }
 
-// Search, classify and gather one depth layer into `acc`.
-fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, p: vec3<f32>, half_light: vec2<f32>, bias: f32) -> LayerResult {
+// The (V, A) interpolated from the coarse pass when layer 0 returned CLASS_UPSAMPLED.
+var<private> upsampled: vec2<f32>;
+
+// Search, classify and gather one depth layer into `acc`. Layer 0 decides adaptive screen
+// resolution from its nearest blocker (`coarse`: this is the coarse pass).
+fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, s: Surface, pixel: vec2<i32>, first: bool, coarse: bool, half_light: vec2<f32>, bias: f32) -> LayerResult {
+    let p = s.light;
     var out: LayerResult;
     out.kind = CLASS_LIT;
     out.level = -1;
@@ -276,6 +294,21 @@ fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, p: vec3<f32>,
     if search.kind == SEARCH_UMBRA {
         out.kind = CLASS_UMBRA;
         return out;
+    }
+    if first && params.adaptive_factor > 1u {
+        let wide = penumbra_pixels(s, pixel, search.z_range.x, half_light) >= params.adaptive_pixels;
+        if coarse && !wide {
+            out.kind = CLASS_SKIPPED;
+            return out;
+        }
+        if !coarse && wide {
+            let u = upsample_coarse(coarse_in, pixel, i32(params.adaptive_factor), s);
+            if u.z > 0.0 {
+                upsampled = u.xy;
+                out.kind = CLASS_UPSAMPLED;
+                return out;
+            }
+        }
     }
     // With `hierarchy = none` the CPU passes the full-search block count in max_patches
     // (softshadow_core::hierarchy::full_search_patches(layers)).
@@ -304,7 +337,8 @@ fn set_bits() -> u32 {
     return n;
 }
 
-fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
+// `coarse`: the coarse pass of adaptive screen resolution.
+fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
     var r: PixelResult;
     r.v = 1.0;
     r.area_v = 1.0;
@@ -340,10 +374,10 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
             break;
         }
         switch k {
-            case 0u: { layer = gather_layer(hsm0, mssm0, p, half_light, bias); }
-            case 1u: { layer = gather_layer(hsm1, mssm1, p, half_light, bias); }
-            case 2u: { layer = gather_layer(hsm2, mssm2, p, half_light, bias); }
-            default: { layer = gather_layer(hsm3, mssm3, p, half_light, bias); }
+            case 0u: { layer = gather_layer(hsm0, mssm0, s, pixel, k == 0u, coarse, half_light, bias); }
+            case 1u: { layer = gather_layer(hsm1, mssm1, s, pixel, k == 0u, coarse, half_light, bias); }
+            case 2u: { layer = gather_layer(hsm2, mssm2, s, pixel, k == 0u, coarse, half_light, bias); }
+            default: { layer = gather_layer(hsm3, mssm3, s, pixel, false, coarse, half_light, bias); }
         }
         r.primitives += layer.primitives;
         r.level = max(r.level, layer.level);
@@ -351,6 +385,17 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
             r.v = 0.0;
             r.area_v = 0.0;
             r.kind = CLASS_UMBRA;
+            return r;
+        }
+        if layer.kind == CLASS_SKIPPED {
+            r.v = ADAPTIVE_INVALID;
+            r.kind = CLASS_SKIPPED;
+            return r;
+        }
+        if layer.kind == CLASS_UPSAMPLED {
+            r.v = clamp(upsampled.x, 0.0, 1.0);
+            r.area_v = upsampled.y;
+            r.kind = CLASS_UPSAMPLED;
             return r;
         }
         if layer.kind == CLASS_BACKPROJECTED {
@@ -388,12 +433,13 @@ fn gather(
         atomicStore(&group_primitives, 0u);
         atomicStore(&group_primitives_max, 0u);
         atomicStore(&group_set_bits, 0u);
+        atomicStore(&group_upsampled, 0u);
     }
     workgroupBarrier();
     let size = vec2<u32>(frame.screen.xy);
     if all(id.xy < size) {
         let pixel = vec2<i32>(id.xy);
-        let r = shade_pixel(pixel);
+        let r = shade_pixel(pixel, false);
         textureStore(visibility, pixel, vec4<f32>(r.v, 0.0, 0.0, 0.0));
         if params.with_area != 0u {
             textureStore(area_map, pixel, vec4<f32>(r.area_v, 0.0, 0.0, 0.0));
@@ -412,6 +458,9 @@ fn gather(
             atomicAdd(&group_backprojected, 1u);
             atomicAdd(&group_set_bits, r.set_bits);
         }
+        if r.kind == CLASS_UPSAMPLED {
+            atomicAdd(&group_upsampled, 1u);
+        }
         atomicAdd(&group_primitives, r.primitives);
         atomicMax(&group_primitives_max, r.primitives);
     }
@@ -421,6 +470,7 @@ fn gather(
         atomicAdd(&counters.lit, atomicLoad(&group_lit));
         atomicAdd(&counters.umbra, atomicLoad(&group_umbra));
         atomicAdd(&counters.backprojected, atomicLoad(&group_backprojected));
+        atomicAdd(&counters.upsampled, atomicLoad(&group_upsampled));
         atomicMax(&counters.primitives_max, atomicLoad(&group_primitives_max));
         let added = atomicLoad(&group_primitives);
         let before = atomicAdd(&counters.primitives_lo, added);
@@ -432,5 +482,17 @@ fn gather(
         if bits_before > 0xffffffffu - bits {
             atomicAdd(&counters.set_bits_hi, 1u);
         }
+    }
+}
+
+// The coarse pass of adaptive screen resolution: pixel id * factor of the full image, its (V, A)
+// where it is lit, umbra or has a wide penumbra, ADAPTIVE_INVALID elsewhere.
+@compute @workgroup_size(8, 8)
+fn gather_coarse(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = textureDimensions(coarse_out);
+    let pixel = vec2<i32>(id.xy * max(params.adaptive_factor, 1u));
+    if all(id.xy < dims) && all(pixel < vec2<i32>(frame.screen.xy)) {
+        let r = shade_pixel(pixel, true);
+        textureStore(coarse_out, id.xy, vec4<f32>(r.v, r.area_v, 0.0, 0.0));
     }
 }

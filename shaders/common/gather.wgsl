@@ -10,6 +10,7 @@
 // of a mask, say) and returns the light area it wants summed; the defaults return the clipped area,
 // which is what gather backprojection sums.
 
+#import softshadow::frame::{Surface, load_surface, frame}
 #import softshadow::shadow_view::{ShadowView, texel_slope, view_uv}
 #import softshadow::search_area::{
     HIERARCHY_NONE, HIERARCHY_EMPTY, Search, TexelRect, gather_level, hierarchy_block,
@@ -457,4 +458,78 @@ fn gather_search_area(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g0: Gat
         }
     }
     return out;
+}
+
+// View-dependent adaptive screen resolution (Guennebaud, Barthe & Paulin 2007's third remedy, in
+// this project's form; docs/TECHNIQUES.md, `backprojection`, "Large penumbrae"). A pixel whose
+// penumbra is wide on screen is not gathered: a first pass (`gather_coarse`) gathers every
+// `factor`-th pixel per axis whose penumbra is wide, and the full-resolution pass interpolates
+// them, weighted by the bilinear weights, where all the samples it needs lie on the pixel's own
+// surface (same normal, on its tangent plane): edge-aware, so a silhouette or a crease is never
+// blurred across. Where any sample is missing or off the surface the pixel is gathered itself.
+const ADAPTIVE_INVALID: f32 = -1.0;
+
+// Screen pixels across the penumbra at receiver `s` of an occluder at light-space depth `z_b`:
+// its width on the plane of the receiver parallel to the light, 2 min(a, b) (p.z - z_b) / z_b
+// (similar triangles), over the world size of one pixel there (the distance to the nearest
+// receiving neighbour along x or y). 0 where no neighbour tells the pixel size.
+fn penumbra_pixels(s: Surface, pixel: vec2<i32>, z_b: f32, half_light: vec2<f32>) -> f32 {
+    let p = s.light;
+    let width = 2.0 * min(half_light.x, half_light.y) * max(p.z - z_b, 0.0) / max(z_b, 1.0e-6);
+    var size = 1.0e30;
+    let last = vec2<i32>(frame.screen.xy) - 1;
+    let offsets = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(-1, 0), vec2<i32>(0, 1), vec2<i32>(0, -1));
+    for (var i = 0; i < 4; i = i + 1) {
+        let q = clamp(pixel + offsets[i], vec2<i32>(0), last);
+        let n = load_surface(q);
+        let d = length(n.world - s.world);
+        if n.is_receiver && d > 0.0 {
+            size = min(size, d);
+        }
+    }
+    if size >= 1.0e30 {
+        return 0.0;
+    }
+    return width / size;
+}
+
+// The coarse sample `c` (the full-resolution pixel c * factor) of a pixel on surface `s` if it is
+// usable: gathered (not ADAPTIVE_INVALID) and on the pixel's own surface. (value, weight ok).
+fn coarse_sample(coarse: texture_2d<f32>, c: vec2<i32>, factor: i32, s: Surface) -> vec3<f32> {
+    let dims = vec2<i32>(textureDimensions(coarse));
+    let q = c * factor;
+    if any(c >= dims) || any(q >= vec2<i32>(frame.screen.xy)) {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    let value = textureLoad(coarse, c, 0).xy;
+    let t = load_surface(q);
+    let d = t.world - s.world;
+    // Same surface: normals within about 18 degrees, and the sample within about 3 degrees of the
+    // pixel's tangent plane (a step in depth is another surface).
+    let same = t.is_receiver && dot(t.normal, s.normal) > 0.95
+        && abs(dot(d, s.normal)) <= 0.05 * length(d) + 1.0e-6;
+    if value.x == ADAPTIVE_INVALID || !same {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    return vec3<f32>(value, 1.0);
+}
+
+// The pixel's (V, area estimate) interpolated from the coarse samples around it, and 1 in z when
+// every sample with a bilinear weight was usable (else z = 0: gather the pixel itself).
+fn upsample_coarse(coarse: texture_2d<f32>, pixel: vec2<i32>, factor: i32, s: Surface) -> vec3<f32> {
+    let c0 = pixel / factor;
+    let t = vec2<f32>(pixel - c0 * factor) / f32(factor);
+    var sum = vec2<f32>(0.0);
+    for (var k = 0; k < 4; k = k + 1) {
+        let o = vec2<i32>(k & 1, k >> 1u);
+        let w = select(1.0 - t.x, t.x, o.x == 1) * select(1.0 - t.y, t.y, o.y == 1);
+        if w > 0.0 {
+            let v = coarse_sample(coarse, c0 + o, factor, s);
+            if v.z == 0.0 {
+                return vec3<f32>(0.0);
+            }
+            sum += w * v.xy;
+        }
+    }
+    return vec3<f32>(sum, 1.0);
 }

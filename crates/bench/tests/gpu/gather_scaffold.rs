@@ -141,3 +141,56 @@ fn the_shared_gather_scaffold_keeps_every_old_image_bit_for_bit() -> Result<()> 
     }
     Ok(())
 }
+
+/// Measurement behind docs/TECHNIQUES.md, "Large penumbrae" (issue 30), not a check: error
+/// against the exact answer (mae_shadowed, its too-dark part), technique time and the share of
+/// pixels interpolated by adaptive resolution, per technique and setting. Run with
+/// `ISSUE30_SIZE=64 ISSUE30_TECHNIQUE=bitmask ISSUE30_VARIANTS='depth_bands=3;edge_refine=2|...'
+/// cargo test --workspace --test gpu issue_30_measurements -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn issue_30_measurements() -> Result<()> {
+    let size: u32 = std::env::var("ISSUE30_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(64);
+    let technique = std::env::var("ISSUE30_TECHNIQUE").unwrap_or_else(|_| "bitmask".into());
+    let variants = std::env::var("ISSUE30_VARIANTS").unwrap_or_default();
+    let scenes = std::env::var("ISSUE30_SCENES").unwrap_or_else(|_| {
+        "stiff-large-light|blob-floating:triangles=20000,light_width=2.4".into()
+    });
+    let mut bench = crate::common::exact_bench()?;
+    for scene in scenes.split('|') {
+        for variant in variants.split('|') {
+            let texts: Vec<String> = variant
+                .split(';')
+                .filter(|s| !s.is_empty())
+                .map(str::to_string)
+                .collect();
+            let spec = softshadow_bench::RunSpec {
+                scene: scene.into(),
+                technique: technique.clone(),
+                params: softshadow_bench::parse_params(bench.registry(), &technique, &texts)?,
+                width: size,
+                height: size,
+            };
+            let run = crate::common::run_checked(&mut bench, &spec)?;
+            let e = crate::common::vs_exact(&run)?;
+            let ms = run
+                .timing
+                .as_ref()
+                .and_then(|t| t.technique_ms.as_ref())
+                .map_or(f64::NAN, |p| p.median);
+            eprintln!(
+                "MEASURED {scene} {technique} [{variant}] {size}²: mae_shadowed {:.4} too dark {:.4} technique_ms {ms:.1} upsampled {:.3}",
+                e.mae_shadowed,
+                e.darker_shadowed,
+                run.stats
+                    .get("upsampled_pixel_fraction")
+                    .copied()
+                    .unwrap_or(0.0)
+            );
+        }
+    }
+    Ok(())
+}
