@@ -183,7 +183,12 @@ fn occluder_depth(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, 
 // blocks of level g.level - d, each a patch at its own minimum depth. A block that holds an
 // occluder's edge then covers the light only where its occluding part does, rather than as a
 // whole at its minimum depth (the widening that makes coarse levels over-darken).
-fn refined_patches(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>, d: i32) -> f32 {
+fn refined_patches(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g0: Gather, block: vec2<i32>, d: i32) -> f32 {
+    // Every occluding sub-block counts, also those deeper than the band: a later band skips the
+    // blocks of this one as gathered (`occluder_range`'s parent rule), so a sub-block left to it
+    // would be lost.
+    var g = g0;
+    g.band.y = HIERARCHY_EMPTY;
     let level = g.level - d;
     let n = 1 << u32(d);
     let size = 1 << u32(level);
@@ -191,6 +196,10 @@ fn refined_patches(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather,
     for (var j = 0; j < 8; j = j + 1) {
         if j >= n {
             break;
+        }
+        var left_z = HIERARCHY_EMPTY;
+        if g.settings.gap_filling != 0u {
+            left_z = occluder_range(hsm, mssm, g, level, block * n + vec2<i32>(-1, j)).x;
         }
         for (var i = 0; i < 8; i = i + 1) {
             if i >= n {
@@ -200,12 +209,27 @@ fn refined_patches(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather,
             let z = occluder_range(hsm, mssm, g, level, sub).x;
             if z < HIERARCHY_EMPTY {
                 let k = backprojection_scale(g, z);
-                let x0 = k * (edge_s(g, min(sub.x * size, g.map)) * g.p.z - g.p.x);
+                let s0 = edge_s(g, min(sub.x * size, g.map));
+                let t_bottom = edge_t(g, min((sub.y + 1) * size, g.map));
+                var x0 = k * (s0 * g.p.z - g.p.x);
                 let x1 = k * (edge_s(g, min((sub.x + 1) * size, g.map)) * g.p.z - g.p.x);
-                let y0 = k * (edge_t(g, min((sub.y + 1) * size, g.map)) * g.p.z - g.p.y);
+                var y0 = k * (t_bottom * g.p.z - g.p.y);
                 let y1 = k * (edge_t(g, min(sub.y * size, g.map)) * g.p.z - g.p.y);
+                if g.settings.gap_filling != 0u {
+                    // Gap filling between sub-patches at different depths, as between blocks
+                    // (`gather_micropatches`): without it, light leaks between the fine patches
+                    // of a tilted or curved occluder (stiff-tiny-patches, stiff-near-light).
+                    if left_z < HIERARCHY_EMPTY {
+                        x0 = min(x0, backprojection_scale(g, left_z) * (s0 * g.p.z - g.p.x));
+                    }
+                    let below = occluder_range(hsm, mssm, g, level, sub + vec2<i32>(0, 1)).x;
+                    if below < HIERARCHY_EMPTY {
+                        y0 = min(y0, backprojection_scale(g, below) * (t_bottom * g.p.z - g.p.y));
+                    }
+                }
                 area += emit_patch(g, vec2<f32>(x0, y0), vec2<f32>(x1, y1));
             }
+            left_z = z;
         }
     }
     return area;

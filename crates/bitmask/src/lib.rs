@@ -163,10 +163,10 @@ softshadow_core::technique_settings! {
         filter_passes: u32 = 0, in 0..=8;
         /// Levels a partly occluding micro-patch block (it holds an occluder's edge) is split
         /// down into sub-blocks (0: none; micro-patches with a hierarchy only)
-        edge_refine: u32 = 0, in 0..=3;
+        edge_refine: u32 = 2, in 0..=3;
         /// Depth bands gathered each at its own level, the level following the penumbra of
         /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
-        depth_bands: u32 = 1, in 1..=8;
+        depth_bands: u32 = 3, in 1..=8;
         /// View-dependent adaptive screen resolution: off, or pixels with a wide penumbra
         /// interpolated (edge-aware) from a gather at half or quarter resolution
         adaptive_resolution: AdaptiveResolution = AdaptiveResolution::Off;
