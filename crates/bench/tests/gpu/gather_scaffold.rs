@@ -244,3 +244,120 @@ fn issue_30_measurements() -> Result<()> {
     }
     Ok(())
 }
+
+/// `technique` at `params` on `scene` at `size`², against the exact answer: (mae_shadowed, its
+/// too-dark part, upsampled_pixel_fraction).
+fn measure(
+    bench: &mut softshadow_bench::Bench,
+    scene: &str,
+    technique: &str,
+    params: &[&str],
+    size: u32,
+) -> Result<(f64, f64, f64)> {
+    let texts: Vec<String> = params.iter().map(|s| s.to_string()).collect();
+    let spec = softshadow_bench::RunSpec {
+        scene: scene.into(),
+        technique: technique.into(),
+        params: softshadow_bench::parse_params(bench.registry(), technique, &texts)?,
+        width: size,
+        height: size,
+    };
+    let run = crate::common::run_checked(bench, &spec)?;
+    let e = crate::common::vs_exact(&run)?;
+    let upsampled = run
+        .stats
+        .get("upsampled_pixel_fraction")
+        .copied()
+        .unwrap_or(0.0);
+    eprintln!(
+        "{scene} {technique} {params:?} {size}²: mae_shadowed {:.4} (too dark {:.4}), upsampled {upsampled:.3}",
+        e.mae_shadowed, e.darker_shadowed
+    );
+    Ok((e.mae_shadowed, e.darker_shadowed, upsampled))
+}
+
+/// Issue 30 on `bitmask` (64², exact answer; docs/TECHNIQUES.md, "Large penumbrae"): on
+/// `stiff-large-light` the old defaults measured 0.0877 (too dark 0.0652), the new ones (three
+/// depth bands, edge refinement two levels) 0.0416 (0.0230), the full search 0.0289 (0.0230):
+/// 1.44x, the issue's 1.5x met. On `blob-floating` with the light doubled (2.4): old 0.0760
+/// (0.0499), new 0.0605 (0.0182), full search 0.0405 (0.0143): 1.49x. The too-dark share is 55 %
+/// and 30 %, not the issue's 20 %: the full search's own error is mostly too dark (80 % and 35 %).
+/// Asserted: within 1.5x of the full search and the too-dark part at most half the old one on
+/// both, and at most half the old error on the first.
+#[test]
+fn bitmask_depth_bands_and_edge_refinement_bring_large_penumbrae_near_the_full_search() -> Result<()>
+{
+    let mut bench = crate::common::exact_bench()?;
+    for scene in [
+        "stiff-large-light",
+        "blob-floating:triangles=20000,light_width=2.4",
+    ] {
+        let old = measure(&mut bench, scene, "bitmask", BITMASK_OLD, 64)?;
+        let new = measure(&mut bench, scene, "bitmask", &[], 64)?;
+        let full = measure(&mut bench, scene, "bitmask", &["hierarchy=none"], 64)?;
+        ensure!(
+            new.1 <= 0.5 * old.1,
+            "{scene}: too dark by {} with the defaults, {} with the old ones",
+            new.1,
+            old.1
+        );
+        ensure!(
+            new.0 <= 1.5 * full.0,
+            "{scene}: defaults {} not within 1.5x of the full search {}",
+            new.0,
+            full.0
+        );
+        if scene == "stiff-large-light" {
+            ensure!(
+                new.0 <= 0.5 * old.0,
+                "{scene}: defaults {} against old {}",
+                new.0,
+                old.0
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Issue 30, adaptive screen resolution, both techniques at their defaults plus
+/// `adaptive_resolution` (128², exact answer). Measured (loaded machine): `stiff-large-light`
+/// backprojection 0.0459 off, 0.0458 half (97 % of the receiver pixels interpolated), 0.0455
+/// quarter (93 %); bitmask 0.0419, 0.0422, 0.0419; `atty-square` with a light 2.0 wide
+/// backprojection 0.0093, 0.0091, 0.0090 (65 %, 64 %), bitmask 0.0105, 0.0095, 0.0101. The
+/// gather passes took 109 -> 53 -> 33 ms and 172 -> 46 -> 26 ms (backprojection, three frames,
+/// load 12 on two cores). Asserted: at least half of the pixels interpolated on
+/// `stiff-large-light`, a third on the square, and the error within 1.1x (+0.001) of full
+/// resolution; and off interpolates nothing.
+#[test]
+fn adaptive_resolution_interpolates_wide_penumbrae_without_raising_the_error() -> Result<()> {
+    let mut bench = crate::common::exact_bench()?;
+    for technique in ["backprojection", "bitmask"] {
+        for (scene, share) in [
+            ("stiff-large-light", 0.5),
+            ("atty-square:light_width=2.0", 0.33),
+        ] {
+            let off = measure(&mut bench, scene, technique, &[], 128)?;
+            ensure!(
+                off.2 == 0.0,
+                "{scene} {technique}: off interpolated {}",
+                off.2
+            );
+            for factor in ["half", "quarter"] {
+                let setting = format!("adaptive_resolution={factor}");
+                let on = measure(&mut bench, scene, technique, &[&setting], 128)?;
+                ensure!(
+                    on.2 >= share,
+                    "{scene} {technique} {factor}: {} of the pixels interpolated, expected {share}",
+                    on.2
+                );
+                ensure!(
+                    on.0 <= 1.1 * off.0 + 0.001,
+                    "{scene} {technique} {factor}: {} against {} at full resolution",
+                    on.0,
+                    off.0
+                );
+            }
+        }
+    }
+    Ok(())
+}
