@@ -9,11 +9,12 @@
 //      the covered light area is accumulated; V = 1 - clamp(area / 4ab, 0, 1).
 // Counters (receivers, lit, umbra, backprojected pixels, primitives) are summed per workgroup and
 // added to a storage buffer that the CPU reads after the frame.
-#import softshadow::frame::{frame, load_surface, light_cosine}
+#import softshadow::frame::frame
 #import softshadow::shadow_view::{ShadowView, texel_slope}
 #import softshadow::search_area::{HIERARCHY_NONE, SEARCH_LIT, SEARCH_UMBRA, refine_search}
 #import softshadow::gather::{
-    GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, penumbra_pixels, upsample_coarse,
+    GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, ADAPTIVE_SKIP, ADAPTIVE_UPSAMPLED,
+    adaptive_choice, receiver_at, RECEIVER_NONE, RECEIVER_BEHIND, RECEIVER_LIT,
 }
 
 // `hierarchy = none` gathers level-0 texels over the unrefined area, up to this many per axis:
@@ -96,25 +97,22 @@ fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
     r.kind = CLASS_NONE;
     r.level = -1;
     r.primitives = 0u;
-    let s = load_surface(pixel);
-    if !s.is_receiver {
+    let receiver = receiver_at(view, pixel, params.bias_texels);
+    if receiver.kind == RECEIVER_NONE {
         return r;
     }
-    let p = s.light;
-    if !(p.z > 0.0) {
-        // At or behind the light plane: a one-sided light cannot reach it.
+    if receiver.kind == RECEIVER_BEHIND {
         r.v = 0.0;
         r.kind = CLASS_UMBRA;
         return r;
     }
     r.kind = CLASS_LIT;
-    if p.z <= view.eye_near_far.z {
-        // Closer to the light than every caster.
+    if receiver.kind == RECEIVER_LIT {
         return r;
     }
-    // A zero-size light is treated as a tiny one (finite areas, same shadow boundary).
-    let half_light = max(frame.light_half.xy, vec2<f32>(1.0e-4));
-    let bias = params.bias_texels * texel_slope(view) * p.z / light_cosine(s);
+    let p = receiver.s.light;
+    let half_light = receiver.half_light;
+    let bias = receiver.bias;
     let search = refine_search(view, hsm, mssm, params.hierarchy, params.max_level, p, half_light, p.z - bias);
     if search.kind == SEARCH_LIT {
         return r;
@@ -124,21 +122,15 @@ fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
         r.kind = CLASS_UMBRA;
         return r;
     }
-    if params.adaptive_factor > 1u {
-        // A wide penumbra (by the nearest blocker found) is interpolated from the coarse pass.
-        let wide = penumbra_pixels(s, pixel, search.z_range.x, half_light) >= params.adaptive_pixels;
-        if coarse && !wide {
-            r.v = ADAPTIVE_INVALID;
-            return r;
-        }
-        if !coarse && wide {
-            let u = upsample_coarse(coarse_in, pixel, i32(params.adaptive_factor), s);
-            if u.z > 0.0 {
-                r.v = clamp(u.x, 0.0, 1.0);
-                r.kind = CLASS_UPSAMPLED;
-                return r;
-            }
-        }
+    let adaptive = adaptive_choice(coarse_in, receiver, pixel, search.z_range.x, params.adaptive_factor, params.adaptive_pixels, coarse);
+    if adaptive.x == ADAPTIVE_SKIP {
+        r.v = ADAPTIVE_INVALID;
+        return r;
+    }
+    if adaptive.x == ADAPTIVE_UPSAMPLED {
+        r.v = clamp(adaptive.y, 0.0, 1.0);
+        r.kind = CLASS_UPSAMPLED;
+        return r;
     }
     var per_axis = i32(params.max_patches);
     if params.hierarchy == HIERARCHY_NONE {

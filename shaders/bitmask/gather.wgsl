@@ -17,11 +17,12 @@
 // 32 rows of 8 samples, offsets 3/8, 7/8, 1/8, 5/8 of a tile repeating every four rows.
 // Counters (receivers, lit, umbra, backprojected pixels, primitives, most primitives in a pixel,
 // set bits) are summed per workgroup and added to a storage buffer that the CPU reads.
-#import softshadow::frame::{Surface, frame, load_surface, light_cosine}
+#import softshadow::frame::frame
 #import softshadow::shadow_view::{ShadowView, texel_slope}
 #import softshadow::search_area::{SEARCH_LIT, SEARCH_UMBRA, VISIBILITY_SUM, refine_search}
 #import softshadow::gather::{
-    Gather, GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, penumbra_pixels, upsample_coarse,
+    Gather, GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, ADAPTIVE_SKIP, ADAPTIVE_UPSAMPLED,
+    Receiver, adaptive_choice, receiver_at, RECEIVER_NONE, RECEIVER_BEHIND, RECEIVER_LIT,
 }
 
 // Words of the occlusion bitmask: 2 (8x8), 8 (16x16, 16x16-jittered) or 32 (32x32). One pipeline
@@ -281,8 +282,10 @@ var<private> upsampled: vec2<f32>;
 
 // Search, classify and gather one depth layer into `acc`. Layer 0 decides adaptive screen
 // resolution from its nearest blocker (`coarse`: this is the coarse pass).
-fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, s: Surface, pixel: vec2<i32>, first: bool, coarse: bool, half_light: vec2<f32>, bias: f32) -> LayerResult {
-    let p = s.light;
+fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, receiver: Receiver, pixel: vec2<i32>, first: bool, coarse: bool) -> LayerResult {
+    let p = receiver.s.light;
+    let half_light = receiver.half_light;
+    let bias = receiver.bias;
     var out: LayerResult;
     out.kind = CLASS_LIT;
     out.level = -1;
@@ -295,19 +298,16 @@ fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, s: Surface, p
         out.kind = CLASS_UMBRA;
         return out;
     }
-    if first && params.adaptive_factor > 1u {
-        let wide = penumbra_pixels(s, pixel, search.z_range.x, half_light) >= params.adaptive_pixels;
-        if coarse && !wide {
+    if first {
+        let adaptive = adaptive_choice(coarse_in, receiver, pixel, search.z_range.x, params.adaptive_factor, params.adaptive_pixels, coarse);
+        if adaptive.x == ADAPTIVE_SKIP {
             out.kind = CLASS_SKIPPED;
             return out;
         }
-        if !coarse && wide {
-            let u = upsample_coarse(coarse_in, pixel, i32(params.adaptive_factor), s);
-            if u.z > 0.0 {
-                upsampled = u.xy;
-                out.kind = CLASS_UPSAMPLED;
-                return out;
-            }
+        if adaptive.x == ADAPTIVE_UPSAMPLED {
+            upsampled = adaptive.yz;
+            out.kind = CLASS_UPSAMPLED;
+            return out;
         }
     }
     // With `hierarchy = none` the CPU passes the full-search block count in max_patches
@@ -346,26 +346,21 @@ fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
     r.level = -1;
     r.primitives = 0u;
     r.set_bits = 0u;
-    let s = load_surface(pixel);
-    if !s.is_receiver {
+    let receiver = receiver_at(view, pixel, params.bias_texels);
+    if receiver.kind == RECEIVER_NONE {
         return r;
     }
-    let p = s.light;
-    if !(p.z > 0.0) {
-        // At or behind the light plane: a one-sided light cannot reach it.
+    if receiver.kind == RECEIVER_BEHIND {
         r.v = 0.0;
         r.area_v = 0.0;
         r.kind = CLASS_UMBRA;
         return r;
     }
     r.kind = CLASS_LIT;
-    if p.z <= view.eye_near_far.z {
-        // Closer to the light than every caster.
+    if receiver.kind == RECEIVER_LIT {
         return r;
     }
-    // A zero-size light is treated as a tiny one (finite scales, same shadow boundary).
-    let half_light = max(frame.light_half.xy, vec2<f32>(1.0e-4));
-    let bias = params.bias_texels * texel_slope(view) * p.z / light_cosine(s);
+    let half_light = receiver.half_light;
     acc.area = 0.0;
     // Every layer ORs into the one mask (sec. 3.2); an umbra layer decides the pixel alone.
     var layer = LayerResult(CLASS_LIT, -1, 0u);
@@ -374,10 +369,10 @@ fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
             break;
         }
         switch k {
-            case 0u: { layer = gather_layer(hsm0, mssm0, s, pixel, k == 0u, coarse, half_light, bias); }
-            case 1u: { layer = gather_layer(hsm1, mssm1, s, pixel, k == 0u, coarse, half_light, bias); }
-            case 2u: { layer = gather_layer(hsm2, mssm2, s, pixel, k == 0u, coarse, half_light, bias); }
-            default: { layer = gather_layer(hsm3, mssm3, s, pixel, false, coarse, half_light, bias); }
+            case 0u: { layer = gather_layer(hsm0, mssm0, receiver, pixel, k == 0u, coarse); }
+            case 1u: { layer = gather_layer(hsm1, mssm1, receiver, pixel, k == 0u, coarse); }
+            case 2u: { layer = gather_layer(hsm2, mssm2, receiver, pixel, k == 0u, coarse); }
+            default: { layer = gather_layer(hsm3, mssm3, receiver, pixel, false, coarse); }
         }
         r.primitives += layer.primitives;
         r.level = max(r.level, layer.level);

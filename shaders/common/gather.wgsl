@@ -10,7 +10,7 @@
 // of a mask, say) and returns the light area it wants summed; the defaults return the clipped area,
 // which is what gather backprojection sums.
 
-#import softshadow::frame::{Surface, load_surface, frame}
+#import softshadow::frame::{Surface, load_surface, frame, light_cosine}
 #import softshadow::shadow_view::{ShadowView, texel_slope, view_uv}
 #import softshadow::search_area::{
     HIERARCHY_NONE, HIERARCHY_EMPTY, Search, TexelRect, gather_level, hierarchy_block,
@@ -101,6 +101,47 @@ virtual fn emit_quad(g: Gather, top_left: vec2<f32>, top_right: vec2<f32>, botto
     let d0 = br - tl;
     let d1 = bl - tr;
     return 0.5 * abs(d0.x * d1.y - d0.y * d1.x);
+}
+
+// What a pixel is before any search: no receiver, behind the light plane (umbra), nearer to the
+// light than every caster (lit), or to be searched.
+const RECEIVER_NONE: u32 = 0u;
+const RECEIVER_BEHIND: u32 = 1u;
+const RECEIVER_LIT: u32 = 2u;
+const RECEIVER_SEARCH: u32 = 3u;
+
+struct Receiver {
+    kind: u32,
+    s: Surface,
+    // Half extents of the light (a zero-size light is treated as a tiny one: finite areas, the
+    // same shadow boundary).
+    half_light: vec2<f32>,
+    // Depth bias: `bias_texels` texel footprints at the receiver, over the cosine to the light.
+    bias: f32,
+}
+
+fn receiver_at(view: ShadowView, pixel: vec2<i32>, bias_texels: f32) -> Receiver {
+    var r: Receiver;
+    r.kind = RECEIVER_NONE;
+    r.s = load_surface(pixel);
+    if !r.s.is_receiver {
+        return r;
+    }
+    let p = r.s.light;
+    if !(p.z > 0.0) {
+        // At or behind the light plane: a one-sided light cannot reach it.
+        r.kind = RECEIVER_BEHIND;
+        return r;
+    }
+    r.kind = RECEIVER_LIT;
+    if p.z <= view.eye_near_far.z {
+        // Closer to the light than every caster.
+        return r;
+    }
+    r.kind = RECEIVER_SEARCH;
+    r.half_light = max(frame.light_half.xy, vec2<f32>(1.0e-4));
+    r.bias = bias_texels * texel_slope(view) * p.z / light_cosine(r.s);
+    return r;
 }
 
 // The gather of receiver `p` (light space) before its first band: bias, own texel, settings.
@@ -556,4 +597,29 @@ fn upsample_coarse(coarse: texture_2d<f32>, pixel: vec2<i32>, factor: i32, s: Su
         }
     }
     return vec3<f32>(sum, 1.0);
+}
+
+// What adaptive screen resolution makes of a pixel whose search found occluders nearest at
+// `z_b`: x = ADAPTIVE_GATHER (gather it), ADAPTIVE_SKIP (coarse pass, narrow penumbra: left to
+// the full pass) or ADAPTIVE_UPSAMPLED (full pass, wide penumbra, interpolated: (V, A) in y, z).
+const ADAPTIVE_GATHER: f32 = 0.0;
+const ADAPTIVE_SKIP: f32 = 1.0;
+const ADAPTIVE_UPSAMPLED: f32 = 2.0;
+
+fn adaptive_choice(coarse_in: texture_2d<f32>, r: Receiver, pixel: vec2<i32>, z_b: f32, factor: u32, min_pixels: f32, coarse: bool) -> vec3<f32> {
+    if factor <= 1u {
+        return vec3<f32>(ADAPTIVE_GATHER, 0.0, 0.0);
+    }
+    // A wide penumbra (by the nearest blocker found) is interpolated from the coarse pass.
+    let wide = penumbra_pixels(r.s, pixel, z_b, r.half_light) >= min_pixels;
+    if coarse && !wide {
+        return vec3<f32>(ADAPTIVE_SKIP, 0.0, 0.0);
+    }
+    if !coarse && wide {
+        let u = upsample_coarse(coarse_in, pixel, i32(factor), r.s);
+        if u.z > 0.0 {
+            return vec3<f32>(ADAPTIVE_UPSAMPLED, u.xy);
+        }
+    }
+    return vec3<f32>(ADAPTIVE_GATHER, 0.0, 0.0);
 }
