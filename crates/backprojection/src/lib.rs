@@ -180,8 +180,8 @@ impl Backprojection {
                     storage_texture_entry(5, wgpu::TextureFormat::Rgba8Unorm),
                     storage_texture_entry(6, wgpu::TextureFormat::R32Float),
                     GatherCounters::<Counters>::layout_entry(7),
-                    AdaptiveTargets::layout_entries(8)[0].clone(),
-                    AdaptiveTargets::layout_entries(8)[1].clone(),
+                    AdaptiveTargets::layout_entries(8)[0],
+                    AdaptiveTargets::layout_entries(8)[1],
                 ],
             });
         let pipeline_layout = gpu

@@ -1018,7 +1018,7 @@ mod tests {
 
     #[test]
     fn uniform_sizes_match_the_shader() {
-        assert_eq!(std::mem::size_of::<GatherUniform>(), 48);
-        assert_eq!(COUNTERS_SIZE, 48);
+        assert_eq!(std::mem::size_of::<GatherUniform>(), 64);
+        assert_eq!(std::mem::size_of::<Counters>(), 48);
     }
 }
