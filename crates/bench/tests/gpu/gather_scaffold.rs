@@ -361,3 +361,24 @@ fn adaptive_resolution_interpolates_wide_penumbrae_without_raising_the_error() -
     }
     Ok(())
 }
+
+/// Issue 30: `bitmask`'s error against light width on `atty-square` (0.2 to 2.0, 64², exact
+/// answer) at its new defaults, against its old ones (one band, no refinement) and its full
+/// search; figures in docs/TECHNIQUES.md, "Large penumbrae". Asserted: the defaults within 0.015
+/// at every width (backprojection's bound, its own test) and no worse than the old defaults by
+/// more than 0.002.
+#[test]
+fn bitmask_defaults_error_stays_bounded_over_light_widths_on_atty_square() -> Result<()> {
+    let mut bench = crate::common::exact_bench()?;
+    for width in [0.2, 0.6, 1.0, 1.5, 2.0] {
+        let scene = format!("atty-square:light_width={width}");
+        let new = measure(&mut bench, &scene, "bitmask", &[], 64)?.0;
+        let old = measure(&mut bench, &scene, "bitmask", BITMASK_OLD, 64)?.0;
+        ensure!(new <= 0.015, "{scene}: defaults {new} above 0.015");
+        ensure!(
+            new <= old + 0.002,
+            "{scene}: defaults {new} worse than old {old}"
+        );
+    }
+    Ok(())
+}
