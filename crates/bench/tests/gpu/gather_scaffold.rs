@@ -363,8 +363,8 @@ fn adaptive_resolution_interpolates_wide_penumbrae_without_raising_the_error() -
 }
 
 /// Issue 30: `bitmask`'s error against light width on `atty-square` (0.2 to 2.0, 64², exact
-/// answer) at its new defaults, against its old ones (one band, no refinement). Measured (widths 0.2, 0.6, 1.0, 1.5, 2.0): defaults 0.0028, 0.0070, 0.0102, 0.0113,
-/// 0.0096; old 0.0050, 0.0227, 0.0176, 0.0134, 0.0100. Asserted: the defaults within 0.015
+/// answer) at its new defaults, against its old ones (one band, no refinement). Measured (widths
+/// 0.2, 0.6, 1.0, 1.5, 2.0): defaults 0.0028, 0.0070, 0.0102, 0.0113, 0.0096; old 0.0050, 0.0227, 0.0176, 0.0134, 0.0100. Asserted: the defaults within 0.015
 /// at every width (backprojection's bound, its own test) and no worse than the old defaults by
 /// more than 0.002.
 #[test]
