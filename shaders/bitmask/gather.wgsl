@@ -17,21 +17,19 @@
 // 32 rows of 8 samples, offsets 3/8, 7/8, 1/8, 5/8 of a tile repeating every four rows.
 // Counters (receivers, lit, umbra, backprojected pixels, primitives, most primitives in a pixel,
 // set bits) are summed per workgroup and added to a storage buffer that the CPU reads.
-#import softshadow::frame::{frame, load_surface, light_cosine}
-#import softshadow::shadow_view::{ShadowView, texel_slope, view_uv}
-#import softshadow::search_area::{
-    HIERARCHY_NONE, HIERARCHY_EMPTY, SEARCH_LIT, SEARCH_UMBRA,
-    refine_search, gather_level, hierarchy_block,
+#import softshadow::frame::frame
+#import softshadow::shadow_view::{ShadowView, texel_slope}
+#import softshadow::search_area::{SEARCH_LIT, SEARCH_UMBRA, VISIBILITY_SUM, refine_search}
+#import softshadow::gather::{
+    Gather, GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, ADAPTIVE_SKIP, ADAPTIVE_UPSAMPLED,
+    Receiver, adaptive_choice, receiver_at, RECEIVER_NONE, RECEIVER_BEHIND, RECEIVER_LIT,
 }
 
 // Words of the occlusion bitmask: 2 (8x8), 8 (16x16, 16x16-jittered) or 32 (32x32). One pipeline
 // per size keeps the small masks in few registers (paper sec. 6).
 const MASK_WORDS: u32 = #{MASK_WORDS}u;
 
-// Bound of the gather loops: quads span one block more than patches.
-const MAX_GATHER_AXIS: i32 = 257;
 const MAX_LAYERS: u32 = 4u;
-const PRIMITIVE_MICROQUAD: u32 = 1u;
 
 struct GatherParams {
     hierarchy: u32,
@@ -50,6 +48,13 @@ struct GatherParams {
     jittered: u32,
     // Levels a partly occluding micro-patch block is split down (0: none; issue 30).
     edge_refine: u32,
+    // Depth bands, each gathered at its own level (issue 30; 1: one level per layer).
+    depth_bands: u32,
+    // Adaptive screen resolution: 1 (off), 2 or 4 (coarse pixels per axis), and the penumbra
+    // width in screen pixels from which a pixel is interpolated from the coarse pass.
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
+    _pad0: u32,
 }
 
 struct Counters {
@@ -64,9 +69,10 @@ struct Counters {
     // Set bits over the backprojected pixels, as a 64-bit count.
     set_bits_lo: atomic<u32>,
     set_bits_hi: atomic<u32>,
+    // Pixels interpolated from the coarse pass (adaptive screen resolution).
+    upsampled: atomic<u32>,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;
@@ -83,6 +89,10 @@ struct Counters {
 @group(1) @binding(11) var area_map: texture_storage_2d<r32float, write>;
 @group(1) @binding(12) var level_map: texture_storage_2d<r32float, write>;
 @group(1) @binding(13) var<storage, read_write> counters: Counters;
+// Adaptive screen resolution: the coarse pass's (V, A) per coarse pixel, read by the
+// full-resolution pass; written by the coarse pass (each pass binds a stand-in for the other).
+@group(1) @binding(14) var coarse_in: texture_2d<f32>;
+@group(1) @binding(15) var coarse_out: texture_storage_2d<rg32float, write>;
 
 var<workgroup> group_receivers: atomic<u32>;
 var<workgroup> group_lit: atomic<u32>;
@@ -91,11 +101,15 @@ var<workgroup> group_backprojected: atomic<u32>;
 var<workgroup> group_primitives: atomic<u32>;
 var<workgroup> group_primitives_max: atomic<u32>;
 var<workgroup> group_set_bits: atomic<u32>;
+var<workgroup> group_upsampled: atomic<u32>;
 
 const CLASS_NONE: u32 = 0u;
 const CLASS_LIT: u32 = 1u;
 const CLASS_UMBRA: u32 = 2u;
 const CLASS_BACKPROJECTED: u32 = 3u;
+// Adaptive screen resolution: interpolated from the coarse pass, or left to the full pass.
+const CLASS_UPSAMPLED: u32 = 4u;
+const CLASS_SKIPPED: u32 = 5u;
 
 struct PixelResult {
     v: f32,
@@ -107,24 +121,6 @@ struct PixelResult {
     set_bits: u32,
 }
 
-// The receiver point and what the gather of one layer needs about the light and the map.
-struct Gather {
-    p: vec3<f32>,
-    half_light: vec2<f32>,
-    // Depth bias at level 0, and scaled by the block edge (see `occluder_depth`).
-    bias: f32,
-    coarse_bias: f32,
-    // Block of this level that holds the receiver's own texel, and that texel.
-    own_block: vec2<i32>,
-    own_texel: vec2<i32>,
-    level: i32,
-    // Edge of a block in level-0 texels, and the map edge in texels.
-    block: i32,
-    map: i32,
-    // Blocks of this level that hold real texels, per axis.
-    blocks: i32,
-}
-
 // What one pixel accumulates over its layers.
 struct Accumulator {
     mask: array<u32, MASK_WORDS>,
@@ -132,34 +128,8 @@ struct Accumulator {
     area: f32,
 }
 
-// Backprojection factor z / (p.z - z) of an occluding depth z < p.z - bias (clamped: finite).
-fn backprojection_scale(g: Gather, z: f32) -> f32 {
-    return min(z / max(g.p.z - z, 1.0e-12), 1.0e7);
-}
-
-// Minimum depth of `block` if it occludes the receiver, else HIERARCHY_EMPTY. A coarse block
-// within one block of the receiver's own texel whose depth range reaches the receiver may hold
-// the receiver's own surface: it gets the bias scaled by the block edge (as in backprojection).
-fn occluder_depth(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>) -> f32 {
-    let range = hierarchy_block(hsm, mssm, params.hierarchy, g.level, block);
-    var bias = g.bias;
-    if all(abs(block - g.own_block) <= vec2<i32>(1)) && range.y >= g.p.z - g.coarse_bias {
-        bias = g.coarse_bias;
-    }
-    if range.x < g.p.z - bias {
-        return range.x;
-    }
-    return HIERARCHY_EMPTY;
-}
-
-// Slope of level-0 texel edge `e` (column edge -> s, row edge -> t).
-fn edge_s(e: i32) -> f32 {
-    return view.window.x + f32(e) * texel_slope(view);
-}
-
-fn edge_t(e: i32) -> f32 {
-    return view.window.w - f32(e) * texel_slope(view);
-}
+// The pixel's accumulator, filled through the scaffold's `emit_patch` / `emit_quad` overrides.
+var<private> acc: Accumulator;
 
 // Bits c_lo..c_hi set (empty when c_hi < c_lo); c_lo, c_hi in 0..31.
 fn bit_range(c_lo: i32, c_hi: i32) -> u32 {
@@ -200,7 +170,9 @@ fn word_bits(tiled: u32, first: u32, last: u32, w: u32) -> u32 {
 // bias and integer conversion map the extent to bit ranges); adds its clipped area when asked.
 // Loop free on purpose: the gather spends the loop budget (docs/ARCHITECTURE.md, "Lavapipe's
 // loop budget").
-fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec2<f32>) {
+fn cover_rect(g: Gather, lo: vec2<f32>, hi: vec2<f32>) -> f32 {
+    // The area goes straight into the accumulator (in the order the rectangles come): the scaffold's
+    // sum of what this returns is not used.
     let a = g.half_light;
     // Clamped first: a backprojected coordinate can be huge (p next to the occluder).
     let c0 = clamp(lo, -2.0 * a, 2.0 * a);
@@ -208,7 +180,7 @@ fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec
     if params.with_area != 0u {
         let w = max(min(c1.x, a.x) - max(c0.x, -a.x), 0.0);
         let h = max(min(c1.y, a.y) - max(c0.y, -a.y), 0.0);
-        (*acc).area += w * h;
+        acc.area += w * h;
     }
     let cells = vec2<f32>(f32(params.columns), f32(params.rows));
     let u0 = (c0 + a) / (2.0 * a) * cells;
@@ -217,7 +189,7 @@ fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec
     let r_lo = max(i32(ceil(u0.y - 0.5)), 0);
     let r_hi = min(i32(ceil(u1.y - 0.5)) - 1, i32(params.rows) - 1);
     if r_hi < r_lo {
-        return;
+        return 0.0;
     }
     // The row masks: one for regular patterns, four (the rotated grid's offsets) when jittered.
     let m0 = row_bits(u0.x, u1.x, row_offset(0u));
@@ -225,7 +197,7 @@ fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec
     let m2 = row_bits(u0.x, u1.x, row_offset(2u));
     let m3 = row_bits(u0.x, u1.x, row_offset(3u));
     if (m0 | m1 | m2 | m3) == 0u {
-        return;
+        return 0.0;
     }
     // The row masks tiled over one word: a word holds 32 / columns rows, starting at a multiple
     // of four rows when columns = 8, so its row j takes offset j (only 8-column rows are jittered).
@@ -238,190 +210,64 @@ fn cover_rect(acc: ptr<function, Accumulator>, g: Gather, lo: vec2<f32>, hi: vec
     // Rows r_lo..r_hi are the mask bits first..last; every word takes its part of them.
     let first = u32(r_lo) * params.columns;
     let last = (u32(r_hi) + 1u) * params.columns - 1u;
-    (*acc).mask[0] |= word_bits(tiled, first, last, 0u);
-    (*acc).mask[1] |= word_bits(tiled, first, last, 1u);
+    acc.mask[0] |= word_bits(tiled, first, last, 0u);
+    acc.mask[1] |= word_bits(tiled, first, last, 1u);
 #if MASK_WORDS >= 8
-    (*acc).mask[2] |= word_bits(tiled, first, last, 2u);
-    (*acc).mask[3] |= word_bits(tiled, first, last, 3u);
-    (*acc).mask[4] |= word_bits(tiled, first, last, 4u);
-    (*acc).mask[5] |= word_bits(tiled, first, last, 5u);
-    (*acc).mask[6] |= word_bits(tiled, first, last, 6u);
-    (*acc).mask[7] |= word_bits(tiled, first, last, 7u);
+    acc.mask[2] |= word_bits(tiled, first, last, 2u);
+    acc.mask[3] |= word_bits(tiled, first, last, 3u);
+    acc.mask[4] |= word_bits(tiled, first, last, 4u);
+    acc.mask[5] |= word_bits(tiled, first, last, 5u);
+    acc.mask[6] |= word_bits(tiled, first, last, 6u);
+    acc.mask[7] |= word_bits(tiled, first, last, 7u);
 #endif
 #if MASK_WORDS >= 32
-    (*acc).mask[8] |= word_bits(tiled, first, last, 8u);
-    (*acc).mask[9] |= word_bits(tiled, first, last, 9u);
-    (*acc).mask[10] |= word_bits(tiled, first, last, 10u);
-    (*acc).mask[11] |= word_bits(tiled, first, last, 11u);
-    (*acc).mask[12] |= word_bits(tiled, first, last, 12u);
-    (*acc).mask[13] |= word_bits(tiled, first, last, 13u);
-    (*acc).mask[14] |= word_bits(tiled, first, last, 14u);
-    (*acc).mask[15] |= word_bits(tiled, first, last, 15u);
-    (*acc).mask[16] |= word_bits(tiled, first, last, 16u);
-    (*acc).mask[17] |= word_bits(tiled, first, last, 17u);
-    (*acc).mask[18] |= word_bits(tiled, first, last, 18u);
-    (*acc).mask[19] |= word_bits(tiled, first, last, 19u);
-    (*acc).mask[20] |= word_bits(tiled, first, last, 20u);
-    (*acc).mask[21] |= word_bits(tiled, first, last, 21u);
-    (*acc).mask[22] |= word_bits(tiled, first, last, 22u);
-    (*acc).mask[23] |= word_bits(tiled, first, last, 23u);
-    (*acc).mask[24] |= word_bits(tiled, first, last, 24u);
-    (*acc).mask[25] |= word_bits(tiled, first, last, 25u);
-    (*acc).mask[26] |= word_bits(tiled, first, last, 26u);
-    (*acc).mask[27] |= word_bits(tiled, first, last, 27u);
-    (*acc).mask[28] |= word_bits(tiled, first, last, 28u);
-    (*acc).mask[29] |= word_bits(tiled, first, last, 29u);
-    (*acc).mask[30] |= word_bits(tiled, first, last, 30u);
-    (*acc).mask[31] |= word_bits(tiled, first, last, 31u);
+    acc.mask[8] |= word_bits(tiled, first, last, 8u);
+    acc.mask[9] |= word_bits(tiled, first, last, 9u);
+    acc.mask[10] |= word_bits(tiled, first, last, 10u);
+    acc.mask[11] |= word_bits(tiled, first, last, 11u);
+    acc.mask[12] |= word_bits(tiled, first, last, 12u);
+    acc.mask[13] |= word_bits(tiled, first, last, 13u);
+    acc.mask[14] |= word_bits(tiled, first, last, 14u);
+    acc.mask[15] |= word_bits(tiled, first, last, 15u);
+    acc.mask[16] |= word_bits(tiled, first, last, 16u);
+    acc.mask[17] |= word_bits(tiled, first, last, 17u);
+    acc.mask[18] |= word_bits(tiled, first, last, 18u);
+    acc.mask[19] |= word_bits(tiled, first, last, 19u);
+    acc.mask[20] |= word_bits(tiled, first, last, 20u);
+    acc.mask[21] |= word_bits(tiled, first, last, 21u);
+    acc.mask[22] |= word_bits(tiled, first, last, 22u);
+    acc.mask[23] |= word_bits(tiled, first, last, 23u);
+    acc.mask[24] |= word_bits(tiled, first, last, 24u);
+    acc.mask[25] |= word_bits(tiled, first, last, 25u);
+    acc.mask[26] |= word_bits(tiled, first, last, 26u);
+    acc.mask[27] |= word_bits(tiled, first, last, 27u);
+    acc.mask[28] |= word_bits(tiled, first, last, 28u);
+    acc.mask[29] |= word_bits(tiled, first, last, 29u);
+    acc.mask[30] |= word_bits(tiled, first, last, 30u);
+    acc.mask[31] |= word_bits(tiled, first, last, 31u);
 #endif
+    return 0.0;
 }
 
-// Micro-patches of the blocks lo .. lo + count (level g.level): each block is a rectangle parallel
-// to the light at its minimum depth; with gap filling its left and bottom edges are extended to the
-// neighbouring patch's edge when that patch occludes too (Guennebaud et al. 2006).
-fn gather_micropatches(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, lo: vec2<i32>, count: vec2<i32>) {
-    for (var row = 0; row < MAX_GATHER_AXIS; row = row + 1) {
-        if row >= count.y {
-            break;
-        }
-        let by = lo.y + row;
-        let t_top = edge_t(by * g.block);
-        let t_bottom = edge_t(min((by + 1) * g.block, g.map));
-        var left_z = HIERARCHY_EMPTY;
-        if lo.x > 0 {
-            left_z = occluder_depth(hsm, mssm, g, vec2<i32>(lo.x - 1, by));
-        }
-        for (var col = 0; col < MAX_GATHER_AXIS; col = col + 1) {
-            if col >= count.x {
-                break;
-            }
-            let bx = lo.x + col;
-            let z = occluder_depth(hsm, mssm, g, vec2<i32>(bx, by));
-            // Edge refinement (as in backprojection, docs/TECHNIQUES.md "Large penumbrae"): a block
-            // whose maximum does not occlude holds an occluder's edge; only its occluding
-            // sub-blocks set bits. Not in a full search.
-            let refine = select(min(i32(params.edge_refine), g.level), 0, params.hierarchy == HIERARCHY_NONE);
-            var partial = false;
-            if z < HIERARCHY_EMPTY && refine > 0 {
-                partial = hierarchy_block(hsm, mssm, params.hierarchy, g.level, vec2<i32>(bx, by)).y >= g.p.z - g.bias;
-            }
-            if partial {
-                refined_patches(acc, hsm, mssm, g, vec2<i32>(bx, by), refine);
-            } else if z < HIERARCHY_EMPTY {
-                let k = backprojection_scale(g, z);
-                let s0 = edge_s(bx * g.block);
-                let s1 = edge_s(min((bx + 1) * g.block, g.map));
-                var x0 = k * (s0 * g.p.z - g.p.x);
-                let x1 = k * (s1 * g.p.z - g.p.x);
-                var y0 = k * (t_bottom * g.p.z - g.p.y);
-                let y1 = k * (t_top * g.p.z - g.p.y);
-                if params.gap_filling != 0u {
-                    if left_z < HIERARCHY_EMPTY {
-                        x0 = min(x0, backprojection_scale(g, left_z) * (s0 * g.p.z - g.p.x));
-                    }
-                    if by + 1 < g.blocks {
-                        let below = occluder_depth(hsm, mssm, g, vec2<i32>(bx, by + 1));
-                        if below < HIERARCHY_EMPTY {
-                            y0 = min(y0, backprojection_scale(g, below) * (t_bottom * g.p.z - g.p.y));
-                        }
-                    }
-                }
-                cover_rect(acc, g, vec2<f32>(x0, y0), vec2<f32>(x1, y1));
-            }
-            left_z = z;
-        }
-    }
+override fn softshadow::gather::emit_patch(g: Gather, lo: vec2<f32>, hi: vec2<f32>) -> f32 {
+    // The scaffold's micro-patches (with gap filling and edge refinement) set the light samples
+    // they cover (softshadow::gather). No comment right above: see `emit_patch` there.
+    return cover_rect(g, lo, hi);
 }
 
-// The occluding sub-blocks of level g.level - d of `block`, each a patch at its own minimum depth
-// (the bias rule of `occluder_depth` at the sub-blocks' size).
-fn refined_patches(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>, d: i32) {
-    let level = g.level - d;
-    let n = 1 << u32(d);
-    let size = 1 << u32(level);
-    let own = g.own_texel >> vec2<u32>(u32(level));
-    let coarse_bias = g.bias * f32(size);
-    for (var j = 0; j < 8; j = j + 1) {
-        if j >= n {
-            break;
-        }
-        for (var i = 0; i < 8; i = i + 1) {
-            if i >= n {
-                break;
-            }
-            let sub = block * n + vec2<i32>(i, j);
-            let range = hierarchy_block(hsm, mssm, params.hierarchy, level, sub);
-            var bias = g.bias;
-            if level > 0 && all(abs(sub - own) <= vec2<i32>(1)) && range.y >= g.p.z - coarse_bias {
-                bias = coarse_bias;
-            }
-            if range.x < g.p.z - bias {
-                let k = backprojection_scale(g, range.x);
-                let x0 = k * (edge_s(min(sub.x * size, g.map)) * g.p.z - g.p.x);
-                let x1 = k * (edge_s(min((sub.x + 1) * size, g.map)) * g.p.z - g.p.x);
-                let y0 = k * (edge_t(min((sub.y + 1) * size, g.map)) * g.p.z - g.p.y);
-                let y1 = k * (edge_t(min(sub.y * size, g.map)) * g.p.z - g.p.y);
-                cover_rect(acc, g, vec2<f32>(x0, y0), vec2<f32>(x1, y1));
-            }
-        }
-    }
-}
-
-struct QuadVertex {
-    xy: vec2<f32>,
-    occludes: bool,
-}
-
-// Centre of block `block`, unprojected at the block's depth and backprojected through p (sec. 4).
-// Not clamped to the light: the rectangle through the edge centres must keep its true extent.
-fn quad_vertex(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, block: vec2<i32>) -> QuadVertex {
-    var v: QuadVertex;
-    let z = occluder_depth(hsm, mssm, g, block);
-    v.occludes = z < HIERARCHY_EMPTY;
-    let start = block * g.block;
-    let centre = vec2<f32>(start) + 0.5 * vec2<f32>(min(vec2<i32>(g.block), vec2<i32>(g.map) - start));
-    let slope = vec2<f32>(
-        view.window.x + centre.x * texel_slope(view),
-        view.window.w - centre.y * texel_slope(view),
+override fn softshadow::gather::emit_quad(g: Gather, top_left: vec2<f32>, top_right: vec2<f32>, bottom_left: vec2<f32>, bottom_right: vec2<f32>) -> f32 {
+    // A micro-quad (all four vertices occlude) is approximated by the axis-aligned rectangle
+    // through the centres of its edges (sec. 4, Fig. 6 right); its vertices are not clamped to
+    // the light, so the rectangle keeps its true extent.
+    let left = 0.5 * (top_left.x + bottom_left.x);
+    let right = 0.5 * (top_right.x + bottom_right.x);
+    let top = 0.5 * (top_left.y + top_right.y);
+    let bottom = 0.5 * (bottom_left.y + bottom_right.y);
+    return cover_rect(
+        g,
+        vec2<f32>(min(left, right), min(top, bottom)),
+        vec2<f32>(max(left, right), max(top, bottom)),
     );
-    v.xy = backprojection_scale(g, z) * (slope * g.p.z - g.p.xy);
-    return v;
-}
-
-// Micro-quads between the block centres of lo .. lo + count (one more vertex per axis); a quad
-// counts only when all four vertices occlude, and is approximated by the axis-aligned rectangle
-// through the centres of its edges (sec. 4, Fig. 6 right).
-fn gather_microquads(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g: Gather, lo: vec2<i32>, count: vec2<i32>) {
-    for (var row = 0; row < MAX_GATHER_AXIS; row = row + 1) {
-        if row >= count.y {
-            break;
-        }
-        let by = lo.y + row;
-        var top_left = quad_vertex(hsm, mssm, g, vec2<i32>(lo.x, by));
-        var bottom_left = quad_vertex(hsm, mssm, g, vec2<i32>(lo.x, by + 1));
-        for (var col = 0; col < MAX_GATHER_AXIS; col = col + 1) {
-            if col >= count.x {
-                break;
-            }
-            let bx = lo.x + col + 1;
-            let top_right = quad_vertex(hsm, mssm, g, vec2<i32>(bx, by));
-            let bottom_right = quad_vertex(hsm, mssm, g, vec2<i32>(bx, by + 1));
-            if top_left.occludes && bottom_left.occludes && top_right.occludes && bottom_right.occludes {
-                let left = 0.5 * (top_left.xy.x + bottom_left.xy.x);
-                let right = 0.5 * (top_right.xy.x + bottom_right.xy.x);
-                let top = 0.5 * (top_left.xy.y + top_right.xy.y);
-                let bottom = 0.5 * (bottom_left.xy.y + bottom_right.xy.y);
-                cover_rect(
-                    acc,
-                    g,
-                    vec2<f32>(min(left, right), min(top, bottom)),
-                    vec2<f32>(max(left, right), max(top, bottom)),
-                );
-            }
-            top_left = top_right;
-            bottom_left = bottom_right;
-        }
-    }
 }
 
 // What one layer did.
@@ -431,8 +277,15 @@ struct LayerResult {
     primitives: u32,
 }
 
-// Search, classify and gather one depth layer into `acc`.
-fn gather_layer(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, p: vec3<f32>, half_light: vec2<f32>, bias: f32) -> LayerResult {
+// The (V, A) interpolated from the coarse pass when layer 0 returned CLASS_UPSAMPLED.
+var<private> upsampled: vec2<f32>;
+
+// Search, classify and gather one depth layer into `acc`. Layer 0 decides adaptive screen
+// resolution from its nearest blocker (`coarse`: this is the coarse pass).
+fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, receiver: Receiver, pixel: vec2<i32>, first: bool, coarse: bool) -> LayerResult {
+    let p = receiver.s.light;
+    let half_light = receiver.half_light;
+    let bias = receiver.bias;
     var out: LayerResult;
     out.kind = CLASS_LIT;
     out.level = -1;
@@ -445,41 +298,38 @@ fn gather_layer(acc: ptr<function, Accumulator>, hsm: texture_2d<f32>, mssm: tex
         out.kind = CLASS_UMBRA;
         return out;
     }
-    // With `hierarchy = none` the CPU passes the full-search block count here
-    // (softshadow_core::hierarchy::full_search_patches(layers)).
-    let per_axis = i32(params.max_patches);
-    var g: Gather;
-    g.p = p;
-    g.half_light = half_light;
-    g.level = gather_level(search.rect, per_axis, params.max_level);
-    g.block = 1 << u32(g.level);
-    g.map = i32(view.size.x);
-    g.blocks = (g.map + g.block - 1) / g.block;
-    g.bias = bias;
-    g.coarse_bias = bias * f32(g.block);
-    let own_texel = vec2<i32>(floor(clamp(view_uv(view, p), vec2<f32>(-1.0), vec2<f32>(2.0)) * f32(g.map)));
-    g.own_block = own_texel >> vec2<u32>(u32(g.level));
-    g.own_texel = own_texel;
-    let lo = search.rect.lo >> vec2<u32>(u32(g.level));
-    let hi = search.rect.hi >> vec2<u32>(u32(g.level));
-    var count: vec2<i32>;
-    if params.primitive == PRIMITIVE_MICROQUAD {
-        // Quads between block centres lo - 1 .. hi + 1 that lie inside the map.
-        let quad_lo = max(lo - 1, vec2<i32>(0));
-        let quad_hi = min(hi, vec2<i32>(g.blocks - 2));
-        count = clamp(quad_hi - quad_lo + 1, vec2<i32>(0), vec2<i32>(per_axis + 1));
-        gather_microquads(acc, hsm, mssm, g, quad_lo, count);
-    } else {
-        count = clamp(hi - lo + 1, vec2<i32>(0), vec2<i32>(per_axis));
-        gather_micropatches(acc, hsm, mssm, g, lo, count);
+    if first {
+        let adaptive = adaptive_choice(coarse_in, receiver, pixel, search.z_range.x, params.adaptive_factor, params.adaptive_pixels, coarse);
+        if adaptive.x == ADAPTIVE_SKIP {
+            out.kind = CLASS_SKIPPED;
+            return out;
+        }
+        if adaptive.x == ADAPTIVE_UPSAMPLED {
+            upsampled = adaptive.yz;
+            out.kind = CLASS_UPSAMPLED;
+            return out;
+        }
     }
+    // With `hierarchy = none` the CPU passes the full-search block count in max_patches
+    // (softshadow_core::hierarchy::full_search_patches(layers)).
+    let settings = GatherSettings(
+        params.hierarchy,
+        params.primitive,
+        params.gap_filling,
+        VISIBILITY_SUM,
+        params.max_level,
+        i32(params.max_patches),
+        params.depth_bands,
+        params.edge_refine,
+    );
+    let gathered = gather_search_area(hsm, mssm, gather_setup(view, settings, p, half_light, bias), search);
     out.kind = CLASS_BACKPROJECTED;
-    out.level = g.level;
-    out.primitives = u32(count.x * count.y);
+    out.level = gathered.level;
+    out.primitives = gathered.primitives;
     return out;
 }
 
-fn set_bits(acc: Accumulator) -> u32 {
+fn set_bits() -> u32 {
     var n = 0u;
     for (var w = 0u; w < MASK_WORDS; w = w + 1u) {
         n += countOneBits(acc.mask[w]);
@@ -487,7 +337,8 @@ fn set_bits(acc: Accumulator) -> u32 {
     return n;
 }
 
-fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
+// `coarse`: the coarse pass of adaptive screen resolution.
+fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
     var r: PixelResult;
     r.v = 1.0;
     r.area_v = 1.0;
@@ -495,27 +346,21 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
     r.level = -1;
     r.primitives = 0u;
     r.set_bits = 0u;
-    let s = load_surface(pixel);
-    if !s.is_receiver {
+    let receiver = receiver_at(view, pixel, params.bias_texels);
+    if receiver.kind == RECEIVER_NONE {
         return r;
     }
-    let p = s.light;
-    if !(p.z > 0.0) {
-        // At or behind the light plane: a one-sided light cannot reach it.
+    if receiver.kind == RECEIVER_BEHIND {
         r.v = 0.0;
         r.area_v = 0.0;
         r.kind = CLASS_UMBRA;
         return r;
     }
     r.kind = CLASS_LIT;
-    if p.z <= view.eye_near_far.z {
-        // Closer to the light than every caster.
+    if receiver.kind == RECEIVER_LIT {
         return r;
     }
-    // A zero-size light is treated as a tiny one (finite scales, same shadow boundary).
-    let half_light = max(frame.light_half.xy, vec2<f32>(1.0e-4));
-    let bias = params.bias_texels * texel_slope(view) * p.z / light_cosine(s);
-    var acc: Accumulator;
+    let half_light = receiver.half_light;
     acc.area = 0.0;
     // Every layer ORs into the one mask (sec. 3.2); an umbra layer decides the pixel alone.
     var layer = LayerResult(CLASS_LIT, -1, 0u);
@@ -524,10 +369,10 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
             break;
         }
         switch k {
-            case 0u: { layer = gather_layer(&acc, hsm0, mssm0, p, half_light, bias); }
-            case 1u: { layer = gather_layer(&acc, hsm1, mssm1, p, half_light, bias); }
-            case 2u: { layer = gather_layer(&acc, hsm2, mssm2, p, half_light, bias); }
-            default: { layer = gather_layer(&acc, hsm3, mssm3, p, half_light, bias); }
+            case 0u: { layer = gather_layer(hsm0, mssm0, receiver, pixel, k == 0u, coarse); }
+            case 1u: { layer = gather_layer(hsm1, mssm1, receiver, pixel, k == 0u, coarse); }
+            case 2u: { layer = gather_layer(hsm2, mssm2, receiver, pixel, k == 0u, coarse); }
+            default: { layer = gather_layer(hsm3, mssm3, receiver, pixel, false, coarse); }
         }
         r.primitives += layer.primitives;
         r.level = max(r.level, layer.level);
@@ -535,6 +380,17 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
             r.v = 0.0;
             r.area_v = 0.0;
             r.kind = CLASS_UMBRA;
+            return r;
+        }
+        if layer.kind == CLASS_SKIPPED {
+            r.v = ADAPTIVE_INVALID;
+            r.kind = CLASS_SKIPPED;
+            return r;
+        }
+        if layer.kind == CLASS_UPSAMPLED {
+            r.v = clamp(upsampled.x, 0.0, 1.0);
+            r.area_v = upsampled.y;
+            r.kind = CLASS_UPSAMPLED;
             return r;
         }
         if layer.kind == CLASS_BACKPROJECTED {
@@ -545,7 +401,7 @@ fn shade_pixel(pixel: vec2<i32>) -> PixelResult {
         return r;
     }
     let samples = params.rows * params.columns;
-    r.set_bits = set_bits(acc);
+    r.set_bits = set_bits();
     r.v = 1.0 - f32(r.set_bits) / f32(samples);
     let light_area = 4.0 * half_light.x * half_light.y;
     r.area_v = 1.0 - acc.area / light_area;
@@ -572,12 +428,13 @@ fn gather(
         atomicStore(&group_primitives, 0u);
         atomicStore(&group_primitives_max, 0u);
         atomicStore(&group_set_bits, 0u);
+        atomicStore(&group_upsampled, 0u);
     }
     workgroupBarrier();
     let size = vec2<u32>(frame.screen.xy);
     if all(id.xy < size) {
         let pixel = vec2<i32>(id.xy);
-        let r = shade_pixel(pixel);
+        let r = shade_pixel(pixel, false);
         textureStore(visibility, pixel, vec4<f32>(r.v, 0.0, 0.0, 0.0));
         if params.with_area != 0u {
             textureStore(area_map, pixel, vec4<f32>(r.area_v, 0.0, 0.0, 0.0));
@@ -596,6 +453,9 @@ fn gather(
             atomicAdd(&group_backprojected, 1u);
             atomicAdd(&group_set_bits, r.set_bits);
         }
+        if r.kind == CLASS_UPSAMPLED {
+            atomicAdd(&group_upsampled, 1u);
+        }
         atomicAdd(&group_primitives, r.primitives);
         atomicMax(&group_primitives_max, r.primitives);
     }
@@ -605,6 +465,7 @@ fn gather(
         atomicAdd(&counters.lit, atomicLoad(&group_lit));
         atomicAdd(&counters.umbra, atomicLoad(&group_umbra));
         atomicAdd(&counters.backprojected, atomicLoad(&group_backprojected));
+        atomicAdd(&counters.upsampled, atomicLoad(&group_upsampled));
         atomicMax(&counters.primitives_max, atomicLoad(&group_primitives_max));
         let added = atomicLoad(&group_primitives);
         let before = atomicAdd(&counters.primitives_lo, added);
@@ -616,5 +477,17 @@ fn gather(
         if bits_before > 0xffffffffu - bits {
             atomicAdd(&counters.set_bits_hi, 1u);
         }
+    }
+}
+
+// The coarse pass of adaptive screen resolution: pixel id * factor of the full image, its (V, A)
+// where it is lit, umbra or has a wide penumbra, ADAPTIVE_INVALID elsewhere.
+@compute @workgroup_size(8, 8)
+fn gather_coarse(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = textureDimensions(coarse_out);
+    let pixel = vec2<i32>(id.xy * max(params.adaptive_factor, 1u));
+    if all(id.xy < dims) && all(pixel < vec2<i32>(frame.screen.xy)) {
+        let r = shade_pixel(pixel, true);
+        textureStore(coarse_out, id.xy, vec4<f32>(r.v, r.area_v, 0.0, 0.0));
     }
 }

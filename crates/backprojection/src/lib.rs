@@ -17,6 +17,10 @@ use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     frame::uniform_entry,
     fullscreen::uniform_buffer,
+    gather::{
+        float_texture_entry, storage_texture_entry, AdaptivePass, AdaptiveResolution,
+        AdaptiveTargets, GatherCounters,
+    },
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
     shader::{self, ShaderSpec},
@@ -82,6 +86,11 @@ softshadow_core::technique_settings! {
         /// Levels a partly occluding block (its maximum depth does not occlude: it holds an
         /// occluder's edge) is split down into sub-blocks (0: none; sum visibility only)
         edge_refine: u32 = 2, in 0..=3;
+        /// View-dependent adaptive screen resolution: off, or pixels with a wide penumbra
+        /// interpolated (edge-aware) from a gather at half or quarter resolution
+        adaptive_resolution: AdaptiveResolution = AdaptiveResolution::Off;
+        /// Penumbra width in screen pixels from which adaptive resolution interpolates a pixel
+        adaptive_pixels: f32 = 8.0, in 1.0..=256.0;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
         /// block size)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
@@ -101,7 +110,9 @@ struct GatherUniform {
     visibility: u32,
     depth_bands: u32,
     edge_refine: u32,
-    _pad: [u32; 3],
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
+    _pad: u32,
 }
 
 /// Mirrors `Counters` in `gather.wgsl`.
@@ -114,10 +125,9 @@ struct Counters {
     backprojected: u32,
     primitives_lo: u32,
     primitives_hi: u32,
-    _pad: [u32; 2],
+    upsampled: u32,
+    _pad: u32,
 }
-
-const COUNTERS_SIZE: u64 = std::mem::size_of::<Counters>() as u64;
 
 /// Per-pixel debug images, reallocated with the screen size.
 struct DebugTargets {
@@ -136,10 +146,14 @@ pub struct Backprojection {
     shadow_map: CentreShadowMap,
     hierarchy: DepthHierarchy,
     pipeline: wgpu::ComputePipeline,
+    /// The coarse pass of adaptive screen resolution (entry `gather_coarse`), compiled when first
+    /// used (llvmpipe compiles a pipeline when it is created: not for every technique made).
+    coarse_pipeline: Option<wgpu::ComputePipeline>,
+    pipeline_layout: wgpu::PipelineLayout,
     layout: wgpu::BindGroupLayout,
     params_buffer: wgpu::Buffer,
-    counters: wgpu::Buffer,
-    counters_readback: wgpu::Buffer,
+    counters: GatherCounters<Counters>,
+    adaptive: AdaptiveTargets,
     debug: Option<DebugTargets>,
     /// Stats known when recording; the GPU counters are added by `stats()`.
     stats: TechniqueStats,
@@ -153,51 +167,23 @@ impl Backprojection {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: BackprojectionSettings) -> Result<Self, TechniqueError> {
         let stage = wgpu::ShaderStages::COMPUTE;
-        let float_texture = |binding, dimension| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: stage,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: dimension,
-                multisampled: false,
-            },
-            count: None,
-        };
-        let storage_texture = |binding, format| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: stage,
-            ty: wgpu::BindingType::StorageTexture {
-                access: wgpu::StorageTextureAccess::WriteOnly,
-                format,
-                view_dimension: wgpu::TextureViewDimension::D2,
-            },
-            count: None,
-        };
         let layout = gpu
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("backprojection/gather"),
                 entries: &[
                     uniform_entry(0, stage, false),
-                    float_texture(1, wgpu::TextureViewDimension::D2),
-                    float_texture(2, wgpu::TextureViewDimension::D2Array),
+                    float_texture_entry(1, wgpu::TextureViewDimension::D2),
+                    float_texture_entry(2, wgpu::TextureViewDimension::D2Array),
                     uniform_entry(3, stage, false),
-                    storage_texture(4, wgpu::TextureFormat::R32Float),
-                    storage_texture(5, wgpu::TextureFormat::Rgba8Unorm),
-                    storage_texture(6, wgpu::TextureFormat::R32Float),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 7,
-                        visibility: stage,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: false },
-                            has_dynamic_offset: false,
-                            min_binding_size: wgpu::BufferSize::new(COUNTERS_SIZE),
-                        },
-                        count: None,
-                    },
+                    storage_texture_entry(4, wgpu::TextureFormat::R32Float),
+                    storage_texture_entry(5, wgpu::TextureFormat::Rgba8Unorm),
+                    storage_texture_entry(6, wgpu::TextureFormat::R32Float),
+                    GatherCounters::<Counters>::layout_entry(7),
+                    AdaptiveTargets::layout_entries(8)[0],
+                    AdaptiveTargets::layout_entries(8)[1],
                 ],
             });
-        let module = shader::create_module(gpu, &SHADERS[0], &[])?;
         let pipeline_layout = gpu
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -205,40 +191,19 @@ impl Backprojection {
                 bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
                 immediate_size: 0,
             });
-        let pipeline = gpu
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("backprojection/gather"),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some("gather"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
-        let counters = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("backprojection/counters"),
-            size: COUNTERS_SIZE,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let counters_readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("backprojection/counters readback"),
-            size: COUNTERS_SIZE,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let pipeline = gather_pipeline(gpu, &pipeline_layout, "gather")?;
         Ok(Self {
             settings,
             gpu: gpu.clone(),
             shadow_map: CentreShadowMap::new(gpu)?,
             hierarchy: DepthHierarchy::new(gpu)?,
             pipeline,
+            coarse_pipeline: None,
+            pipeline_layout,
             layout,
             params_buffer: uniform_buffer(gpu, "backprojection/params", &GatherUniform::zeroed()),
-            counters,
-            counters_readback,
+            counters: GatherCounters::new(gpu, "backprojection/counters"),
+            adaptive: AdaptiveTargets::new(gpu, "backprojection"),
             debug: None,
             stats: TechniqueStats::new(),
             gathered: false,
@@ -277,23 +242,25 @@ impl Backprojection {
             level,
         });
     }
+}
 
-    /// Reads the gather pass's counters of the last frame (waits for the GPU).
-    fn read_counters(&self) -> Option<Counters> {
-        let slice = self.counters_readback.slice(..);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = sender.send(r);
-        });
-        self.gpu.wait_idle().ok()?;
-        receiver.recv().ok()?.ok()?;
-        let counters = {
-            let data = slice.get_mapped_range().ok()?;
-            *bytemuck::from_bytes::<Counters>(&data[..COUNTERS_SIZE as usize])
-        };
-        self.counters_readback.unmap();
-        Some(counters)
-    }
+/// The gather pipeline of `gather.wgsl`'s entry `entry_point` over `layout`.
+fn gather_pipeline(
+    gpu: &Gpu,
+    layout: &wgpu::PipelineLayout,
+    entry_point: &str,
+) -> Result<wgpu::ComputePipeline, TechniqueError> {
+    let module = shader::create_module(gpu, &SHADERS[0], &[])?;
+    Ok(gpu
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("backprojection/gather"),
+            layout: Some(layout),
+            module: &module,
+            entry_point: Some(entry_point),
+            compilation_options: Default::default(),
+            cache: None,
+        }))
 }
 
 impl ShadowTechnique for Backprojection {
@@ -362,6 +329,12 @@ impl ShadowTechnique for Backprojection {
             );
         }
 
+        // Not with the full search: it stays the yardstick, and its unrefined area says nothing
+        // about the penumbra.
+        let adaptive_factor = match s.hierarchy {
+            HierarchyKind::None => 1,
+            _ => s.adaptive_resolution.factor(),
+        };
         let uniform = GatherUniform {
             hierarchy: s.hierarchy.shader_value(),
             primitive: match s.primitive {
@@ -375,66 +348,90 @@ impl ShadowTechnique for Backprojection {
             visibility: s.visibility.shader_value(),
             depth_bands: s.depth_bands.clamp(1, 8),
             edge_refine: s.edge_refine.min(3),
-            _pad: [0; 3],
+            adaptive_factor,
+            adaptive_pixels: if s.adaptive_pixels.is_finite() {
+                s.adaptive_pixels.max(0.0)
+            } else {
+                8.0
+            },
+            _pad: 0,
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
-        gpu.queue
-            .write_buffer(&self.counters, 0, bytemuck::bytes_of(&Counters::default()));
+        self.counters.clear(gpu);
+        let coarse_size = self
+            .adaptive
+            .prepare(gpu, inputs.width, inputs.height, adaptive_factor);
+        if coarse_size.is_some() && self.coarse_pipeline.is_none() {
+            self.coarse_pipeline = Some(gather_pipeline(
+                gpu,
+                &self.pipeline_layout,
+                "gather_coarse",
+            )?);
+        }
         self.ensure_debug_targets(inputs.width, inputs.height);
         let debug = self.debug.as_ref().expect("allocated above");
         let hsm = self.hierarchy.hsm_view().expect("built above");
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("backprojection/gather"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.shadow_map.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(hsm),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(self.hierarchy.mssm_view()),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: self.params_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&out.view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: wgpu::BindingResource::TextureView(&debug.classification_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: wgpu::BindingResource::TextureView(&debug.level_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: self.counters.as_entire_binding(),
-                },
-            ],
-        });
+        let bind_group = |pass| {
+            let [adaptive_read, adaptive_write] = self.adaptive.entries(8, pass);
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("backprojection/gather"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.shadow_map.view_buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(hsm),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(self.hierarchy.mssm_view()),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: self.params_buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::TextureView(&out.view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: wgpu::BindingResource::TextureView(&debug.classification_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: wgpu::BindingResource::TextureView(&debug.level_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 7,
+                        resource: self.counters.binding(),
+                    },
+                    adaptive_read,
+                    adaptive_write,
+                ],
+            })
+        };
+        if let (Some((w, h)), Some(coarse_pipeline)) = (coarse_size, &self.coarse_pipeline) {
+            let coarse = bind_group(AdaptivePass::Coarse);
+            frame.compute_pass("backprojection/gather_coarse", |pass| {
+                pass.set_pipeline(coarse_pipeline);
+                pass.set_bind_group(0, inputs.frame_bind_group, &[]);
+                pass.set_bind_group(1, &coarse, &[]);
+                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            });
+        }
+        let full = bind_group(AdaptivePass::Full);
         frame.compute_pass("backprojection/gather", |pass| {
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &bind_group, &[]);
+            pass.set_bind_group(1, &full, &[]);
             pass.dispatch_workgroups(inputs.width.div_ceil(8), inputs.height.div_ceil(8), 1);
         });
-        frame.encoder.copy_buffer_to_buffer(
-            &self.counters,
-            0,
-            &self.counters_readback,
-            0,
-            COUNTERS_SIZE,
-        );
+        self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
@@ -458,7 +455,7 @@ impl ShadowTechnique for Backprojection {
         if !self.gathered {
             return stats;
         }
-        if let Some(c) = self.read_counters() {
+        if let Some(c) = self.counters.read(&self.gpu) {
             let receivers = c.receivers.max(1) as f64;
             let primitives = (((c.primitives_hi as u64) << 32) | c.primitives_lo as u64) as f64;
             stats.insert("receiver_pixels".into(), c.receivers as f64);
@@ -468,6 +465,10 @@ impl ShadowTechnique for Backprojection {
             );
             stats.insert("lit_pixel_fraction".into(), c.lit as f64 / receivers);
             stats.insert("umbra_pixel_fraction".into(), c.umbra as f64 / receivers);
+            stats.insert(
+                "upsampled_pixel_fraction".into(),
+                c.upsampled as f64 / receivers,
+            );
             stats.insert("mean_primitives_per_pixel".into(), primitives / receivers);
             stats.insert(
                 "mean_primitives_per_backprojected_pixel".into(),
@@ -515,6 +516,10 @@ fn classification_legend() -> DebugLegend {
         (
             [0, 38, 255],
             "... up to max_patches² primitives (blue)".into(),
+        ),
+        (
+            [26, 204, 51],
+            "interpolated from the coarse pass (adaptive resolution)".into(),
         ),
         ([0, 0, 0], "off-receiver".into()),
     ])

@@ -56,30 +56,30 @@ pub(crate) fn requirements() -> Requirements {
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
 fn expectations() -> Expectations {
     Expectations::new(&[
-        ("stiff-contact", at_most(MaeShadowed, 0.11, 0.0432)),
+        ("stiff-contact", at_most(MaeShadowed, 0.043, 0.0164)),
         ("stiff-near-light", at_most(MaeShadowed, 0.022, 0.0087)),
         ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
         ("stiff-wide-light", at_most(MaeShadowed, 0.0083, 0.0033)),
-        ("stiff-grazing", at_most(MaeShadowed, 0.04, 0.0157)),
+        ("stiff-grazing", at_most(MaeShadowed, 0.032, 0.0128)),
         (
             "stiff-depth-range",
             known_failure(MaeShadowed, 0.2522, 0.026),
         ),
-        ("stiff-zero-thickness", at_most(MaeShadowed, 0.18, 0.0709)),
-        ("stiff-partly-outside", at_most(MaeShadowed, 0.16, 0.1131)),
+        ("stiff-zero-thickness", at_most(MaeShadowed, 0.015, 0.006)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.16, 0.0754)),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
-        ("stiff-aspect-100", at_most(MaeShadowed, 0.044, 0.0176)),
+        ("stiff-aspect-100", at_most(MaeShadowed, 0.044, 0.0175)),
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.039, 0.0154)),
-        ("stiff-degenerate", at_most(MaeShadowed, 0.044, 0.0176)),
-        ("stiff-behind-light", at_most(MaeShadowed, 0.017, 0.0068)),
-        ("stiff-light-up", at_most(MaeShadowed, 0.01, 0.004)),
-        ("stiff-fusion", at_most(MaeShadowed, 0.15, 0.0567)),
-        ("stiff-light-leak", at_most(MaeShadowed, 0.35, 0.2726)),
-        ("stiff-large-light", at_most(MaeShadowed, 0.21, 0.0877)),
-        ("atty-square", at_most(MaeShadowed, 0.044, 0.0176)),
+        ("stiff-degenerate", at_most(MaeShadowed, 0.026, 0.0102)),
+        ("stiff-behind-light", at_most(MaeShadowed, 0.016, 0.0064)),
+        ("stiff-light-up", at_most(MaeShadowed, 0.0093, 0.0037)),
+        ("stiff-fusion", at_most(MaeShadowed, 0.056, 0.0224)),
+        ("stiff-light-leak", at_most(MaeShadowed, 0.086, 0.0343)),
+        ("stiff-large-light", at_most(MaeShadowed, 0.11, 0.0416)),
+        ("atty-square", at_most(MaeShadowed, 0.026, 0.0102)),
         (
             "blob-floating:triangles=20000",
-            at_most(MaeShadowed, 0.11, 0.0679),
+            at_most(MaeShadowed, 0.11, 0.0534),
         ),
     ])
 }

@@ -20,6 +20,10 @@ use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     frame::uniform_entry,
     fullscreen::{depth_texture_entry, uniform_buffer},
+    gather::{
+        float_texture_entry, storage_texture_entry, AdaptivePass, AdaptiveResolution,
+        AdaptiveTargets, GatherCounters,
+    },
     gbuffer::create_texture,
     hierarchy::{
         full_search_patches, max_search_texels, needed_levels, DepthHierarchy, HierarchyKind,
@@ -159,7 +163,15 @@ softshadow_core::technique_settings! {
         filter_passes: u32 = 0, in 0..=8;
         /// Levels a partly occluding micro-patch block (it holds an occluder's edge) is split
         /// down into sub-blocks (0: none; micro-patches with a hierarchy only)
-        edge_refine: u32 = 0, in 0..=3;
+        edge_refine: u32 = 2, in 0..=3;
+        /// Depth bands gathered each at its own level, the level following the penumbra of
+        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
+        depth_bands: u32 = 3, in 1..=8;
+        /// View-dependent adaptive screen resolution: off, or pixels with a wide penumbra
+        /// interpolated (edge-aware) from a gather at half or quarter resolution
+        adaptive_resolution: AdaptiveResolution = AdaptiveResolution::Off;
+        /// Penumbra width in screen pixels from which adaptive resolution interpolates a pixel
+        adaptive_pixels: f32 = 8.0, in 1.0..=256.0;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
         /// block size)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
@@ -182,6 +194,10 @@ struct GatherUniform {
     columns: u32,
     jittered: u32,
     edge_refine: u32,
+    depth_bands: u32,
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
+    _pad: u32,
 }
 
 /// Mirrors `Counters` in `gather.wgsl`.
@@ -197,10 +213,9 @@ struct Counters {
     primitives_max: u32,
     set_bits_lo: u32,
     set_bits_hi: u32,
-    _pad: [u32; 3],
+    upsampled: u32,
+    _pad: [u32; 2],
 }
-
-const COUNTERS_SIZE: u64 = std::mem::size_of::<Counters>() as u64;
 
 /// Screen-sized images, reallocated with the screen size: the bitmask result B before filtering,
 /// the area estimate A, two ping-pong targets of the filter, and the gather level.
@@ -375,13 +390,15 @@ pub struct Bitmask {
     hierarchies: Vec<DepthHierarchy>,
     gather_layout: wgpu::BindGroupLayout,
     gather_pipeline_layout: wgpu::PipelineLayout,
-    /// Per entry of `MASK_WORD_COUNTS`, compiled when first used.
-    gather_pipelines: [Option<wgpu::ComputePipeline>; 3],
+    /// Per entry of `MASK_WORD_COUNTS`, compiled when first used: the gather and the coarse pass
+    /// of adaptive screen resolution (entry `gather_coarse`, compiled only when asked for:
+    /// llvmpipe compiles a pipeline when it is created).
+    gather_pipelines: [Option<(wgpu::ComputePipeline, Option<wgpu::ComputePipeline>)>; 3],
     filter_layout: wgpu::BindGroupLayout,
     filter_pipeline: wgpu::ComputePipeline,
     params_buffer: wgpu::Buffer,
-    counters: wgpu::Buffer,
-    counters_readback: wgpu::Buffer,
+    counters: GatherCounters<Counters>,
+    adaptive: AdaptiveTargets,
     targets: Option<ScreenTargets>,
     kept: Option<LightSpaceKey>,
     /// Stats known when recording; the GPU counters are added by `stats()`.
@@ -396,49 +413,25 @@ pub struct Bitmask {
 
 fn compute_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let stage = wgpu::ShaderStages::COMPUTE;
-    let float_texture = |binding, dimension| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: stage,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: dimension,
-            multisampled: false,
-        },
-        count: None,
-    };
-    let storage_texture = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: stage,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format: wgpu::TextureFormat::R32Float,
-            view_dimension: wgpu::TextureViewDimension::D2,
-        },
-        count: None,
-    };
     let mut entries = vec![
         uniform_entry(0, stage, false),
         uniform_entry(1, stage, false),
     ];
     for k in 0..MAX_LAYERS {
-        entries.push(float_texture(2 + k, wgpu::TextureViewDimension::D2));
-        entries.push(float_texture(6 + k, wgpu::TextureViewDimension::D2Array));
+        entries.push(float_texture_entry(2 + k, wgpu::TextureViewDimension::D2));
+        entries.push(float_texture_entry(
+            6 + k,
+            wgpu::TextureViewDimension::D2Array,
+        ));
     }
-    entries.extend([
-        storage_texture(10),
-        storage_texture(11),
-        storage_texture(12),
-    ]);
-    entries.push(wgpu::BindGroupLayoutEntry {
-        binding: 13,
-        visibility: stage,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: false },
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(COUNTERS_SIZE),
-        },
-        count: None,
-    });
+    for binding in 10..13 {
+        entries.push(storage_texture_entry(
+            binding,
+            wgpu::TextureFormat::R32Float,
+        ));
+    }
+    entries.push(GatherCounters::<Counters>::layout_entry(13));
+    entries.extend(AdaptiveTargets::layout_entries(14));
     entries
 }
 
@@ -497,20 +490,6 @@ impl Bitmask {
             compilation_options: Default::default(),
             cache: None,
         });
-        let counters = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("bitmask/counters"),
-            size: COUNTERS_SIZE,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let counters_readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("bitmask/counters readback"),
-            size: COUNTERS_SIZE,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         Ok(Self {
             settings,
             gpu: gpu.clone(),
@@ -523,8 +502,8 @@ impl Bitmask {
             filter_layout,
             filter_pipeline,
             params_buffer: uniform_buffer(gpu, "bitmask/params", &GatherUniform::zeroed()),
-            counters,
-            counters_readback,
+            counters: GatherCounters::new(gpu, "bitmask/counters"),
+            adaptive: AdaptiveTargets::new(gpu, "bitmask"),
             targets: None,
             kept: None,
             stats: TechniqueStats::new(),
@@ -535,29 +514,43 @@ impl Bitmask {
     }
 
     /// The gather pipeline for a mask of `words` 32-bit words (compiled on first use).
-    fn gather_pipeline(&mut self, words: u32) -> Result<&wgpu::ComputePipeline, TechniqueError> {
+    fn gather_pipeline(
+        &mut self,
+        words: u32,
+        coarse: bool,
+    ) -> Result<&(wgpu::ComputePipeline, Option<wgpu::ComputePipeline>), TechniqueError> {
         let index = MASK_WORD_COUNTS
             .iter()
             .position(|&w| w == words)
             .expect("every pattern has 2, 8 or 32 words");
-        if self.gather_pipelines[index].is_none() {
+        let missing = match &self.gather_pipelines[index] {
+            None => true,
+            Some((_, c)) => coarse && c.is_none(),
+        };
+        if missing {
             let module = shader::create_module(
                 &self.gpu,
                 &SHADERS[0],
                 &[("MASK_WORDS", DefValue::UInt(words))],
             )?;
-            let pipeline =
+            let pipeline = |entry_point| {
                 self.gpu
                     .device
                     .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                         label: Some("bitmask/gather"),
                         layout: Some(&self.gather_pipeline_layout),
                         module: &module,
-                        entry_point: Some("gather"),
+                        entry_point: Some(entry_point),
                         compilation_options: Default::default(),
                         cache: None,
-                    });
-            self.gather_pipelines[index] = Some(pipeline);
+                    })
+            };
+            let gather = match self.gather_pipelines[index].take() {
+                Some((gather, _)) => gather,
+                None => pipeline("gather"),
+            };
+            let coarse = coarse.then(|| pipeline("gather_coarse"));
+            self.gather_pipelines[index] = Some((gather, coarse));
         }
         Ok(self.gather_pipelines[index]
             .as_ref()
@@ -590,23 +583,6 @@ impl Bitmask {
             ping: [make("bitmask/filter ping"), make("bitmask/filter pong")],
             level: make("bitmask/level"),
         });
-    }
-
-    /// Reads the gather pass's counters of the last frame (waits for the GPU).
-    fn read_counters(&self) -> Option<Counters> {
-        let slice = self.counters_readback.slice(..);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = sender.send(r);
-        });
-        self.gpu.wait_idle().ok()?;
-        receiver.recv().ok()?.ok()?;
-        let counters = {
-            let data = slice.get_mapped_range().ok()?;
-            *bytemuck::from_bytes::<Counters>(&data[..COUNTERS_SIZE as usize])
-        };
-        self.counters_readback.unmap();
-        Some(counters)
     }
 
     /// Renders layers 1.. by depth peeling and builds every layer's hierarchy.
@@ -745,6 +721,12 @@ impl ShadowTechnique for Bitmask {
         }
 
         let pattern = s.pattern.layout();
+        // Not with the full search: it stays the yardstick, and its unrefined area says nothing
+        // about the penumbra.
+        let adaptive_factor = match s.hierarchy {
+            HierarchyKind::None => 1,
+            _ => s.adaptive_resolution.factor(),
+        };
         let uniform = GatherUniform {
             hierarchy: s.hierarchy.shader_value(),
             primitive: match s.primitive {
@@ -765,13 +747,23 @@ impl ShadowTechnique for Bitmask {
             columns: pattern.columns,
             jittered: u32::from(pattern.jittered),
             edge_refine: s.edge_refine.min(3),
+            depth_bands: s.depth_bands.clamp(1, 8),
+            adaptive_factor,
+            adaptive_pixels: if s.adaptive_pixels.is_finite() {
+                s.adaptive_pixels.max(0.0)
+            } else {
+                8.0
+            },
+            _pad: 0,
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
-        gpu.queue
-            .write_buffer(&self.counters, 0, bytemuck::bytes_of(&Counters::default()));
+        self.counters.clear(gpu);
+        let coarse_size = self
+            .adaptive
+            .prepare(gpu, inputs.width, inputs.height, adaptive_factor);
         self.ensure_targets(inputs.width, inputs.height);
-        self.gather_pipeline(pattern.words())?;
+        self.gather_pipeline(pattern.words(), coarse_size.is_some())?;
         let pipeline_index = MASK_WORD_COUNTS
             .iter()
             .position(|&w| w == pattern.words())
@@ -825,17 +817,31 @@ impl ShadowTechnique for Bitmask {
             },
             wgpu::BindGroupEntry {
                 binding: 13,
-                resource: self.counters.as_entire_binding(),
+                resource: self.counters.binding(),
             },
         ]);
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("bitmask/gather"),
-            layout: &self.gather_layout,
-            entries: &entries,
-        });
+        let bind_group = |pass| {
+            let mut entries = entries.clone();
+            entries.extend(self.adaptive.entries(14, pass));
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("bitmask/gather"),
+                layout: &self.gather_layout,
+                entries: &entries,
+            })
+        };
+        if let (Some((w, h)), Some(coarse_pipeline)) = (coarse_size, &pipeline.1) {
+            let coarse = bind_group(AdaptivePass::Coarse);
+            frame.compute_pass("bitmask/gather_coarse", |pass| {
+                pass.set_pipeline(coarse_pipeline);
+                pass.set_bind_group(0, inputs.frame_bind_group, &[]);
+                pass.set_bind_group(1, &coarse, &[]);
+                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            });
+        }
+        let bind_group = bind_group(AdaptivePass::Full);
         let groups = (inputs.width.div_ceil(8), inputs.height.div_ceil(8));
         frame.compute_pass("bitmask/gather", |pass| {
-            pass.set_pipeline(pipeline);
+            pass.set_pipeline(&pipeline.0);
             pass.set_bind_group(0, inputs.frame_bind_group, &[]);
             pass.set_bind_group(1, &bind_group, &[]);
             pass.dispatch_workgroups(groups.0, groups.1, 1);
@@ -880,13 +886,7 @@ impl ShadowTechnique for Bitmask {
         }
         self.filtered = filter_passes > 0;
 
-        frame.encoder.copy_buffer_to_buffer(
-            &self.counters,
-            0,
-            &self.counters_readback,
-            0,
-            COUNTERS_SIZE,
-        );
+        self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), built_layers as f64),
@@ -914,7 +914,7 @@ impl ShadowTechnique for Bitmask {
         if !self.gathered {
             return stats;
         }
-        if let Some(c) = self.read_counters() {
+        if let Some(c) = self.counters.read(&self.gpu) {
             let receivers = c.receivers.max(1) as f64;
             let backprojected = c.backprojected.max(1) as f64;
             let primitives = (((c.primitives_hi as u64) << 32) | c.primitives_lo as u64) as f64;
@@ -927,6 +927,10 @@ impl ShadowTechnique for Bitmask {
             );
             stats.insert("lit_pixel_fraction".into(), c.lit as f64 / receivers);
             stats.insert("umbra_pixel_fraction".into(), c.umbra as f64 / receivers);
+            stats.insert(
+                "upsampled_pixel_fraction".into(),
+                c.upsampled as f64 / receivers,
+            );
             stats.insert("mean_primitives_per_pixel".into(), primitives / receivers);
             stats.insert("max_primitives_per_pixel".into(), c.primitives_max as f64);
             stats.insert(
@@ -1014,7 +1018,7 @@ mod tests {
 
     #[test]
     fn uniform_sizes_match_the_shader() {
-        assert_eq!(std::mem::size_of::<GatherUniform>(), 48);
-        assert_eq!(COUNTERS_SIZE, 48);
+        assert_eq!(std::mem::size_of::<GatherUniform>(), 64);
+        assert_eq!(std::mem::size_of::<Counters>(), 48);
     }
 }

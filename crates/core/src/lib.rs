@@ -16,6 +16,7 @@ pub mod error;
 pub mod expectations;
 pub mod frame;
 pub mod fullscreen;
+pub mod gather;
 pub mod gbuffer;
 pub mod gpu;
 pub mod hierarchy;

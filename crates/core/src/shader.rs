@@ -68,6 +68,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/shadow_view.wgsl"),
     shader_file!("common/sampling.wgsl"),
     shader_file!("common/search_area.wgsl"),
+    shader_file!("common/gather.wgsl"),
 ];
 
 /// The core crate's own entry shaders.

@@ -6,7 +6,7 @@ use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
 use softshadow_backprojection::{Backprojection, BackprojectionSettings, Primitive};
 use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec};
-use softshadow_core::Gpu;
+use softshadow_core::{gather::AdaptiveResolution, Gpu};
 use softshadow_core::{
     glam::Vec3, HierarchyKind, ParamValue, Renderer, Scene, SceneGpu, ShadowTechnique,
     TechniqueStats,
@@ -421,24 +421,33 @@ fn the_defaults_error_stays_bounded_over_light_widths_on_atty_square() -> Result
     Ok(())
 }
 
-/// Issue 30: the full search is the 2006 gather whatever the new settings say (depth bands and
-/// edge refinement apply only with a hierarchy): bit-identical images on `stiff-large-light`.
+/// Issue 30: the full search is the 2006 gather whatever the new settings say (depth bands, edge
+/// refinement and adaptive resolution apply only with a hierarchy): bit-identical images on `stiff-large-light`.
 #[test]
 fn the_full_search_ignores_depth_bands_and_edge_refinement() -> Result<()> {
     let gpu = gpu()?;
     let scene = softshadow_scenes::load("stiff-large-light")?.scene;
-    let full = |depth_bands, edge_refine| BackprojectionSettings {
+    let full = |depth_bands, edge_refine, adaptive_resolution| BackprojectionSettings {
         shadow_map_size: 256,
         hierarchy: HierarchyKind::None,
         depth_bands,
         edge_refine,
+        adaptive_resolution,
         ..Default::default()
     };
-    let old = render(&gpu, &scene, &mut backprojection(&gpu, full(1, 0))?)?;
-    let new = render(&gpu, &scene, &mut backprojection(&gpu, full(8, 3))?)?;
+    let old = render(
+        &gpu,
+        &scene,
+        &mut backprojection(&gpu, full(1, 0, AdaptiveResolution::Off))?,
+    )?;
+    let new = render(
+        &gpu,
+        &scene,
+        &mut backprojection(&gpu, full(8, 3, AdaptiveResolution::Quarter))?,
+    )?;
     ensure!(
         old.v == new.v,
-        "the full search changed with depth_bands / edge_refine"
+        "the full search changed with depth_bands / edge_refine / adaptive_resolution"
     );
     Ok(())
 }

@@ -541,7 +541,8 @@ fn gap_filling_closes_light_leaks_on_a_curved_caster() -> Result<()> {
         64,
     )?;
     let (on, off) = (e[0].mae_shadowed, e[1].mae_shadowed);
-    // Measured on 0.0681 off 0.0951 (1.40x); the bound on `on` is the one of techniques.rs for this case.
+    // Measured at the defaults of issue 30 (depth bands, edge refinement): on 0.0541 off 0.0904
+    // (1.67x; before them 0.0681 and 0.0951); the bound on `on` is the one of its info.rs.
     ensure!(on < 0.11, "gap filling on: mae_shadowed {on}");
     ensure!(
         off > 1.2 * on,
@@ -550,10 +551,12 @@ fn gap_filling_closes_light_leaks_on_a_curved_caster() -> Result<()> {
     Ok(())
 }
 
-/// Issue 30: edge refinement in the bit field (`edge_refine`, default 0). On `stiff-large-light`
-/// at 64² against the exact answer, measured (loaded machine, 2026-12-02): 0.0877 (too dark
-/// 0.0652) without, 0.0507 (0.0218) with two levels; full search 0.0289. Asserted: at most 0.7 of
-/// the error without, and less of it too dark.
+/// Issue 30: edge refinement in the bit field (`edge_refine`, default 2), alone (one depth band).
+/// On `stiff-large-light` at 64² against the exact answer, measured (loaded machine, 2026-12-02):
+/// 0.0877 (too dark 0.0652) without, 0.0616 with two levels (0.0507 before the refined
+/// sub-patches were gap-filled, which the blob needs: its defaults 0.0761 -> 0.0605 with the light
+/// doubled); full search 0.0289. Asserted: at most 0.75 of the error without, and less of it too
+/// dark.
 #[test]
 fn edge_refinement_cuts_the_coarse_levels_over_darkening_on_large_penumbrae() -> Result<()> {
     let mut bench = crate::common::exact_bench()?;
@@ -561,12 +564,15 @@ fn edge_refinement_cuts_the_coarse_levels_over_darkening_on_large_penumbrae() ->
         &mut bench,
         "stiff-large-light",
         "bitmask",
-        &[&["edge_refine=0"], &["edge_refine=2"]],
+        &[
+            &["edge_refine=0", "depth_bands=1"],
+            &["edge_refine=2", "depth_bands=1"],
+        ],
         64,
     )?;
     let (off, on) = (&e[0], &e[1]);
     ensure!(
-        on.mae_shadowed <= 0.7 * off.mae_shadowed,
+        on.mae_shadowed <= 0.75 * off.mae_shadowed,
         "edge_refine=2 {} against 0 {}",
         on.mae_shadowed,
         off.mae_shadowed

@@ -8,6 +8,7 @@ mod adaptive;
 mod backprojection;
 mod bitmask;
 mod contract;
+mod gather_scaffold;
 mod light_space_cache;
 mod motion;
 mod msm;

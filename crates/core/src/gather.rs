@@ -1,0 +1,251 @@
+//! What the gather techniques (`backprojection`, `bitmask`) share on the CPU beside the depth
+//! hierarchies: their bind-group entries, the per-pass counters a gather adds up on the GPU and
+//! reads back after the frame, and the targets of the view-dependent adaptive screen resolution
+//! (`shaders/common/gather.wgsl`, docs/TECHNIQUES.md, `backprojection`, "Large penumbrae"). The
+//! shaders' own scaffold is `softshadow::gather`.
+
+use crate::gbuffer::create_texture;
+use crate::{wgpu, Frame, Gpu};
+use bytemuck::Pod;
+use std::marker::PhantomData;
+
+crate::param_choice! {
+    /// View-dependent adaptive screen resolution (Guennebaud, Barthe & Paulin 2007): pixels whose
+    /// penumbra is wide on screen are interpolated, edge-aware, from a coarser gather.
+    pub enum AdaptiveResolution {
+        /// Every pixel gathered at full resolution.
+        Off = "off",
+        /// Wide penumbrae from a gather of every second pixel per axis.
+        Half = "half",
+        /// Wide penumbrae from a gather of every fourth pixel per axis.
+        Quarter = "quarter",
+    }
+}
+
+impl AdaptiveResolution {
+    /// Full-resolution pixels per coarse pixel along an axis (1 when off).
+    pub fn factor(self) -> u32 {
+        match self {
+            AdaptiveResolution::Off => 1,
+            AdaptiveResolution::Half => 2,
+            AdaptiveResolution::Quarter => 4,
+        }
+    }
+}
+
+/// A compute-stage entry for a non-filterable float texture of `dimension`.
+pub fn float_texture_entry(
+    binding: u32,
+    dimension: wgpu::TextureViewDimension,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: dimension,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A compute-stage entry for a write-only 2D storage texture of `format`.
+pub fn storage_texture_entry(
+    binding: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
+/// Counters of type `T` (a `Pod` mirror of a WGSL struct of atomics) that a gather pass adds up
+/// per workgroup, and their copy the CPU reads after the frame.
+pub struct GatherCounters<T> {
+    buffer: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    _counters: PhantomData<T>,
+}
+
+impl<T: Pod + Default> GatherCounters<T> {
+    const SIZE: u64 = std::mem::size_of::<T>() as u64;
+
+    /// Both buffers, labelled `<label>` and `<label> readback`.
+    pub fn new(gpu: &Gpu, label: &str) -> Self {
+        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: Self::SIZE,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(&format!("{label} readback")),
+            size: Self::SIZE,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            buffer,
+            readback,
+            _counters: PhantomData,
+        }
+    }
+
+    /// The bind-group layout entry of the counters (read-write storage).
+    pub fn layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(Self::SIZE),
+            },
+            count: None,
+        }
+    }
+
+    /// The counters as a binding resource.
+    pub fn binding(&self) -> wgpu::BindingResource<'_> {
+        self.buffer.as_entire_binding()
+    }
+
+    /// Sets every counter to zero (before the pass).
+    pub fn clear(&self, gpu: &Gpu) {
+        gpu.queue
+            .write_buffer(&self.buffer, 0, bytemuck::bytes_of(&T::default()));
+    }
+
+    /// Records the copy to the readback buffer (after the pass).
+    pub fn copy_out(&self, frame: &mut Frame<'_>) {
+        frame
+            .encoder
+            .copy_buffer_to_buffer(&self.buffer, 0, &self.readback, 0, Self::SIZE);
+    }
+
+    /// The counters of the last frame (waits for the GPU); `None` if the map failed.
+    pub fn read(&self, gpu: &Gpu) -> Option<T> {
+        let slice = self.readback.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sender.send(r);
+        });
+        gpu.wait_idle().ok()?;
+        receiver.recv().ok()?.ok()?;
+        let counters = {
+            let data = slice.get_mapped_range().ok()?;
+            *bytemuck::from_bytes::<T>(&data[..Self::SIZE as usize])
+        };
+        self.readback.unmap();
+        Some(counters)
+    }
+}
+
+/// The coarse image of adaptive screen resolution (`Rg32Float`, one texel per `factor` x `factor`
+/// pixels: V and the area estimate) and two 1 x 1 stand-ins, so that each pass binds the coarse
+/// image on one side only: the coarse pass writes it and reads a stand-in, the full-resolution
+/// pass reads it and writes a stand-in (a texture cannot be read and written in one dispatch).
+pub struct AdaptiveTargets {
+    label: String,
+    stand_in_read: wgpu::TextureView,
+    stand_in_write: wgpu::TextureView,
+    coarse: Option<((u32, u32), wgpu::TextureView)>,
+}
+
+/// Which pass the adaptive bindings are for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AdaptivePass {
+    /// The coarse gather: writes the coarse image.
+    Coarse,
+    /// The full-resolution gather: reads it (a stand-in when adaptive resolution is off).
+    Full,
+}
+
+impl AdaptiveTargets {
+    const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
+
+    /// The stand-ins, labelled under `label`.
+    pub fn new(gpu: &Gpu, label: &str) -> Self {
+        let usage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
+        let stand_in = |name: &str| {
+            create_texture(gpu, &format!("{label}/{name}"), 1, 1, Self::FORMAT, usage)
+                .create_view(&Default::default())
+        };
+        Self {
+            label: label.to_string(),
+            stand_in_read: stand_in("coarse stand-in (read)"),
+            stand_in_write: stand_in("coarse stand-in (write)"),
+            coarse: None,
+        }
+    }
+
+    /// The two layout entries, `first` (read) and `first + 1` (write).
+    pub fn layout_entries(first: u32) -> [wgpu::BindGroupLayoutEntry; 2] {
+        [
+            float_texture_entry(first, wgpu::TextureViewDimension::D2),
+            storage_texture_entry(first + 1, Self::FORMAT),
+        ]
+    }
+
+    /// Coarse pixels per axis for a `width` x `height` image at `factor`, or `None` when off.
+    pub fn coarse_size(width: u32, height: u32, factor: u32) -> Option<(u32, u32)> {
+        (factor > 1).then(|| (width.div_ceil(factor), height.div_ceil(factor)))
+    }
+
+    /// Allocates the coarse image for this frame (dropped when `factor` is 1); its size.
+    pub fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        width: u32,
+        height: u32,
+        factor: u32,
+    ) -> Option<(u32, u32)> {
+        let size = Self::coarse_size(width, height, factor);
+        match size {
+            None => self.coarse = None,
+            Some(size) if self.coarse.as_ref().map(|c| c.0) != Some(size) => {
+                let texture = create_texture(
+                    gpu,
+                    &format!("{}/coarse", self.label),
+                    size.0,
+                    size.1,
+                    Self::FORMAT,
+                    wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+                );
+                self.coarse = Some((size, texture.create_view(&Default::default())));
+            }
+            Some(_) => {}
+        }
+        size
+    }
+
+    /// The bind-group entries `first` and `first + 1` for `pass`.
+    pub fn entries(&self, first: u32, pass: AdaptivePass) -> [wgpu::BindGroupEntry<'_>; 2] {
+        let coarse = self.coarse.as_ref().map(|c| &c.1);
+        let (read, write) = match (pass, coarse) {
+            (AdaptivePass::Coarse, Some(c)) => (&self.stand_in_read, c),
+            (AdaptivePass::Full, Some(c)) => (c, &self.stand_in_write),
+            (_, None) => (&self.stand_in_read, &self.stand_in_write),
+        };
+        [
+            wgpu::BindGroupEntry {
+                binding: first,
+                resource: wgpu::BindingResource::TextureView(read),
+            },
+            wgpu::BindGroupEntry {
+                binding: first + 1,
+                resource: wgpu::BindingResource::TextureView(write),
+            },
+        ]
+    }
+}
