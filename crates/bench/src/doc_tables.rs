@@ -22,6 +22,8 @@
 //!   is on the Pareto front, its median lowest error within each budget, its mean rank.
 //! - `runs FILE columns=a,b,.. [technique=ID] [scene=SCENE]`: one row per run, the columns named
 //!   (see [`COLUMNS`]).
+//! - `grid FILE technique=ID`: the technique's runs as a grid, one row per scene, one column per
+//!   setting (the parameters that differ between its runs), each cell "mae_shadowed / frame ms".
 //! - `motion FILE scene=SCENE`: runs along paths (docs/BENCHMARKS.md "Motion"), one row per
 //!   technique and settings, per path its mean error, mean flicker, lag (where a run has one)
 //!   and the median frame time of the frames the path is about (light moving, else camera only,
@@ -226,9 +228,10 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         "summary" => summary(&results.runs),
         "runs" => runs_table(&results.runs, &options)?,
         "motion" => motion_table(&results.runs, &options)?,
+        "grid" => grid_table(&results.runs, &options)?,
         other => {
             return Err(format!(
-                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs or motion"
+                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs, grid or motion"
             ))
         }
     };
@@ -492,6 +495,71 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
     Ok(t)
 }
 
+/// The parameters (name=value) of `run` whose values differ among `runs` of its technique.
+fn varying_params(run: &Run, runs: &[&Run]) -> String {
+    run.params
+        .iter()
+        .filter(|(name, value)| {
+            runs.iter()
+                .filter(|o| o.technique == run.technique)
+                .any(|o| o.params.get(*name) != Some(*value))
+        })
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn grid_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, String> {
+    for key in options.keys() {
+        if *key != "technique" {
+            return Err(format!(
+                "unknown option `{key}`: a `grid` table takes technique=ID"
+            ));
+        }
+    }
+    let technique = *options
+        .get("technique")
+        .ok_or("a `grid` table needs technique=ID")?;
+    let mine: Vec<&Run> = runs.iter().filter(|r| r.technique == technique).collect();
+    if mine.is_empty() {
+        return Err(format!("no run of `{technique}` in the results"));
+    }
+    let all_settings: Vec<String> = mine.iter().map(|r| varying_params(r, &mine)).collect();
+    let settings = ordered(all_settings.iter().map(|s| s.as_str()));
+    let scenes = ordered(mine.iter().map(|r| r.scene.as_str()));
+    let mut t = String::from("| scene |");
+    for setting in &settings {
+        let header = if setting.is_empty() {
+            "as run"
+        } else {
+            setting
+        };
+        let _ = write!(t, " {} |", header.replace('|', "\\|"));
+    }
+    t.push_str("\n|---|");
+    t.push_str(&"---|".repeat(settings.len()));
+    t.push('\n');
+    for scene in &scenes {
+        let _ = write!(t, "| `{scene}` |");
+        for setting in &settings {
+            let cell = mine
+                .iter()
+                .find(|r| r.scene == *scene && varying_params(r, &mine) == *setting)
+                .map_or("-".to_string(), |r| match r.status {
+                    Status::Error => "error".to_string(),
+                    Status::Ok => format!(
+                        "{} / {}",
+                        mae_shadowed(r).map_or("-".into(), |e| format!("{e:.4}")),
+                        frame_time_ms(r).map_or("-".into(), |m| format!("{m:.0}"))
+                    ),
+                });
+            let _ = write!(t, " {cell} |");
+        }
+        t.push('\n');
+    }
+    Ok(t)
+}
+
 /// The frame time a path is about: light-moving frames, else camera-only ones, else still ones
 /// (median ms), and which kind it was.
 fn path_frame_ms(run: &Run) -> Option<(&'static str, f64)> {
@@ -544,24 +612,7 @@ fn motion_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, 
     );
     // Settings that differ between a technique's runs here name its rows (all runs record
     // every parameter; the ones they share would only repeat the defaults).
-    let varying = |r: &Run| -> String {
-        let same_technique: Vec<&Run> = on_scene
-            .iter()
-            .copied()
-            .filter(|o| o.technique == r.technique)
-            .collect();
-        r.params
-            .iter()
-            .filter(|(name, value)| {
-                same_technique
-                    .iter()
-                    .any(|o| o.params.get(*name) != Some(*value))
-            })
-            .map(|(name, value)| format!("{name}={value}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    };
-    let row_of = |r: &Run| (r.technique.clone(), varying(r));
+    let row_of = |r: &Run| (r.technique.clone(), varying_params(r, &on_scene));
     let mut rows: Vec<(String, String)> = Vec::new();
     for run in &on_scene {
         if !rows.contains(&row_of(run)) {
