@@ -22,8 +22,10 @@
 //!   is on the Pareto front, its median lowest error within each budget, its mean rank.
 //! - `runs FILE columns=a,b,.. [technique=ID] [scene=SCENE]`: one row per run, the columns named
 //!   (see [`COLUMNS`]).
-//! - `grid FILE technique=ID`: the technique's runs as a grid, one row per scene, one column per
-//!   setting (the parameters that differ between its runs), each cell "mae_shadowed / frame ms".
+//! - `grid FILE [technique=ID] [rows=scenes|settings]`: runs as a grid, one row per scene and one
+//!   column per setting (the technique and the parameters that differ between its runs), or
+//!   the other way round; each cell "mae_shadowed / frame ms", or for a run along a path "mean
+//!   error over its frames / the last frame's error".
 //! - `motion FILE scene=SCENE`: runs along paths (docs/BENCHMARKS.md "Motion"), one row per
 //!   technique and settings, per path its mean error, mean flicker, lag (where a run has one)
 //!   and the median frame time of the frames the path is about (light moving, else camera only,
@@ -511,49 +513,91 @@ fn varying_params(run: &Run, runs: &[&Run]) -> String {
 
 fn grid_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, String> {
     for key in options.keys() {
-        if *key != "technique" {
+        if !["technique", "rows"].contains(key) {
             return Err(format!(
-                "unknown option `{key}`: a `grid` table takes technique=ID"
+                "unknown option `{key}`: a `grid` table takes technique=ID and rows=scenes|settings"
             ));
         }
     }
-    let technique = *options
-        .get("technique")
-        .ok_or("a `grid` table needs technique=ID")?;
-    let mine: Vec<&Run> = runs.iter().filter(|r| r.technique == technique).collect();
+    let settings_as_rows = match options.get("rows").copied().unwrap_or("scenes") {
+        "scenes" => false,
+        "settings" => true,
+        other => return Err(format!("rows={other}: use rows=scenes or rows=settings")),
+    };
+    let technique = options.get("technique").copied();
+    let mine: Vec<&Run> = runs
+        .iter()
+        .filter(|r| technique.is_none_or(|t| r.technique == t))
+        .collect();
     if mine.is_empty() {
-        return Err(format!("no run of `{technique}` in the results"));
+        return Err(format!(
+            "no run of `{}` in the results",
+            technique.unwrap_or("any technique")
+        ));
     }
-    let all_settings: Vec<String> = mine.iter().map(|r| varying_params(r, &mine)).collect();
+    // A run's setting: the parameters that differ between its technique's runs (and the
+    // technique, when the table holds several).
+    let setting_of = |r: &Run| {
+        let varying = varying_params(r, &mine);
+        match technique {
+            Some(_) if varying.is_empty() => "as run".to_string(),
+            Some(_) => varying,
+            None if varying.is_empty() => format!("`{}`", r.technique),
+            None => format!("`{}` {varying}", r.technique),
+        }
+    };
+    let all_settings: Vec<String> = mine.iter().map(|r| setting_of(r)).collect();
     let settings = ordered(all_settings.iter().map(|s| s.as_str()));
     let scenes = ordered(mine.iter().map(|r| r.scene.as_str()));
-    let mut t = String::from("| scene |");
-    for setting in &settings {
-        let header = if setting.is_empty() {
-            "as run"
+    let cell = |scene: &str, setting: &str| {
+        mine.iter()
+            .find(|r| r.scene == scene && setting_of(r) == setting)
+            .map_or("-".to_string(), |r| match (&r.status, &r.motion) {
+                (Status::Error, _) => "error".to_string(),
+                // Along a path: the mean error over its frames / the last frame's.
+                (Status::Ok, Some(m)) => format!(
+                    "{:.4} / {}",
+                    m.error.mean,
+                    m.series
+                        .error
+                        .last()
+                        .map_or("-".into(), |e| format!("{e:.4}"))
+                ),
+                (Status::Ok, None) => format!(
+                    "{} / {}",
+                    mae_shadowed(r).map_or("-".into(), |e| format!("{e:.4}")),
+                    frame_time_ms(r).map_or("-".into(), |m| format!("{m:.0}"))
+                ),
+            })
+    };
+    let (rows, columns, corner) = if settings_as_rows {
+        (&settings, &scenes, "setting")
+    } else {
+        (&scenes, &settings, "scene")
+    };
+    let label = |text: &str, is_scene: bool| {
+        if is_scene {
+            format!("`{text}`")
         } else {
-            setting
-        };
-        let _ = write!(t, " {} |", header.replace('|', "\\|"));
+            text.replace('|', "\\|")
+        }
+    };
+    let mut t = format!("| {corner} |");
+    for column in columns.iter() {
+        let _ = write!(t, " {} |", label(column, !settings_as_rows));
     }
     t.push_str("\n|---|");
-    t.push_str(&"---|".repeat(settings.len()));
+    t.push_str(&"---|".repeat(columns.len()));
     t.push('\n');
-    for scene in &scenes {
-        let _ = write!(t, "| `{scene}` |");
-        for setting in &settings {
-            let cell = mine
-                .iter()
-                .find(|r| r.scene == *scene && varying_params(r, &mine) == *setting)
-                .map_or("-".to_string(), |r| match r.status {
-                    Status::Error => "error".to_string(),
-                    Status::Ok => format!(
-                        "{} / {}",
-                        mae_shadowed(r).map_or("-".into(), |e| format!("{e:.4}")),
-                        frame_time_ms(r).map_or("-".into(), |m| format!("{m:.0}"))
-                    ),
-                });
-            let _ = write!(t, " {cell} |");
+    for row in rows.iter() {
+        let _ = write!(t, "| {} |", label(row, settings_as_rows));
+        for column in columns.iter() {
+            let (scene, setting) = if settings_as_rows {
+                (*column, *row)
+            } else {
+                (*row, *column)
+            };
+            let _ = write!(t, " {} |", cell(scene, setting));
         }
         t.push('\n');
     }
