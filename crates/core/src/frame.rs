@@ -126,6 +126,23 @@ impl CoreLayouts {
     }
 }
 
+/// A compute-stage entry for a write-only 2D storage texture of `format`.
+pub fn storage_texture_entry(
+    binding: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
 /// A `texture_2d` layout entry (helper for the many fullscreen passes).
 pub fn texture_entry(
     binding: u32,

@@ -4,6 +4,7 @@
 //! (`shaders/common/gather.wgsl`, docs/TECHNIQUES.md, `backprojection`, "Large penumbrae"). The
 //! shaders' own scaffold is `softshadow::gather`.
 
+pub use crate::frame::storage_texture_entry;
 use crate::gbuffer::create_texture;
 use crate::{wgpu, Frame, Gpu};
 use bytemuck::Pod;
@@ -45,23 +46,6 @@ pub fn float_texture_entry(
             sample_type: wgpu::TextureSampleType::Float { filterable: false },
             view_dimension: dimension,
             multisampled: false,
-        },
-        count: None,
-    }
-}
-
-/// A compute-stage entry for a write-only 2D storage texture of `format`.
-pub fn storage_texture_entry(
-    binding: u32,
-    format: wgpu::TextureFormat,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format,
-            view_dimension: wgpu::TextureViewDimension::D2,
         },
         count: None,
     }

@@ -15,7 +15,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    frame::{texture_entry, uniform_entry},
+    frame::{storage_texture_entry, texture_entry, uniform_entry},
     fullscreen::{uniform_buffer, FullscreenPipeline},
     gbuffer::create_texture,
     glam::Mat4,
@@ -194,16 +194,6 @@ impl Temporal {
         let device = &gpu.device;
         let compute = wgpu::ShaderStages::COMPUTE;
         let float = wgpu::TextureSampleType::Float { filterable: false };
-        let storage = |binding, format| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: compute,
-            ty: wgpu::BindingType::StorageTexture {
-                access: wgpu::StorageTextureAccess::WriteOnly,
-                format,
-                view_dimension: wgpu::TextureViewDimension::D2,
-            },
-            count: None,
-        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pcss/temporal"),
             entries: &[
@@ -211,9 +201,9 @@ impl Temporal {
                 texture_entry(1, compute, float),
                 texture_entry(2, compute, float),
                 texture_entry(3, compute, float),
-                storage(4, wgpu::TextureFormat::Rg32Float),
-                storage(5, wgpu::TextureFormat::Rgba32Float),
-                storage(6, wgpu::TextureFormat::R32Float),
+                storage_texture_entry(4, wgpu::TextureFormat::Rg32Float),
+                storage_texture_entry(5, wgpu::TextureFormat::Rgba32Float),
+                storage_texture_entry(6, wgpu::TextureFormat::R32Float),
             ],
         });
         let module = shader::create_module(gpu, &SHADERS[1], &[])?;

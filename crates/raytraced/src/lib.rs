@@ -23,7 +23,7 @@
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     accel::RAY_QUERY,
-    frame::{texture_entry, uniform_entry},
+    frame::{storage_texture_entry, texture_entry, uniform_entry},
     fullscreen::uniform_buffer,
     gbuffer::create_texture,
     glam::Mat4,
@@ -161,19 +161,6 @@ pub struct Raytraced {
     stats: TechniqueStats,
 }
 
-fn storage_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format,
-            view_dimension: wgpu::TextureViewDimension::D2,
-        },
-        count: None,
-    }
-}
-
 fn view(t: &wgpu::Texture) -> wgpu::TextureView {
     t.create_view(&Default::default())
 }
@@ -211,7 +198,7 @@ impl Raytraced {
                     },
                     count: None,
                 },
-                storage_entry(2, wgpu::TextureFormat::Rg32Float),
+                storage_texture_entry(2, wgpu::TextureFormat::Rg32Float),
             ],
         });
         let denoise_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -221,9 +208,9 @@ impl Raytraced {
                 texture_entry(1, compute, float),
                 texture_entry(2, compute, float),
                 texture_entry(3, compute, float),
-                storage_entry(4, wgpu::TextureFormat::Rg32Float),
-                storage_entry(5, wgpu::TextureFormat::Rgba32Float),
-                storage_entry(6, wgpu::TextureFormat::R32Float),
+                storage_texture_entry(4, wgpu::TextureFormat::Rg32Float),
+                storage_texture_entry(5, wgpu::TextureFormat::Rgba32Float),
+                storage_texture_entry(6, wgpu::TextureFormat::R32Float),
             ],
         });
         let pipeline = |spec: &ShaderSpec,

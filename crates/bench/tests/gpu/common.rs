@@ -1,7 +1,11 @@
 //! Helpers shared by the GPU test modules in this folder.
 
 use anyhow::{ensure, Context, Result};
-use softshadow_bench::{results::Run, Bench, BenchOptions, RunSpec, Status};
+use softshadow_bench::{
+    motion::{read_frames, FrameRecord},
+    results::Run,
+    Bench, BenchOptions, RunSpec, Status,
+};
 use softshadow_core::{glam::Vec3, Gpu, ParamValue, Scene};
 use softshadow_metrics::ErrorReport;
 
@@ -147,4 +151,21 @@ pub fn exact_errors(
         reports.push(report);
     }
     Ok(reports)
+}
+
+/// Runs `spec` along the bench's path; the run and its per-frame records.
+pub fn run_path(bench: &mut Bench, spec: &RunSpec) -> Result<(Run, Vec<FrameRecord>)> {
+    let dir = tempfile::tempdir()?;
+    let run = bench.run(0, spec, dir.path());
+    ensure!(
+        run.status == Status::Ok,
+        "{} {:?} along the path failed: {}",
+        spec.technique,
+        spec.params,
+        run.message
+    );
+    let motion = run.motion.as_ref().context("a run along a path")?;
+    let frames = read_frames(&dir.path().join(&motion.frames_file))?;
+    ensure!(frames.len() == motion.frames as usize);
+    Ok((run, frames))
 }

@@ -8,7 +8,6 @@ use std::collections::BTreeSet;
 
 use anyhow::{ensure, Context, Result};
 use softshadow_bench::{
-    motion::{read_frames, FrameRecord},
     results::{FrameKind, Run},
     Bench, BenchOptions, RunSpec, Status,
 };
@@ -21,7 +20,7 @@ use softshadow_core::{
     YARDSTICK_TECHNIQUE,
 };
 
-use crate::common::gpu;
+use crate::common::{gpu, run_path};
 
 const SIZE: u32 = 64;
 const SCENE: &str = "atty-square";
@@ -55,22 +54,6 @@ fn fast_params(id: &str) -> Vec<(String, ParamValue)> {
     } else {
         Vec::new()
     }
-}
-
-/// Runs `spec` along the bench's path; the run and its per-frame records.
-fn run_path(bench: &mut Bench, spec: &RunSpec) -> Result<(Run, Vec<FrameRecord>)> {
-    let dir = tempfile::tempdir()?;
-    let run = bench.run(0, spec, dir.path());
-    ensure!(
-        run.status == Status::Ok,
-        "{} along the path failed: {}",
-        spec.technique,
-        run.message
-    );
-    let motion = run.motion.as_ref().context("a run along a path")?;
-    let frames = read_frames(&dir.path().join(&motion.frames_file))?;
-    ensure!(frames.len() == motion.frames as usize);
-    Ok((run, frames))
 }
 
 #[test]

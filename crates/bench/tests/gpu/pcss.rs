@@ -8,10 +8,10 @@
 
 use anyhow::{ensure, Context, Result};
 use softshadow_bench::{
-    motion::{read_frames, FrameRecord},
+    motion::FrameRecord,
     parse_params,
     results::{FrameKind, Run},
-    Bench, BenchOptions, RunSpec, Status,
+    Bench, BenchOptions, RunSpec,
 };
 use softshadow_core::{Renderer, SceneGpu, ShadowTechnique};
 use softshadow_pcss::{Pcss, PcssSettings};
@@ -63,18 +63,7 @@ fn few(temporal: bool, extra: &[&str]) -> Vec<String> {
 /// Runs PCSS with `params` along the bench's path; the run and its per-frame records.
 fn run_path(bench: &mut Bench, params: &[String]) -> Result<(Run, Vec<FrameRecord>)> {
     let spec = spec(bench, params)?;
-    let dir = tempfile::tempdir()?;
-    let run = bench.run(0, &spec, dir.path());
-    ensure!(
-        run.status == Status::Ok,
-        "{:?} along the path failed: {}",
-        spec.params,
-        run.message
-    );
-    let motion = run.motion.as_ref().context("a run along a path")?;
-    let frames = read_frames(&dir.path().join(&motion.frames_file))?;
-    ensure!(frames.len() == motion.frames as usize);
-    Ok((run, frames))
+    crate::common::run_path(bench, &spec)
 }
 
 /// Mean mae_shadowed of the last three frames (the settled error).
