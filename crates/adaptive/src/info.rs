@@ -56,6 +56,10 @@ fn expectations() -> Expectations {
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.24, 0.1799)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.085, 0.0338)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.076, 0.0304)),
+        (
+            "stiff-receiver-behind-light",
+            at_most(MaeShadowed, 0.066, 0.0263),
+        ),
         ("stiff-light-up", at_most(MaeShadowed, 0.029, 0.0113)),
         ("stiff-fusion", at_most(MaeShadowed, 0.079, 0.0313)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.11, 0.0463)),

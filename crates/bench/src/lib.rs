@@ -22,7 +22,7 @@ use std::{
 };
 
 use softshadow_core::{
-    AreaLight, BuildControl, Camera, FrameOutput, Gpu, ParamError, ParamValue, Registry,
+    AreaLight, BuildControl, Camera, FrameOutput, Gpu, MemoryUse, ParamError, ParamValue, Registry,
     RegistryError, RenderError, Renderer, Scene, SceneGpu, ShadingMode, ShadowTechnique,
     TechniqueError, TechniqueInfo, TimingSource, YARDSTICK_TECHNIQUE,
 };
@@ -371,6 +371,8 @@ impl Bench {
             warnings: Vec::new(),
             expectation: None,
             motion: None,
+            memory: None,
+            settled: None,
         };
         let result = match spec.path.clone().or_else(|| self.options.path.clone()) {
             Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),
@@ -417,12 +419,16 @@ impl Bench {
     ) -> Result<(), BenchError> {
         check_size(spec.width, spec.height)?;
         let info = resolve_technique(&self.registry, &spec.technique)?;
+        self.load_scene_and_renderer(spec)?;
+        // What the device holds without the technique: the scene, the renderer, the reference
+        // kept from earlier runs (the wait frees what earlier runs dropped).
+        self.gpu.wait_idle()?;
+        let memory_baseline = self.gpu.memory_in_use();
         let mut technique = info.create_with(&self.gpu, &spec.params)?;
         if let Some(control) = &self.build_control {
             technique.set_build_control(control.clone());
         }
         run.params = technique.params().to_map();
-        self.load_scene_and_renderer(spec)?;
         let key = (spec.width, spec.height);
         let timing_source = self.timing;
         let scene = &self.scenes[&spec.scene];
@@ -435,7 +441,7 @@ impl Bench {
 
         // The first frame, cold (nothing built or loaded yet), is timed on its own and counts
         // as the first warm-up frame.
-        let (cold, cold_passes) = time_frames(1, |_| {
+        let (cold, cold_passes, mut memory_peak) = time_frames(1, |_| {
             renderer.render(
                 &scene.gpu,
                 &camera,
@@ -471,7 +477,7 @@ impl Bench {
                 technique.as_mut(),
                 Some(ShadingMode::Shaded),
             )?;
-            let (timing, passes) = time_frames(self.options.frames, |k| {
+            let (timing, passes, peak) = time_frames(self.options.frames, |k| {
                 renderer.render(
                     &scene.gpu,
                     &orbit_camera(&camera, k),
@@ -484,10 +490,11 @@ impl Bench {
                 passes_run: Some(passes),
                 ..timing
             });
+            memory_peak = memory_peak.max_by_total(peak);
         }
         // Full cost: every frame rebuilds everything (the reference keeps its image between
         // frames, every technique its light-space maps), so the timing measures the work.
-        let (timing, passes) = time_frames(self.options.frames, |_| {
+        let (timing, passes, peak) = time_frames(self.options.frames, |_| {
             technique.invalidate_cache();
             renderer.render(
                 &scene.gpu,
@@ -512,7 +519,20 @@ impl Bench {
             renderer.timing = timing_source;
             if let Some(serial) = serial?.gpu {
                 timing.warnings = calibration_warnings(&timing.passes, &serial.passes);
+                for pass in &mut timing.passes {
+                    pass.serial_ms = serial
+                        .passes
+                        .iter()
+                        .find(|(n, _)| *n == pass.name)
+                        .map(|(_, ms)| *ms);
+                }
             }
+        }
+        if self.gpu.counts_memory() {
+            run.memory = Some(results::TechniqueMemory {
+                current: self.gpu.memory_in_use().since(memory_baseline),
+                peak: memory_peak.max_by_total(peak).since(memory_baseline),
+            });
         }
         run.timing = Some(timing);
         run.passes_run = passes;
@@ -536,6 +556,17 @@ impl Bench {
             (&visibility, &visibility, &mask),
             (&next, &visibility, &mask),
         )?);
+        // A technique that accumulates: the still frames it takes to settle (after the one
+        // above), timed, then its last frame (measured with the error below).
+        let settled = match info.settle_frames_at(&spec.params) {
+            Some(frames) => {
+                let (timing, _, _) = time_frames(frames.saturating_sub(1).max(1), |_| {
+                    renderer.render(&scene.gpu, &camera, &light, technique.as_mut(), None)
+                })?;
+                Some((frames, timing, renderer.read_visibility()?))
+            }
+            None => None,
+        };
 
         let stem = format!("{index:03}_{}_{}", sanitize(&spec.scene), spec.technique);
         if self.options.images {
@@ -581,6 +612,21 @@ impl Bench {
                 ),
                 None => (None, None, None, None),
             };
+            if let Some((frames, timing, settled)) = settled {
+                run.settled = Some(results::Settled {
+                    frames,
+                    timing,
+                    report: softshadow_metrics::compare(&settled, &reference.visibility, &mask)?,
+                    vs_exact: match &reference.exact {
+                        Some(exact) => Some(softshadow_metrics::compare(
+                            &settled,
+                            &exact.visibility,
+                            &mask,
+                        )?),
+                        None => None,
+                    },
+                });
+            }
             run.error = Some(results::ErrorFields {
                 reference: reference.label.clone(),
                 report,
@@ -864,19 +910,21 @@ pub fn calibration_warnings(
 }
 
 /// Renders `frames` frames (`render(k)` draws frame `k`) and summarises their timings; returns
-/// them with the passes the last frame ran.
+/// them with the passes the last frame ran and the most GPU memory the device held in any.
 fn time_frames(
     frames: u32,
     mut render: impl FnMut(u32) -> Result<FrameOutput, RenderError>,
-) -> Result<(results::Timing, Vec<String>), BenchError> {
+) -> Result<(results::Timing, Vec<String>, MemoryUse), BenchError> {
     let mut timings = TimingAccumulator::default();
     let mut passes_run = Vec::new();
+    let mut memory_peak = MemoryUse::default();
     for k in 0..frames {
         let output = render(k)?;
         timings.push(&output);
+        memory_peak = memory_peak.max_by_total(output.memory_peak);
         passes_run = output.passes_run;
     }
-    Ok((timings.finish(), passes_run))
+    Ok((timings.finish(), passes_run, memory_peak))
 }
 
 /// Frame timings gathered one frame at a time and summarised as a [`results::Timing`] (only the
@@ -922,6 +970,7 @@ impl TimingAccumulator {
                 .map(|name| results::PassTiming {
                     name: name.clone(),
                     ms_median: results::percentile(&self.per_pass[name], 0.5),
+                    serial_ms: None,
                 })
                 .collect(),
             cpu_ms: results::Median {

@@ -30,6 +30,57 @@ pub const TARGET_MAE: f64 = 0.01;
 /// a frame here rebuilds all light-space work, and on a CPU device the soft techniques' frames
 /// are 2 to 130 times `hard`'s (docs/BENCHMARKS.md, the overview).
 pub const BUDGETS: [f64; 5] = [1.0, 3.0, 8.0, 32.0, 128.0];
+/// Frame-time budgets in milliseconds, where the timing is a GPU's (timestamp queries): what a
+/// game can spend on shadows at 1920 x 1080.
+pub const MS_BUDGETS: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
+/// The image size the millisecond budgets are for.
+pub const MS_BUDGET_SIZE: (u32, u32) = (1920, 1080);
+
+/// How a budget's frame-time limit is set: a multiple of the fastest cost-floor run on the scene
+/// ([`BUDGETS`], on any adapter), or milliseconds ([`MS_BUDGETS`], only for GPU timing).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Budgets {
+    /// [`BUDGETS`] x the cost floor's frame time.
+    FloorMultiples,
+    /// [`MS_BUDGETS`] milliseconds.
+    Milliseconds,
+}
+
+impl Budgets {
+    /// The budgets' numbers (multiples or milliseconds).
+    pub fn values(self) -> &'static [f64] {
+        match self {
+            Budgets::FloorMultiples => &BUDGETS,
+            Budgets::Milliseconds => &MS_BUDGETS,
+        }
+    }
+
+    /// The frame-time limit of each budget on a scene whose fastest cost-floor run takes
+    /// `floor_ms` (infinite when there is none: no multiple fits then).
+    fn limits_ms(self, floor_ms: f64) -> Vec<f64> {
+        match self {
+            Budgets::FloorMultiples => BUDGETS
+                .iter()
+                .map(|b| {
+                    if floor_ms.is_finite() {
+                        b * floor_ms
+                    } else {
+                        -1.0
+                    }
+                })
+                .collect(),
+            Budgets::Milliseconds => MS_BUDGETS.to_vec(),
+        }
+    }
+
+    /// A budget's column label: `3x` or `1 ms`.
+    pub fn label(self, value: f64) -> String {
+        match self {
+            Budgets::FloorMultiples => format!("{value}x"),
+            Budgets::Milliseconds => format!("{value} ms"),
+        }
+    }
+}
 
 const PLOT_SIZE: (u32, u32) = (600, 380);
 
@@ -67,6 +118,20 @@ pub fn mae_shadowed(run: &Run) -> Option<f64> {
         .vs_exact
         .as_ref()
         .map_or(error.report.mae_shadowed, |e| e.mae_shadowed);
+    mae.is_finite().then_some(mae)
+}
+
+/// The error a run is ranked by across scenes: [`mae_shadowed`] of its settled frame for a
+/// technique that accumulates over frames ([`Run::settled`]: what a user sees after a moment),
+/// else of its first frame.
+pub fn scored_mae(run: &Run) -> Option<f64> {
+    let Some(settled) = &run.settled else {
+        return mae_shadowed(run);
+    };
+    let mae = settled
+        .vs_exact
+        .as_ref()
+        .map_or(settled.report.mae_shadowed, |e| e.mae_shadowed);
     mae.is_finite().then_some(mae)
 }
 
@@ -193,6 +258,17 @@ pub fn plot_svg(
     caption: &str,
     value_label: &str,
 ) -> Result<String, BenchError> {
+    plot_svg_over(points, styles, caption, "frame time, ms (log)", value_label)
+}
+
+/// [`plot_svg`] with another quantity on the log x axis (`time_ms` then holds it, e.g. MiB).
+pub fn plot_svg_over(
+    points: &[PlotPoint],
+    styles: &BTreeMap<String, usize>,
+    caption: &str,
+    x_label: &str,
+    value_label: &str,
+) -> Result<String, BenchError> {
     let mut svg = String::new();
     let mut hits = Vec::new();
     {
@@ -217,7 +293,7 @@ pub fn plot_svg(
             .map_err(plot_error)?;
         chart
             .configure_mesh()
-            .x_desc("frame time, ms (log)")
+            .x_desc(x_label)
             .y_desc(value_label)
             .x_label_formatter(&|t| tick_ms(*t))
             .y_label_formatter(&|v| format!("{v:.3}"))
@@ -462,7 +538,11 @@ pub fn render_html(
     }
     if !runs.is_empty() {
         // Still-frame tables; a report of runs along paths only has the motion section.
-        body.push_str(&summary_table(runs, &scenes));
+        body.push_str(&summary_table(runs, &scenes, Budgets::FloorMultiples));
+        let ms_scenes = ms_budget_scenes(runs, &scenes);
+        if !ms_scenes.is_empty() {
+            body.push_str(&summary_table(runs, &ms_scenes, Budgets::Milliseconds));
+        }
         body.push_str(&headline_table(runs, &scenes));
     }
 
@@ -521,7 +601,7 @@ pub fn render_html(
             )?
         ));
         body.push_str(&format!(
-            "<div class=\"plot flip\">{}</div></div>",
+            "<div class=\"plot flip\">{}</div>",
             plot_svg(
                 &flip_points,
                 &styles,
@@ -529,6 +609,30 @@ pub fn render_html(
                 "FLIP (mean)"
             )?
         ));
+        // Error against the GPU memory the technique holds at its peak, where it was counted.
+        let memory_points: Vec<PlotPoint> = in_scene
+            .iter()
+            .filter_map(|&i| {
+                let mib = runs[i].memory.as_ref()?.peak.total_mib();
+                Some(PlotPoint {
+                    time_ms: mib.max(1e-3),
+                    ..point(i, mae_shadowed(&runs[i]))?
+                })
+            })
+            .collect();
+        if !memory_points.is_empty() {
+            body.push_str(&format!(
+                "<div class=\"plot memory\">{}</div>",
+                plot_svg_over(
+                    &memory_points,
+                    &styles,
+                    "mae_shadowed against GPU memory",
+                    "technique's GPU memory at its peak, MiB (log)",
+                    "mae_shadowed"
+                )?
+            ));
+        }
+        body.push_str("</div>");
         let front: Vec<usize> = pareto_front(
             &mae_points
                 .iter()
@@ -844,7 +948,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th class=\"l\">vs</th><th>FLIP</th><th title=\"mean over receiver pixels of the change between the run's last frame and one more in which nothing moved\">still flicker</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th class=\"l\">vs</th><th>FLIP</th><th title=\"mean over receiver pixels of the change between the run's last frame and one more in which nothing moved\">still flicker</th><th title=\"for a technique that accumulates over frames: mae_shadowed once settled, after that many still frames\">settled mae_shadowed</th><th title=\"GPU memory the technique holds: after its frames / at its peak\">GPU memory MiB</th><th class=\"l\">status</th></tr>",
     );
     let mut order = in_scene.to_vec();
     order.sort_by(|&a, &b| {
@@ -874,7 +978,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
         };
         let _ = write!(
             t,
-            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             if front.contains(&i) { " class=\"front\"" } else { "" },
             escape(&run.technique),
             escape(&params_text(run)),
@@ -890,11 +994,28 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
             if run.error.is_some() { mae_against(run) } else { "-" },
             flip(run).map_or("-".into(), |v| format!("{v:.4}")),
             still_flicker_text(run.still_flicker),
+            settled_text(run),
+            memory_text(run),
             status
         );
     }
     t.push_str("</table>");
     t
+}
+
+/// "0.0123 after 32 frames", or "-" for a run that does not accumulate.
+pub fn settled_text(run: &Run) -> String {
+    match (&run.settled, scored_mae(run)) {
+        (Some(settled), Some(mae)) => format!("{mae:.4} after {} frames", settled.frames),
+        _ => "-".into(),
+    }
+}
+
+/// "12.0 / 16.5" MiB after the frames / at the peak, or "-" where memory was not counted.
+pub fn memory_text(run: &Run) -> String {
+    run.memory.as_ref().map_or("-".into(), |m| {
+        format!("{:.1} / {:.1}", m.current.total_mib(), m.peak.total_mib())
+    })
 }
 
 fn image_strip(merged: &Merged, front: &[usize]) -> String {
@@ -983,6 +1104,15 @@ fn ok_runs_in<'a>(runs: &'a [Run], scene: &str, width: u32, height: u32) -> Vec<
 /// mae_shadowed within each budget of [`BUDGETS`] x the fastest cost-floor run's frame time on
 /// that scene, and the lowest frame time at which the technique reaches [`TARGET_MAE`].
 pub fn headline_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<HeadlineRow> {
+    headline_rows_within(runs, scenes, Budgets::FloorMultiples)
+}
+
+/// [`headline_rows`] with `budgets` (multiples of the cost floor, or milliseconds).
+pub fn headline_rows_within(
+    runs: &[Run],
+    scenes: &[(String, u32, u32)],
+    budgets: Budgets,
+) -> Vec<HeadlineRow> {
     let mut rows = Vec::new();
     for (scene, width, height) in scenes {
         let in_scene = ok_runs_in(runs, scene, *width, *height);
@@ -998,14 +1128,15 @@ pub fn headline_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<Headlin
             let points: Vec<(f64, f64)> = in_scene
                 .iter()
                 .filter(|r| r.technique == technique)
-                .filter_map(|r| Some((frame_time_ms(r)?, mae_shadowed(r)?)))
+                .filter_map(|r| Some((frame_time_ms(r)?, scored_mae(r)?)))
                 .collect();
-            let best_within = BUDGETS
+            let best_within = budgets
+                .limits_ms(floor)
                 .iter()
-                .map(|b| {
+                .map(|limit| {
                     let best = points
                         .iter()
-                        .filter(|(time, _)| floor.is_finite() && *time <= b * floor)
+                        .filter(|(time, _)| *time <= *limit)
                         .map(|(_, e)| *e)
                         .fold(f64::INFINITY, f64::min);
                     best.is_finite().then_some(best)
@@ -1087,10 +1218,20 @@ fn median(mut values: Vec<f64>) -> Option<f64> {
 /// Per technique (by name), its standing across `scenes`, from the headline rows and each
 /// scene's Pareto front.
 pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryRow> {
+    summary_rows_within(runs, scenes, Budgets::FloorMultiples)
+}
+
+/// [`summary_rows`] with `budgets` (multiples of the cost floor, or milliseconds).
+pub fn summary_rows_within(
+    runs: &[Run],
+    scenes: &[(String, u32, u32)],
+    budgets: Budgets,
+) -> Vec<SummaryRow> {
+    let count = budgets.values().len();
     // Per scene and size, so that one scene at two sizes is two scenes here as in the headline.
     let per_scene: Vec<Vec<HeadlineRow>> = scenes
         .iter()
-        .map(|key| headline_rows(runs, std::slice::from_ref(key)))
+        .map(|key| headline_rows_within(runs, std::slice::from_ref(key), budgets))
         .collect();
     let headline: Vec<&HeadlineRow> = per_scene.iter().flatten().collect();
     let mut techniques: Vec<&str> = headline.iter().map(|r| r.technique.as_str()).collect();
@@ -1102,19 +1243,19 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
             technique: t.to_string(),
             scenes: headline.iter().filter(|r| r.technique == *t).count(),
             on_front: Vec::new(),
-            median_within: vec![None; BUDGETS.len()],
-            best_within: vec![0; BUDGETS.len()],
+            median_within: vec![None; count],
+            best_within: vec![0; count],
             mean_rank: None,
         })
         .collect();
     let index = |t: &str| techniques.iter().position(|x| *x == t).expect("listed");
     let mut ranks: Vec<Vec<f64>> = vec![Vec::new(); techniques.len()];
-    let mut within: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); BUDGETS.len()]; techniques.len()];
+    let mut within: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); count]; techniques.len()];
     for ((scene, width, height), scene_rows) in scenes.iter().zip(&per_scene) {
         let in_scene = ok_runs_in(runs, scene, *width, *height);
         let points: Vec<(&str, f64, f64)> = in_scene
             .iter()
-            .filter_map(|r| Some((r.technique.as_str(), frame_time_ms(r)?, mae_shadowed(r)?)))
+            .filter_map(|r| Some((r.technique.as_str(), frame_time_ms(r)?, scored_mae(r)?)))
             .collect();
         let front = pareto_front(&points.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>());
         let mut front_techniques: Vec<&str> = front.iter().map(|&k| points[k].0).collect();
@@ -1125,7 +1266,7 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
         }
         // `b` indexes the budget in every row's per-budget vectors.
         #[allow(clippy::needless_range_loop)]
-        for b in 0..BUDGETS.len() {
+        for b in 0..count {
             let mut fitting: Vec<(&str, f64)> = scene_rows
                 .iter()
                 .filter_map(|r| Some((r.technique.as_str(), r.best_within[b]?)))
@@ -1162,7 +1303,8 @@ pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryR
 /// Per budget, the technique with the lowest error on the most scenes (ties: the better mean
 /// rank, i.e. the earlier row), with its count: "which technique for which budget".
 pub fn best_per_budget(rows: &[SummaryRow]) -> Vec<Option<(String, usize)>> {
-    (0..BUDGETS.len())
+    let count = rows.first().map_or(0, |r| r.best_within.len());
+    (0..count)
         .map(|b| {
             let mut best: Option<(&SummaryRow, usize)> = None;
             for row in rows {
@@ -1176,27 +1318,35 @@ pub fn best_per_budget(rows: &[SummaryRow]) -> Vec<Option<(String, usize)>> {
         .collect()
 }
 
-fn summary_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
-    let rows = summary_rows(runs, scenes);
-    let mut t = format!("<h2>Across scenes: which technique for which budget</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on each scene. ");
+fn summary_table(runs: &[Run], scenes: &[(String, u32, u32)], budgets: Budgets) -> String {
+    let rows = summary_rows_within(runs, scenes, budgets);
+    let mut t = match budgets {
+        Budgets::FloorMultiples => format!("<h2>Across scenes: which technique for which budget</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on each scene. "),
+        Budgets::Milliseconds => format!("<h2>Across scenes at {}x{}: the lowest error within a frame-time budget in milliseconds</h2><p>GPU frame times (timestamp queries) of the whole frame (G-buffer, technique, shading) on the scenes at that size. ", MS_BUDGET_SIZE.0, MS_BUDGET_SIZE.1),
+    };
+    if runs.iter().any(|r| r.settled.is_some()) {
+        t.push_str("Techniques that accumulate over frames (marked <i>settled</i> in the runs) are scored by their error once settled. ");
+    }
     let picks: Vec<String> = best_per_budget(&rows)
         .iter()
-        .zip(BUDGETS)
+        .zip(budgets.values())
         .map(|(pick, b)| match pick {
             Some((technique, wins)) => format!(
-                "within {b}x: <b>{}</b> (lowest error on {wins} of {} scenes)",
+                "within {}: <b>{}</b> (lowest error on {wins} of {} scenes)",
+                budgets.label(*b),
                 escape(technique),
                 scenes.len()
             ),
-            None => format!("within {b}x: no technique fits"),
+            None => format!("within {}: no technique fits", budgets.label(*b)),
         })
         .collect();
     let _ = write!(t, "{}.</p>", picks.join("; "));
     t.push_str("<table><tr><th class=\"l\">technique</th><th title=\"scenes where one of its settings is on the Pareto front of error against frame time\">on the Pareto front</th>");
-    for b in BUDGETS {
+    for b in budgets.values() {
+        let b = budgets.label(*b);
         let _ = write!(
             t,
-            "<th title=\"median over scenes of its lowest mae_shadowed within {b}x the cost floor; in brackets: scenes where it is the lowest of all\">median error &le; {b}x</th>"
+            "<th title=\"median over scenes of its lowest mae_shadowed within {b}; in brackets: scenes where it is the lowest of all\">median error &le; {b}</th>"
         );
     }
     t.push_str("<th title=\"its mean rank by lowest error over every scene and budget (1 = best; where none of its settings fits the budget, below all that fit)\">mean rank</th></tr>");
@@ -1224,6 +1374,27 @@ fn summary_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
     }
     t.push_str("</table>");
     t
+}
+
+/// The scenes of `runs` at [`MS_BUDGET_SIZE`] whose every run was timed with timestamp queries
+/// (a GPU's): where millisecond budgets mean something. Empty on a CPU adapter.
+pub fn ms_budget_scenes(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<(String, u32, u32)> {
+    scenes
+        .iter()
+        .filter(|(scene, width, height)| {
+            (*width, *height) == MS_BUDGET_SIZE && {
+                let timed: Vec<&Run> = ok_runs_in(runs, scene, *width, *height);
+                !timed.is_empty()
+                    && timed.iter().all(|r| {
+                        r.timing.as_ref().is_some_and(|t| {
+                            t.source == softshadow_core::TimingSource::Timestamps
+                                && t.frame_ms.is_some()
+                        })
+                    })
+            }
+        })
+        .cloned()
+        .collect()
 }
 
 fn headline_table(runs: &[Run], scenes: &[(String, u32, u32)]) -> String {
@@ -1280,7 +1451,7 @@ fn csv_field(text: &str) -> String {
 /// The runs as one flat CSV (one row per run), for pandas or R.
 pub fn runs_csv(merged: &Merged) -> String {
     let mut out = String::from(
-        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,still_flicker,message\n",
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,still_flicker,settled_frames,settled_mae_shadowed,settled_frame_ms,memory_bytes,memory_peak_bytes,message\n",
     );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for run in &merged.results.runs {
@@ -1322,6 +1493,14 @@ pub fn runs_csv(merged: &Merged) -> String {
             num(error.map(|e| e.report.rmse)),
             num(flip(run)),
             num(run.still_flicker),
+            num(run.settled.as_ref().map(|s| s.frames as f64)),
+            num(run.settled.as_ref().and(scored_mae(run))),
+            num(run
+                .settled
+                .as_ref()
+                .and_then(|s| Some(s.timing.frame_ms.as_ref()?.median))),
+            num(run.memory.as_ref().map(|m| m.current.total() as f64)),
+            num(run.memory.as_ref().map(|m| m.peak.total() as f64)),
             csv_field(&run.message),
         ];
         out.push_str(&row.join(","));

@@ -188,6 +188,39 @@ pub struct Run {
     /// still-frame `error`; its `timing` covers every frame of the path.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<Motion>,
+    /// The GPU memory the technique holds (docs/BENCHMARKS.md, "Memory"): buffers, textures and
+    /// acceleration structures on the device beyond what it held before the technique was made.
+    /// `None` on a device whose driver layer counts no memory, and for runs along a path.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub memory: Option<TechniqueMemory>,
+    /// For a technique that accumulates over frames (its descriptor's settle frames, e.g. its
+    /// history length): the still frame after it settled, beside the first frame's `error` and
+    /// `timing` (docs/BENCHMARKS.md, "Settled error").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settled: Option<Settled>,
+}
+
+/// GPU memory a technique holds, in bytes per kind ([`softshadow_core::MemoryUse`]).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct TechniqueMemory {
+    /// After its last full-cost frame: what it keeps between frames.
+    pub current: softshadow_core::MemoryUse,
+    /// The most at any point of its frames (after any pass): what it needs while drawing.
+    pub peak: softshadow_core::MemoryUse,
+}
+
+/// A technique that accumulates over frames, measured once it has settled.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Settled {
+    /// Still frames rendered with caches and history kept, after the full-cost frames.
+    pub frames: u32,
+    /// The per-frame cost in the settled state (the frames after the first of them).
+    pub timing: Timing,
+    /// The last frame against the reference (`error.report`'s measure).
+    pub report: ErrorReport,
+    /// The last frame against the exact answer, when the run has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vs_exact: Option<ErrorReport>,
 }
 
 /// What a run along a path measured (docs/BENCHMARKS.md, "Motion").
@@ -405,6 +438,10 @@ pub struct PassTiming {
     pub name: String,
     #[serde(alias = "gpu_ms_median")]
     pub ms_median: f64,
+    /// With `timestamps`: the pass's wall time when submitted on its own and waited for, in the
+    /// run's one calibration frame (docs/BENCHMARKS.md, "Timing").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub serial_ms: Option<f64>,
 }
 
 /// The error block: which reference, then the metrics of `softshadow_metrics::ErrorReport`.

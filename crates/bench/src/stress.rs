@@ -268,7 +268,19 @@ pub enum LightKind {
     AnyDirection,
     /// The `up` hint parallel to the direction (light space must pick its own).
     UpParallel,
+    /// Low beside the scene, aimed across it, so the light plane cuts the receivers: part of
+    /// the ground lies behind the light (`stiff-receiver-behind-light`). Its cases are also held
+    /// against the exact answer: a technique that reads lit over most of the exact umbra has
+    /// lost a shadow ([`LOST_SHADOW_FRACTION`]).
+    ObliqueOverLargeReceiver,
 }
+
+/// A case of [`LightKind::ObliqueOverLargeReceiver`] whose visibility is at least 0.99 on more
+/// than this fraction of the pixels the exact answer calls umbra has lost a shadow: a finding.
+pub const LOST_SHADOW_FRACTION: f64 = 0.5;
+
+/// Light samples per axis of the exact answer those cases are held against (a CPU ray cast).
+const LOST_SHADOW_EXACT_SAMPLES: u32 = 4;
 
 /// One drawn case.
 #[derive(Clone, Debug)]
@@ -580,6 +592,11 @@ impl Stress {
             }
             self.counts.frames += 1;
             let visibility = renderer.read_visibility().map_err(|e| e.to_string())?;
+            if k == 0 && case.light_kind == LightKind::ObliqueOverLargeReceiver {
+                if let Some(finding) = lost_shadow(renderer, scene, &case.light, &visibility)? {
+                    return Err(finding);
+                }
+            }
             let s = softshadow_metrics::stability(&visibility);
             if s.nan + s.inf + s.out_of_range > 0 {
                 return Err(format!(
@@ -639,6 +656,7 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
         LightKind::TouchingCaster,
         LightKind::AnyDirection,
         LightKind::UpParallel,
+        LightKind::ObliqueOverLargeReceiver,
     ];
     let kind = *rng.pick(&kinds);
     let mut width = rng.range(0.0, 2.0) as f32;
@@ -697,6 +715,7 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
             let d = aim(c, rng);
             (c, d, if rng.chance(0.5) { d } else { -d })
         }
+        LightKind::ObliqueOverLargeReceiver => oblique_light(center, extent, rng),
     };
     match kind {
         LightKind::ZeroWidth => {
@@ -724,6 +743,55 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
         intensity: 1.0,
     };
     (kind, light)
+}
+
+/// A light low beside the scene (0.35 to 0.7 of its extent out, 0.15 to 0.4 up), aimed at a
+/// point beyond its centre: the light plane tilts 45 to 75 degrees from the ground and cuts it
+/// near the light, the issue-44 set-up.
+fn oblique_light(center: Vec3, extent: f32, rng: &mut Rng) -> (Vec3, Vec3, Vec3) {
+    let angle = rng.range(0.0, std::f64::consts::TAU) as f32;
+    let outward = Vec3::new(angle.cos(), 0.0, angle.sin());
+    let light = center
+        + outward * extent * rng.range(0.35, 0.7) as f32
+        + Vec3::Y * extent * rng.range(0.15, 0.4) as f32;
+    let target = center - outward * extent * rng.range(0.1, 0.6) as f32;
+    (light, (target - light).normalize_or(Vec3::NEG_Y), Vec3::Y)
+}
+
+/// For a case whose light the exact answer must be checked under: a finding when the frame
+/// reads lit (>= 0.99) over more than [`LOST_SHADOW_FRACTION`] of the exact umbra (at least
+/// 8 pixels of it).
+fn lost_shadow(
+    renderer: &Renderer,
+    scene: &Scene,
+    light: &AreaLight,
+    visibility: &[f32],
+) -> Result<Option<String>, String> {
+    let positions = renderer.read_world_positions().map_err(|e| e.to_string())?;
+    let mask = renderer.read_receiver_mask().map_err(|e| e.to_string())?;
+    let lit_scene = Scene {
+        light: *light,
+        ..scene.clone()
+    };
+    let exact = softshadow_reference::raycast::visibility_image(
+        &lit_scene,
+        &positions,
+        &mask,
+        LOST_SHADOW_EXACT_SAMPLES,
+    );
+    let umbra: Vec<usize> = (0..exact.len())
+        .filter(|&i| mask.get(i).copied().unwrap_or(false) && exact[i] == 0.0)
+        .collect();
+    let lost = umbra.iter().filter(|&&i| visibility[i] >= 0.99).count();
+    let fraction = lost as f64 / umbra.len().max(1) as f64;
+    Ok(
+        (umbra.len() >= 8 && fraction > LOST_SHADOW_FRACTION).then(|| {
+            format!(
+                "lost a shadow: {lost} of the {} pixels the exact answer calls umbra read lit",
+                umbra.len()
+            )
+        }),
+    )
 }
 
 #[cfg(test)]

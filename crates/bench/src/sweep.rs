@@ -2,6 +2,7 @@
 //!
 //! ```toml
 //! size = "256x256"        # optional, default 256x256
+//! # sizes = ["256x256", "1920x1080"]  # or: every run at each size, one size after the other
 //! frames = 10             # optional, default 10
 //! warmup = 2              # optional, default 2
 //! scenes = ["atty-square", "blob-floating"]
@@ -11,15 +12,12 @@
 //! [reference]             # optional: settings of the reference
 //! samples_per_axis = 16
 //!
-//! [camera]                # optional: every scene is seen from this camera instead of its own
-//! eye = [0.0, 5.0, 6.0]   # (all fields; the viewer's "Export sweep" writes them)
-//! target = [0.0, 0.0, 0.0]
-//! up = [0.0, 1.0, 0.0]
-//! fov_y_degrees = 45.0
-//! near = 0.05
-//! far = 100.0
+//! [camera]                # optional: every scene is seen from this camera instead of its own,
+//! eye = [0.0, 5.0, 6.0]   # with the keys and defaults of a scene file's [camera]
+//! target = [0.0, 0.0, 0.0]  # (docs/SCENES.md): up, fov_y_degrees, near, far may be left out
 //!
-//! [light]                 # optional, likewise: center, direction, up, width, height, intensity
+//! [light]                 # optional, likewise, a scene file's [light]: center, direction or
+//! width = 2.0             # target, up, width, height, intensity
 //!
 //! every_technique = true  # optional: every registered technique at its crate's overview
 //!                         # settings (`TechniqueInfo::overview`), then the tables below
@@ -38,6 +36,7 @@ use softshadow_core::{
     expectations::EXPECTATION_SIZE, AreaLight, Camera, ParamValue, Registry, TechniqueInfo,
     TimingSource,
 };
+use softshadow_scenes::file::{CameraDef, LightDef};
 
 use crate::{parse_size, resolve_technique, results::Shard, BenchError, BenchOptions, RunSpec};
 
@@ -46,6 +45,9 @@ use crate::{parse_size, resolve_technique, results::Shard, BenchError, BenchOpti
 struct SweepFile {
     #[serde(default)]
     size: Option<String>,
+    /// Every run at each of these sizes, smallest first in the file's order (not with `size`).
+    #[serde(default)]
+    sizes: Vec<String>,
     #[serde(default)]
     frames: Option<u32>,
     #[serde(default)]
@@ -53,10 +55,12 @@ struct SweepFile {
     scenes: Vec<String>,
     #[serde(default)]
     reference: BTreeMap<String, toml::Value>,
+    /// The keys and defaults of a scene file's `[camera]` (docs/SCENES.md).
     #[serde(default)]
-    camera: Option<Camera>,
+    camera: Option<CameraDef>,
+    /// The keys and defaults of a scene file's `[light]` (docs/SCENES.md).
     #[serde(default)]
-    light: Option<AreaLight>,
+    light: Option<LightDef>,
     /// Render every run along this path (`bench --path`, docs/BENCHMARKS.md "Motion").
     #[serde(default)]
     path: Option<String>,
@@ -147,7 +151,21 @@ impl Sweep {
         };
         let file: SweepFile =
             toml::from_str(text).map_err(|e| err(e.to_string().replace('\n', " ")))?;
-        let (width, height) = parse_size(file.size.as_deref().unwrap_or("256x256"))?;
+        let sizes: Vec<(u32, u32)> = match (&file.size, file.sizes.is_empty()) {
+            (Some(_), false) => {
+                return Err(err(
+                    "both `size` and `sizes`: give one size with `size` or a list with `sizes`"
+                        .into(),
+                ))
+            }
+            (_, false) => file
+                .sizes
+                .iter()
+                .map(|s| parse_size(s))
+                .collect::<Result<_, _>>()?,
+            (size, true) => vec![parse_size(size.as_deref().unwrap_or("256x256"))?],
+        };
+        let (width, height) = sizes[0];
         if file.scenes.is_empty() {
             return Err(err(
                 "`scenes` is empty: list at least one scene id or file".into()
@@ -159,12 +177,20 @@ impl Sweep {
                     .into(),
             ));
         }
-        if let Some(camera) = &file.camera {
+        let camera = file.camera.as_ref().map(CameraDef::to_camera);
+        if let Some(camera) = &camera {
             camera
                 .validate()
                 .map_err(|e| err(format!("[camera]: {e}")))?;
         }
-        if let Some(light) = &file.light {
+        let light = match &file.light {
+            Some(def) => Some(
+                def.to_light("the sweep file")
+                    .map_err(|e| err(e.to_string()))?,
+            ),
+            None => None,
+        };
+        if let Some(light) = &light {
             light.validate().map_err(|e| err(format!("[light]: {e}")))?;
         }
         // Each run once per path (a still frame when the sweep names none).
@@ -234,7 +260,9 @@ impl Sweep {
                 GridError::Param(e) => BenchError::from(e),
                 GridError::Message(message) => err(message),
             })?;
-            if runs.len() + combos.len() * file.scenes.len() * paths.len() > MAX_SWEEP_RUNS {
+            if runs.len() + combos.len() * file.scenes.len() * paths.len() * sizes.len()
+                > MAX_SWEEP_RUNS
+            {
                 return Err(err(format!(
                     "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
                 )));
@@ -254,13 +282,24 @@ impl Sweep {
                 }
             }
         }
+        // Each size runs the whole sweep, the sizes one after the other.
+        let runs = sizes
+            .iter()
+            .flat_map(|&(width, height)| {
+                runs.iter().map(move |run| RunSpec {
+                    width,
+                    height,
+                    ..run.clone()
+                })
+            })
+            .collect();
         Ok(Self {
             runs,
             frames: file.frames,
             warmup: file.warmup,
             reference_params,
-            camera: file.camera,
-            light: file.light,
+            camera,
+            light,
         })
     }
 }
@@ -395,6 +434,31 @@ impl Sweep {
         self.runs = runs;
     }
 
+    /// Every run at `width` x `height` instead of the size the file gives (`bench --size`).
+    pub fn set_size(&mut self, width: u32, height: u32) {
+        for run in &mut self.runs {
+            (run.width, run.height) = (width, height);
+        }
+    }
+
+    /// Only the runs of these techniques (`bench --techniques`); the error names any id the
+    /// sweep does not run, so a typo does not make an empty sweep.
+    pub fn retain_techniques(&mut self, ids: &[String]) -> Result<(), BenchError> {
+        if let Some(missing) = ids
+            .iter()
+            .find(|id| !self.runs.iter().any(|r| &r.technique == *id))
+        {
+            return Err(BenchError::Sweep {
+                path: "--techniques".into(),
+                message: format!(
+                    "the sweep runs no technique `{missing}`: give ids it runs (see `workbench list`)"
+                ),
+            });
+        }
+        self.runs.retain(|r| ids.contains(&r.technique));
+        Ok(())
+    }
+
     /// The runs of `shard` with their index in the whole sweep: round robin over the expanded
     /// list (run `k` goes to shard `k % count`), so neighbouring runs, which tend to cost about
     /// the same, spread over all shards. `None`: every run.
@@ -467,6 +531,48 @@ mod tests {
 
     fn registry() -> Registry {
         softshadow::registry()
+    }
+
+    /// A sweep's `[camera]` and `[light]` take a scene file's keys and defaults (issue 44): only
+    /// `eye` and `target`, only `width`, and `target` instead of `direction`.
+    #[test]
+    fn camera_and_light_overrides_take_the_scene_files_keys_and_defaults() {
+        let base = "scenes = [\"atty-square\"]\n[[technique]]\nid = \"hard\"\n";
+        let text = format!("{base}[camera]\neye = [1.0, 2.0, 3.0]\ntarget = [0.0, 0.5, 0.0]\n[light]\nwidth = 2.0\n");
+        let sweep = Sweep::parse(&text, &registry()).unwrap();
+        let (camera, light) = (sweep.camera.unwrap(), sweep.light.unwrap());
+        let defaults = softshadow_scenes::file::CameraDef::default().to_camera();
+        assert_eq!(camera.eye, softshadow_core::glam::Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(
+            (camera.up, camera.fov_y_degrees),
+            (defaults.up, defaults.fov_y_degrees)
+        );
+        assert_eq!((light.width, light.height), (2.0, 2.0));
+        assert_eq!(
+            (light.center, light.direction),
+            (
+                softshadow_core::glam::Vec3::new(0.0, 4.0, 0.0),
+                softshadow_core::glam::Vec3::NEG_Y
+            )
+        );
+        let text = format!("{base}[light]\ncenter = [6.0, 3.0, 0.0]\ntarget = [-3.0, 0.0, 0.0]\n");
+        let light = Sweep::parse(&text, &registry()).unwrap().light.unwrap();
+        assert!(
+            (light.direction - softshadow_core::glam::Vec3::new(-3.0, -1.0, 0.0).normalize())
+                .length()
+                < 1e-6
+        );
+        // What a scene file refuses, a sweep refuses, naming the table.
+        let text =
+            format!("{base}[light]\ndirection = [0.0, -1.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n");
+        let message = Sweep::parse(&text, &registry()).unwrap_err().to_string();
+        assert!(
+            message.contains("both `direction` and `target`"),
+            "{message}"
+        );
+        let text = format!("{base}[camera]\neye = [0.0, 1.0, 0.0]\nfov = 30\n");
+        let message = Sweep::parse(&text, &registry()).unwrap_err().to_string();
+        assert!(message.contains("fov"), "{message}");
     }
 
     #[test]

@@ -72,6 +72,10 @@ fn expectations() -> Expectations {
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.039, 0.0154)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.026, 0.0102)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.016, 0.0064)),
+        (
+            "stiff-receiver-behind-light",
+            at_most(MaeShadowed, 0.023, 0.0091),
+        ),
         ("stiff-light-up", at_most(MaeShadowed, 0.0093, 0.0037)),
         ("stiff-fusion", at_most(MaeShadowed, 0.056, 0.0224)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.086, 0.0343)),

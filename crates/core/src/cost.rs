@@ -71,6 +71,12 @@ pub struct Cost {
     pub seconds: f64,
     /// Host memory of a precompute, bytes (0 for techniques without one).
     pub bytes: f64,
+    /// GPU memory the technique holds at its peak: the buffers, textures and acceleration
+    /// structures it creates, bytes ([`crate::memory`]; 0: not modelled).
+    pub gpu_bytes: f64,
+    /// How far, as a fraction of [`Cost::gpu_bytes`], the memory counted may differ from it
+    /// (uniform buffers, padding and the small resources the model leaves out).
+    pub gpu_tolerance: f64,
     /// The term that dominates, in the parameters' names (what a cap says it was for).
     pub dominant: Cow<'static, str>,
 }
@@ -81,8 +87,17 @@ impl Cost {
         Self {
             seconds,
             bytes: 0.0,
+            gpu_bytes: 0.0,
+            gpu_tolerance: 0.0,
             dominant: Cow::Borrowed(dominant),
         }
+    }
+
+    /// With `bytes` of GPU memory held at the peak, counted within `tolerance` (a fraction).
+    pub fn with_gpu_memory(mut self, bytes: f64, tolerance: f64) -> Self {
+        self.gpu_bytes = bytes;
+        self.gpu_tolerance = tolerance;
+        self
     }
 }
 
@@ -90,9 +105,10 @@ impl fmt::Display for Cost {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "about {:.1} s, {:.0} MiB ({})",
+            "about {:.1} s, {:.0} MiB host, {:.0} MiB GPU ({})",
             self.seconds,
             self.bytes / (1u64 << 20) as f64,
+            self.gpu_bytes / (1u64 << 20) as f64,
             self.dominant
         )
     }

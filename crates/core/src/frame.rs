@@ -366,6 +366,8 @@ pub struct Frame<'a> {
     serial: Option<SerialTimes>,
     /// Wall times of CPU passes when timing with timestamps ([`Frame::end_cpu_pass`]).
     cpu_passes: Vec<(String, f64)>,
+    /// The most GPU memory the device held after any pass of this frame ([`crate::memory`]).
+    memory_peak: crate::memory::MemoryUse,
 }
 
 impl<'a> Frame<'a> {
@@ -384,7 +386,14 @@ impl<'a> Frame<'a> {
             passes_run,
             serial: None,
             cpu_passes: Vec::new(),
+            memory_peak: gpu.memory_in_use(),
         }
+    }
+
+    /// The most GPU memory the device held at the start of this frame or after any of its
+    /// passes so far: every pass ends in [`Frame::note_pass`], which reads it.
+    pub fn memory_peak(&self) -> crate::memory::MemoryUse {
+        self.memory_peak
     }
 
     /// Times every pass of this frame with [`TimingSource::Serial`] instead of timestamp queries.
@@ -555,6 +564,7 @@ impl<'a> Frame<'a> {
 
     /// Records a pass name for work that is not a render or compute pass (a texture copy).
     pub fn note_pass(&mut self, label: &str) {
+        self.memory_peak = self.memory_peak.max_by_total(self.gpu.memory_in_use());
         if !self.passes_run.iter().any(|p| p == label) {
             self.passes_run.push(label.to_string());
         }

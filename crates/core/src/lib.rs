@@ -22,6 +22,7 @@ pub mod gpu;
 pub mod hierarchy;
 pub mod host;
 pub mod light;
+pub mod memory;
 pub mod params;
 pub mod readback;
 pub mod registry;
@@ -46,6 +47,7 @@ pub use frame::{
 pub use gpu::Gpu;
 pub use hierarchy::{DepthHierarchy, HierarchyKind, Visibility};
 pub use light::{AreaLight, SlopeFrustum};
+pub use memory::MemoryUse;
 pub use params::{
     ParamChoice, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, TechniqueSettings,
 };

@@ -178,8 +178,11 @@ impl SlopeFrustum {
     /// keeps the texels where they are needed when the casters subtend a huge angle (an occluder
     /// next to the light, `stiff-depth-range`). When `casters_cross_light_plane`, the casters'
     /// slopes are unbounded, so the receivers alone bound the window and the near plane drops to
-    /// 1e-3 of the far one (`stiff-partly-outside`). `None` when nothing in front of the light
-    /// can shadow a receiver.
+    /// 1e-3 of the far one (`stiff-partly-outside`). Receivers that reach the light plane (a
+    /// point at or behind it) have unbounded slopes too: they count only at depths where a caster
+    /// can shadow them ([`receiver_clip_depth`]), so the part behind the plane neither widens,
+    /// shifts nor empties the window (`stiff-receiver-behind-light`). `None` when nothing in front
+    /// of the light can shadow a receiver.
     pub fn fit_clipped(
         eye: Vec2,
         casters: &[Vec3],
@@ -187,10 +190,15 @@ impl SlopeFrustum {
         receivers: &[Vec3],
     ) -> Option<Self> {
         let (zmin, zmax) = depth_range(casters)?;
-        let (rzmin, _) = depth_range(receivers)?;
-        let receiver_window = slope_window(eye, receivers, (rzmin * 0.5).max(Z_FLOOR))?;
-        let (window, near) = if casters_cross_light_plane {
-            (receiver_window, (zmax * 1e-3).max(Z_FLOOR))
+        let near = if casters_cross_light_plane {
+            (zmax * 1e-3).max(Z_FLOOR)
+        } else {
+            zmin * 0.98
+        };
+        let clip = receiver_clip_depth(casters_cross_light_plane, zmin, near, receivers)?;
+        let receiver_window = slope_window(eye, receivers, clip)?;
+        let window = if casters_cross_light_plane {
+            receiver_window
         } else {
             let caster_window = slope_window(eye, casters, (zmin * 0.5).max(Z_FLOOR))?;
             let clipped = [
@@ -202,7 +210,7 @@ impl SlopeFrustum {
             if clipped[0] > clipped[1] || clipped[2] > clipped[3] {
                 return None;
             }
-            (clipped, zmin * 0.98)
+            clipped
         };
         Some(Self::from_window(eye, window, near, zmax * 1.02))
     }
@@ -210,7 +218,8 @@ impl SlopeFrustum {
     /// Like [`Self::fit`] over `casters`, for techniques that need every caster (penumbrae reach
     /// receivers from casters seen at other slopes). When `casters_cross_light_plane` their
     /// slopes are unbounded: the window then also covers the receivers' slopes (where the
-    /// unbounded part can matter) and the near plane drops to 1e-3 of the far one.
+    /// unbounded part can matter; receivers reaching the light plane clipped as in
+    /// [`Self::fit_clipped`]) and the near plane drops to 1e-3 of the far one.
     pub fn fit_casters(
         eye: Vec2,
         casters: &[Vec3],
@@ -221,23 +230,18 @@ impl SlopeFrustum {
             return Self::fit(eye, casters);
         }
         let (zmin, zmax) = depth_range(casters)?;
+        let near = (zmax * 1e-3).max(Z_FLOOR);
         let mut window = slope_window(eye, casters, (zmin * 0.5).max(Z_FLOOR))?;
-        if let Some((rzmin, _)) = depth_range(receivers) {
-            if let Some(r) = slope_window(eye, receivers, (rzmin * 0.5).max(Z_FLOOR)) {
-                window = [
-                    window[0].min(r[0]),
-                    window[1].max(r[1]),
-                    window[2].min(r[2]),
-                    window[3].max(r[3]),
-                ];
-            }
+        let clip = receiver_clip_depth(true, zmin, near, receivers);
+        if let Some(r) = clip.and_then(|clip| slope_window(eye, receivers, clip)) {
+            window = [
+                window[0].min(r[0]),
+                window[1].max(r[1]),
+                window[2].min(r[2]),
+                window[3].max(r[3]),
+            ];
         }
-        Some(Self::from_window(
-            eye,
-            window,
-            (zmax * 1e-3).max(Z_FLOOR),
-            zmax * 1.02,
-        ))
+        Some(Self::from_window(eye, window, near, zmax * 1.02))
     }
 
     /// Square window around `[s0, s1, t0, t1]` with a 2 % margin and a floor (so a flat scene
@@ -293,6 +297,37 @@ fn depth_range(points: &[Vec3]) -> Option<(f32, f32)> {
     zmin.is_finite().then_some((zmin, zmax))
 }
 
+/// The depth from which receivers count when a window is clipped to them: points nearer the
+/// light are moved onto it ([`slope_window`]), which for the corners of a box is exactly the box
+/// cut at that depth. `None` when no receiver lies beyond it (nothing can be shadowed).
+///
+/// Receivers entirely in front of the light are taken whole (half their nearest depth: a clip
+/// that cuts nothing). Receivers reaching the light plane have unbounded slopes, so they are cut
+/// where shadows can begin: at the casters' nearest depth (a receiver nearer the light than
+/// every caster has nothing between it and the light), or, when the casters cross the plane too,
+/// at the larger of the map's near plane and [`BOTH_CROSS_RECEIVER_CUT`] of the receivers' far
+/// depth (a cut at the near plane alone would widen the window a thousandfold).
+fn receiver_clip_depth(
+    casters_cross_light_plane: bool,
+    casters_zmin: f32,
+    near: f32,
+    receivers: &[Vec3],
+) -> Option<f32> {
+    let (rzmin, rzmax) = depth_range(receivers)?;
+    let reaches_plane = receivers.iter().any(|p| p.z <= Z_FLOOR);
+    let clip = match (reaches_plane, casters_cross_light_plane) {
+        (false, _) => (rzmin * 0.5).max(Z_FLOOR),
+        (true, false) => casters_zmin,
+        (true, true) => near.max(rzmax * BOTH_CROSS_RECEIVER_CUT),
+    };
+    (rzmax > clip).then_some(clip)
+}
+
+/// Where casters and receivers both cross the light plane, receivers nearer the light than this
+/// fraction of their far depth are left out of the window (their slopes are unbounded and a
+/// shadow there is seen from the light centre at more than 86 degrees off its normal).
+const BOTH_CROSS_RECEIVER_CUT: f32 = 1.0 / 16.0;
+
 /// Slope window `[s0, s1, t0, t1]` of `points` seen from `eye`. Points closer than `z_clamp` to
 /// the light plane (or behind it) are moved onto the plane `z_clamp`, so the window still covers
 /// the part of a box the light can see.
@@ -309,4 +344,352 @@ fn slope_window(eye: Vec2, points: &[Vec3], z_clamp: f32) -> Option<[f32; 4]> {
         w = [w[0].min(s), w[1].max(s), w[2].min(t), w[3].max(t)];
     }
     (w[0].is_finite() && w[1].is_finite() && w[2].is_finite() && w[3].is_finite()).then_some(w)
+}
+
+#[cfg(test)]
+mod tests {
+    //! Every fit against the cases that broke `hard` (issue 44): receivers crossing the light
+    //! plane, casters crossing it, both, and a light facing almost along a receiver. Each case is
+    //! a real scene's triangles in light space ([`LightBounds::of_triangles`]), so the boxes the
+    //! fits see are the ones `SceneGpu::light_bounds` hands them.
+    use super::*;
+    use crate::scene_gpu::LightBounds;
+
+    /// A horizontal rectangle `size` (along x, z) at height `y`, centred at (`x`, `z`): 4
+    /// positions and 2 triangles appended to `positions` / `indices`.
+    fn rectangle(
+        positions: &mut Vec<Vec3>,
+        indices: &mut Vec<u32>,
+        x: f32,
+        y: f32,
+        z: f32,
+        size: Vec2,
+    ) {
+        let base = positions.len() as u32;
+        let h = size * 0.5;
+        for (dx, dz) in [(-h.x, -h.y), (h.x, -h.y), (h.x, h.y), (-h.x, h.y)] {
+            positions.push(Vec3::new(x + dx, y, z + dz));
+        }
+        indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
+    }
+
+    /// A vertical wall in the plane x = `x`, from y = `y0` to `y1`, z in [-0.3, 0.3].
+    fn wall(positions: &mut Vec<Vec3>, indices: &mut Vec<u32>, x: f32, y0: f32, y1: f32) {
+        let base = positions.len() as u32;
+        for (y, z) in [(y0, -0.3), (y0, 0.3), (y1, 0.3), (y1, -0.3)] {
+            positions.push(Vec3::new(x, y, z));
+        }
+        indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
+    }
+
+    /// Light-space casters' and receivers' box corners and flags, as `fit_hard_view` sees them.
+    struct Case {
+        bounds: LightBounds,
+        casters: Vec<Vec3>,
+        receivers: Vec<Vec3>,
+        /// Light-space points on casters whose shadow from the light centre falls on a receiver.
+        must_cover: Vec<Vec3>,
+    }
+
+    fn case(light: &AreaLight, positions: &[Vec3], casters: &[u32], receivers: &[u32]) -> Case {
+        let bounds = LightBounds::of_triangles(light, positions, casters, receivers);
+        let corners = |b: Option<crate::scene::Aabb>| b.map(|b| b.corners().to_vec());
+        Case {
+            bounds,
+            casters: corners(bounds.casters).unwrap_or_default(),
+            receivers: corners(bounds.receivers).unwrap_or_default(),
+            must_cover: Vec::new(),
+        }
+    }
+
+    fn covers(f: &SlopeFrustum, p: Vec3) -> bool {
+        let (s, t) = ((p.x - f.eye.x) / p.z, (p.y - f.eye.y) / p.z);
+        (f.s_min..=f.s_max).contains(&s) && (f.t_min..=f.t_max).contains(&t)
+    }
+
+    /// The issue's scene: a 2 x 2 square at height 1 over a ground from x = `x0` to `x1` (14
+    /// deep along z), under a light at (6, 3, 0) aimed at (-3, 0, 0): the light plane cuts the
+    /// ground at x = 7, so a ground to x = 7 ends on it and a longer one reaches behind it.
+    fn oblique(x0: f32, x1: f32) -> Case {
+        let light = AreaLight::looking_at(
+            Vec3::new(6.0, 3.0, 0.0),
+            Vec3::new(-3.0, 0.0, 0.0),
+            1.0,
+            1.0,
+        );
+        let (mut positions, mut receivers, mut casters) = (Vec::new(), Vec::new(), Vec::new());
+        let ground = Vec2::new(x1 - x0, 14.0);
+        rectangle(
+            &mut positions,
+            &mut receivers,
+            (x0 + x1) * 0.5,
+            0.0,
+            0.0,
+            ground,
+        );
+        rectangle(
+            &mut positions,
+            &mut casters,
+            0.0,
+            1.0,
+            0.0,
+            Vec2::splat(2.0),
+        );
+        let mut c = case(&light, &positions, &casters, &receivers);
+        c.must_cover = positions[4..]
+            .iter()
+            .map(|p| light.to_light_space(*p))
+            .collect();
+        c
+    }
+
+    fn hard_fit(c: &Case) -> Option<SlopeFrustum> {
+        SlopeFrustum::fit_clipped(
+            Vec2::ZERO,
+            &c.casters,
+            c.bounds.casters_cross_light_plane,
+            &c.receivers,
+        )
+    }
+
+    fn caster_fit(c: &Case) -> Option<SlopeFrustum> {
+        SlopeFrustum::fit_casters(
+            Vec2::ZERO,
+            &c.casters,
+            c.bounds.casters_cross_light_plane,
+            &c.receivers,
+        )
+    }
+
+    #[test]
+    fn clipped_bounds_count_where_a_triangle_crosses_the_plane() {
+        let light = AreaLight::looking_at(Vec3::Y, Vec3::ZERO, 1.0, 1.0);
+        // One triangle from 1 below the light (y = 0) to 1 above it (y = 2), x from -1 to 3.
+        let positions = [
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(3.0, 2.0, 0.0),
+            Vec3::new(-1.0, 2.0, 0.0),
+        ];
+        let b = LightBounds::of_triangles(&light, &positions, &[0, 1, 2], &[0, 1, 2]);
+        let r = b
+            .receivers
+            .expect("half the triangle is in front of the light");
+        assert!(b.receivers_cross_light_plane && b.casters_cross_light_plane);
+        assert_eq!(r.min.z, 0.0);
+        assert!((r.max.z - 1.0).abs() < 1e-6);
+        // Its vertices in front span x = -1 only; where its edges cross the plane, x = -1 to 1.
+        assert!((r.max.x - r.min.x - 2.0).abs() < 1e-5, "{r:?}");
+        // Entirely behind: nothing; out-of-range indices: skipped.
+        let behind = LightBounds::of_triangles(&light, &positions, &[], &[1, 2, 9]);
+        assert_eq!(
+            (behind.receivers, behind.receivers_cross_light_plane),
+            (None, false)
+        );
+        let touching = [
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+        ];
+        let touching = LightBounds::of_triangles(&light, &touching, &[0, 1, 2], &[]);
+        assert_eq!(
+            touching.casters, None,
+            "a triangle touching the plane from behind"
+        );
+    }
+
+    #[test]
+    fn hard_fit_over_receivers_crossing_the_plane_covers_the_shadow_and_ignores_what_is_behind() {
+        let inside = oblique(-7.0, 1.0);
+        let on_plane = oblique(-7.0, 7.0);
+        let behind = oblique(-7.0, 30.0);
+        assert!(!inside.bounds.receivers_cross_light_plane);
+        assert!(
+            on_plane.bounds.receivers_cross_light_plane
+                && behind.bounds.receivers_cross_light_plane
+        );
+        assert!(!behind.bounds.casters_cross_light_plane);
+        for (name, c) in [
+            ("inside", &inside),
+            ("on the plane", &on_plane),
+            ("behind", &behind),
+        ] {
+            let f = hard_fit(c).unwrap_or_else(|| panic!("{name}: no window"));
+            for p in &c.must_cover {
+                assert!(covers(&f, *p), "{name}: {f:?} misses caster point {p}");
+            }
+            // Clipping to the receivers never widens the casters' own window.
+            let own = SlopeFrustum::fit(Vec2::ZERO, &c.casters).unwrap();
+            assert!(
+                f.s_max - f.s_min <= own.s_max - own.s_min + 1e-6,
+                "{name}: {f:?} wider than {own:?}"
+            );
+        }
+        // The part behind the plane neither widens, shifts nor empties the window.
+        let (a, b) = (hard_fit(&on_plane).unwrap(), hard_fit(&behind).unwrap());
+        let (a, b) = (
+            [a.s_min, a.s_max, a.t_min, a.t_max, a.near, a.far],
+            [b.s_min, b.s_max, b.t_min, b.t_max, b.near, b.far],
+        );
+        assert!(
+            a.iter()
+                .zip(&b)
+                .all(|(x, y)| (x - y).abs() <= 1e-4 * x.abs().max(1.0)),
+            "{a:?} / {b:?}"
+        );
+    }
+
+    #[test]
+    fn caster_fit_and_plain_fit_over_receivers_crossing_the_plane() {
+        let c = oblique(-7.0, 30.0);
+        let f = caster_fit(&c).expect("the square casts");
+        assert!(c.must_cover.iter().all(|p| covers(&f, *p)), "{f:?}");
+        assert_eq!(Some(f), SlopeFrustum::fit(Vec2::ZERO, &c.casters));
+        // A plain fit of the receivers' box reaching the plane: finite, covering its far half.
+        let r = SlopeFrustum::fit(Vec2::ZERO, &c.receivers).expect("receivers in front");
+        assert!([r.s_min, r.s_max, r.t_min, r.t_max, r.near, r.far]
+            .iter()
+            .all(|v| v.is_finite()));
+        let deep = c.bounds.receivers.unwrap().max.z;
+        assert!(r.far >= deep && r.near > 0.0, "{r:?}");
+    }
+
+    /// A wall from y = 1 to 3 at x = 0.8 beside a downward light at height 2 (the wall crosses the
+    /// light plane), over a ground of side `ground` at height `ground_y`.
+    /// A downward light at height 2 (light-space x = world x, depth = 2 - world y).
+    fn down_light() -> AreaLight {
+        AreaLight {
+            center: Vec3::Y * 2.0,
+            direction: Vec3::NEG_Y,
+            up: Vec3::Z,
+            ..AreaLight::default()
+        }
+    }
+
+    /// Light-space points of the wall from [`wall_case`] whose shadow falls on the 8 x 8 ground.
+    fn wall_points_shadowing_the_ground() -> Vec<Vec3> {
+        [0.9f32, 0.6, 0.45]
+            .iter()
+            .map(|&depth| Vec3::new(0.8, 0.0, depth))
+            .collect()
+    }
+
+    /// `stiff-partly-outside`: a wall from y = 1 to 3 at x = 0.8 beside the downward light at
+    /// height 2 (the wall crosses the light plane), over an 8 x 8 ground.
+    fn wall_case() -> Case {
+        let (mut positions, mut receivers, mut casters) = (Vec::new(), Vec::new(), Vec::new());
+        rectangle(
+            &mut positions,
+            &mut receivers,
+            0.0,
+            0.0,
+            0.0,
+            Vec2::splat(8.0),
+        );
+        wall(&mut positions, &mut casters, 0.8, 1.0, 3.0);
+        let mut c = case(&down_light(), &positions, &casters, &receivers);
+        c.must_cover = wall_points_shadowing_the_ground();
+        c
+    }
+
+    #[test]
+    fn fits_over_casters_crossing_the_plane() {
+        let c = wall_case();
+        assert!(c.bounds.casters_cross_light_plane && !c.bounds.receivers_cross_light_plane);
+        for (name, f) in [("hard", hard_fit(&c)), ("casters", caster_fit(&c))] {
+            let f = f.unwrap_or_else(|| panic!("{name}: no window"));
+            assert!(
+                f.near <= f.far * 1.1e-3,
+                "{name}: near {} far {}",
+                f.near,
+                f.far
+            );
+            for p in &c.must_cover {
+                assert!(covers(&f, *p), "{name}: {f:?} misses wall point {p}");
+            }
+        }
+    }
+
+    #[test]
+    fn fits_over_casters_and_receivers_both_crossing_the_plane() {
+        // stiff-partly-outside with a receiver wall at x = -1.5 through the light plane too. The
+        // caster wall's shadow on the ground stays in the window, which stays within 16 times
+        // the ground's window at its depth (receivers nearer than 1/16 of it are cut).
+        let (mut positions, mut receivers, mut casters) = (Vec::new(), Vec::new(), Vec::new());
+        rectangle(
+            &mut positions,
+            &mut receivers,
+            0.0,
+            0.0,
+            0.0,
+            Vec2::splat(8.0),
+        );
+        wall(&mut positions, &mut receivers, -1.5, 1.0, 3.0);
+        wall(&mut positions, &mut casters, 0.8, 1.0, 3.0);
+        let mut c = case(&down_light(), &positions, &casters, &receivers);
+        c.must_cover = wall_points_shadowing_the_ground();
+        assert!(c.bounds.casters_cross_light_plane && c.bounds.receivers_cross_light_plane);
+        let ground_window = 8.0 / 2.0;
+        for (name, f) in [("hard", hard_fit(&c)), ("casters", caster_fit(&c))] {
+            let f = f.unwrap_or_else(|| panic!("{name}: no window"));
+            assert!(c.must_cover.iter().all(|p| covers(&f, *p)), "{name}: {f:?}");
+            assert!(
+                f.s_max - f.s_min <= 16.0 * ground_window * 1.05,
+                "{name}: {f:?} too wide"
+            );
+        }
+    }
+
+    #[test]
+    fn fits_under_a_light_facing_almost_along_the_receiver() {
+        // The light 0.5 above a 10 x 8 ground (x from -5 to 5), at x = 4, tilted 1 degree down
+        // from the horizontal, facing a wall from y = 0.05 to 0.35 at x = 2: the ground runs
+        // from behind the light plane to 9 deep, seen at 1 degree.
+        let tilt = 1f32.to_radians();
+        let direction = Vec3::new(-tilt.cos(), -tilt.sin(), 0.0);
+        let light = AreaLight {
+            center: Vec3::new(4.0, 0.5, 0.0),
+            direction,
+            up: Vec3::Y,
+            width: 0.2,
+            height: 0.2,
+            intensity: 1.0,
+        };
+        let (mut positions, mut receivers, mut casters) = (Vec::new(), Vec::new(), Vec::new());
+        rectangle(
+            &mut positions,
+            &mut receivers,
+            0.0,
+            0.0,
+            0.0,
+            Vec2::new(10.0, 8.0),
+        );
+        wall(&mut positions, &mut casters, 2.0, 0.05, 0.35);
+        let c = case(&light, &positions, &casters, &receivers);
+        assert!(c.bounds.receivers_cross_light_plane && !c.bounds.casters_cross_light_plane);
+        let corners: Vec<Vec3> = positions[4..]
+            .iter()
+            .map(|p| light.to_light_space(*p))
+            .collect();
+        for (name, f) in [("hard", hard_fit(&c)), ("casters", caster_fit(&c))] {
+            let f = f.unwrap_or_else(|| panic!("{name}: no window"));
+            // Every corner of the wall shadows the ground behind it (at x = 1.8 and -2.7).
+            assert!(corners.iter().all(|p| covers(&f, *p)), "{name}: {f:?}");
+            assert!([f.s_min, f.s_max, f.t_min, f.t_max]
+                .iter()
+                .all(|v| v.is_finite()));
+        }
+        // A light whose plane holds the ground (facing up from it): no receiver can be lit.
+        let up = AreaLight {
+            center: Vec3::ZERO,
+            direction: Vec3::Y,
+            up: Vec3::Z,
+            ..light
+        };
+        let flat =
+            LightBounds::of_triangles(&up, &positions, &[4, 5, 6, 4, 6, 7], &[0, 1, 2, 0, 2, 3]);
+        assert_eq!(
+            (flat.receivers, flat.receivers_cross_light_plane),
+            (None, false)
+        );
+    }
 }

@@ -62,6 +62,9 @@ pub struct FrameOutput {
     pub gpu: Option<GpuFrameTiming>,
     /// How `gpu` was measured (the viewer's timing panel says which).
     pub timing_source: TimingSource,
+    /// The most GPU memory the device held during the frame (after any pass, or once the frame
+    /// was submitted): the renderer's, the scene's and the technique's ([`crate::memory`]).
+    pub memory_peak: crate::memory::MemoryUse,
 }
 
 /// The workbench's renderer: its own G-buffer over an uploaded [`SceneGpu`], a technique, and an
@@ -187,6 +190,7 @@ impl Renderer {
         let timing_source = self.timing;
         let serial;
         let cpu_passes;
+        let mut memory_peak;
         let result = {
             let mut frame = Frame::new(&self.gpu, &mut encoder, &self.profiler, &mut passes_run);
             if timing_source == TimingSource::Serial {
@@ -216,11 +220,14 @@ impl Renderer {
             }
             serial = frame.take_serial_times();
             cpu_passes = frame.take_cpu_passes();
+            memory_peak = frame.memory_peak();
             result
         };
         self.profiler.resolve_queries(&mut encoder);
         self.gpu.queue.submit([encoder.finish()]);
         let _ = self.profiler.end_frame();
+        // Before the wait, which frees what the frame dropped.
+        memory_peak = memory_peak.max_by_total(self.gpu.memory_in_use());
         self.gpu.wait_idle()?;
         self.gpu.take_errors()?;
         result?;
@@ -249,6 +256,7 @@ impl Renderer {
             cpu_ms,
             gpu,
             timing_source,
+            memory_peak,
         })
     }
 

@@ -95,25 +95,84 @@ pub struct SceneGpu {
     pub triangle_count: usize,
     /// Triangles in [`SceneGpu::casters`].
     pub caster_triangle_count: usize,
-    /// World positions of caster vertices (for tight light-space bounds).
-    caster_positions: Vec<Vec3>,
-    /// World positions of receiver vertices (to clip hard shadow maps to what receivers see).
-    receiver_positions: Vec<Vec3>,
+    /// World positions of every vertex and the caster and receiver triangles over them (for
+    /// tight light-space bounds, [`LightBounds::of_triangles`]).
+    positions: Vec<Vec3>,
+    caster_indices: Vec<u32>,
+    receiver_indices: Vec<u32>,
     light_bounds_cache: Mutex<Option<(u64, LightBounds)>>,
 }
 
-/// Light-space bounds of the scene's casters and receivers for one light (the part in front of
-/// the light plane), with what fitting a shadow-map window needs to know about the rest.
-#[derive(Clone, Copy, Debug)]
+/// Light-space bounds of the scene's casters and receivers for one light: of the part of their
+/// triangles in front of the light plane (each triangle clipped to z >= 0, so a triangle that
+/// crosses the plane counts with the points where its edges cross it, not only with its vertices
+/// in front), with what fitting a shadow-map window needs to know about the rest.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightBounds {
     /// Casters in front of the light plane; `None` when nothing can cast a shadow.
     pub casters: Option<Aabb>,
-    /// Some caster vertex lies at or behind the light plane while others are in front: the
-    /// casters reach arbitrarily close to the light plane, so their slopes are unbounded (the
-    /// `stiff-partly-outside` case).
+    /// The casters' part in front reaches the light plane (a caster crosses or touches it): their
+    /// slopes from any point of the light are unbounded (the `stiff-partly-outside` case).
     pub casters_cross_light_plane: bool,
     /// Receivers in front of the light plane; `None` when no receiver can be lit.
     pub receivers: Option<Aabb>,
+    /// The receivers' part in front reaches the light plane (a large ground under an oblique
+    /// light, `stiff-receiver-behind-light`): their slopes are unbounded too, and windows clip
+    /// them to the depths where a caster can shadow them ([`crate::SlopeFrustum::fit_clipped`]).
+    pub receivers_cross_light_plane: bool,
+}
+
+impl LightBounds {
+    /// The bounds of `caster_indices` and `receiver_indices` (triangle lists over the world-space
+    /// `positions`) in the light space of `light`.
+    pub fn of_triangles(
+        light: &AreaLight,
+        positions: &[Vec3],
+        caster_indices: &[u32],
+        receiver_indices: &[u32],
+    ) -> Self {
+        let view = light.view();
+        let light_space: Vec<Vec3> = positions
+            .iter()
+            .map(|p| view.transform_point3(*p))
+            .collect();
+        let casters = clipped_bounds(&light_space, caster_indices);
+        let receivers = clipped_bounds(&light_space, receiver_indices);
+        let reaches_plane = |b: &Option<Aabb>| b.is_some_and(|b| b.min.z <= LIGHT_PLANE_REACH);
+        Self {
+            casters_cross_light_plane: reaches_plane(&casters),
+            receivers_cross_light_plane: reaches_plane(&receivers),
+            casters,
+            receivers,
+        }
+    }
+}
+
+/// A box whose nearest point is this close to the light plane reaches it (the depth below which
+/// [`crate::SlopeFrustum`] treats points as on the plane).
+const LIGHT_PLANE_REACH: f32 = 1e-4;
+
+/// Light-space bounds of the part of the triangles in front of the light plane (z > 0): the
+/// vertices in front and, for every edge that crosses the plane, the point where it does.
+/// `None` when no triangle has a part in front. Indices past the positions are skipped.
+fn clipped_bounds(light_space: &[Vec3], indices: &[u32]) -> Option<Aabb> {
+    let mut b = Aabb::EMPTY;
+    for triangle in indices.chunks_exact(3) {
+        let corner = |k: usize| light_space.get(triangle[k] as usize).copied();
+        let (Some(p0), Some(p1), Some(p2)) = (corner(0), corner(1), corner(2)) else {
+            continue;
+        };
+        for (a, c) in [(p0, p1), (p1, p2), (p2, p0)] {
+            if a.z > 0.0 {
+                b.extend(a);
+            }
+            if (a.z > 0.0) != (c.z > 0.0) {
+                let t = a.z / (a.z - c.z);
+                b.extend((a + (c - a) * t).with_z(0.0));
+            }
+        }
+    }
+    (!b.is_empty() && b.max.z > 0.0).then_some(b)
 }
 
 impl SceneGpu {
@@ -126,8 +185,7 @@ impl SceneGpu {
         let (mut bounds, mut caster_bounds, mut receiver_bounds) =
             (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
         let (mut static_bounds, mut static_caster_bounds) = (Aabb::EMPTY, Aabb::EMPTY);
-        let mut caster_positions = Vec::new();
-        let mut receiver_positions = Vec::new();
+        let mut positions = Vec::new();
         for instance in &scene.instances {
             let Some(mesh) = scene.meshes.get(instance.mesh) else {
                 continue;
@@ -160,13 +218,12 @@ impl SceneGpu {
                         static_caster_bounds.extend(world);
                     }
                 }
+                positions.push(world);
                 if instance.casts_shadow {
                     caster_bounds.extend(world);
-                    caster_positions.push(world);
                 }
                 if instance.receives_shadow {
                     receiver_bounds.extend(world);
-                    receiver_positions.push(world);
                 }
             }
             let indices = mesh.indices.iter().map(|i| base + i);
@@ -227,8 +284,9 @@ impl SceneGpu {
             static_bounds,
             static_caster_bounds,
             receiver_bounds,
-            caster_positions,
-            receiver_positions,
+            positions,
+            caster_indices: casters,
+            receiver_indices: receivers,
             light_bounds_cache: Mutex::new(None),
         }
     }
@@ -254,27 +312,12 @@ impl SceneGpu {
                 }
             }
         }
-        let view = light.view();
-        let in_front = |positions: &[Vec3]| {
-            let mut b = Aabb::EMPTY;
-            let mut behind = false;
-            for p in positions {
-                let q = view.transform_point3(*p);
-                if q.z > 0.0 {
-                    b.extend(q);
-                } else {
-                    behind = true;
-                }
-            }
-            ((!b.is_empty()).then_some(b), behind)
-        };
-        let (casters, casters_behind) = in_front(&self.caster_positions);
-        let (receivers, _) = in_front(&self.receiver_positions);
-        let result = LightBounds {
-            casters,
-            casters_cross_light_plane: casters.is_some() && casters_behind,
-            receivers,
-        };
+        let result = LightBounds::of_triangles(
+            light,
+            &self.positions,
+            &self.caster_indices,
+            &self.receiver_indices,
+        );
         if let Ok(mut cache) = self.light_bounds_cache.lock() {
             *cache = Some((key, result));
         }

@@ -380,6 +380,11 @@ pub struct TechniqueInfo {
     /// text (`("temporal", "true")`); `None`: at every setting. Read it through
     /// [`Self::varies_per_frame_at`].
     pub varies_per_frame_when: Option<(Cow<'static, str>, Cow<'static, str>)>,
+    /// The integer parameter holding how many still frames its answer takes to settle (its
+    /// history length), where it [varies per frame](Self::varies_per_frame): the benchmark
+    /// renders that many still frames and reports the settled error beside the first frame's.
+    /// Read it through [`Self::settle_frames_at`].
+    pub settle_frames_param: Option<Cow<'static, str>>,
 }
 
 impl TechniqueInfo {
@@ -409,6 +414,7 @@ impl TechniqueInfo {
             overview: Vec::new(),
             varies_per_frame: None,
             varies_per_frame_when: None,
+            settle_frames_param: None,
         }
     }
 
@@ -467,6 +473,34 @@ impl TechniqueInfo {
         self.varies_per_frame = Some(Cow::Borrowed(why));
         self.varies_per_frame_when = Some((Cow::Borrowed(param), Cow::Borrowed(value)));
         self
+    }
+
+    /// Its answer settles over as many still frames as integer parameter `param` says (its
+    /// history length).
+    pub fn with_settle_frames_from(mut self, param: &'static str) -> Self {
+        self.settle_frames_param = Some(Cow::Borrowed(param));
+        self
+    }
+
+    /// How many still frames its answer takes to settle at these settings (`params` over its
+    /// defaults): the value of [`Self::settle_frames_param`] where it
+    /// [varies per frame](Self::varies_per_frame_at) at them, else `None` (one frame is its
+    /// answer).
+    pub fn settle_frames_at(&self, params: &[(String, ParamValue)]) -> Option<u32> {
+        self.varies_per_frame_at(params)?;
+        let param = self.settle_frames_param.as_deref()?;
+        let value = params
+            .iter()
+            .rev()
+            .find(|(name, _)| name == param)
+            .map(|(_, v)| v.clone())
+            .or_else(|| {
+                self.params
+                    .iter()
+                    .find(|s| s.name == *param)
+                    .map(ParamSpec::default_value)
+            })?;
+        value.as_f64().map(|n| n.max(1.0) as u32)
     }
 
     /// Why its answer changes from frame to frame with nothing moving at these settings

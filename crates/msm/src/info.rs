@@ -54,6 +54,10 @@ fn expectations() -> Expectations {
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.1, 0.0439)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.078, 0.0314)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.032, 0.0128)),
+        (
+            "stiff-receiver-behind-light",
+            at_most(MaeShadowed, 0.1, 0.0409),
+        ),
         ("stiff-light-up", at_most(MaeShadowed, 0.013, 0.0053)),
         ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0453)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.32, 0.2035)),

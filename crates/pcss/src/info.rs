@@ -36,6 +36,7 @@ pub fn info() -> TechniqueInfo {
         "the temporal mode rotates its kernel every frame and blends the frames into a history: \
          on a still path its answer changes while the history settles",
     )
+    .with_settle_frames_from("max_history")
 }
 
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).
@@ -63,6 +64,10 @@ fn expectations() -> Expectations {
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.22, 0.1314)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.082, 0.0327)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.061, 0.0241)),
+        (
+            "stiff-receiver-behind-light",
+            at_most(MaeShadowed, 0.081, 0.0322),
+        ),
         ("stiff-light-up", at_most(MaeShadowed, 0.027, 0.0108)),
         ("stiff-fusion", at_most(MaeShadowed, 0.13, 0.0508)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.36, 0.2800)),

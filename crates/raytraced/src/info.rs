@@ -35,6 +35,7 @@ pub fn info() -> TechniqueInfo {
         "its rays go to other light points every frame and blend into a history: on a still \
          path its answer changes while the history settles",
     )
+    .with_settle_frames_from("max_history")
 }
 
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md), at the
@@ -63,6 +64,10 @@ fn expectations() -> Expectations {
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.203, 0.1325)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.134, 0.0860)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.114, 0.0727)),
+        (
+            "stiff-receiver-behind-light",
+            at_most(MaeShadowed, 0.122, 0.0778),
+        ),
         ("stiff-light-up", at_most(MaeShadowed, 0.052, 0.0317)),
         ("stiff-fusion", at_most(MaeShadowed, 0.161, 0.1043)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.152, 0.0985)),

@@ -53,6 +53,10 @@ fn expectations() -> Expectations {
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.0083, 0.0033)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.004, 0.0016)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.003, 0.0012)),
+        (
+            "stiff-receiver-behind-light",
+            at_most(MaeShadowed, 0.0044, 0.0018),
+        ),
         ("stiff-light-up", at_most(MaeShadowed, 0.0015, 5.0e-04)),
         ("stiff-fusion", at_most(MaeShadowed, 0.004, 0.0016)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.0057, 0.0023)),

@@ -77,6 +77,42 @@ impl LightDef {
     fn default_center() -> [f32; 3] {
         [0.0, 4.0, 0.0]
     }
+
+    /// The light this table describes (defaults filled in); `path` names the file in the error.
+    /// Used by scene files and by sweep files' `[light]`, so both take the same keys.
+    pub fn to_light(&self, path: &str) -> Result<AreaLight, SceneError> {
+        let center = Vec3::from(self.center);
+        let direction = match (self.direction, self.target) {
+            (Some(_), Some(_)) => {
+                return Err(SceneError::SceneFile {
+                    path: path.into(),
+                    line: None,
+                    message: "[light] gives both `direction` and `target`: keep only one".into(),
+                })
+            }
+            (Some(d), None) => Vec3::from(d),
+            (None, Some(t)) => Vec3::from(t) - center,
+            (None, None) => Vec3::NEG_Y,
+        };
+        // Zero or non-finite directions are left for `AreaLight::validate` to report.
+        let direction = direction.try_normalize().unwrap_or(direction);
+        let up = self
+            .up
+            .map(Vec3::from)
+            .unwrap_or(if direction.y.abs() > 0.9 {
+                Vec3::Z
+            } else {
+                Vec3::Y
+            });
+        Ok(AreaLight {
+            center,
+            direction,
+            up,
+            width: self.width,
+            height: self.height.unwrap_or(self.width),
+            intensity: self.intensity,
+        })
+    }
 }
 
 impl Default for LightDef {
@@ -109,6 +145,21 @@ pub struct CameraDef {
     pub near: f32,
     /// Far clipping distance.
     pub far: f32,
+}
+
+impl CameraDef {
+    /// The camera this table describes (defaults filled in). Used by scene files and by sweep
+    /// files' `[camera]`, so both take the same keys.
+    pub fn to_camera(&self) -> Camera {
+        Camera {
+            eye: Vec3::from(self.eye),
+            target: Vec3::from(self.target),
+            up: Vec3::from(self.up),
+            fov_y_degrees: self.fov_y_degrees,
+            near: self.near,
+            far: self.far,
+        }
+    }
 }
 
 impl Default for CameraDef {
@@ -290,8 +341,8 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
         name,
         meshes: Vec::new(),
         instances: Vec::new(),
-        light: light(&file.light, &shown)?,
-        camera: camera(&file.camera),
+        light: file.light.to_light(&shown)?,
+        camera: file.camera.to_camera(),
     };
     let mut warnings = Vec::new();
     let origin = format!("scene file `{shown}`");
@@ -449,51 +500,6 @@ fn mesh_source(object: &ObjectDef) -> Result<Source<'_>, String> {
         unreachable!("exactly one source was checked above")
     };
     Ok(Source::Procedural(mesh))
-}
-
-fn light(def: &LightDef, path: &str) -> Result<AreaLight, SceneError> {
-    let center = Vec3::from(def.center);
-    let direction = match (def.direction, def.target) {
-        (Some(_), Some(_)) => {
-            return Err(SceneError::SceneFile {
-                path: path.into(),
-                line: None,
-                message: "[light] gives both `direction` and `target`: keep only one".into(),
-            })
-        }
-        (Some(d), None) => Vec3::from(d),
-        (None, Some(t)) => Vec3::from(t) - center,
-        (None, None) => Vec3::NEG_Y,
-    };
-    // Zero or non-finite directions are left for `AreaLight::validate` to report.
-    let direction = direction.try_normalize().unwrap_or(direction);
-    let up = def
-        .up
-        .map(Vec3::from)
-        .unwrap_or(if direction.y.abs() > 0.9 {
-            Vec3::Z
-        } else {
-            Vec3::Y
-        });
-    Ok(AreaLight {
-        center,
-        direction,
-        up,
-        width: def.width,
-        height: def.height.unwrap_or(def.width),
-        intensity: def.intensity,
-    })
-}
-
-fn camera(def: &CameraDef) -> Camera {
-    Camera {
-        eye: Vec3::from(def.eye),
-        target: Vec3::from(def.target),
-        up: Vec3::from(def.up),
-        fov_y_degrees: def.fov_y_degrees,
-        near: def.near,
-        far: def.far,
-    }
 }
 
 /// The transform a `[[object]]` applies (exposed for tests and tools).

@@ -12,7 +12,7 @@
 //! y = 0, casters are not receivers unless said, lights face the ground.
 
 use glam::{Mat4, Vec3};
-use softshadow_core::{AreaLight, Mesh, Scene};
+use softshadow_core::{AreaLight, Camera, Mesh, Scene};
 
 use crate::builtin::{camera, down_light, light_width, Builder, BuiltinInfo, ParamInfo};
 use crate::primitives::{self, face, push_quad};
@@ -103,6 +103,11 @@ pub fn infos() -> Vec<BuiltinInfo> {
             params: vec![light_width(1.0)],
         },
         BuiltinInfo {
+            id: "stiff-receiver-behind-light",
+            description: "stiff: an oblique light (at (6, 3, 0), aimed at (-3, 0, 0)) over a 20 x 14 ground that reaches behind its plane, a 2 x 2 square at height 1 between them (a hard shadow map fitted to the receivers must ignore the part behind the light)",
+            params: vec![light_width(1.0)],
+        },
+        BuiltinInfo {
             id: "stiff-light-up",
             description: "stiff: a light facing straight up between the ground (behind it: V = 0) and a ceiling that receives a square's shadow",
             params: vec![light_width(1.0)],
@@ -181,6 +186,7 @@ pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, Scen
         ),
         "stiff-degenerate" => degenerate(),
         "stiff-behind-light" => behind_light(v("light_width")),
+        "stiff-receiver-behind-light" => receiver_behind_light(v("light_width")),
         "stiff-light-up" => light_up(v("light_width")),
         "stiff-fusion" => squares(
             id,
@@ -375,6 +381,32 @@ fn behind_light(light_width: f32) -> Scene {
         down_light(Vec3::Y, light_width),
         camera(Vec3::new(0.0, 3.2, 4.0), Vec3::new(0.8, 0.5, 0.2)),
     )
+}
+
+/// The scene of issue 44: a light at (6, 3, 0) aimed at (-3, 0, 0) over a 20 x 14 ground from
+/// x = -7 to 13, which its plane cuts at x = 7; a 2 x 2 square at height 1 (caster only) throws
+/// its shadow over x = -4.5 to -1.5, seen from straight above. A hard map fitted to the
+/// receivers' vertices in front of the light saw only the ground's far edge and drew no shadow.
+fn receiver_behind_light(light_width: f32) -> Scene {
+    let mut b = Builder::new("stiff-receiver-behind-light");
+    let ground = b.mesh(
+        primitives::plane(20.0, 14.0),
+        "ground through the light plane",
+    );
+    b.receiver(ground, Mat4::from_translation(Vec3::X * 3.0));
+    let square = b.mesh(primitives::two_sided_quad(2.0, 2.0), "square occluder");
+    b.caster(square, Mat4::from_translation(Vec3::Y), false);
+    let light = AreaLight::looking_at(
+        Vec3::new(6.0, 3.0, 0.0),
+        Vec3::new(-3.0, 0.0, 0.0),
+        light_width,
+        light_width,
+    );
+    let camera = Camera {
+        fov_y_degrees: 30.0,
+        ..camera(Vec3::new(-3.0, 6.0, 0.01), Vec3::new(-3.0, 0.0, 0.0))
+    };
+    b.finish(light, camera)
 }
 
 /// A light at height 1 facing straight up: the ground lies behind it (V = 0 everywhere on it);

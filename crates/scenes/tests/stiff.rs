@@ -4,7 +4,7 @@
 use glam::Vec3;
 use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
 
-const EXPECTED: [&str; 17] = [
+const EXPECTED: [&str; 18] = [
     "stiff-contact",
     "stiff-near-light",
     "stiff-point-light",
@@ -18,6 +18,7 @@ const EXPECTED: [&str; 17] = [
     "stiff-tiny-patches",
     "stiff-degenerate",
     "stiff-behind-light",
+    "stiff-receiver-behind-light",
     "stiff-light-up",
     "stiff-fusion",
     "stiff-light-leak",

@@ -138,9 +138,14 @@ struct BenchArgs {
     /// Reference parameter, `name=value` (repeatable), e.g. samples_per_axis=16.
     #[arg(long = "reference-param", value_name = "NAME=VALUE")]
     reference_params: Vec<String>,
-    /// Image size.
-    #[arg(long, default_value = "256x256", value_name = "WxH")]
-    size: String,
+    /// Image size (default 256x256); with --sweep or --suite it replaces the size the sweep
+    /// gives, for every run.
+    #[arg(long, value_name = "WxH")]
+    size: Option<String>,
+    /// With --sweep or --suite: only the runs of these techniques (comma-separated ids).
+    #[arg(long, value_name = "ID,ID,...", value_delimiter = ',')]
+    #[serde(default)]
+    techniques: Vec<String>,
     /// Timed frames per run; with --path, the frames along the path (at fixed time steps, the
     /// first at its start and the last at its end).
     #[arg(long)]
@@ -214,6 +219,9 @@ struct BenchArgs {
     #[serde(skip)]
     seed: u64,
 }
+
+/// `bench --size` without a sweep, when not given.
+const DEFAULT_SIZE: &str = "256x256";
 
 /// The built-in techniques (`softshadow::registry()`).
 pub fn builtin_registry() -> Registry {
@@ -402,9 +410,19 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         (None, Some(name)) => Some(load_suite(registry, name)?),
         (None, None) => None,
     };
-    // `--path` replaces the path (or paths) a sweep names.
+    // `--path` replaces the path (or paths) a sweep names, `--size` its size, and
+    // `--techniques` keeps some of its techniques.
     if let (Some(sweep), Some(path)) = (&mut sweep, &args.path) {
         sweep.set_path(path);
+    }
+    if let (Some(sweep), Some(size)) = (&mut sweep, &args.size) {
+        let (width, height) = softshadow_bench::parse_size(size)?;
+        sweep.set_size(width, height);
+    }
+    match (&mut sweep, args.techniques.is_empty()) {
+        (Some(sweep), false) => sweep.retain_techniques(&args.techniques)?,
+        (None, false) => bail!("--techniques picks runs of a sweep: give --sweep FILE or --suite NAME, or one --technique"),
+        _ => {}
     }
     let shard = args
         .shard
@@ -435,7 +453,8 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
             bail!("give --scene and --technique, or --sweep FILE, or --suite NAME (see `workbench list`)");
         };
-        let (width, height) = softshadow_bench::parse_size(&args.size)?;
+        let (width, height) =
+            softshadow_bench::parse_size(args.size.as_deref().unwrap_or(DEFAULT_SIZE))?;
         let params = softshadow_bench::parse_params(registry, technique, &args.params)?;
         let spec = RunSpec {
             scene: scene.clone(),

@@ -49,7 +49,7 @@ fn random_parameters_and_lights_give_valid_visibility_or_a_clear_error() -> Resu
         );
     }
     ensure!(
-        counts.per_light.len() == 6,
+        counts.per_light.len() == 7,
         "every kind of light is drawn: {:?}",
         counts.per_light
     );

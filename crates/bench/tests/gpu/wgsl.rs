@@ -49,11 +49,15 @@ fn max_abs_difference(a: &[f32], b: &[f32]) -> f32 {
 }
 
 #[test]
-fn the_example_pcf_with_radius_0_is_hard_on_two_scenes() -> Result<()> {
+fn the_example_pcf_with_radius_0_is_hard_on_three_scenes() -> Result<()> {
     let gpu = gpu()?;
     let (registry, id) = registry_with("pcf.wgsl")?;
     let hard_id = softshadow_core::COST_FLOOR_TECHNIQUE;
-    for scene in ["atty-square", "blob-floating:triangles=2000"] {
+    for scene in [
+        "atty-square",
+        "blob-floating:triangles=2000",
+        "stiff-receiver-behind-light",
+    ] {
         let mut hard = registry.find(hard_id)?.create(&gpu)?;
         let hard_v = visibility(&gpu, scene, hard.as_mut(), 128)?;
         let one_tap = registry

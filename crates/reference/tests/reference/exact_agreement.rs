@@ -43,6 +43,7 @@ fn rectangles_parallel_to_the_light_are_recognised_and_nothing_else() -> Result<
     for id in [
         "stiff-contact",
         "stiff-partly-outside",
+        "stiff-receiver-behind-light",
         "blob-floating:triangles=2000",
         "single-silhouette",
     ] {
