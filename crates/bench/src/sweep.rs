@@ -459,6 +459,22 @@ impl Sweep {
         Ok(())
     }
 
+    /// Only the runs on these scenes (`bench --scenes`); the error names any scene the sweep does
+    /// not run.
+    pub fn retain_scenes(&mut self, scenes: &[String]) -> Result<(), BenchError> {
+        if let Some(missing) = scenes
+            .iter()
+            .find(|scene| !self.runs.iter().any(|r| &r.scene == *scene))
+        {
+            return Err(BenchError::Sweep {
+                path: "--scenes".into(),
+                message: format!("the sweep runs no scene `{missing}`: give scenes it lists"),
+            });
+        }
+        self.runs.retain(|r| scenes.contains(&r.scene));
+        Ok(())
+    }
+
     /// The runs of `shard` with their index in the whole sweep: round robin over the expanded
     /// list (run `k` goes to shard `k % count`), so neighbouring runs, which tend to cost about
     /// the same, spread over all shards. `None`: every run.

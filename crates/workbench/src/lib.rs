@@ -146,6 +146,11 @@ struct BenchArgs {
     #[arg(long, value_name = "ID,ID,...", value_delimiter = ',')]
     #[serde(default)]
     techniques: Vec<String>,
+    /// With --sweep or --suite: only the runs on these scenes (comma-separated, as the sweep
+    /// names them).
+    #[arg(long, value_name = "SCENE,SCENE,...", value_delimiter = ',')]
+    #[serde(default)]
+    scenes: Vec<String>,
     /// Timed frames per run; with --path, the frames along the path (at fixed time steps, the
     /// first at its start and the last at its end).
     #[arg(long)]
@@ -419,9 +424,16 @@ fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         let (width, height) = softshadow_bench::parse_size(size)?;
         sweep.set_size(width, height);
     }
-    match (&mut sweep, args.techniques.is_empty()) {
-        (Some(sweep), false) => sweep.retain_techniques(&args.techniques)?,
-        (None, false) => bail!("--techniques picks runs of a sweep: give --sweep FILE or --suite NAME, or one --technique"),
+    match (&mut sweep, args.techniques.is_empty() && args.scenes.is_empty()) {
+        (Some(sweep), false) => {
+            if !args.techniques.is_empty() {
+                sweep.retain_techniques(&args.techniques)?;
+            }
+            if !args.scenes.is_empty() {
+                sweep.retain_scenes(&args.scenes)?;
+            }
+        }
+        (None, false) => bail!("--techniques and --scenes pick runs of a sweep: give --sweep FILE or --suite NAME (or one --technique and --scene)"),
         _ => {}
     }
     let shard = args
