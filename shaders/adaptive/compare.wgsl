@@ -1,7 +1,8 @@
 // Adaptive light-source sampling, comparison step (Schwärzler, sections 3.3.2-3.3.3): two
 // neighbouring shadow maps are reprojected into camera space at every G-buffer pixel and compared;
-// pixels where they agree are discarded, so the occlusion query around the draw counts the
-// differing pixels p of eq. 4. One instance per compared pair; the pair is `items[instance]`.
+// pixels where they differ add one to their pair's counter: the differing pixels p of eq. 4, the
+// paper's occlusion query (a query without Vulkan's precise bit may count any non-zero number,
+// docs/DEVICES.md). One instance per compared pair; the pair is `items[instance]`.
 #import softshadow::frame::{load_surface, light_cosine}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
 
@@ -20,6 +21,8 @@ struct Params {
 // Compared pairs: (layer a, layer b, -, -).
 @group(1) @binding(2) var<uniform> items: array<vec4<u32>, 1024>;
 @group(1) @binding(3) var depth_maps: texture_depth_2d_array;
+// Differing pixels per pair (index = instance), cleared before the pass.
+@group(1) @binding(4) var<storage, read_write> differing_pixels: array<atomic<u32>>;
 
 struct Vertex {
     @builtin(position) position: vec4<f32>,
@@ -78,6 +81,7 @@ fn fs_main(in: Vertex) -> @location(0) vec4<f32> {
     if equal {
         discard;
     }
+    atomicAdd(&differing_pixels[in.item], 1u);
     // Additive blending: per pixel, the number of pairs of this level that differ there.
     return vec4<f32>(1.0, 0.0, 0.0, 0.0);
 }

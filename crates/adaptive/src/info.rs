@@ -13,7 +13,7 @@ use crate::{Adaptive, AdaptiveSettings, ID, SHADERS};
 pub fn info() -> TechniqueInfo {
     TechniqueInfo::new(
         ID,
-        "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (occlusion queries)",
+        "Adaptive light-source sampling: shadow maps only where neighbouring maps differ on screen (differing-pixel counts, the paper's occlusion queries)",
         "Schwärzler 2009, Real-Time Soft Shadows with Adaptive Light Source Sampling",
         AdaptiveSettings::param_specs(),
         |gpu| Ok(Box::new(Adaptive::new(gpu, AdaptiveSettings::default())?)),

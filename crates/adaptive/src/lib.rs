@@ -1,4 +1,4 @@
-//! `adaptive`: adaptive light-source sampling with occlusion queries (Schwärzler 2009).
+//! `adaptive`: adaptive light-source sampling driven by counts of differing pixels (Schwärzler 2009).
 //!
 //! Hard shadow maps are placed on the light only where neighbouring maps disagree in camera
 //! space. A frame, top to bottom:
@@ -8,8 +8,9 @@
 //!    with `start=centre`), one layer each of a 2D texture array.
 //! 2. `adaptive/compare`: for every leaf cell, its pairs of maps (the ends, or the two diagonals)
 //!    reprojected at every G-buffer pixel and compared (eq. 3 or eq. 7); differing pixels pass and
-//!    are counted by one occlusion query per pair. The level's queries are resolved, the frame so
-//!    far is submitted and the counts read back: one CPU-GPU round trip per level.
+//!    are counted per pair, the paper's occlusion query done as an atomic counter (an occlusion
+//!    query without Vulkan's precise bit may count anything non-zero: docs/DEVICES.md). The
+//!    frame so far is submitted and the counts read back: one CPU-GPU round trip per level.
 //! 3. A cell splits when p / (SM_x x SM_y) >= epsilon (eq. 4) for one of its pairs, within
 //!    `max_depth` and `max_shadow_maps`; the new samples' maps are rendered and step 2 repeats
 //!    over the new cells until no cell splits.
@@ -143,9 +144,9 @@ const ITEM_BYTES: u64 = 16;
 pub struct LevelReport {
     /// Leaf cells compared at this level.
     pub cells: u32,
-    /// Pairs compared (= occlusion queries).
+    /// Pairs compared (the paper's occlusion queries; counters here).
     pub queries: u32,
-    /// Differing pixels summed over the pairs (the occlusion query results).
+    /// Differing pixels summed over the pairs (the counters' values).
     pub differing_pixels: u64,
     /// Cells split after this level.
     pub splits: u32,
@@ -181,8 +182,8 @@ struct Store {
     /// Compared pairs (one level) or evaluated maps.
     pairs: wgpu::Buffer,
     terms: wgpu::Buffer,
-    queries: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
+    /// Differing pixels per compared pair (`atomic<u32>` each), cleared before every level.
+    counts: wgpu::Buffer,
     readback: wgpu::Buffer,
     compare_group: wgpu::BindGroup,
     evaluate_group: wgpu::BindGroup,
@@ -232,6 +233,17 @@ impl Adaptive {
                     uniform_entry(1, stage, false),
                     uniform_entry(2, stage, false),
                     depth_texture_entry(3, true),
+                    // The compare pass's differing-pixel counters (unused by the evaluation).
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 4,
+                        visibility: stage,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Storage { read_only: false },
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    },
                 ],
             });
         let resolve_layout =
@@ -317,7 +329,7 @@ impl Adaptive {
 
     pub(crate) fn requirements_static() -> Requirements {
         Requirements {
-            // Occlusion queries are core WebGPU; counting differing pairs per pixel (debug view)
+            // Counting differing pairs per pixel (debug view)
             // and the accumulation buffer blend into R32Float.
             features: wgpu::Features::FLOAT32_BLENDABLE,
             // One array layer per kept shadow map, at the default `max_shadow_maps`.
@@ -335,7 +347,7 @@ impl Adaptive {
     }
 
     /// Per pixel, the number of compared pairs that differed there at the last level compared
-    /// (the comparison pass's own output, for checking the occlusion queries).
+    /// (the comparison pass's own output, for checking the counters).
     pub fn differing_texture(&self) -> Option<&wgpu::Texture> {
         self.differing.as_ref().map(|d| &d.texture)
     }
@@ -408,6 +420,13 @@ impl Adaptive {
         );
         let pairs = buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
         let terms = buffer("adaptive/terms", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
+        let counts = buffer(
+            "adaptive/differing pixels",
+            4 * max_pairs,
+            wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        );
         let array_view = maps.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
@@ -433,6 +452,10 @@ impl Adaptive {
                         binding: 3,
                         resource: wgpu::BindingResource::TextureView(&array_view),
                     },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: counts.as_entire_binding(),
+                    },
                 ],
             })
         };
@@ -442,19 +465,10 @@ impl Adaptive {
             size,
             capacity,
             layer_views,
-            queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("adaptive/differing pixels"),
-                ty: wgpu::QueryType::Occlusion,
-                count: max_pairs as u32,
-            }),
-            resolve: buffer(
-                "adaptive/query resolve",
-                8 * max_pairs,
-                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            ),
+            counts,
             readback: buffer(
-                "adaptive/query readback",
-                8 * max_pairs,
+                "adaptive/differing pixels readback",
+                4 * max_pairs,
                 wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             ),
             _maps: maps,
@@ -606,10 +620,10 @@ impl Maps<'_> {
     }
 }
 
-/// Reads `count` occlusion-query results from `readback` (the frame was just submitted and
+/// Reads `count` differing-pixel counts from `readback` (the frame was just submitted and
 /// waited for).
 fn read_counts(gpu: &Gpu, readback: &wgpu::Buffer, count: u32) -> Result<Vec<u64>, GpuError> {
-    let slice = readback.slice(..8 * count as u64);
+    let slice = readback.slice(..4 * count as u64);
     let (sender, receiver) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = sender.send(r);
@@ -623,8 +637,8 @@ fn read_counts(gpu: &Gpu, readback: &wgpu::Buffer, count: u32) -> Result<Vec<u64
         let data = slice
             .get_mapped_range()
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        data.chunks_exact(8)
-            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+        data.chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap_or([0; 4])) as u64)
             .collect()
     };
     readback.unmap();
@@ -790,7 +804,7 @@ impl Adaptive {
         self.write_params(gpu, 0);
         let differing = self.differing.as_ref().expect("made in render");
         while !active.is_empty() {
-            // Step 2: all comparisons of this level in one pass, one occlusion query per pair.
+            // Step 2: all comparisons of this level in one pass, one counter per pair.
             let mut pairs: Vec<[u32; 4]> = Vec::new();
             for cell in &active {
                 for (a, b) in layout.pairs(*cell) {
@@ -801,6 +815,9 @@ impl Adaptive {
             gpu.queue
                 .write_buffer(&maps.store.pairs, 0, bytemuck::cast_slice(&pairs));
             let store = &*maps.store;
+            frame
+                .encoder
+                .clear_buffer(&store.counts, 0, Some(4 * count as u64));
             frame.render_pass(
                 "adaptive/compare",
                 wgpu::RenderPassDescriptor {
@@ -816,29 +833,22 @@ impl Adaptive {
                     })],
                     depth_stencil_attachment: None,
                     timestamp_writes: None,
-                    occlusion_query_set: Some(&store.queries),
+                    occlusion_query_set: None,
                     multiview_mask: None,
                 },
                 |pass| {
                     pass.set_pipeline(&self.compare.pipeline);
                     pass.set_bind_group(0, inputs.frame_bind_group, &[]);
                     pass.set_bind_group(1, &store.compare_group, &[]);
-                    for q in 0..count {
-                        pass.begin_occlusion_query(q);
-                        pass.draw(0..3, q..q + 1);
-                        pass.end_occlusion_query();
-                    }
+                    pass.draw(0..3, 0..count);
                 },
             );
-            frame
-                .encoder
-                .resolve_query_set(&store.queries, 0..count, &store.resolve, 0);
             frame.encoder.copy_buffer_to_buffer(
-                &store.resolve,
+                &store.counts,
                 0,
                 &store.readback,
                 0,
-                8 * count as u64,
+                4 * count as u64,
             );
             frame.submit_and_wait()?;
             self.report.round_trips += 1;
