@@ -10,8 +10,9 @@
 # --bin   the workbench binary (default target/release/workbench)
 # --out   where each stage writes DIR/<stage>/results.json (default /tmp/gpu-set); the compact
 #         results (no images) are also copied to DIR/<stage>.json, with DIR/adapter.txt
-# --reduced  the same stages at tiny sizes with `hard` and `pcss` only, a few frames each: what
-#         CI runs on lavapipe to prove the set works end to end (crates/workbench/tests)
+# --reduced  the same stages at tiny sizes with `hard` and `pcss` only (the stiff suite on two
+#         cases, the motion sweep on one scene), a few frames each: what CI runs on lavapipe to
+#         prove the set works end to end (crates/workbench/tests/gpu_set.rs)
 #
 # A stage over its limit is interrupted like Ctrl-C: its results.json keeps the runs it finished
 # and the set goes on. Exit 0 when every stage ran (runs that failed are recorded in their
@@ -44,10 +45,10 @@ if [ "$reduced" = 1 ]; then
   overview_size=32x32
   overview_hd=48x27
   only=(--techniques hard,pcss)
-  stiff_only=(--techniques hard)
+  stiff_only=(--techniques hard --scenes stiff-no-occluder,stiff-receiver-behind-light)
   refs=(--reference-param samples_per_axis=4 --reference-param shadow_map_size=256)
   small=(--frames 1 --warmup 1 "${refs[@]}")
-  motion=(--techniques hard,pcss --frames 3 --path orbit "${refs[@]}")
+  motion=(--techniques hard,pcss --scenes atty-square --frames 3 --path orbit "${refs[@]}")
   limit_scale=4 # lavapipe in a debug build
 else
   resolution=benches/resolution.toml
@@ -77,6 +78,15 @@ stage() {
     echo "== $name: no results.json" && failed=1
   fi
 }
+
+# The GPU's clocks and power state once a second (NVIDIA): short frames with waits between them
+# may leave it at idle clocks, which the timings would then include (docs/BENCHMARKS.md).
+if command -v nvidia-smi > /dev/null; then
+  nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,pstate,power.draw,utilization.gpu \
+    --format=csv -lms 1000 > "$out/clocks.csv" 2>&1 &
+  clocks=$!
+  trap 'kill $clocks 2> /dev/null' EXIT
+fi
 
 "$bin" list > "$out/list.txt" 2>&1 || { echo "gpu-set: workbench list failed:"; cat "$out/list.txt"; exit 1; }
 grep -i "unavailable" "$out/list.txt" || true

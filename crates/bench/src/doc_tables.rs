@@ -26,6 +26,19 @@
 //!   column per setting (the technique and the parameters that differ between its runs), or
 //!   the other way round; each cell "mae_shadowed / frame ms", or for a run along a path "mean
 //!   error over its frames / the last frame's error".
+//! - `cpu-gpu FILE cpu=CPU_FILE`: per technique setting, the median frame time over the scenes
+//!   both ran on the CPU adapter's results and on FILE's (a GPU's), and their ratio.
+//! - `rank-moves FILE cpu=CPU_FILE`: per scene, Spearman's correlation of the settings' frame
+//!   times on the two adapters; per technique, its mean rank and frame time over the cost floor
+//!   on each (the ones that move most first).
+//! - `timestamps FILE`: per technique, its own passes timed with timestamp queries against the
+//!   same passes submitted and waited for one by one (the calibration frame).
+//! - `resolution FILE`: frame time per setting (rows) and image size (columns).
+//! - `ms-budgets FILE`: the summary with budgets in milliseconds over the scenes at 1920x1080.
+//! - `memory FILE`: per technique setting, the GPU memory it holds (after its frames / peak) and
+//!   its median error over the scenes.
+//! - `settled FILE`: runs of techniques that accumulate over frames: first-frame and settled
+//!   error and frame time.
 //! - `motion FILE scene=SCENE`: runs along paths (docs/BENCHMARKS.md "Motion"), one row per
 //!   technique and settings, per path its mean error, mean flicker, lag (where a run has one)
 //!   and the median frame time of the frames the path is about (light moving, else camera only,
@@ -224,7 +237,20 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         })
         .collect::<Result<_, _>>()?;
     let results = load(&root.join(file))?;
+    let cpu = |options: &BTreeMap<&str, &str>| -> Result<Results, String> {
+        let path = options
+            .get("cpu")
+            .ok_or_else(|| format!("`{kind}` needs cpu=FILE, the same runs on a CPU adapter"))?;
+        load(&root.join(path))
+    };
     let mut t = match kind {
+        "cpu-gpu" => cpu_gpu_table(&cpu(&options)?.runs, &results.runs),
+        "rank-moves" => rank_moves_table(&cpu(&options)?.runs, &results.runs),
+        "timestamps" => timestamps_table(&results.runs),
+        "resolution" => resolution_table(&results.runs),
+        "ms-budgets" => ms_budgets_table(&results.runs),
+        "memory" => memory_table(&results.runs),
+        "settled" => settled_table(&results.runs),
         "stiff-matrix" => stiff_matrix(&results.runs),
         "headline" => headline(&results.runs),
         "summary" => summary(&results.runs),
@@ -233,7 +259,7 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         "grid" => grid_table(&results.runs, &options)?,
         other => {
             return Err(format!(
-                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs, grid or motion"
+                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs, grid, motion, cpu-gpu, rank-moves, timestamps, resolution, ms-budgets, memory or settled"
             ))
         }
     };
@@ -498,7 +524,9 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
 }
 
 /// The parameters (name=value) of `run` whose values differ among `runs` of its technique.
-fn varying_params(run: &Run, runs: &[&Run]) -> String {
+/// The parameters of `run` that differ between the runs of its technique in `runs`, as
+/// `name=value` words (every run records every parameter; the shared ones repeat the defaults).
+pub(crate) fn varying_params(run: &Run, runs: &[&Run]) -> String {
     run.params
         .iter()
         .filter(|(name, value)| {
@@ -778,4 +806,223 @@ mod tests {
             "= 0.25 +- 0.02 (known failure)"
         );
     }
+}
+
+fn cpu_gpu_table(cpu: &[Run], gpu: &[Run]) -> String {
+    let mut t = String::from(
+        "| technique | settings that differ | scenes | CPU frame ms (median) | GPU frame ms (median) | CPU / GPU |\n|---|---|---|---|---|---|\n",
+    );
+    for pair in crate::compare::setting_pairs(cpu, gpu) {
+        let _ = writeln!(
+            t,
+            "| `{}` | {} | {} | {} | {} | {:.0}x |",
+            pair.technique,
+            pair.params,
+            pair.scenes,
+            ms(pair.cpu_ms),
+            ms(pair.gpu_ms),
+            pair.cpu_ms / pair.gpu_ms
+        );
+    }
+    t
+}
+
+fn rank_moves_table(cpu: &[Run], gpu: &[Run]) -> String {
+    let mut t = String::from(
+        "| scene | settings | rank correlation of frame times (Spearman) |\n|---|---|---|\n",
+    );
+    for m in crate::compare::scene_rank_moves(cpu, gpu) {
+        let _ = writeln!(
+            t,
+            "| `{}` | {} | {} |",
+            m.scene,
+            m.settings,
+            m.frame_time_rho.map_or("-".into(), |r| format!("{r:.2}"))
+        );
+    }
+    let _ = write!(
+        t,
+        "\n| technique | mean rank, CPU | mean rank, GPU | change | frame / `{COST_FLOOR_TECHNIQUE}`'s, CPU | frame / `{COST_FLOOR_TECHNIQUE}`'s, GPU |\n|---|---|---|---|---|---|\n"
+    );
+    let num = |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
+    for m in crate::compare::technique_moves(cpu, gpu) {
+        let _ = writeln!(
+            t,
+            "| `{}` | {} | {} | {} | {} | {} |",
+            m.technique,
+            num(m.cpu_mean_rank, 1),
+            num(m.gpu_mean_rank, 1),
+            m.rank_change().map_or("-".into(), |c| format!("{c:+.1}")),
+            num(m.cpu_floor_ratio, 1),
+            num(m.gpu_floor_ratio, 1)
+        );
+    }
+    t
+}
+
+fn timestamps_table(runs: &[Run]) -> String {
+    let mut t = String::from(
+        "| technique | runs | its passes, timestamps (ms, median) | the same passes one by one, serial (ms, median) | serial / timestamps |\n|---|---|---|---|---|\n",
+    );
+    for row in crate::compare::timestamps_against_serial(runs) {
+        let _ = writeln!(
+            t,
+            "| `{}` | {} | {} | {} | {:.1} |",
+            row.technique,
+            row.runs,
+            ms(row.timestamps_ms),
+            ms(row.serial_ms),
+            row.serial_ms / row.timestamps_ms
+        );
+    }
+    t
+}
+
+fn resolution_table(runs: &[Run]) -> String {
+    let (sizes, rows) = crate::compare::resolution_series(runs);
+    let mut t = String::from("| technique, settings that differ |");
+    for (w, h) in &sizes {
+        let _ = write!(t, " {w}x{h} ms |");
+    }
+    t.push_str(" last / first |\n|---|");
+    t.push_str(&"---|".repeat(sizes.len() + 1));
+    t.push('\n');
+    for (setting, cells) in rows {
+        let _ = write!(t, "| `{setting}` |");
+        for cell in &cells {
+            let _ = write!(t, " {} |", cell.map_or("failed".into(), ms));
+        }
+        let growth = match (
+            cells.first().copied().flatten(),
+            cells.last().copied().flatten(),
+        ) {
+            (Some(a), Some(b)) => format!("{:.1}x", b / a),
+            _ => "-".into(),
+        };
+        let _ = writeln!(t, " {growth} |");
+    }
+    t
+}
+
+fn ms_budgets_table(runs: &[Run]) -> String {
+    use crate::report::{ms_budget_scenes, summary_rows_within, Budgets, MS_BUDGETS};
+    let scenes = ms_budget_scenes(runs, &scenes_of(runs));
+    let rows = summary_rows_within(runs, &scenes, Budgets::Milliseconds);
+    let mut t = String::from("| technique | on the Pareto front |");
+    for b in MS_BUDGETS {
+        let _ = write!(
+            t,
+            " median error within {b} ms of its own passes (scenes best) |"
+        );
+    }
+    t.push_str(" mean rank |\n|---|---|");
+    t.push_str(&"---|".repeat(MS_BUDGETS.len() + 1));
+    t.push('\n');
+    for row in &rows {
+        let _ = write!(
+            t,
+            "| `{}` | {} of {} |",
+            row.technique,
+            row.on_front.len(),
+            row.scenes
+        );
+        for (median, wins) in row.median_within.iter().zip(&row.best_within) {
+            let _ = write!(
+                t,
+                " {} |",
+                median.map_or("-".into(), |m| format!("{m:.4} ({wins})"))
+            );
+        }
+        let _ = writeln!(
+            t,
+            " {} |",
+            row.mean_rank.map_or("-".into(), |r| format!("{r:.1}"))
+        );
+    }
+    let picks: Vec<String> = best_per_budget(&rows)
+        .iter()
+        .zip(MS_BUDGETS)
+        .map(|(pick, b)| match pick {
+            Some((technique, wins)) => {
+                format!(
+                    "within {b} ms `{technique}` ({wins} of {} scenes)",
+                    scenes.len()
+                )
+            }
+            None => format!("within {b} ms nothing fits"),
+        })
+        .collect();
+    let _ = writeln!(t, "\nLowest error: {}.", picks.join("; "));
+    t
+}
+
+fn memory_table(runs: &[Run]) -> String {
+    let measured: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.status == Status::Ok && r.memory.is_some() && r.motion.is_none())
+        .collect();
+    let mut rows: Vec<(String, String)> = Vec::new();
+    for run in &measured {
+        let row = (run.technique.clone(), varying_params(run, &measured));
+        if !rows.contains(&row) {
+            rows.push(row);
+        }
+    }
+    let mut t = String::from(
+        "| technique | settings that differ | GPU memory after its frames, MiB | at its peak, MiB | of it textures | mae_shadowed (median over scenes) |\n|---|---|---|---|---|---|\n",
+    );
+    for (technique, params) in rows {
+        let of_row: Vec<&&Run> = measured
+            .iter()
+            .filter(|r| r.technique == technique && varying_params(r, &measured) == params)
+            .collect();
+        let memory = |f: &dyn Fn(&crate::results::TechniqueMemory) -> f64| {
+            let mut v: Vec<f64> = of_row
+                .iter()
+                .filter_map(|r| Some(f(r.memory.as_ref()?)))
+                .collect();
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        let mut errors: Vec<f64> = of_row.iter().filter_map(|r| mae_shadowed(r)).collect();
+        errors.sort_by(f64::total_cmp);
+        let peak = memory(&|m| m.peak.total_mib());
+        let _ = writeln!(
+            t,
+            "| `{technique}` | {params} | {:.1} | {peak:.1} | {:.0} % | {} |",
+            memory(&|m| m.current.total_mib()),
+            100.0 * memory(&|m| m.peak.textures as f64 / m.peak.total().max(1) as f64),
+            errors
+                .get(errors.len() / 2)
+                .map_or("-".into(), |e| format!("{e:.4}"))
+        );
+    }
+    t
+}
+
+fn settled_table(runs: &[Run]) -> String {
+    let settled: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.status == Status::Ok && r.settled.is_some())
+        .collect();
+    let mut t = String::from(
+        "| scene | technique | settings that differ | mae_shadowed, first frame | settled | after frames | frame ms, first (caches dropped) | frame ms, settled |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for run in &settled {
+        let s = run.settled.as_ref().expect("filtered");
+        let settled_ms = s.timing.frame_ms.as_ref().map(|p| p.median);
+        let _ = writeln!(
+            t,
+            "| `{}` | `{}` | {} | {} | {} | {} | {} | {} |",
+            run.scene,
+            run.technique,
+            varying_params(run, &settled),
+            mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
+            crate::report::scored_mae(run).map_or("-".into(), |e| format!("{e:.4}")),
+            s.frames,
+            frame_time_ms(run).map_or("-".into(), ms),
+            settled_ms.map_or("-".into(), ms)
+        );
+    }
+    t
 }

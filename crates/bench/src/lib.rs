@@ -4,6 +4,7 @@
 //! A run that fails (bad parameter, technique error, device error) is recorded with its message
 //! and the rest of the runs go on.
 
+pub mod compare;
 pub mod doc_tables;
 pub mod expectations;
 pub mod merge;

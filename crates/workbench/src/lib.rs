@@ -95,6 +95,10 @@ enum Command {
         /// Also write every run as one row of this CSV file.
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// The same runs made on a CPU adapter (a results.json or its folder): adds a section on
+        /// how the ranking moves from that adapter to this one.
+        #[arg(long, value_name = "RESULTS")]
+        cpu: Option<PathBuf>,
     },
 }
 
@@ -257,9 +261,12 @@ pub fn main_with(extra: Vec<TechniqueInfo>) -> ExitCode {
             check,
             rerun,
         }) => docs(files, check, rerun),
-        Some(Command::Report { inputs, out, csv }) => {
-            report(&registry, &inputs, &out, csv.as_deref())
-        }
+        Some(Command::Report {
+            inputs,
+            out,
+            csv,
+            cpu,
+        }) => report(&registry, &inputs, &out, csv.as_deref(), cpu.as_deref()),
         None => view(
             &registry,
             ViewArgs {
@@ -892,6 +899,7 @@ fn report(
     inputs: &[PathBuf],
     out: &std::path::Path,
     csv: Option<&std::path::Path>,
+    cpu: Option<&std::path::Path>,
 ) -> Result<ExitCode> {
     let loaded = inputs
         .iter()
@@ -901,7 +909,18 @@ fn report(
     for w in &merged.warnings {
         eprintln!("warning: {w}");
     }
-    let summary = softshadow_bench::report::write_report(&merged, registry, out, csv)?;
+    let cpu = cpu
+        .map(|p| softshadow_bench::merge::load(p))
+        .transpose()?
+        .map(|loaded| softshadow_bench::merge::merge(&[loaded]))
+        .transpose()?;
+    let summary = softshadow_bench::report::write_report(
+        &merged,
+        registry,
+        out,
+        csv,
+        cpu.as_ref().map(|c| c.results.runs.as_slice()),
+    )?;
     println!(
         "wrote {}: {} scenes, {} plotted runs, {} not plotted (failed or without error metrics){}",
         out.display(),
