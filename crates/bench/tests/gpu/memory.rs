@@ -97,12 +97,11 @@ fn spec(technique: &str, params: &[(&str, &str)], registry: &Registry) -> Result
 #[test]
 fn the_memory_counted_is_what_a_technique_creates() -> Result<()> {
     let mut registry = softshadow::registry();
-    let hard = registry.find("hard")?;
+    let hard = registry.find("hard")?.clone();
     let hog = TechniqueInfo::new("hog", "hard and 3 MiB", "test", hard.params.clone(), {
-        let hard = hard.clone();
         move |gpu| Ok(Box::new(Hog::new(gpu, &hard)?))
     });
-    registry.register(hog)?;
+    registry.add(hog)?;
     let options = BenchOptions {
         frames: 1,
         warmup: 1,
@@ -112,8 +111,11 @@ fn the_memory_counted_is_what_a_technique_creates() -> Result<()> {
         ..BenchOptions::default()
     };
     let mut bench = Bench::new(gpu()?, registry.clone(), options)?;
-    let hard_run = run_checked(&mut bench, &spec("hard", &[], &registry)?)?;
+    // The first run of a benchmark counts 948 bytes of buffers fewer on lavapipe (something in
+    // its baseline is freed during it), so both counts come from later runs.
+    run_checked(&mut bench, &spec("hard", &[], &registry)?)?;
     let hog_run = run_checked(&mut bench, &spec("hog", &[], &registry)?)?;
+    let hard_run = run_checked(&mut bench, &spec("hard", &[], &registry)?)?;
     let (hard, hog) = (
         hard_run.memory.context("lavapipe counts memory")?,
         hog_run.memory.context("lavapipe counts memory")?,
