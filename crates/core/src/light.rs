@@ -218,8 +218,11 @@ impl SlopeFrustum {
     /// Like [`Self::fit`] over `casters`, for techniques that need every caster (penumbrae reach
     /// receivers from casters seen at other slopes). When `casters_cross_light_plane` their
     /// slopes are unbounded: the window then also covers the receivers' slopes (where the
-    /// unbounded part can matter; receivers reaching the light plane clipped as in
-    /// [`Self::fit_clipped`]) and the near plane drops to 1e-3 of the far one.
+    /// unbounded part can matter) from half their nearest depth in front of the light on, and
+    /// the near plane drops to 1e-3 of the far one. (Not [`Self::fit_clipped`]'s cut: callers
+    /// pass the corners of world boxes here, e.g. `pdsm`'s whole static scene, whose corners
+    /// reach behind the light without any receiver doing so, and that cut widened `pdsm`'s
+    /// window on `stiff-partly-outside` eightfold.)
     pub fn fit_casters(
         eye: Vec2,
         casters: &[Vec3],
@@ -232,7 +235,7 @@ impl SlopeFrustum {
         let (zmin, zmax) = depth_range(casters)?;
         let near = (zmax * 1e-3).max(Z_FLOOR);
         let mut window = slope_window(eye, casters, (zmin * 0.5).max(Z_FLOOR))?;
-        let clip = receiver_clip_depth(true, zmin, near, receivers);
+        let clip = depth_range(receivers).map(|(rzmin, _)| (rzmin * 0.5).max(Z_FLOOR));
         if let Some(r) = clip.and_then(|clip| slope_window(eye, receivers, clip)) {
             window = [
                 window[0].min(r[0]),

@@ -1,9 +1,11 @@
 //! GPU memory held on a device: the bytes of buffers, textures and acceleration structures,
 //! counted where they are allocated. wgpu-hal adds an allocation's size to its counters when it
 //! binds memory to a resource and subtracts it when the resource is destroyed (wgpu's `counters`
-//! feature, on in this workspace); [`Gpu::memory_in_use`] reads them. So every resource a
-//! technique creates is counted, whoever's code creates it, with the size the driver asked for
-//! (alignment and padding included), and nothing has to be routed through a wrapper.
+//! feature, on in this workspace); [`Gpu::memory_in_use`] reads them. So every buffer and
+//! texture a technique creates is counted, whoever's code creates it, with the size the driver
+//! asked for (alignment and padding included), and nothing has to be routed through a wrapper.
+//! Acceleration structures are counted only where wgpu-hal counts them: DX12 in wgpu 30, not
+//! Vulkan (docs/DEVICES.md), so ray-traced techniques' BLAS and TLAS are missing there.
 //!
 //! What a technique holds is the difference from a baseline read before it was created
 //! ([`MemoryUse::since`]); a frame's peak is the largest value read after each of its passes

@@ -17,8 +17,11 @@ use softshadow_core::{
 
 use crate::build::{BuildStats, PdsmData};
 
-/// Bump when the layout or the meaning of the data changes (old files are then rebuilt).
-pub const FORMAT_VERSION: u32 = 1;
+/// Bump when the layout or the meaning of the data changes, or how it is built (the windows
+/// `pdsm_window` fits): the key holds the scene, light and settings, not the code, so a PDSM an
+/// older build made is otherwise loaded as it is (old files are rebuilt after a bump). 2: the
+/// light-space bounds of issue 44.
+pub const FORMAT_VERSION: u32 = 2;
 
 /// The PDSM cache in `dir`.
 pub fn in_dir(dir: &Path) -> DiskCache {
