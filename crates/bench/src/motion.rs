@@ -188,6 +188,7 @@ impl Bench {
         }
         run.params = technique.params().to_map();
         self.load_scene_and_renderer(spec)?;
+        self.faults.in_the_middle(index, &self.gpu);
         let loaded = &self.scenes[&spec.scene];
         run.warnings = loaded.warnings.clone();
         // The scene as this benchmark sees it (a sweep's camera and light replace its own), then
