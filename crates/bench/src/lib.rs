@@ -46,6 +46,12 @@ pub enum BenchError {
     Param(#[from] ParamError),
     #[error("resolution {width}x{height} is invalid: width and height must be 1 to {max} pixels (e.g. --size 256x256)")]
     BadResolution { width: u32, height: u32, max: u32 },
+    #[error("{what} is over this device's {limit}: {fix}")]
+    OverDeviceLimit {
+        what: String,
+        limit: String,
+        fix: String,
+    },
     #[error("--size `{0}` is not WIDTHxHEIGHT: write it like 256x256")]
     BadSize(String),
     #[error("--frames must be at least 1")]
@@ -194,6 +200,21 @@ pub fn check_size(width: u32, height: u32) -> Result<(), BenchError> {
     let max = softshadow_core::renderer::MAX_RESOLUTION;
     if width == 0 || height == 0 || width > max || height > max {
         return Err(BenchError::BadResolution { width, height, max });
+    }
+    Ok(())
+}
+
+/// Checks a size against the largest texture edge of the device the run is made on
+/// (`max_texture_dimension_2d`), before any GPU work: [`check_size`]'s bound is the least every
+/// WebGPU device offers, but a device made with lower limits has less.
+pub fn check_size_within(width: u32, height: u32, limit: u32) -> Result<(), BenchError> {
+    check_size(width, height)?;
+    if width.max(height) > limit {
+        return Err(BenchError::OverDeviceLimit {
+            what: format!("resolution {width}x{height}"),
+            limit: format!("max_texture_dimension_2d of {limit}"),
+            fix: format!("give --size {limit}x{limit} or smaller"),
+        });
     }
     Ok(())
 }
@@ -438,7 +459,8 @@ impl Bench {
         out_dir: &Path,
         run: &mut Run,
     ) -> Result<(), BenchError> {
-        check_size(spec.width, spec.height)?;
+        let edge = self.gpu.device.limits().max_texture_dimension_2d;
+        check_size_within(spec.width, spec.height, edge)?;
         let info = resolve_technique(&self.registry, &spec.technique)?;
         let mut technique = info.create_with(&self.gpu, &spec.params)?;
         if let Some(control) = &self.build_control {
@@ -1192,4 +1214,19 @@ pub fn write_results(results: &Results, out_dir: &Path) -> Result<(), BenchError
         message: e.to_string(),
     })?;
     output::write_durable(&out_dir.join("results.json"), &json)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_size_over_the_device_limit_names_the_limit() {
+        assert!(super::check_size_within(4096, 4096, 4096).is_ok());
+        let message = super::check_size_within(8192, 64, 4096)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            message,
+            "resolution 8192x64 is over this device's max_texture_dimension_2d of 4096: give --size 4096x4096 or smaller"
+        );
+    }
 }

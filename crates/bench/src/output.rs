@@ -47,11 +47,6 @@ pub fn write_durable(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
         _ => Path::new("."),
     };
     let name = path.file_name().unwrap_or_default().to_string_lossy();
-    // tempfile's errors name its random file; the OS's own words are enough.
-    let os_error = |e: std::io::Error| {
-        e.raw_os_error()
-            .map_or(e, std::io::Error::from_raw_os_error)
-    };
     let mut file = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(".tmp")
@@ -62,6 +57,16 @@ pub fn write_durable(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
     file.persist(path)
         .map_err(|e| io_error(path, os_error(e.error)))?;
     Ok(())
+}
+
+/// The words of `e` without the random name of tempfile's file, which tempfile adds as
+/// ` at path "..."`: the caller names the file.
+fn os_error(e: std::io::Error) -> String {
+    let text = e.to_string();
+    match text.split_once(" at path \"") {
+        Some((words, _)) => words.to_string(),
+        None => text,
+    }
 }
 
 /// Creates `dir` (and its parents) if missing.
@@ -80,8 +85,19 @@ pub fn prepare_out_dir(
     specs: &[(usize, RunSpec)],
     options: &BenchOptions,
 ) -> Result<(), BenchError> {
+    let existed = dir.exists();
     create_dir(dir)?;
-    let probe = dir.join(".write-test");
+    let checked = check_out_dir(dir, estimate_bytes(specs, options));
+    if checked.is_err() && !existed {
+        // Refused: leave nothing behind (`remove_dir` only removes it empty).
+        let _ = std::fs::remove_dir(dir);
+    }
+    checked
+}
+
+/// Writes and removes a file in `dir`, then checks it has `need` bytes free.
+fn check_out_dir(dir: &Path, need: u64) -> Result<(), BenchError> {
+    let probe = dir.join("write-test");
     write_durable(&probe, &[0; 4096]).map_err(|e| match e {
         BenchError::Write { message, .. } => BenchError::Write {
             path: dir.display().to_string(),
@@ -90,7 +106,6 @@ pub fn prepare_out_dir(
         other => other,
     })?;
     let _ = std::fs::remove_file(&probe);
-    let need = estimate_bytes(specs, options);
     match free_bytes(dir) {
         Some(free) if free < need => Err(BenchError::OutOfSpace {
             path: dir.display().to_string(),

@@ -80,14 +80,14 @@ pub(crate) fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
     }
     let resuming = args.resume.is_some();
     let plan = plan(registry, args)?;
-    // The output folder is writable and has room, before the GPU starts and before any run.
-    let todo = softshadow_bench::remaining(&plan.indexed, &plan.finished);
-    softshadow_bench::output::prepare_out_dir(&plan.out, &todo, &plan.options)?;
     let device = match plan.isolate {
         // Each run makes its own device: here, only check there is an adapter.
         Some(_) => Device::PerRun(Gpu::headless_adapter_summary().context("cannot start the GPU")?),
         None => Device::Here(Gpu::new_headless().context("cannot start the GPU")?),
     };
+    // The output folder is writable and has room, before any run.
+    let todo = softshadow_bench::remaining(&plan.indexed, &plan.finished);
+    softshadow_bench::output::prepare_out_dir(&plan.out, &todo, &plan.options)?;
     // After the last check that can fail, so bad input and a missing GPU write nothing.
     if !resuming {
         resume::save(&plan.args, &plan.command, &plan.out)?;
