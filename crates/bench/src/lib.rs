@@ -390,7 +390,7 @@ impl Bench {
 
     /// Runs one spec; never fails: errors are recorded in the returned [`Run`]. A run that
     /// loses the device is recorded with the driver's message, and a new device is made for
-    /// the next run ([`Bench::recover`]).
+    /// the next run, on the same adapter.
     pub fn run(&mut self, index: usize, spec: &RunSpec, out_dir: &Path) -> Run {
         puffin::profile_function!();
         let mut run = Run::new(index, spec);

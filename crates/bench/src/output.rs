@@ -121,6 +121,8 @@ pub fn free_bytes(dir: &Path) -> Option<u64> {
     #[cfg(unix)]
     {
         let stat = nix::sys::statvfs::statvfs(dir).ok()?;
+        // Both are u64 here, narrower on some 32-bit systems.
+        #[allow(clippy::useless_conversion)]
         Some(u64::from(stat.blocks_available()).saturating_mul(u64::from(stat.fragment_size())))
     }
     #[cfg(not(unix))]

@@ -45,6 +45,9 @@ fn load_suite(registry: &Registry, name: &str) -> Result<Sweep> {
     }
 }
 
+/// The camera and light that replace every scene's own (a sweep's `[camera]`, `[light]`).
+type View = (Option<Camera>, Option<AreaLight>);
+
 /// Where the runs are made.
 enum Device {
     /// In this process, on this device.
@@ -65,7 +68,7 @@ struct Plan {
     options: BenchOptions,
     sweep: Option<SweepInfo>,
     timing: Option<TimingSource>,
-    view: (Option<Camera>, Option<AreaLight>),
+    view: View,
     command: Vec<String>,
     /// Each run in a process of its own, with this time limit (`None`: from the cost model).
     isolate: Option<Option<Duration>>,
@@ -228,11 +231,7 @@ fn runs_and_options(
     registry: &Registry,
     args: &BenchArgs,
     sweep: Option<&Sweep>,
-) -> Result<(
-    Vec<RunSpec>,
-    BenchOptions,
-    (Option<Camera>, Option<AreaLight>),
-)> {
+) -> Result<(Vec<RunSpec>, BenchOptions, View)> {
     let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) = sweep
     {
         (
