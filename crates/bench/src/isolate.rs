@@ -130,9 +130,10 @@ impl Isolation {
         let mut child = match self.spawn() {
             Ok(child) => child,
             Err(e) => {
+                let program = self.command.first().cloned().unwrap_or_default();
                 let message = format!(
                     "cannot start the run's process `{}`: {e}",
-                    self.command[0].to_string_lossy()
+                    program.to_string_lossy()
                 );
                 return Some(Run::failed(job.index, &job.spec, Status::Crashed, message));
             }
@@ -165,9 +166,12 @@ impl Isolation {
     }
 
     fn spawn(&self) -> std::io::Result<Child> {
-        let mut command = Command::new(&self.command[0]);
+        let (program, args) = self.command.split_first().ok_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no program given")
+        })?;
+        let mut command = Command::new(program);
         command
-            .args(&self.command[1..])
+            .args(args)
             .env(PARENT_ENV, std::process::id().to_string())
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -225,7 +229,9 @@ fn outcome(job: &Job, ended: Ended, stdout: &str, stderr: &[String], limit: Dura
         Ended::Cancelled => unreachable!("handled by the caller"),
     };
     if status.success() {
-        match serde_json::from_str::<Run>(stdout) {
+        // The run is the last line: anything a library printed before it is not.
+        let last = stdout.lines().rev().find(|line| !line.trim().is_empty());
+        match serde_json::from_str::<Run>(last.unwrap_or_default()) {
             Ok(run) if run.index == job.index => return run,
             Ok(run) => {
                 let message = format!("the run's process answered for run {}", run.index);
