@@ -1096,6 +1096,8 @@ pub fn run_isolated(
 ) -> Result<Results, BenchError> {
     output::prepare_out_dir(out_dir, &remaining(specs, &finished), &options)?;
     check_options(&setup.registry, &options)?;
+    // What every run's process would refuse, refused once here.
+    fault::Faults::from_env()?;
     let adapter = match &isolation.adapter {
         Some(adapter) => adapter.clone(),
         None => Gpu::headless_adapter_summary()?,

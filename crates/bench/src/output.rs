@@ -47,9 +47,17 @@ pub fn write_durable(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
         _ => Path::new("."),
     };
     let name = path.file_name().unwrap_or_default().to_string_lossy();
-    let mut file = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
+    let prefix = format!(".{name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    #[cfg(unix)]
+    {
+        // tempfile makes its files private (0600); results are for everyone who may read the
+        // folder, as a file `std::fs::write` makes (0666 less the umask).
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut file = builder
         .tempfile_in(dir)
         .map_err(|e| io_error(path, os_error(e)))?;
     file.write_all(bytes).map_err(|e| io_error(path, e))?;
@@ -257,5 +265,15 @@ mod tests {
         write_durable(&path, b"second").unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"second");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        // Readable as any file the user writes, not private as tempfile's own.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+            let plain = dir.path().join("plain");
+            std::fs::write(&plain, b"").unwrap();
+            let expected = std::fs::metadata(&plain).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, expected & 0o777);
+        }
     }
 }

@@ -189,6 +189,8 @@ fn plan(registry: &Registry, args: BenchArgs) -> Result<Plan> {
         None => specs.into_iter().enumerate().collect(),
     };
     let isolate = isolation(&args, sweep.is_some())?;
+    // A bad SOFTSHADOW_FAULT fails here, not in every run.
+    softshadow_bench::fault::Faults::from_env()?;
     Ok(Plan {
         args,
         registry,

@@ -390,3 +390,47 @@ fn a_read_only_output_folder_is_refused_before_the_first_run() -> Result<()> {
     );
     Ok(())
 }
+
+#[test]
+fn bad_limits_and_fault_switches_are_one_line_before_any_run() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let sweep = write_sweep(dir.path())?;
+    let out = dir.path().join("out");
+    let cases: [(&[&str], Option<&str>, &str); 4] = [
+        (
+            &["--run-timeout", "0"],
+            None,
+            "--run-timeout 0 is not a time",
+        ),
+        (
+            &["--run-timeout", "inf"],
+            None,
+            "--run-timeout inf is not a time",
+        ),
+        (
+            &["--run-timeout", "5", "--no-isolate"],
+            None,
+            "--run-timeout limits runs made in processes of their own",
+        ),
+        (
+            &[],
+            Some("melt:1"),
+            "SOFTSHADOW_FAULT=`melt:1`: `melt` is no fault kind",
+        ),
+    ];
+    for (args, fault, expected) in cases {
+        let o = bench(&sweep, &out, args, fault)?;
+        let err = stderr(&o);
+        ensure!(
+            o.status.code() == Some(2),
+            "{args:?}: exit {:?}: {err}",
+            o.status
+        );
+        ensure!(
+            err.lines().count() == 1 && err.contains(expected),
+            "{args:?}: {err}"
+        );
+        ensure!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+    Ok(())
+}
