@@ -21,7 +21,7 @@ run() { # NAME SHARDS CACHE(yes|no|full)
     esac
     start=$(date +%s.%N)
     seq 0 $((shards - 1)) | parallel --will-cite --halt now,fail=1 -j "$shards" \
-        "$WORKBENCH" bench --sweep "$SWEEP" --shard "{}/$shards" --no-images "${args[@]}" \
+        "$WORKBENCH" bench --sweep "$SWEEP" --shard "{}/$shards" --no-isolate --no-images "${args[@]}" \
         --out "$out/shard-{}" >/dev/null 2>&1
     end=$(date +%s.%N)
     printf '%-28s %7.1f s\n' "$name" "$(echo "$end - $start" | bc)"

@@ -512,7 +512,7 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                     .unwrap_or_else(|| "-".into()),
                 "status" => match run.status {
                     Status::Ok => "ok".into(),
-                    Status::Error => format!("error: {}", run.message),
+                    failed => format!("{failed}: {}", run.message),
                 },
                 _ => unreachable!("columns checked above"),
             };
@@ -581,7 +581,7 @@ fn grid_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
         mine.iter()
             .find(|r| r.scene == scene && setting_of(r) == setting)
             .map_or("-".to_string(), |r| match (&r.status, &r.motion) {
-                (Status::Error, _) => "error".to_string(),
+                (Status::Error | Status::Timeout | Status::Crashed, _) => r.status.to_string(),
                 // Along a path: the mean error over its frames / the last frame's.
                 (Status::Ok, Some(m)) => format!(
                     "{:.4} / {}",

@@ -7,6 +7,8 @@
 pub mod compare;
 pub mod doc_tables;
 pub mod expectations;
+pub mod fault;
+pub mod isolate;
 pub mod merge;
 pub mod motion;
 pub mod output;
@@ -32,7 +34,7 @@ use softshadow_metrics::ErrorReport;
 use reference_cache::{CachedReference, ReferenceCacheUse, ReferenceKey};
 use thiserror::Error;
 
-pub use results::{Results, Run, Shard, Status, SweepInfo};
+pub use results::{ProcessRecord, Results, Run, Shard, Status, SweepInfo};
 pub use sweep::Sweep;
 
 #[derive(Debug, Error)]
@@ -45,6 +47,12 @@ pub enum BenchError {
     Param(#[from] ParamError),
     #[error("resolution {width}x{height} is invalid: width and height must be 1 to {max} pixels (e.g. --size 256x256)")]
     BadResolution { width: u32, height: u32, max: u32 },
+    #[error("{what} is over this device's {limit}: {fix}")]
+    OverDeviceLimit {
+        what: String,
+        limit: String,
+        fix: String,
+    },
     #[error("--size `{0}` is not WIDTHxHEIGHT: write it like 256x256")]
     BadSize(String),
     #[error("--frames must be at least 1")]
@@ -74,10 +82,20 @@ pub enum BenchError {
     Technique(#[from] TechniqueError),
     #[error(transparent)]
     Metrics(#[from] softshadow_metrics::MetricsError),
+    /// A fault asked for by `SOFTSHADOW_FAULT` ([`fault`]), or a bad value of it.
+    #[error("{0}")]
+    Fault(String),
+    /// The output folder has less room than the benchmark's files need.
+    #[error("the output folder `{path}` has {free_mib} MiB free, but this benchmark's results and images need about {need_mib} MiB: free some space, give another --out, or leave the images out with --no-images")]
+    OutOfSpace {
+        path: String,
+        free_mib: u64,
+        need_mib: u64,
+    },
 }
 
 /// One benchmark run: a scene, a technique with settings, a resolution.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RunSpec {
     pub scene: String,
     pub technique: String,
@@ -91,7 +109,7 @@ pub struct RunSpec {
 }
 
 /// Options shared by all runs.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct BenchOptions {
     /// Timed frames per run (after `warmup` untimed ones).
     pub frames: u32,
@@ -187,6 +205,21 @@ pub fn check_size(width: u32, height: u32) -> Result<(), BenchError> {
     Ok(())
 }
 
+/// Checks a size against the largest texture edge of the device the run is made on
+/// (`max_texture_dimension_2d`), before any GPU work: [`check_size`]'s bound is the least every
+/// WebGPU device offers, but a device made with lower limits has less.
+pub fn check_size_within(width: u32, height: u32, limit: u32) -> Result<(), BenchError> {
+    check_size(width, height)?;
+    if width.max(height) > limit {
+        return Err(BenchError::OverDeviceLimit {
+            what: format!("resolution {width}x{height}"),
+            limit: format!("max_texture_dimension_2d of {limit}"),
+            fix: format!("give --size {limit}x{limit} or smaller"),
+        });
+    }
+    Ok(())
+}
+
 /// The technique `name` names: a registered id, or a `.wgsl` file registered under its stem
 /// (the caller registers the file first, `softshadow_wgsl::register_file`).
 pub fn resolve_technique(registry: &Registry, name: &str) -> Result<TechniqueInfo, BenchError> {
@@ -224,6 +257,20 @@ pub fn validate(registry: &Registry, spec: &RunSpec) -> Result<(), BenchError> {
     check_size(spec.width, spec.height)?;
     resolve_technique(registry, &spec.technique)?.check_params(&spec.params)?;
     softshadow_scenes::load(&spec.scene)?;
+    Ok(())
+}
+
+/// Checks options before any run: frames, and the reference's settings (so a typo fails before
+/// the first run).
+fn check_options(registry: &Registry, options: &BenchOptions) -> Result<(), BenchError> {
+    if options.frames == 0 {
+        return Err(BenchError::NoFrames);
+    }
+    if options.error || !options.reference_params.is_empty() {
+        registry
+            .yardstick()?
+            .check_params(&options.reference_params)?;
+    }
     Ok(())
 }
 
@@ -273,21 +320,15 @@ pub struct Bench {
     light: Option<AreaLight>,
     /// Installed in every technique ([`ShadowTechnique::set_build_control`]).
     build_control: Option<BuildControl>,
+    /// Faults to inject (`SOFTSHADOW_FAULT`, [`fault`]).
+    faults: fault::Faults,
 }
 
 impl Bench {
     /// A benchmark of `registry`'s techniques on `gpu`. Its yardstick
     /// ([`YARDSTICK_TECHNIQUE`]) must be registered when `options.error` asks for error metrics.
     pub fn new(gpu: Gpu, registry: Registry, options: BenchOptions) -> Result<Self, BenchError> {
-        if options.frames == 0 {
-            return Err(BenchError::NoFrames);
-        }
-        // Check reference settings up front so a typo fails before any run.
-        if options.error || !options.reference_params.is_empty() {
-            registry
-                .yardstick()?
-                .check_params(&options.reference_params)?;
-        }
+        check_options(&registry, &options)?;
         let timing = TimingSource::default_for(&gpu);
         Ok(Self {
             gpu,
@@ -301,6 +342,7 @@ impl Bench {
             camera: None,
             light: None,
             build_control: None,
+            faults: fault::Faults::from_env()?,
         })
     }
 
@@ -347,45 +389,45 @@ impl Bench {
         self.references.clear();
     }
 
-    /// Runs one spec; never fails: errors are recorded in the returned [`Run`].
+    /// Runs one spec; never fails: errors are recorded in the returned [`Run`]. A run that
+    /// loses the device is recorded with the driver's message, and a new device is made for
+    /// the next run, on the same adapter.
     pub fn run(&mut self, index: usize, spec: &RunSpec, out_dir: &Path) -> Run {
         puffin::profile_function!();
-        let mut run = Run {
-            index,
-            scene: spec.scene.clone(),
-            technique: spec.technique.clone(),
-            params: spec.params.iter().cloned().collect(),
-            width: spec.width,
-            height: spec.height,
-            status: Status::Ok,
-            message: String::new(),
-            timing: None,
-            timing_camera_only: None,
-            cold: None,
-            reference_cache: None,
-            error: None,
-            stability: None,
-            still_flicker: None,
-            stats: BTreeMap::new(),
-            passes_run: Vec::new(),
-            images: BTreeMap::new(),
-            warnings: Vec::new(),
-            expectation: None,
-            motion: None,
-            memory: None,
-            settled: None,
-        };
-        let result = match spec.path.clone().or_else(|| self.options.path.clone()) {
-            Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),
-            None => self.run_inner(index, spec, out_dir, &mut run),
-        };
+        let mut run = Run::new(index, spec);
+        let result = self.faults.at_start(index, &self.gpu).and_then(|()| {
+            match spec.path.clone().or_else(|| self.options.path.clone()) {
+                Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),
+                None => self.run_inner(index, spec, out_dir, &mut run),
+            }
+        });
         if let Err(e) = result {
             run.status = Status::Error;
             run.message = e.to_string();
             // A failed run may leave GPU errors behind; clear them so the next run starts clean.
             let _ = self.gpu.take_errors();
         }
+        if let Some(why) = self.gpu.lost() {
+            run.status = Status::Error;
+            run.message = format!("the GPU device was lost during this run: {why}");
+            if let Err(e) = self.recover() {
+                run.message
+                    .push_str(&format!("; and no new device could be made: {e}"));
+            }
+        }
         run
+    }
+
+    /// Replaces a lost device with a new one on the same adapter. Everything made on the old
+    /// device goes (scenes, renderers, the reference technique); the references already
+    /// computed are CPU data and stay.
+    fn recover(&mut self) -> Result<(), BenchError> {
+        let gpu = self.gpu.new_device()?;
+        self.scenes.clear();
+        self.renderers.clear();
+        self.reference = None;
+        self.gpu = gpu;
+        Ok(())
     }
 
     /// Loads `spec`'s scene (once per benchmark) and makes a renderer of its size (once per size).
@@ -418,7 +460,8 @@ impl Bench {
         out_dir: &Path,
         run: &mut Run,
     ) -> Result<(), BenchError> {
-        check_size(spec.width, spec.height)?;
+        let edge = self.gpu.device.limits().max_texture_dimension_2d;
+        check_size_within(spec.width, spec.height, edge)?;
         let info = resolve_technique(&self.registry, &spec.technique)?;
         self.load_scene_and_renderer(spec)?;
         // What the device holds without the technique: the scene, the renderer, the reference
@@ -430,6 +473,7 @@ impl Bench {
             technique.set_build_control(control.clone());
         }
         run.params = technique.params().to_map();
+        self.faults.in_the_middle(index, &self.gpu);
         let key = (spec.width, spec.height);
         let timing_source = self.timing;
         let scene = &self.scenes[&spec.scene];
@@ -1068,38 +1112,135 @@ pub fn run_resumed(
     options: BenchOptions,
     out_dir: &Path,
     finished: Vec<Run>,
-    mut progress: impl FnMut(usize, &Run),
+    progress: impl FnMut(usize, &Run),
 ) -> Result<Results, BenchError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Write {
-        path: out_dir.display().to_string(),
-        message: e.to_string(),
-    })?;
+    output::prepare_out_dir(out_dir, &remaining(specs, &finished), &options)?;
     let mut bench = Bench::new(gpu, setup.registry.clone(), options)?;
     bench.set_timing(setup.timing);
     bench.set_view(setup.camera, setup.light);
     bench.set_build_control(setup.build_control.clone());
+    let adapter = bench.adapter();
+    let cancelled = cancel_flag(&setup);
+    let run_one = |index: usize, spec: &RunSpec| {
+        let run = bench.run(index, spec, out_dir);
+        // The run the cancel interrupted is left out, so `bench --resume` makes it again.
+        (!(cancelled() && run.status == Status::Error)).then_some(run)
+    };
+    sweep(adapter, specs, &setup, out_dir, finished, progress, run_one)
+}
+
+/// Like [`run_resumed`], each run in a process of its own ([`isolate`]): a run that hangs is
+/// killed at its time limit, one whose process crashes is recorded with how it ended, and the
+/// next run gets a fresh process and device. This process does no GPU work.
+#[allow(clippy::too_many_arguments)]
+pub fn run_isolated(
+    isolation: &isolate::Isolation,
+    specs: &[(usize, RunSpec)],
+    setup: RunSetup,
+    options: BenchOptions,
+    out_dir: &Path,
+    finished: Vec<Run>,
+    progress: impl FnMut(usize, &Run),
+) -> Result<Results, BenchError> {
+    output::prepare_out_dir(out_dir, &remaining(specs, &finished), &options)?;
+    check_options(&setup.registry, &options)?;
+    // What every run's process would refuse, refused once here.
+    fault::Faults::from_env()?;
+    let adapter = match &isolation.adapter {
+        Some(adapter) => adapter.clone(),
+        None => Gpu::headless_adapter_summary()?,
+    };
+    let adapter = results::Adapter {
+        name: adapter.name,
+        backend: adapter.backend,
+        driver: adapter.driver,
+    };
+    // Without a cache of the user's, a private one spares each run's process the references.
+    let private_cache = out_dir.join(isolate::PRIVATE_CACHE_DIR);
+    let private = options.reference_cache.is_none();
+    let job_options = BenchOptions {
+        reference_cache: Some(
+            options
+                .reference_cache
+                .clone()
+                .unwrap_or(private_cache.clone()),
+        ),
+        ..options.clone()
+    };
+    let cancelled = cancel_flag(&setup);
+    let run_one = |index: usize, spec: &RunSpec| {
+        let job = isolate::Job {
+            index,
+            spec: spec.clone(),
+            options: job_options.clone(),
+            timing: setup.timing,
+            camera: setup.camera,
+            light: setup.light,
+            out_dir: out_dir.to_path_buf(),
+        };
+        let limit = isolation
+            .run_timeout
+            .unwrap_or_else(|| isolate::time_limit(&setup.registry, spec, &options));
+        let mut run = isolation.run(&job, limit, &cancelled)?;
+        if private {
+            isolate::forget_private_cache(&mut run);
+        }
+        Some(run)
+    };
+    let results = sweep(adapter, specs, &setup, out_dir, finished, progress, run_one)?;
+    if private && !cancelled() {
+        let _ = std::fs::remove_dir_all(&private_cache);
+    }
+    Ok(results)
+}
+
+/// The runs of `specs` that `finished` lacks.
+pub fn remaining(specs: &[(usize, RunSpec)], finished: &[Run]) -> Vec<(usize, RunSpec)> {
+    specs
+        .iter()
+        .filter(|(index, _)| !finished.iter().any(|run| run.index == *index))
+        .cloned()
+        .collect()
+}
+
+/// Whether `setup`'s build control has been cancelled (Ctrl-C).
+fn cancel_flag(setup: &RunSetup) -> impl Fn() -> bool + '_ {
+    || {
+        setup
+            .build_control
+            .as_ref()
+            .is_some_and(BuildControl::is_cancelled)
+    }
+}
+
+/// Makes the runs of `specs` not in `finished` with `run_one` (`None`: cancelled, left out and
+/// the sweep stopped), rewriting `out_dir/results.json` after each.
+fn sweep(
+    adapter: results::Adapter,
+    specs: &[(usize, RunSpec)],
+    setup: &RunSetup,
+    out_dir: &Path,
+    finished: Vec<Run>,
+    mut progress: impl FnMut(usize, &Run),
+    mut run_one: impl FnMut(usize, &RunSpec) -> Option<Run>,
+) -> Result<Results, BenchError> {
     let mut results = Results {
         schema_version: results::SCHEMA_VERSION,
-        adapter: bench.adapter(),
+        adapter,
         command: setup.command.clone(),
         program: setup.program.clone(),
         date: results::today_utc(),
         load: results::MachineLoad::now(),
-        sweep: setup.sweep,
+        sweep: setup.sweep.clone(),
         runs: finished,
     };
+    let cancelled = cancel_flag(setup);
     let done: std::collections::HashSet<usize> = results.runs.iter().map(|r| r.index).collect();
     let todo: Vec<&(usize, RunSpec)> = specs.iter().filter(|(i, _)| !done.contains(i)).collect();
     for (k, (index, spec)) in todo.into_iter().enumerate() {
-        let run = bench.run(*index, spec, out_dir);
-        let cancelled = setup
-            .build_control
-            .as_ref()
-            .is_some_and(BuildControl::is_cancelled);
-        if cancelled && run.status == Status::Error {
-            // The run the cancel interrupted is left out, so `bench --resume` makes it again.
+        let Some(run) = run_one(*index, spec) else {
             break;
-        }
+        };
         progress(k, &run);
         results.runs.push(run);
         results.runs.sort_by_key(|r| r.index);
@@ -1108,7 +1249,7 @@ pub fn run_resumed(
             load.update();
         }
         write_results(&results, out_dir)?;
-        if cancelled {
+        if cancelled() {
             break;
         }
     }
@@ -1116,11 +1257,26 @@ pub fn run_resumed(
     Ok(results)
 }
 
-/// Writes `out_dir/results.json` atomically.
+/// Writes `out_dir/results.json` atomically and durably ([`output::write_durable`]).
 pub fn write_results(results: &Results, out_dir: &Path) -> Result<(), BenchError> {
     let json = serde_json::to_vec_pretty(results).map_err(|e| BenchError::Write {
         path: "results.json".into(),
         message: e.to_string(),
     })?;
-    output::write_atomic(&out_dir.join("results.json"), &json)
+    output::write_durable(&out_dir.join("results.json"), &json)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_size_over_the_device_limit_names_the_limit() {
+        assert!(super::check_size_within(4096, 4096, 4096).is_ok());
+        let message = super::check_size_within(8192, 64, 4096)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            message,
+            "resolution 8192x64 is over this device's max_texture_dimension_2d of 4096: give --size 4096x4096 or smaller"
+        );
+    }
 }

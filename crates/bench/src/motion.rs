@@ -175,7 +175,8 @@ impl Bench {
         out_dir: &Path,
         run: &mut Run,
     ) -> Result<(), BenchError> {
-        crate::check_size(spec.width, spec.height)?;
+        let edge = self.gpu.device.limits().max_texture_dimension_2d;
+        crate::check_size_within(spec.width, spec.height, edge)?;
         let Some(method) = self.options.exact_method().filter(|_| self.options.error) else {
             return Err(BenchError::Motion(
                 "a run along a path measures every frame against its exact answer: drop --no-error and --no-exact".into(),
@@ -188,6 +189,7 @@ impl Bench {
         }
         run.params = technique.params().to_map();
         self.load_scene_and_renderer(spec)?;
+        self.faults.in_the_middle(index, &self.gpu);
         let loaded = &self.scenes[&spec.scene];
         run.warnings = loaded.warnings.clone();
         // The scene as this benchmark sees it (a sweep's camera and light replace its own), then

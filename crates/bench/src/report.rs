@@ -1001,8 +1001,8 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
                 "<span class=\"warn\">ok; {}</span>",
                 escape(&warnings.join("; "))
             ),
-            Status::Error => format!(
-                "<span class=\"warn\">error: {}</span>",
+            failed => format!(
+                "<span class=\"warn\">{failed}: {}</span>",
                 escape(&run.message)
             ),
         };

@@ -129,11 +129,46 @@ pub struct Adapter {
     pub driver: String,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
+/// How a run ended.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Status {
+    /// It finished and measured everything asked.
     Ok,
+    /// It failed with the error in its `message` (bad parameter, technique error, lost device,
+    /// out of memory); the process went on.
     Error,
+    /// Isolated: it did not end within its time limit and its process was killed.
+    Timeout,
+    /// Isolated: its process ended without a result (a signal, an abort, a panic).
+    Crashed,
+}
+
+impl std::fmt::Display for Status {
+    /// As in results.json: `ok`, `error`, `timeout`, `crashed` (padded to a width if asked).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(match self {
+            Status::Ok => "ok",
+            Status::Error => "error",
+            Status::Timeout => "timeout",
+            Status::Crashed => "crashed",
+        })
+    }
+}
+
+/// How an isolated run's process went (`bench --isolate`, `crate::isolate`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct ProcessRecord {
+    /// Wall time of the process, from its start to its end, seconds.
+    pub wall_s: f64,
+    /// Its time limit, seconds.
+    pub limit_s: f64,
+    /// The signal that ended it (`SIGABRT`, `SIGSEGV`, ...), when one did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signal: Option<String>,
+    /// Its exit code when it exited without a result.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exit_code: Option<i32>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -147,7 +182,7 @@ pub struct Run {
     pub width: u32,
     pub height: u32,
     pub status: Status,
-    /// Error message when `status` is `error`; empty otherwise.
+    /// What went wrong when `status` is not `ok` (one line); empty otherwise.
     pub message: String,
     /// Full cost: every frame rebuilds everything (`invalidate_cache` before each).
     pub timing: Option<Timing>,
@@ -198,6 +233,50 @@ pub struct Run {
     /// `timing` (docs/BENCHMARKS.md, "Settled error").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub settled: Option<Settled>,
+    /// An isolated run's process: wall time, time limit, and the signal that ended it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub process: Option<ProcessRecord>,
+}
+
+impl Run {
+    /// Run `index` of `spec` with nothing measured yet (status `ok`).
+    pub fn new(index: usize, spec: &crate::RunSpec) -> Self {
+        Self {
+            index,
+            scene: spec.scene.clone(),
+            technique: spec.technique.clone(),
+            params: spec.params.iter().cloned().collect(),
+            width: spec.width,
+            height: spec.height,
+            status: Status::Ok,
+            message: String::new(),
+            timing: None,
+            timing_camera_only: None,
+            cold: None,
+            reference_cache: None,
+            error: None,
+            stability: None,
+            still_flicker: None,
+            stats: BTreeMap::new(),
+            passes_run: Vec::new(),
+            images: BTreeMap::new(),
+            warnings: Vec::new(),
+            expectation: None,
+            motion: None,
+            memory: None,
+            settled: None,
+            process: None,
+        }
+    }
+
+    /// Run `index` of `spec` that ended with `status` and `message`, nothing measured.
+    pub fn failed(index: usize, spec: &crate::RunSpec, status: Status, message: String) -> Self {
+        Self {
+            status,
+            message,
+            ..Self::new(index, spec)
+        }
+    }
 }
 
 /// GPU memory a technique holds, in bytes per kind ([`softshadow_core::MemoryUse`]).

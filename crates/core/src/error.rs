@@ -56,6 +56,9 @@ pub enum GpuError {
         /// naga_oil's or naga's message.
         message: String,
     },
+    /// A new device was asked of a context made from a host's device ([`crate::Gpu::from_host`]).
+    #[error("cannot make a new device for a host's GPU context: the host owns its device; create a new one and wrap it with Gpu::from_host again")]
+    HostContext,
     #[error("the GPU timer could not be created: {0}")]
     /// The GPU profiler could not be created.
     Profiler(String),

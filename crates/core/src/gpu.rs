@@ -26,6 +26,15 @@ pub fn offered_features(adapter: &wgpu::Adapter) -> wgpu::Features {
     features
 }
 
+/// The driver's message of a lost device, or what happened when it gave none.
+fn lost_message(reason: wgpu::DeviceLostReason, message: &str) -> String {
+    match (reason, message.trim()) {
+        (wgpu::DeviceLostReason::Destroyed, "") => "the device was destroyed".to_string(),
+        (_, "") => "the driver gave no reason".to_string(),
+        (_, message) => message.to_string(),
+    }
+}
+
 /// Adapter facts that go into reports.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AdapterSummary {
@@ -38,6 +47,18 @@ pub struct AdapterSummary {
 }
 
 impl AdapterSummary {
+    /// The facts of `adapter`.
+    pub fn of(adapter: &wgpu::Adapter) -> Self {
+        let info = adapter.get_info();
+        Self {
+            name: info.name,
+            backend: format!("{:?}", info.backend).to_lowercase(),
+            driver: format!("{} {}", info.driver, info.driver_info)
+                .trim()
+                .to_string(),
+        }
+    }
+
     /// Mesa's (major, minor) version when the driver is Mesa's (lavapipe reads
     /// `llvmpipe Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)`), else `None`. Lavapipe before 24.1 has
     /// limits that later versions lifted (docs/ARCHITECTURE.md, "Lavapipe").
@@ -66,6 +87,8 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     /// Uncaptured validation / out-of-memory errors, drained by [`Gpu::take_errors`].
     errors: Arc<Mutex<Vec<String>>>,
+    /// Why the device was lost, once it is (set by its device-lost callback): see [`Gpu::lost`].
+    lost: Arc<Mutex<Option<String>>>,
     /// Bind group layouts shared by every technique (see [`crate::frame`]).
     pub layouts: Arc<crate::frame::CoreLayouts>,
     /// The pass behind [`crate::VisibilityBuffer::write_unshadowed`], made on first use.
@@ -217,13 +240,19 @@ impl Gpu {
         // A lost device raises no uncaptured error; say so where it happens (a driver failing
         // a pipeline, say), not at the next resource that comes out invalid.
         let lost_sink = errors.clone();
+        let lost: Arc<Mutex<Option<String>>> = Arc::default();
+        let lost_reason = lost.clone();
         device.set_device_lost_callback(move |reason, message| {
+            let message = lost_message(reason, &message);
             if reason != wgpu::DeviceLostReason::Destroyed {
                 log::error!("wgpu device lost ({reason:?}): {message}");
                 eprintln!("wgpu device lost ({reason:?}): {message}");
                 if let Ok(mut e) = lost_sink.lock() {
                     e.push(format!("device lost: {message}"));
                 }
+            }
+            if let Ok(mut lost) = lost_reason.lock() {
+                lost.get_or_insert(message);
             }
         });
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
@@ -235,7 +264,30 @@ impl Gpu {
                 e.push(error.to_string());
             }
         }));
-        Ok(Self::wrap(Some(instance), adapter, device, queue, errors))
+        let mut gpu = Self::wrap(Some(instance), adapter, device, queue, errors);
+        gpu.lost = lost;
+        Ok(gpu)
+    }
+
+    /// A new device on the same adapter with the same features, for when this one is lost
+    /// ([`Gpu::lost`]): what the benchmark does before its next run. Resources of this context
+    /// (scenes, renderers, techniques) do not carry over.
+    pub fn new_device(&self) -> Result<Self, GpuError> {
+        let instance = self.instance.clone().ok_or(GpuError::HostContext)?;
+        let excluded = offered_features(&self.adapter) - self.features();
+        pollster::block_on(Self::from_adapter_without(
+            instance,
+            self.adapter.clone(),
+            wgpu::MemoryHints::default(),
+            excluded,
+        ))
+    }
+
+    /// Why the device was lost (the driver's message), or `None` while it works. Polls the
+    /// device first without waiting, so a loss already reported by the driver is seen.
+    pub fn lost(&self) -> Option<String> {
+        let _ = self.device.poll(wgpu::PollType::Poll);
+        self.lost.lock().ok().and_then(|lost| lost.clone())
     }
 
     /// Wraps a host renderer's own adapter, device and queue, after checking that the device has
@@ -300,6 +352,7 @@ impl Gpu {
             device,
             queue,
             errors,
+            lost: Arc::default(),
             layouts,
             unshadowed: Arc::default(),
         }
@@ -307,14 +360,16 @@ impl Gpu {
 
     /// Adapter facts for reports.
     pub fn summary(&self) -> AdapterSummary {
-        let info = self.adapter.get_info();
-        AdapterSummary {
-            name: info.name,
-            backend: format!("{:?}", info.backend).to_lowercase(),
-            driver: format!("{} {}", info.driver, info.driver_info)
-                .trim()
-                .to_string(),
-        }
+        AdapterSummary::of(&self.adapter)
+    }
+
+    /// The facts of the adapter [`Gpu::new_headless`] would pick, without creating a device
+    /// (what a benchmark whose runs each make their own device records).
+    pub fn headless_adapter_summary() -> Result<AdapterSummary, GpuError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(Self::pick_adapter(&instance, None))?;
+        Ok(AdapterSummary::of(&adapter))
     }
 
     /// Features the device was created with.

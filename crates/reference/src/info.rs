@@ -2,7 +2,7 @@
 //! its parameters, requirements, shaders, cost model, error bounds and overview settings.
 
 use softshadow_core::{
-    cost::rates::DEPTH_TEXEL,
+    cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, ErrorMetric::*},
     Cost, CostModel, Expectations, TechniqueInfo,
 };
@@ -22,13 +22,15 @@ pub fn info() -> TechniqueInfo {
     .with_shaders(SHADERS)
     .with_cost(CostModel::new(
         &["samples_per_axis", "shadow_map_size"],
-        // Both frames redo every map: nothing is kept when the camera moves.
+        // Both frames redo every map (nothing is kept when the camera moves) and look each up
+        // at every camera pixel.
         |q| {
+            let samples = q.number("samples_per_axis").powi(2);
             Cost::seconds(
-                2.0 * q.number("samples_per_axis").powi(2)
-                    * q.number("shadow_map_size").powi(2)
-                    * DEPTH_TEXEL,
-                "2 frames x samples_per_axis² x shadow_map_size²",
+                2.0 * samples
+                    * (q.number("shadow_map_size").powi(2) * DEPTH_TEXEL
+                        + q.pixels * PIXEL_ITERATION),
+                "2 frames x samples_per_axis² x (shadow_map_size² + pixels)",
             )
         },
     ))

@@ -30,10 +30,10 @@ use std::{path::PathBuf, process::ExitCode};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
-use softshadow_bench::{BenchOptions, RunSetup, RunSpec, Status, Sweep, SweepInfo};
-use softshadow_core::{BuildControl, Gpu, ParamKind, Registry, TechniqueInfo, TimingSource};
+use softshadow_bench::Sweep;
+use softshadow_core::{ParamKind, Registry, TechniqueInfo};
 
+mod bench;
 mod resume;
 mod stress;
 
@@ -60,6 +60,13 @@ enum Command {
     },
     /// Run techniques headless and write results.json and images.
     Bench(BenchArgs),
+    /// One run of an isolated benchmark, read as JSON on stdin (started by `bench`).
+    #[command(hide = true)]
+    BenchRun {
+        /// A .wgsl technique file the benchmark registered (repeatable).
+        #[arg(long = "technique-file")]
+        technique_files: Vec<String>,
+    },
     /// The interactive viewer (the default without a subcommand).
     View(ViewArgs),
     /// Merge the shards of one sweep (output folders of `bench --shard`) into one folder.
@@ -210,6 +217,22 @@ struct BenchArgs {
     /// (docs/CLUSTER.md).
     #[arg(long, value_name = "INDEX/COUNT")]
     shard: Option<String>,
+    /// Make every run in a process of its own, with a time limit: a run that hangs is killed
+    /// and recorded `timeout`, one whose process crashes `crashed`, and the rest go on (the
+    /// default for --sweep, --suite and --shard; docs/STABILITY.md, "Isolated runs").
+    #[arg(long, conflicts_with = "no_isolate")]
+    #[serde(default)]
+    isolate: bool,
+    /// Make every run in this process (the default for a single run): no process start per
+    /// run, but a run that hangs or crashes stops the benchmark.
+    #[arg(long)]
+    #[serde(default)]
+    no_isolate: bool,
+    /// Time limit of each isolated run, in seconds (default: 20 times what its technique's
+    /// cost model predicts, at least 60 s).
+    #[arg(long, value_name = "SECONDS")]
+    #[serde(default)]
+    run_timeout: Option<f64>,
     /// Output folder (created if missing).
     #[arg(long, required_unless_present = "resume")]
     out: Option<PathBuf>,
@@ -230,7 +253,7 @@ struct BenchArgs {
 }
 
 /// `bench --size` without a sweep, when not given.
-const DEFAULT_SIZE: &str = "256x256";
+pub(crate) const DEFAULT_SIZE: &str = "256x256";
 
 /// The built-in techniques (`softshadow::registry()`).
 pub fn builtin_registry() -> Registry {
@@ -253,7 +276,10 @@ pub fn main_with(extra: Vec<TechniqueInfo>) -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::List { json }) => list(&registry, json),
-        Some(Command::Bench(args)) => bench(&registry, args),
+        Some(Command::Bench(args)) => bench::bench(&registry, args),
+        Some(Command::BenchRun { technique_files }) => {
+            bench::bench_run(&registry, &technique_files)
+        }
         Some(Command::View(args)) => view(&registry, args),
         Some(Command::Merge { inputs, out }) => merge(&inputs, &out),
         Some(Command::Docs {
@@ -373,380 +399,6 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
         println!("  {name:<20} {description}");
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// `--suite NAME`: a built-in suite, else `benches/NAME.toml` (from the current folder or the
-/// repository this binary was built from).
-fn load_suite(registry: &Registry, name: &str) -> Result<Sweep> {
-    let file = format!("{name}.toml");
-    let candidates = [
-        PathBuf::from("benches").join(&file),
-        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../../benches")
-            .join(&file),
-    ];
-    if softshadow_bench::sweep::SUITES
-        .iter()
-        .any(|(n, _)| *n == name)
-    {
-        return Ok(Sweep::suite(name, registry)?);
-    }
-    match candidates.iter().find(|p| p.is_file()) {
-        Some(path) => Ok(Sweep::load(path, registry)?),
-        None => Ok(Sweep::suite(name, registry)?),
-    }
-}
-
-fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
-    if let Some(seconds) = args.stress {
-        let out = args
-            .out
-            .context("--stress needs --out DIR for stress.json")?;
-        return stress::run(registry, seconds, args.seed, &out);
-    }
-    let resuming = args.resume.is_some();
-    let (args, finished, finished_hash, command) = match &args.resume {
-        Some(dir) => {
-            let previous = resume::load(dir)?;
-            let command = previous.command;
-            (previous.args, previous.runs, previous.sweep_hash, command)
-        }
-        None => (args, Vec::new(), None, std::env::args().skip(1).collect()),
-    };
-    let out = args.out.clone().context("give --out DIR")?;
-    // Everything that can be checked without a GPU is checked first, so bad input fails fast
-    // and writes nothing. A technique given as a .wgsl file joins the registry first.
-    let registry = &with_technique_files(registry, &args)?;
-    let mut sweep = match (&args.sweep, &args.suite) {
-        (Some(path), _) => Some(Sweep::load(path, registry)?),
-        (None, Some(name)) => Some(load_suite(registry, name)?),
-        (None, None) => None,
-    };
-    // `--path` replaces the path (or paths) a sweep names, `--size` its size, and
-    // `--techniques` keeps some of its techniques.
-    if let (Some(sweep), Some(path)) = (&mut sweep, &args.path) {
-        sweep.set_path(path);
-    }
-    if let (Some(sweep), Some(size)) = (&mut sweep, &args.size) {
-        let (width, height) = softshadow_bench::parse_size(size)?;
-        sweep.set_size(width, height);
-    }
-    match (&mut sweep, args.techniques.is_empty() && args.scenes.is_empty()) {
-        (Some(sweep), false) => {
-            if !args.techniques.is_empty() {
-                sweep.retain_techniques(&args.techniques)?;
-            }
-            if !args.scenes.is_empty() {
-                sweep.retain_scenes(&args.scenes)?;
-            }
-        }
-        (None, false) => bail!("--techniques and --scenes pick runs of a sweep: give --sweep FILE or --suite NAME (or one --technique and --scene)"),
-        _ => {}
-    }
-    let shard = args
-        .shard
-        .as_deref()
-        .map(softshadow_bench::sweep::parse_shard)
-        .transpose()?;
-    if shard.is_some() && sweep.is_none() {
-        bail!("--shard splits a sweep: give --sweep FILE or --suite NAME with it");
-    }
-    let timing = args
-        .timing
-        .as_deref()
-        .map(|t| {
-            TimingSource::parse(t).ok_or_else(|| softshadow_bench::BenchError::BadTiming(t.into()))
-        })
-        .transpose()?;
-    let (specs, sweep_frames, sweep_warmup, mut reference_params, view) = if let Some(sweep) =
-        &sweep
-    {
-        (
-            sweep.runs.clone(),
-            sweep.frames,
-            sweep.warmup,
-            sweep.reference_params.clone(),
-            (sweep.camera, sweep.light),
-        )
-    } else {
-        let (Some(scene), Some(technique)) = (&args.scene, &args.technique) else {
-            bail!("give --scene and --technique, or --sweep FILE, or --suite NAME (see `workbench list`)");
-        };
-        let (width, height) =
-            softshadow_bench::parse_size(args.size.as_deref().unwrap_or(DEFAULT_SIZE))?;
-        let params = softshadow_bench::parse_params(registry, technique, &args.params)?;
-        let spec = RunSpec {
-            scene: scene.clone(),
-            // The id (a .wgsl file's stem), not the path given.
-            technique: softshadow_bench::resolve_technique(registry, technique)?
-                .id
-                .to_string(),
-            params,
-            width,
-            height,
-            path: args.path.clone(),
-        };
-        softshadow_bench::validate(registry, &spec)?;
-        (vec![spec], None, None, Vec::new(), (None, None))
-    };
-    if !args.reference_params.is_empty() {
-        let reference = registry.yardstick()?;
-        for text in &args.reference_params {
-            reference_params.push(reference.parse_param(text)?);
-        }
-    }
-    let frames = args.frames.or(sweep_frames).unwrap_or(10);
-    if frames == 0 {
-        bail!("--frames must be at least 1");
-    }
-    let options = BenchOptions {
-        frames,
-        warmup: args.warmup.or(sweep_warmup).unwrap_or(2),
-        error: !args.no_error,
-        reference_params,
-        images: !args.no_images,
-        exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
-        traced_samples_per_axis: (args.traced_samples > 0).then_some(args.traced_samples),
-        camera_only: !args.no_camera_only,
-        reference_cache: args.reference_cache.clone(),
-        // Each run names its own path (`RunSpec::path`).
-        path: None,
-    };
-    if specs.iter().any(|s| s.path.is_some())
-        && (!options.error || options.exact_samples_per_axis.is_none())
-    {
-        bail!(
-            "--path measures every frame against its exact answer: drop --no-error and --no-exact"
-        );
-    }
-    // A path that does not fit a scene fails here, before any GPU work.
-    let mut checked: Vec<(&str, &str)> = Vec::new();
-    for spec in &specs {
-        let Some(path) = &spec.path else { continue };
-        if checked.contains(&(spec.scene.as_str(), path.as_str())) {
-            continue;
-        }
-        checked.push((&spec.scene, path));
-        let mut loaded = softshadow_scenes::load(&spec.scene)?;
-        softshadow_scenes::path::resolve(path, &mut loaded.scene, &loaded.paths)
-            .with_context(|| format!("scene `{}`, path `{path}`", spec.scene))?;
-    }
-    let sweep_info = sweep.as_ref().map(|sweep| SweepInfo {
-        hash: sweep.hash(&options, timing),
-        runs_total: sweep.runs.len(),
-        shard,
-    });
-    if let (Some(info), Some(hash)) = (&sweep_info, &finished_hash) {
-        if &info.hash != hash {
-            bail!(
-                "cannot resume: the sweep (or its options) changed since its results.json was written (hash {hash}, now {}); start it again with a new --out",
-                info.hash
-            );
-        }
-    }
-    let indexed: Vec<(usize, RunSpec)> = match &sweep {
-        Some(sweep) => sweep.shard(shard),
-        None => specs.into_iter().enumerate().collect(),
-    };
-    let gpu = Gpu::new_headless().context("cannot start the GPU")?;
-    // After the last check that can fail, so bad input and a missing GPU write nothing.
-    if !resuming {
-        resume::save(&args, &command, &out)?;
-    }
-    // Bars on stderr (indicatif draws nothing when it is not a terminal): the runs, and below
-    // them the progress of a long precompute while one builds.
-    let bars = MultiProgress::new();
-    let progress = bars.add(ProgressBar::new(indexed.len() as u64));
-    progress.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    progress.set_position(finished.len() as u64);
-    let control = BuildControl::default();
-    interrupt_on_ctrl_c(&control, &bars)?;
-    let setup = RunSetup {
-        registry: registry.clone(),
-        command,
-        program: program_name(),
-        sweep: sweep_info,
-        timing,
-        camera: view.0,
-        light: view.1,
-        build_control: Some(control.clone()),
-    };
-    let runs_total = indexed.len();
-    let all_done = std::sync::atomic::AtomicBool::new(false);
-    let results = std::thread::scope(|scope| {
-        scope.spawn(|| watch_builds(&control, &bars, &all_done));
-        let results = softshadow_bench::run_resumed(
-            gpu,
-            &indexed,
-            setup,
-            options,
-            &out,
-            finished,
-            |_, run| {
-                progress.set_message(format!("{} / {}", run.scene, run.technique));
-                progress.inc(1);
-                if run.status == Status::Error {
-                    progress.println(format!(
-                        "run failed: {} / {}: {}",
-                        run.scene, run.technique, run.message
-                    ));
-                }
-            },
-        );
-        all_done.store(true, std::sync::atomic::Ordering::Relaxed);
-        results
-    })?;
-    progress.finish_and_clear();
-    let failed = results
-        .runs
-        .iter()
-        .filter(|r| r.status == Status::Error)
-        .count();
-    for run in results.runs.iter().filter(|r| r.motion.is_some()) {
-        let motion = run.motion.as_ref().expect("filtered");
-        println!(
-            "{:<24} {:<16} {:<12} {} frames: error mean {:.4} max {:.4}, flicker mean {}, frame median {} ms{}",
-            run.scene,
-            run.technique,
-            motion.path,
-            motion.frames,
-            motion.error.mean,
-            motion.error.max,
-            motion.flicker.as_ref().map_or("-".into(), |f| format!("{:.5}", f.mean)),
-            run.timing
-                .as_ref()
-                .and_then(|t| t.frame_ms.as_ref())
-                .map_or("-".into(), |f| format!("{:.2}", f.median)),
-            motion.lag.as_ref().map_or(String::new(), |l| format!(", lag {:+.4}", l.extra_error)),
-        );
-    }
-    for run in results.runs.iter().filter(|r| r.motion.is_none()) {
-        let frame = run
-            .timing
-            .as_ref()
-            .and_then(|t| {
-                Some(format!(
-                    "{:.2} ms {}",
-                    t.frame_ms.as_ref()?.median,
-                    t.source
-                ))
-            })
-            .unwrap_or_else(|| "-".to_string());
-        let err = run
-            .error
-            .as_ref()
-            .map_or("-".to_string(), |e| format!("{:.4}", e.report.mae_shadowed));
-        let exact = run
-            .error
-            .as_ref()
-            .and_then(|e| e.vs_exact.as_ref())
-            .map_or("-".to_string(), |r| format!("{:.4}", r.mae_all));
-        let invalid = run
-            .stability
-            .as_ref()
-            .map_or(0, |s| s.nan + s.inf + s.out_of_range);
-        println!(
-            "{:<24} {:<16} {:<6} frame {:>20}  mae_shadowed {:<7} exact mae_all {:<7} invalid {}",
-            run.scene,
-            run.technique,
-            if run.status == Status::Ok {
-                "ok"
-            } else {
-                "error"
-            },
-            frame,
-            err,
-            exact,
-            invalid
-        );
-    }
-    let invalid = results
-        .runs
-        .iter()
-        .filter(|r| {
-            r.stability
-                .as_ref()
-                .is_some_and(|s| s.nan + s.inf + s.out_of_range > 0)
-        })
-        .count();
-    println!("wrote {}", out.join("results.json").display());
-    if control.is_cancelled() {
-        eprintln!(
-            "interrupted (Ctrl-C): {} of {runs_total} runs done and in results.json (the cancelled one left out); `workbench bench --resume {}` finishes the rest",
-            results.runs.len(),
-            out.display()
-        );
-        return Ok(ExitCode::from(130));
-    }
-    if failed > 0 || invalid > 0 {
-        eprintln!(
-            "{failed} of {} runs failed and {invalid} wrote NaN, Inf or values outside [0, 1]; details are in results.json",
-            results.runs.len()
-        );
-        return Ok(ExitCode::from(3));
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// Ctrl-C stops the benchmark cleanly: a long precompute stops at its next unit (its run fails with
-/// "cancelled"), no further run starts, and results.json holds the runs done. A second Ctrl-C
-/// quits at once without writing it.
-fn interrupt_on_ctrl_c(control: &BuildControl, bars: &MultiProgress) -> Result<()> {
-    let control = control.clone();
-    let bars = bars.clone();
-    ctrlc::set_handler(move || {
-        if control.is_cancelled() {
-            std::process::exit(130);
-        }
-        control.cancel();
-        let message = "interrupted: stopping after the current run (a precompute stops at once); \
-                       Ctrl-C again quits without writing results.json";
-        if bars.println(message).is_err() || bars.is_hidden() {
-            eprintln!("{message}");
-        }
-    })
-    .context("cannot install the Ctrl-C handler")
-}
-
-/// Shows a bar of a long precompute while one runs, in the units its technique counts (polls
-/// `control` until `finished`).
-fn watch_builds(
-    control: &BuildControl,
-    bars: &MultiProgress,
-    finished: &std::sync::atomic::AtomicBool,
-) {
-    let style = ProgressStyle::with_template("precompute {bar:30} {pos}/{len} {msg} {elapsed}")
-        .unwrap_or_else(|_| ProgressStyle::default_bar());
-    let mut bar: Option<ProgressBar> = None;
-    while !finished.load(std::sync::atomic::Ordering::Relaxed) {
-        match (control.progress_with_unit(), &bar) {
-            (Some(p), Some(b)) => {
-                b.set_length(p.total.into());
-                b.set_position(p.done.into());
-                b.set_message(p.unit.to_string());
-            }
-            (Some(p), None) => {
-                let b = bars.add(ProgressBar::new(p.total.into()).with_style(style.clone()));
-                b.set_position(p.done.into());
-                b.set_message(p.unit.to_string());
-                bar = Some(b);
-            }
-            (None, Some(b)) => {
-                b.finish_and_clear();
-                bars.remove(b);
-                bar = None;
-            }
-            (None, None) => {}
-        }
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
-    if let Some(b) = bar {
-        b.finish_and_clear();
-        bars.remove(&b);
-    }
 }
 
 /// `docs`: rewrites (or checks) the generated tables; with `rerun`, first makes their results
