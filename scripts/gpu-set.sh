@@ -15,7 +15,9 @@
 #         prove the set works end to end (crates/workbench/tests/gpu_set.rs)
 #
 # A stage over its limit is interrupted like Ctrl-C: its results.json keeps the runs it finished
-# and the set goes on. Exit 0 when every stage ran (runs that failed are recorded in their
+# and the set goes on. Runs share one process per stage (`--no-isolate`): a process per run
+# costs about half a second, a minute and a half on the overview, and the stage's own limit
+# already ends a hang. Exit 0 when every stage ran (runs that failed are recorded in their
 # results), 1 when a stage could not start. Copy DIR/*.json to docs/results/gpu/ and run
 # `workbench docs` to regenerate the tables (docs/BENCHMARKS.md says which).
 set -uo pipefail
@@ -68,7 +70,7 @@ stage() {
   local name=$1 seconds=$(($2 * limit_scale)) start=$SECONDS
   shift 2
   echo "== $name (limit ${seconds} s): workbench bench $*"
-  timeout -s INT -k 20 "$seconds" "$bin" bench "$@" --no-images --out "$out/$name" \
+  timeout -s INT -k 20 "$seconds" "$bin" bench "$@" --no-images --no-isolate --out "$out/$name" \
     > "$out/$name.log" 2>&1
   local code=$?
   echo "== $name: exit $code after $((SECONDS - start)) s ($(tail -n 1 "$out/$name.log"))"
