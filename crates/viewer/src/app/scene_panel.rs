@@ -30,8 +30,16 @@ impl SceneState {
 impl ViewerApp {
     pub(super) fn scene_ui(&mut self, ui: &mut egui::Ui) {
         let mut open = None;
+        // A file is named by its file name (a whole path widened the box onto two lines); the
+        // whole spec is on hover.
+        let spec = self.scene.loaded.spec.clone();
+        let shown = std::path::Path::new(&spec)
+            .file_name()
+            .map_or(spec.clone(), |n| n.to_string_lossy().into_owned());
         egui::ComboBox::from_label("Scene")
-            .selected_text(self.scene.loaded.spec.clone())
+            .selected_text(shown)
+            .truncate()
+            .width(ui.available_width() - 60.0)
             .show_ui(ui, |ui| {
                 for info in softshadow_scenes::builtin_scenes() {
                     if ui
@@ -42,7 +50,9 @@ impl ViewerApp {
                         open = Some(info.id.to_string());
                     }
                 }
-            });
+            })
+            .response
+            .on_hover_text(spec);
         ui.horizontal(|ui| {
             let field = ui.add(
                 egui::TextEdit::singleline(&mut self.scene.path_field)

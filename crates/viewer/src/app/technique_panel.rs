@@ -100,6 +100,11 @@ impl ViewerApp {
                 ui.selectable_value(&mut self.image.view_mode, mode, mode.label());
             }
         });
+        ui.checkbox(&mut self.plot.open, "error-against-time plot")
+            .on_hover_text(
+                "The plot's panel under the image (at least a third of the window; drag its top \
+                 edge to resize). A \"fit\" render size follows it.",
+            );
         // One row reserved for the mode's own control, so nothing below moves when the mode
         // changes; the mode's legend floats over the image (`overlays`).
         let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
@@ -119,13 +124,16 @@ impl ViewerApp {
                             .as_ref()
                             .map(|w| w.debug_views.iter().map(|(name, _)| name.clone()).collect())
                             .unwrap_or_default();
+                        // The worker shows the first view when the index is past this
+                        // technique's views; so does the picker.
+                        let shown = names
+                            .get(self.image.debug_view)
+                            .or(names.first())
+                            .cloned()
+                            .unwrap_or_else(|| "none".into());
                         egui::ComboBox::from_label("Debug image")
-                            .selected_text(
-                                names
-                                    .get(self.image.debug_view)
-                                    .cloned()
-                                    .unwrap_or_default(),
-                            )
+                            .selected_text(shown)
+                            .truncate()
                             .show_ui(ui, |ui| {
                                 for (i, name) in names.iter().enumerate() {
                                     ui.selectable_value(&mut self.image.debug_view, i, name);
@@ -140,7 +148,27 @@ impl ViewerApp {
 }
 
 /// One widget per parameter, from its spec; returns the new value when the user changed it.
+/// A name too long to fit beside its widget goes on a row of its own above it (wrapped, its
+/// description on hover), so no name is cut at the panel's edge.
 pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> Option<ParamValue> {
+    let name = spec.name.as_ref();
+    let description = spec.description.as_ref();
+    let spacing = ui.spacing().clone();
+    let beside = match &spec.kind {
+        ParamKind::Float { .. } | ParamKind::Int { .. } => {
+            spacing.slider_width + spacing.interact_size.x + 3.0 * spacing.item_spacing.x
+        }
+        ParamKind::Choice { .. } => spacing.combo_width + 3.0 * spacing.item_spacing.x,
+        ParamKind::Bool { .. } => spacing.icon_width + 2.0 * spacing.item_spacing.x,
+    };
+    let fits = text_width(ui, name) + beside <= ui.available_width();
+    let text = if fits {
+        name
+    } else {
+        ui.add(egui::Label::new(name).wrap())
+            .on_hover_text(description);
+        ""
+    };
     let new = match &spec.kind {
         ParamKind::Float {
             min,
@@ -152,9 +180,9 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
             ui.add(
                 egui::Slider::new(&mut x, *min..=*max)
                     .logarithmic(*logarithmic)
-                    .text(spec.name.as_ref()),
+                    .text(text),
             )
-            .on_hover_text(spec.description.as_ref())
+            .on_hover_text(description)
             .changed()
             .then_some(ParamValue::Float(x))
         }
@@ -168,24 +196,30 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
             ui.add(
                 egui::Slider::new(&mut i, *min..=*max)
                     .logarithmic(logarithmic)
-                    .text(spec.name.as_ref()),
+                    .text(text),
             )
-            .on_hover_text(spec.description.as_ref())
+            .on_hover_text(description)
             .changed()
             .then_some(ParamValue::Int(i))
         }
         ParamKind::Bool { .. } => {
             let mut b = matches!(value, ParamValue::Bool(true));
-            ui.checkbox(&mut b, spec.name.as_ref())
-                .on_hover_text(spec.description.as_ref())
+            ui.checkbox(&mut b, text)
+                .on_hover_text(description)
                 .changed()
                 .then_some(ParamValue::Bool(b))
         }
         ParamKind::Choice { options, .. } => {
             let current = value.to_string();
             let mut chosen = None;
-            egui::ComboBox::from_label(spec.name.as_ref())
+            let combo = if fits {
+                egui::ComboBox::from_label(name)
+            } else {
+                egui::ComboBox::from_id_salt(name).width(ui.available_width())
+            };
+            combo
                 .selected_text(current.clone())
+                .truncate()
                 .show_ui(ui, |ui| {
                     for option in options.iter() {
                         if ui.selectable_label(current == *option, *option).clicked()
@@ -196,11 +230,20 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
                     }
                 })
                 .response
-                .on_hover_text(spec.description.as_ref());
+                .on_hover_text(format!("{current}: {description}"));
             chosen
         }
     };
     new
+}
+
+/// Width of `text` in the body font on one line, points.
+fn text_width(ui: &egui::Ui, text: &str) -> f32 {
+    let font = egui::TextStyle::Body.resolve(ui.style());
+    ui.painter()
+        .layout_no_wrap(text.to_string(), font, egui::Color32::WHITE)
+        .size()
+        .x
 }
 
 /// What the debug image's colours mean: the mapped value range, and what the technique says its

@@ -118,9 +118,16 @@ pub(super) struct TimelineState {
     pub(super) live: VecDeque<LiveMetrics>,
     /// Why there are no live metrics (no closed form, or the worker's error).
     pub(super) live_message: Option<String>,
-    /// Folder Record writes to, and the frames written so far while recording.
+    /// Folder Record writes to, and which steps are written while recording.
     pub(super) record_folder: String,
-    pub(super) recording: Option<u32>,
+    pub(super) recording: Option<Recording>,
+}
+
+/// A recording under way: one pass over the path, one PNG per step.
+pub(super) struct Recording {
+    folder: PathBuf,
+    /// Per step, whether its frame is written.
+    written: Vec<bool>,
 }
 
 impl Default for TimelineState {
@@ -139,7 +146,10 @@ impl Default for TimelineState {
             timings: Default::default(),
             live: VecDeque::new(),
             live_message: None,
-            record_folder: "viewer-path".into(),
+            record_folder: super::output_dir()
+                .join("recording")
+                .display()
+                .to_string(),
             recording: None,
         }
     }
@@ -151,6 +161,13 @@ impl TimelineState {
     /// exact answers computed).
     pub(super) fn exact_run(&self) -> Option<u64> {
         self.active.as_ref().map(|_| self.run)
+    }
+
+    /// The run to compute the exact answer for with the next frame: only while the current
+    /// step is not measured yet (a paused path computes nothing more once its step is).
+    pub(super) fn exact_wanted(&self) -> Option<u64> {
+        self.exact_run()
+            .filter(|_| self.measured != Some(self.step))
     }
 
     fn time(&self) -> f32 {
@@ -221,6 +238,10 @@ impl ViewerApp {
 
     /// Plays the open path in `steps` frames from its start to its end (2 to 600).
     pub fn set_path_steps(&mut self, steps: u32) {
+        if self.timeline.recording.is_some() {
+            // A recording is one frame per step of one pass: other steps end it.
+            self.finish_recording();
+        }
         self.timeline.steps = steps.clamp(2, 600);
         self.scrub_to(self.timeline.step);
         self.timeline.applied = None;
@@ -262,36 +283,58 @@ impl ViewerApp {
             .collect()
     }
 
-    /// Writes every played frame (technique beside the exact answer) as PNG into `folder`;
-    /// `None` stops and joins the frames into one animated PNG there ([`ANIMATION_FILE`]).
+    /// Records one pass over the open path into `folder`: plays it from its first step and
+    /// writes each step's frame (technique beside the exact answer) once, as
+    /// `frame-NNNN.png` by step; after the last step it stops recording and joins the frames
+    /// into one animated PNG there ([`ANIMATION_FILE`]). `None` stops early (the frames so far
+    /// are joined when they run from the first step without a gap).
     pub fn record_path(&mut self, folder: Option<&str>) {
-        match folder {
-            Some(folder) => match std::fs::create_dir_all(folder) {
-                Ok(()) => {
-                    self.timeline.record_folder = folder.to_string();
-                    self.timeline.recording = Some(0);
-                }
-                Err(e) => self.report_error(format!("cannot record into `{folder}`: {e}")),
-            },
-            None => {
-                if let Some(frames) = self.timeline.recording.take() {
-                    let dir = PathBuf::from(&self.timeline.record_folder);
-                    let folder = shown_path(&dir);
-                    if frames == 0 {
-                        self.confirm(format!("recorded no frames in {folder}"));
-                        return;
-                    }
-                    match write_animation(&dir, frames) {
-                        Ok(()) => self.confirm(format!(
-                            "recorded {frames} frames in {folder} (and {ANIMATION_FILE} at {} fps)",
-                            softshadow_bench::motion::ANIMATION_FPS
-                        )),
-                        Err(e) => self.report_error(format!(
-                            "recorded {frames} frames in {folder}, but not {ANIMATION_FILE}: {e}"
-                        )),
-                    }
-                }
-            }
+        let Some(folder) = folder else {
+            self.finish_recording();
+            return;
+        };
+        if self.timeline.active.is_none() {
+            self.report_error("Record: no path is open; pick one under Path first");
+            return;
+        }
+        let folder = PathBuf::from(folder.trim());
+        if let Err(e) = std::fs::create_dir_all(&folder) {
+            self.report_error(format!("cannot record into `{}`: {e}", folder.display()));
+            return;
+        }
+        // Frames of an earlier recording would join this one's animation.
+        for step in 0..600 {
+            let _ = std::fs::remove_file(folder.join(format!("frame-{step:04}.png")));
+        }
+        self.timeline.recording = Some(Recording {
+            folder,
+            written: vec![false; self.timeline.steps as usize],
+        });
+        self.scrub_to(0);
+        self.timeline.playing = true;
+    }
+
+    /// Ends the recording: the animated PNG of the frames written from the first step on.
+    fn finish_recording(&mut self) {
+        let Some(recording) = self.timeline.recording.take() else {
+            return;
+        };
+        let folder = shown_path(&recording.folder);
+        let frames = recording.written.iter().take_while(|w| **w).count() as u32;
+        let total = recording.written.iter().filter(|w| **w).count();
+        if frames == 0 {
+            self.confirm(format!("recorded {total} frames in {folder}"));
+            return;
+        }
+        match write_animation(&recording.folder, frames) {
+            Ok(()) => self.confirm(format!(
+                "recorded {total} frames in {folder} (and {ANIMATION_FILE} of {frames} at {} \
+                 fps)",
+                softshadow_bench::motion::ANIMATION_FPS
+            )),
+            Err(e) => self.report_error(format!(
+                "recorded {total} frames in {folder}, but not {ANIMATION_FILE}: {e}"
+            )),
         }
     }
 
@@ -350,6 +393,15 @@ impl ViewerApp {
             }
             self.note_step(live, exact);
         }
+        let recorded_all = self
+            .timeline
+            .recording
+            .as_ref()
+            .is_some_and(|r| r.written.iter().all(|w| *w));
+        if recorded_all {
+            // One pass: the recording ends with the path's last step, loop or not.
+            self.finish_recording();
+        }
         if self.timeline.playing {
             let last = self.timeline.steps.saturating_sub(1);
             if step < last {
@@ -375,19 +427,34 @@ impl ViewerApp {
             Some(Err(message)) => self.timeline.live_message = Some(message),
             None => {}
         }
-        if let Some(written) = self.timeline.recording {
-            if let Err(e) = self.write_recorded_frame(written, exact) {
+        let step = self.timeline.step;
+        let Some(recording) = &self.timeline.recording else {
+            return;
+        };
+        if recording.written.get(step as usize) != Some(&false) {
+            return;
+        }
+        match self.write_recorded_frame(&recording.folder, step, exact) {
+            Ok(()) => {
+                if let Some(r) = self.timeline.recording.as_mut() {
+                    r.written[step as usize] = true;
+                }
+            }
+            Err(e) => {
                 self.report_error(format!("cannot record the frame: {e}"));
                 self.timeline.recording = None;
-            } else {
-                self.timeline.recording = Some(written + 1);
             }
         }
     }
 
     /// One PNG per frame: the technique's shaded image, and beside it the exact answer as grey
     /// (white lit, black umbra) where the scene has one.
-    fn write_recorded_frame(&self, index: u32, exact: Option<&[f32]>) -> Result<(), String> {
+    fn write_recorded_frame(
+        &self,
+        folder: &std::path::Path,
+        index: u32,
+        exact: Option<&[f32]>,
+    ) -> Result<(), String> {
         let r = self.image.renderers.as_ref().ok_or("nothing rendered")?;
         let (w, h) = (r.width, r.height);
         let shaded = r.technique.read_shaded().map_err(|e| e.to_string())?;
@@ -408,8 +475,7 @@ impl ViewerApp {
                 }
             }
         }
-        let file =
-            PathBuf::from(&self.timeline.record_folder).join(format!("frame-{index:04}.png"));
+        let file = folder.join(format!("frame-{index:04}.png"));
         image
             .save(&file)
             .map_err(|e| format!("{}: {e}", file.display()))
@@ -486,15 +552,21 @@ impl ViewerApp {
             ui.add(
                 egui::TextEdit::singleline(&mut self.timeline.record_folder).desired_width(130.0),
             );
-            if self.timeline.recording.is_some() {
-                if ui.button("Stop").clicked() {
+            if let Some(r) = &self.timeline.recording {
+                let done = r.written.iter().filter(|w| **w).count();
+                if ui
+                    .button("Stop")
+                    .on_hover_text(format!("{done} of {} frames recorded", r.written.len()))
+                    .clicked()
+                {
                     self.record_path(None);
                 }
             } else if ui
                 .button("Record")
                 .on_hover_text(
-                    "Write every played frame, technique beside the exact answer, as PNG; on Stop, \
-                     also one animated PNG of them",
+                    "Play the path once from its first step and write each step's frame, \
+                     technique beside the exact answer, as PNG into the folder, then one animated \
+                     PNG of them",
                 )
                 .clicked()
             {

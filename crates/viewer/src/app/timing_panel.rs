@@ -79,6 +79,16 @@ impl ViewerApp {
                  submitting and (with serial timing) waiting for every pass",
             );
         }
+        if let Some(ms) = self.technique.first_frame_ms {
+            ui.label(format!(
+                "first frame {:.0} ms after {} was picked",
+                ms, self.technique.id
+            ))
+            .on_hover_text(
+                "From the click that picked the technique to its first frame on screen: device \
+                 and pipeline creation and the frame, beside any abandoned frame still running",
+            );
+        }
         let source = self.timing.last_output.as_ref().map(|o| o.timing_source);
         if let Some(source) = source {
             ui.label(format!("pass times: {source}")).on_hover_text(
@@ -130,9 +140,13 @@ impl ViewerApp {
                     ));
                 }
             }
+            _ if self.technique.cancelled_frame.is_some() => {
+                ui.label("cost not measured: its frame was cancelled");
+            }
             _ => {
                 ui.label(format!(
-                    "measuring the cost: frame {} of {wanted} with caches dropped",
+                    "measuring the cost: frame {} of {wanted} with caches dropped, each alone \
+                     on the CPU",
                     self.timing.cost.len()
                 ));
             }
