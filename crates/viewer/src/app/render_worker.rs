@@ -260,6 +260,8 @@ impl RenderWorker {
     /// stopped), taking its device with it.
     pub(super) fn retire(mut self) -> Retired {
         self.requests = None;
+        // A technique created since the last look is idle, not abandoned.
+        let _ = self.poll_started();
         let thread = self.thread.take();
         if self.busy() || self.started.is_some() {
             return Retired {
