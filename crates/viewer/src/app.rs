@@ -12,8 +12,9 @@
 //! `technique_panel` and `build_panel` (a precompute building off the UI thread), `image` (the
 //! renderers, the display pass, view mode and render size: `ImageState`), `reference` (the
 //! progressive reference and the metrics against it: `ReferenceState`), `timing_panel`
-//! (`TimingState`), `error_panel` (metrics and the error-against-time plot: `PlotState`) and
-//! `files_panel` (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
+//! (`TimingState`), `error_panel` (the metrics), `plot_panel` (the error-against-time plot:
+//! `PlotPanel`, drawn by its own `ui` and answering with a `PlotAction`), `files_panel`
+//! (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
 //! `render_worker` (the threads the technique and the reference render on). This file holds the
 //! app, the frame's order and the queries the window and the tests use.
 
@@ -447,23 +448,34 @@ impl ViewerApp {
         // Messages, progress and legends float over the image (`overlays`): nothing here moves.
         ui.heading("Soft-shadow viewer");
 
-        ui.collapsing("Scene", |ui| self.scene_ui(ui))
+        let mut open = None;
+        ui.collapsing("Scene", |ui| open = self.scene.ui(ui))
             .header_response
             .on_hover_text("Builtin scenes, or a scene / glTF file by path or drag and drop");
+        if let Some(spec) = open {
+            self.open_scene(&spec);
+        }
         egui::CollapsingHeader::new("Technique")
             .default_open(true)
             .show(ui, |ui| self.technique_ui(ui));
         egui::CollapsingHeader::new("View")
             .default_open(true)
             .show(ui, |ui| self.view_ui(ui));
-        ui.collapsing("Light", |ui| self.light_ui(ui));
-        ui.collapsing("Camera", |ui| self.camera_ui(ui));
+        ui.collapsing("Light", |ui| self.scene.light_ui(ui));
+        ui.collapsing("Camera", |ui| self.scene.camera_ui(ui));
         ui.collapsing("Path", |ui| self.timeline_ui(ui))
             .header_response
             .on_hover_text(
                 "Play, scrub and record the scene along a path, with live error and flicker",
             );
-        ui.collapsing("Files", |ui| self.files_ui(ui));
+        let mut files = None;
+        ui.collapsing("Files", |ui| files = self.files.ui(ui));
+        match files {
+            Some(files_panel::FilesAction::SaveState(path)) => self.save_state(&path),
+            Some(files_panel::FilesAction::LoadState(path)) => self.load_state(&path),
+            Some(files_panel::FilesAction::Puffin(on)) => self.set_puffin(on),
+            None => {}
+        }
     }
 }
 

@@ -1,9 +1,11 @@
 //! Hot reload of a technique defined by a WGSL file (docs/WGSL.md, "Hot reload"): the active
 //! technique's file is polled once per frame; a new version that compiles replaces the technique
-//! (same id, the settings that still apply) and its measurements become a new point of the
-//! error-against-time plot, the old version's points staying as `id vN`; a version that does not
-//! compile shows its one-line error (`file:line:column: message`) while the last good pipeline
-//! keeps drawing.
+//! (same id, the settings that still apply) and its measurements become new points of the
+//! error-against-time plot (`id v2`, `id v3`, ...), every earlier version's points staying with
+//! their own legend entry; a version that does not compile shows its one-line error
+//! (`file:line:column: message`) while the last good pipeline keeps drawing.
+
+use std::collections::BTreeMap;
 
 use softshadow_core::Registry;
 use softshadow_wgsl::WatchedFile;

@@ -35,35 +35,46 @@ impl Default for FilesState {
     }
 }
 
-impl ViewerApp {
-    pub(super) fn files_ui(&mut self, ui: &mut egui::Ui) {
+/// What the user asked of the files section.
+pub(super) enum FilesAction {
+    SaveState(PathBuf),
+    LoadState(PathBuf),
+    Puffin(bool),
+}
+
+impl FilesState {
+    /// The screenshot, state and puffin controls; returns what the app must do.
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui) -> Option<FilesAction> {
+        let mut action = None;
         // Each path on its own row, its buttons below: nothing is clipped at the panel's width.
         let width = ui.available_width();
-        ui.add(egui::TextEdit::singleline(&mut self.files.screenshot_path).desired_width(width));
+        ui.add(egui::TextEdit::singleline(&mut self.screenshot_path).desired_width(width))
+            .on_hover_text(self.screenshot_path.clone());
         if ui.button("Screenshot").clicked() {
-            self.files.screenshot_request = Some(PathBuf::from(self.files.screenshot_path.trim()));
+            self.screenshot_request = Some(PathBuf::from(self.screenshot_path.trim()));
         }
-        ui.add(egui::TextEdit::singleline(&mut self.files.state_path).desired_width(width));
+        ui.add(egui::TextEdit::singleline(&mut self.state_path).desired_width(width))
+            .on_hover_text(self.state_path.clone());
         ui.horizontal(|ui| {
+            let path = PathBuf::from(self.state_path.trim());
             if ui.button("Save state").clicked() {
-                let path = PathBuf::from(self.files.state_path.trim());
-                self.save_state(&path);
+                action = Some(FilesAction::SaveState(path.clone()));
             }
             if ui.button("Load").clicked() {
-                let path = PathBuf::from(self.files.state_path.trim());
-                self.load_state(&path);
+                action = Some(FilesAction::LoadState(path));
             }
         });
-        let mut puffin = self.files.puffin_server.is_some();
+        let mut puffin = self.puffin_server.is_some();
         if ui
             .checkbox(&mut puffin, "Serve CPU scopes to puffin_viewer")
             .changed()
         {
-            self.set_puffin(puffin);
+            action = Some(FilesAction::Puffin(puffin));
         }
-        if let Some(message) = &self.files.puffin_message {
+        if let Some(message) = &self.puffin_message {
             ui.small(message);
         }
+        action
     }
 }
 

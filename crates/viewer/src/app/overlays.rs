@@ -109,7 +109,7 @@ impl ViewerApp {
     }
 
     fn messages_ui(&mut self, ui: &mut egui::Ui) {
-        self.build_ui(ui);
+        self.technique.build.ui(ui, &self.technique.id);
         self.slow_frame_ui(ui);
         if let Some(error) = &self.technique.error {
             ui.colored_label(egui::Color32::LIGHT_RED, error);
@@ -167,9 +167,10 @@ impl ViewerApp {
                     None => format!("{seconds:.1} s (no earlier frame of this setting to go by)"),
                 };
                 let fraction = last.map_or(0.0, |last| (seconds / last.max(1e-3)).min(0.99));
-                let bar = egui::ProgressBar::new(fraction as f32).text(text);
+                let bar = egui::ProgressBar::new(fraction as f32);
                 // Without an estimate the bar only shows that work goes on.
                 ui.add(if last.is_some() { bar } else { bar.animate(true) });
+                ui.label(text);
                 if ui
                     .button("Cancel")
                     .on_hover_text(

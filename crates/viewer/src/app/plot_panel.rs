@@ -66,11 +66,11 @@ pub fn series_style(index: usize, version: Option<u32>) -> (egui::Color32, egui_
 /// comparable: another camera sees other pixels).
 pub(super) struct ViewPoints {
     /// The scene's content hash: "other views" are this scene's other cameras and lights.
-    scene: u64,
+    pub(super) scene: u64,
     /// Scene, light and camera ([`super::ViewerApp::current_view_key`]); not the size or the
     /// reference's samples: errors are per-pixel means, comparable across both.
-    key: u64,
-    points: Vec<TradeoffPoint>,
+    pub(super) key: u64,
+    pub(super) points: Vec<TradeoffPoint>,
 }
 
 /// Where the plot stands: the current scene and view, the registry (styles, defaults), and the
@@ -105,6 +105,9 @@ pub(super) struct PlotPanel {
     pub(super) export_path: String,
     /// Screen positions of the current view's points as last drawn (hover, click, tests).
     drawn: Vec<(egui::Pos2, TradeoffPoint)>,
+    /// The point under the pointer last frame: described at the top of the legend at once
+    /// (egui's tooltip beside the pointer comes after its delay).
+    hovered: Option<TradeoffPoint>,
 }
 
 impl PlotPanel {
@@ -116,6 +119,7 @@ impl PlotPanel {
             log_time_axis: false,
             export_path,
             drawn: Vec::new(),
+            hovered: None,
         }
     }
 
@@ -208,6 +212,9 @@ impl PlotPanel {
             .resizable(false)
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| {
+                    if let Some(point) = &self.hovered {
+                        ui.group(|ui| describe_ui(ui, point, &defaults));
+                    }
                     legend_ui(ui, &series, &points, &front, &defaults);
                 });
             });
@@ -338,14 +345,11 @@ impl PlotPanel {
         });
         let clicked = response.response.clicked();
         if let Some(point) = &hovered {
-            let label = point.label(defaults.get(point.technique.as_str()).map_or(&[], |d| d));
-            response.response.on_hover_ui_at_pointer(|ui| {
-                ui.strong(label);
-                ui.label(describe_error(point));
-                ui.label(describe_cost(point));
-                ui.weak("click: show this setting");
-            });
+            response
+                .response
+                .on_hover_ui_at_pointer(|ui| describe_ui(ui, point, defaults));
         }
+        self.hovered = hovered.clone();
         hovered.filter(|_| clicked)
     }
 }
@@ -464,6 +468,15 @@ fn legend_ui(
         ))
         .on_hover_text(format!("{}\n{}", describe_error(p), describe_cost(p)));
     }
+}
+
+/// A point named: its technique and settings, error and cost, and what a click does.
+fn describe_ui(ui: &mut egui::Ui, point: &TradeoffPoint, defaults: &Defaults) {
+    let label = point.label(defaults.get(point.technique.as_str()).map_or(&[], |d| d));
+    ui.strong(label);
+    ui.label(describe_error(point));
+    ui.label(describe_cost(point));
+    ui.weak("click: show this setting");
 }
 
 /// The point's error, and what it is of.

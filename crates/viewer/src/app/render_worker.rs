@@ -220,11 +220,19 @@ impl RenderWorker {
     /// Whether the technique has been created: `None` while it is being created, then once
     /// `Some(Ok)` or `Some(Err)` with why it could not be.
     pub(super) fn poll_started(&mut self) -> Option<Result<(), StartError>> {
-        let started = self.started.as_ref()?;
-        match started.try_recv() {
-            Err(mpsc::TryRecvError::Empty) => None,
-            _ => Some(self.wait_started()),
-        }
+        let result = match self.started.as_ref()?.try_recv() {
+            Err(mpsc::TryRecvError::Empty) => return None,
+            Ok(Ok(device)) => {
+                self.gpu = Some(device);
+                Ok(())
+            }
+            Ok(Err(e)) => Err(e),
+            Err(mpsc::TryRecvError::Disconnected) => Err(StartError::Technique(
+                "the render worker stopped while creating the technique (see the log)".into(),
+            )),
+        };
+        self.started = None;
+        Some(result)
     }
 
     /// A worker for a registered technique with `params`, its precompute watched by `build`
