@@ -549,7 +549,7 @@ fn an_exported_sweep_benchmarks_the_view_the_viewer_plotted() -> Result<()> {
         .context("the export is confirmed")?;
     ensure!(status.contains("sweep.toml"), "{status}");
     harness
-        .query_by_label_contains("sweep.toml")
+        .query_by_label_contains("points to")
         .context("the confirmation is on screen")?;
 
     let sweep = softshadow_bench::Sweep::load(&sweep_path, &softshadow::registry())?;

@@ -10,6 +10,8 @@ use crate::display::{DebugMapping, ViewMode};
 
 impl ViewerApp {
     pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
+        // Narrower sliders than egui's 100 points: more names fit beside their widget.
+        ui.spacing_mut().slider_width = 80.0;
         let mut chosen = None;
         egui::ComboBox::from_label("Technique")
             .selected_text(self.technique.id.clone())
