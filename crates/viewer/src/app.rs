@@ -375,7 +375,14 @@ impl ViewerApp {
             .resizable(false)
             .show(ui, |ui| {
                 side_scroll_area(ui).show(ui, |ui| {
-                    self.timing_ui(ui);
+                    let cx = timing_panel::TimingContext {
+                        technique: &self.technique.id,
+                        first_frame_ms: self.technique.first_frame_ms,
+                        cancelled: self.technique.cancelled_frame.is_some(),
+                        playing: self.timeline.playing,
+                        path: self.timeline.active.is_some().then(|| self.path_timings()),
+                    };
+                    self.timing.ui(ui, &cx);
                     ui.separator();
                     self.reference_error_ui(ui);
                 });

@@ -1432,7 +1432,10 @@ fn the_plot_panel_names_a_point_on_hover_and_a_click_restores_its_setting() -> R
     ensure!(drawn.len() == 2, "two points drawn: {drawn:?}");
     let (at, point) = drawn
         .iter()
-        .find(|(_, p)| p.params.contains(&("filter_samples".into(), ParamValue::Int(32))))
+        .find(|(_, p)| {
+            p.params
+                .contains(&("filter_samples".into(), ParamValue::Int(32)))
+        })
         .cloned()
         .context("the default setting's point")?;
     harness.hover_at(at);
@@ -1486,7 +1489,10 @@ fn a_technique_with_a_history_is_plotted_once_settled() -> Result<()> {
         h.state()
             .points()
             .iter()
-            .find(|p| p.params.contains(&("temporal".into(), ParamValue::Bool(true))))
+            .find(|p| {
+                p.params
+                    .contains(&("temporal".into(), ParamValue::Bool(true)))
+            })
             .cloned()
     };
     // Five cost frames (each drops the history), then still frames until four are averaged.
@@ -1561,7 +1567,8 @@ fn watched_sleepy_harness(
                     sleeping: sleeping.clone(),
                     overlapped: overlapped.clone(),
                     cache_dropped: false,
-                }) as Box<dyn softshadow_core::ShadowTechnique>)
+                })
+                    as Box<dyn softshadow_core::ShadowTechnique>)
             },
         ))?;
     }
@@ -1664,7 +1671,9 @@ fn costs_rest_on_frames_that_ran_alone_and_banners_say_what_happens_now() -> Res
     run_until(&mut harness, "watcher's point", &|a| a.points().len() == 1)?;
     // sleepy's first frame: nothing of it to go by.
     harness.state_mut().select_technique("sleepy");
-    run_until(&mut harness, "a slow frame", &|a| a.slow_frame_seconds().is_some())?;
+    run_until(&mut harness, "a slow frame", &|a| {
+        a.slow_frame_seconds().is_some()
+    })?;
     // The messages' area appears a frame after it is first laid out.
     harness.run_steps(2);
     harness
@@ -1681,9 +1690,7 @@ fn costs_rest_on_frames_that_ran_alone_and_banners_say_what_happens_now() -> Res
     harness
         .query_by_label_contains("waiting for sleepy's frame of this setting")
         .context("the stale metrics say what they wait for")?;
-    ensure!(harness
-        .query_by_label_contains("re-accumulating")
-        .is_none());
+    ensure!(harness.query_by_label_contains("re-accumulating").is_none());
     // Back to the watcher while sleepy sleeps: its frames show, its cost frames wait.
     harness.state_mut().select_technique("watcher");
     run_until(&mut harness, "watcher's frame", &|a| {
@@ -1781,7 +1788,10 @@ fn nothing_is_cut_at_1280x800_and_1000x700() -> Result<()> {
     harness.run_steps(2);
     let picker = harness.get_by_role_and_label(Role::ComboBox, "Debug image");
     ensure!(
-        picker.accesskit_node().value().is_some_and(|v| !v.is_empty() && v != "none"),
+        picker
+            .accesskit_node()
+            .value()
+            .is_some_and(|v| !v.is_empty() && v != "none"),
         "the debug image picker names the view shown: {:?}",
         picker.accesskit_node().value()
     );
@@ -1803,7 +1813,12 @@ fn nothing_is_cut_at_1280x800_and_1000x700() -> Result<()> {
         "screenshot, state and sweep default under {output}: {fields:?} {:?}",
         harness
             .query_all_by_role(Role::DisclosureTriangle)
-            .map(|n| format!("{:?} {:?} {:?}", n.accesskit_node().label(), n.accesskit_node().data().is_expanded(), n.rect()))
+            .map(|n| format!(
+                "{:?} {:?} {:?}",
+                n.accesskit_node().label(),
+                n.accesskit_node().data().is_expanded(),
+                n.rect()
+            ))
             .collect::<Vec<_>>()
     );
     let ids: Vec<String> = softshadow::registry()

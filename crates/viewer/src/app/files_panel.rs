@@ -23,10 +23,7 @@ pub(super) struct FilesState {
 impl Default for FilesState {
     fn default() -> Self {
         Self {
-            state_path: output_dir()
-                .join("viewer-state.json")
-                .display()
-                .to_string(),
+            state_path: output_dir().join("viewer-state.json").display().to_string(),
             screenshot_path: output_dir().join("screenshot.png").display().to_string(),
             screenshot_request: None,
             puffin_server: None,

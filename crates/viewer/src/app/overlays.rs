@@ -148,7 +148,10 @@ impl ViewerApp {
             let in_flight = self.technique.worker.as_ref().and_then(|w| w.in_flight());
             // Only this setting's earlier frame of the same kind says how long it takes.
             let last = in_flight
-                .and_then(|f| self.technique.estimate_ms(f.setting_key, f.invalidate))
+                .and_then(|f| {
+                    self.technique
+                        .estimate_ms(f.setting_key, f.invalidate, f.exact)
+                })
                 .map(|ms| ms / 1e3);
             let exact = in_flight.is_some_and(|f| f.exact);
             ui.group(|ui| {
@@ -169,7 +172,11 @@ impl ViewerApp {
                 let fraction = last.map_or(0.0, |last| (seconds / last.max(1e-3)).min(0.99));
                 let bar = egui::ProgressBar::new(fraction as f32);
                 // Without an estimate the bar only shows that work goes on.
-                ui.add(if last.is_some() { bar } else { bar.animate(true) });
+                ui.add(if last.is_some() {
+                    bar
+                } else {
+                    bar.animate(true)
+                });
                 ui.label(text);
                 if ui
                     .button("Cancel")

@@ -45,8 +45,9 @@ const SERIES_MARKERS: [egui_plot::MarkerShape; 7] = [
 /// Colour of the Pareto front and its legend entry.
 const FRONT_COLOUR: egui::Color32 = egui::Color32::from_gray(200);
 
-/// Width of the legend column beside the plot, points.
-const LEGEND_WIDTH: f32 = 250.0;
+/// Share of the panel's width the legend column beside the plot takes, and its bounds, points.
+const LEGEND_SHARE: f32 = 0.3;
+const LEGEND_WIDTH: std::ops::RangeInclusive<f32> = 130.0..=250.0;
 
 /// A pointer this close to a point (points) hovers and clicks it.
 const PICK_RADIUS: f32 = 12.0;
@@ -207,8 +208,11 @@ impl PlotPanel {
         let defaults = defaults_of(cx.registry);
         let series = series_of(cx.registry, &points, &others);
         let front = pareto_front(&points);
+        // A narrow window (1000 x 700) leaves the plot most of the width.
+        let legend_width =
+            (ui.available_width() * LEGEND_SHARE).clamp(*LEGEND_WIDTH.start(), *LEGEND_WIDTH.end());
         egui::Panel::right("plot legend")
-            .exact_size(LEGEND_WIDTH)
+            .exact_size(legend_width)
             .resizable(false)
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| {
@@ -389,7 +393,11 @@ fn defaults_of(registry: &Registry) -> Defaults {
 
 /// The series with points, in registry order and then by version; a technique no longer
 /// registered keeps the style after the registry's.
-fn series_of(registry: &Registry, points: &[TradeoffPoint], others: &[TradeoffPoint]) -> Vec<Series> {
+fn series_of(
+    registry: &Registry,
+    points: &[TradeoffPoint],
+    others: &[TradeoffPoint],
+) -> Vec<Series> {
     let mut keys: Vec<(usize, String, Option<u32>)> = Vec::new();
     for p in points.iter().chain(others) {
         let index = registry

@@ -62,16 +62,12 @@ impl SceneState {
             );
             // Enter in the field opens, as the Open button does.
             let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-            if (ui.button("Open").clicked() || entered) && !self.path_field.trim().is_empty()
-            {
+            if (ui.button("Open").clicked() || entered) && !self.path_field.trim().is_empty() {
                 open = Some(self.path_field.trim().to_string());
             }
         });
         ui.small("Or drop a .toml / .gltf / .glb file on the window.");
-        ui.label(format!(
-            "{} triangles",
-            self.loaded.scene.triangle_count()
-        ));
+        ui.label(format!("{} triangles", self.loaded.scene.triangle_count()));
         open
     }
 
@@ -120,9 +116,7 @@ impl SceneState {
 
     pub(super) fn camera_ui(&mut self, ui: &mut egui::Ui) {
         ui.small("Image: left drag orbits, right or middle drag pans, scroll zooms.");
-        ui.add(
-            egui::Slider::new(&mut self.camera.fov_y_degrees, 10.0..=120.0).text("fov (deg)"),
-        );
+        ui.add(egui::Slider::new(&mut self.camera.fov_y_degrees, 10.0..=120.0).text("fov (deg)"));
         ui.add(
             egui::Slider::new(&mut self.orbit.distance, 0.1..=100.0)
                 .logarithmic(true)

@@ -52,9 +52,10 @@ pub(super) struct TechniqueState {
     /// Threads of workers abandoned mid-frame, until their frame ends: while one runs, no cost
     /// frame is asked for (it would share the CPU with it and read slow).
     abandoned: Vec<JoinHandle<()>>,
-    /// Wall time of the last finished frame per setting and kind (cost frame or not), ms: what
-    /// a running frame's progress is estimated from.
-    frame_ms: BTreeMap<(u64, bool), f64>,
+    /// Wall time of the last finished frame per setting and kind (cost frame or not, with the
+    /// exact answer of a path step or not), ms: what a running frame's progress is estimated
+    /// from.
+    frame_ms: BTreeMap<(u64, bool, bool), f64>,
     /// The still frames of the current setting, for a technique that keeps a history.
     pub(super) history: HistoryState,
     /// When the active technique was picked, until its first frame is shown.
@@ -153,8 +154,8 @@ impl TechniqueState {
 
     /// The last frame's wall time of this setting and kind, ms: what a running frame is
     /// compared with (`None`: no earlier frame to go by).
-    pub(super) fn estimate_ms(&self, key: u64, invalidate: bool) -> Option<f64> {
-        self.frame_ms.get(&(key, invalidate)).copied()
+    pub(super) fn estimate_ms(&self, key: u64, invalidate: bool, exact: bool) -> Option<f64> {
+        self.frame_ms.get(&(key, invalidate, exact)).copied()
     }
 }
 
@@ -338,7 +339,12 @@ impl ViewerApp {
         if self.image.renderers.is_none() || self.technique.cancelled_frame.is_some() {
             return;
         }
-        if let Some(Err(e)) = self.technique.worker.as_mut().and_then(|w| w.poll_started()) {
+        if let Some(Err(e)) = self
+            .technique
+            .worker
+            .as_mut()
+            .and_then(|w| w.poll_started())
+        {
             self.technique.worker = None;
             let message = format!("technique `{}` failed to start: {e}", self.technique.id);
             self.technique.error = Some(message.clone());
@@ -371,7 +377,11 @@ impl ViewerApp {
             && !self.image.interacting
             && !self.timeline.playing
             && alone;
-        let r = self.image.renderers.as_ref().expect("checked by the caller");
+        let r = self
+            .image
+            .renderers
+            .as_ref()
+            .expect("checked by the caller");
         FrameRequest {
             setting_key: self.current_setting_key(),
             scene: self.technique.worker_scene(&self.scene.loaded),
@@ -387,7 +397,12 @@ impl ViewerApp {
     }
 
     fn worker_stopped(&mut self) {
-        let why = match self.technique.worker.as_mut().and_then(|w| w.poll_started()) {
+        let why = match self
+            .technique
+            .worker
+            .as_mut()
+            .and_then(|w| w.poll_started())
+        {
             Some(Err(e)) => format!("it failed to start: {e}"),
             _ => "its render worker stopped (a panic on its thread; the log says why); pick the \
                   technique again to restart it"
@@ -419,9 +434,10 @@ impl ViewerApp {
             return; // Of a scene no longer open.
         }
         let current = done.setting_key == self.current_setting_key();
-        self.technique
-            .frame_ms
-            .insert((done.setting_key, done.invalidated), done.wall_ms);
+        self.technique.frame_ms.insert(
+            (done.setting_key, done.invalidated, done.live.is_some()),
+            done.wall_ms,
+        );
         let shown_ok = done.result.is_ok();
         let mut path_timing = None;
         match done.result {

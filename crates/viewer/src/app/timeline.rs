@@ -19,7 +19,7 @@ use softshadow_bench::results::FrameKind;
 use softshadow_core::{GpuFrameTiming, Scene, SceneGpu};
 use softshadow_scenes::path::{self, Path, Pose, BUILTIN_PATHS};
 
-use super::{format_ms, shown_path, ViewerApp};
+use super::{shown_path, ViewerApp};
 use crate::{
     orbit::Orbit,
     timing::{PassRow, RollingTimings},
@@ -146,10 +146,7 @@ impl Default for TimelineState {
             timings: Default::default(),
             live: VecDeque::new(),
             live_message: None,
-            record_folder: super::output_dir()
-                .join("recording")
-                .display()
-                .to_string(),
+            record_folder: super::output_dir().join("recording").display().to_string(),
             recording: None,
         }
     }
@@ -574,76 +571,6 @@ impl ViewerApp {
                 self.record_path(Some(&folder));
             }
         });
-    }
-
-    /// The timing panel's table of the path's steps: per pass, the median over the last steps
-    /// of each kind (camera only, light or caster moving, still), as `bench --path` splits its
-    /// frame times. Nothing without a path or before a step was timed.
-    pub(super) fn path_timing_ui(&self, ui: &mut egui::Ui) {
-        if self.timeline.active.is_none() {
-            return;
-        }
-        let groups = self.path_timings();
-        if groups.is_empty() {
-            ui.small("along the path: GPU timings appear as steps are played");
-            return;
-        }
-        let kind_name = |kind: FrameKind| match kind {
-            FrameKind::Camera => "camera only",
-            FrameKind::Light => "light moving",
-            FrameKind::Still => "still",
-            FrameKind::First => "first",
-        };
-        ui.small(format!(
-            "along the path: median of the last steps of each kind ({})",
-            groups
-                .iter()
-                .map(|g| format!("{} {}", g.steps, kind_name(g.kind)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ))
-        .on_hover_text(
-            "Each step of the path is timed once, as it is first shown, and counted by what \
-             changed since the step before: light-space work is redone when the light or a \
-             caster moves and may be kept while only the camera moves (FrameChanges), as \
-             `bench --path`'s camera-only / light-moving frame times",
-        );
-        // Every pass any kind ran, in the order first seen.
-        let mut names: Vec<&str> = Vec::new();
-        for g in &groups {
-            for p in &g.passes {
-                if !names.contains(&p.name.as_str()) {
-                    names.push(&p.name);
-                }
-            }
-        }
-        egui::Grid::new("path timings")
-            .striped(true)
-            .show(ui, |ui| {
-                ui.strong("pass");
-                for g in &groups {
-                    ui.strong(format!("{} ms", kind_name(g.kind)));
-                }
-                ui.end_row();
-                for name in names {
-                    ui.label(name);
-                    for g in &groups {
-                        let ms = g.passes.iter().find(|p| p.name == name);
-                        ui.label(ms.map_or("-".into(), |p| format_ms(p.median_ms)));
-                    }
-                    ui.end_row();
-                }
-                ui.strong("technique");
-                for g in &groups {
-                    ui.strong(format_ms(g.technique_ms));
-                }
-                ui.end_row();
-                ui.strong("frame (GPU passes)");
-                for g in &groups {
-                    ui.strong(format_ms(g.total_ms));
-                }
-                ui.end_row();
-            });
     }
 
     fn live_ui(&mut self, ui: &mut egui::Ui) {
