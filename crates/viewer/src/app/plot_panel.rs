@@ -272,65 +272,19 @@ impl PlotPanel {
             plot.x_grid_spacer(move |input| linear_ticks(input.bounds, max_ticks))
                 .x_axis_formatter(|mark, _| format_tick(mark.value))
         };
+        let items = PlotItems {
+            points,
+            others,
+            series,
+            front,
+            log_x,
+        };
         let response = plot.show(ui, |plot| {
             plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(
                 [x_range[0], y_range[0]],
                 [x_range[1], y_range[1]],
             ));
-            if front.len() > 1 {
-                let line: Vec<[f64; 2]> = front
-                    .iter()
-                    .map(|&i| [x_of(points[i].gpu_ms), points[i].error])
-                    .collect();
-                // No band: egui_plot merges points that share a pixel column into a filled
-                // band, which drew the front as a grey triangle on the linear axis.
-                plot.line(
-                    egui_plot::Line::new("Pareto front", line)
-                        .color(FRONT_COLOUR)
-                        .width(1.5)
-                        .allow_band(false)
-                        .allow_hover(false),
-                );
-            }
-            for s in series {
-                let of = |points: &[TradeoffPoint]| -> Vec<[f64; 2]> {
-                    points
-                        .iter()
-                        .filter(|p| s.holds(p))
-                        .map(|p| [x_of(p.gpu_ms), p.error])
-                        .collect()
-                };
-                plot.points(
-                    egui_plot::Points::new(s.name.clone(), of(points))
-                        .radius(5.0)
-                        .shape(s.shape)
-                        .filled(true)
-                        .color(s.colour)
-                        .allow_hover(false),
-                );
-                let other = of(others);
-                if !other.is_empty() {
-                    plot.points(
-                        egui_plot::Points::new(format!("{} (other views)", s.name), other)
-                            .radius(5.0)
-                            .shape(s.shape)
-                            .filled(false)
-                            .color(s.colour.gamma_multiply(0.7))
-                            .allow_hover(false),
-                    );
-                }
-            }
-            for p in points.iter().filter(|p| p.settled_after.is_some()) {
-                plot.text(
-                    egui_plot::Text::new(
-                        format!("settled {}", p.series()),
-                        egui_plot::PlotPoint::new(x_of(p.gpu_ms), p.error),
-                        egui::RichText::new("  settled").small(),
-                    )
-                    .anchor(egui::Align2::LEFT_CENTER)
-                    .color(egui::Color32::from_gray(210)),
-                );
-            }
+            items.draw(plot);
         });
         self.drawn = points
             .iter()
@@ -355,6 +309,78 @@ impl PlotPanel {
         }
         self.hovered = hovered.clone();
         hovered.filter(|_| clicked)
+    }
+}
+
+/// What the plot draws: the current view's points (and the other views' shown), the series,
+/// the front.
+struct PlotItems<'a> {
+    points: &'a [TradeoffPoint],
+    others: &'a [TradeoffPoint],
+    series: &'a [Series],
+    front: &'a [usize],
+    log_x: bool,
+}
+
+impl PlotItems<'_> {
+    fn draw(&self, plot: &mut egui_plot::PlotUi<'_>) {
+        let log_x = self.log_x;
+        let x_of = move |ms: f64| if log_x { ms.max(1e-3).log10() } else { ms };
+        let (points, others, series, front) = (self.points, self.others, self.series, self.front);
+        if front.len() > 1 {
+            let line: Vec<[f64; 2]> = front
+                .iter()
+                .map(|&i| [x_of(points[i].gpu_ms), points[i].error])
+                .collect();
+            // No band: egui_plot merges points that share a pixel column into a filled
+            // band, which drew the front as a grey triangle on the linear axis.
+            plot.line(
+                egui_plot::Line::new("Pareto front", line)
+                    .color(FRONT_COLOUR)
+                    .width(1.5)
+                    .allow_band(false)
+                    .allow_hover(false),
+            );
+        }
+        for s in series {
+            let of = |points: &[TradeoffPoint]| -> Vec<[f64; 2]> {
+                points
+                    .iter()
+                    .filter(|p| s.holds(p))
+                    .map(|p| [x_of(p.gpu_ms), p.error])
+                    .collect()
+            };
+            plot.points(
+                egui_plot::Points::new(s.name.clone(), of(points))
+                    .radius(5.0)
+                    .shape(s.shape)
+                    .filled(true)
+                    .color(s.colour)
+                    .allow_hover(false),
+            );
+            let other = of(others);
+            if !other.is_empty() {
+                plot.points(
+                    egui_plot::Points::new(format!("{} (other views)", s.name), other)
+                        .radius(5.0)
+                        .shape(s.shape)
+                        .filled(false)
+                        .color(s.colour.gamma_multiply(0.7))
+                        .allow_hover(false),
+                );
+            }
+        }
+        for p in points.iter().filter(|p| p.settled_after.is_some()) {
+            plot.text(
+                egui_plot::Text::new(
+                    format!("settled {}", p.series()),
+                    egui_plot::PlotPoint::new(x_of(p.gpu_ms), p.error),
+                    egui::RichText::new("  settled").small(),
+                )
+                .anchor(egui::Align2::LEFT_CENTER)
+                .color(egui::Color32::from_gray(210)),
+            );
+        }
     }
 }
 

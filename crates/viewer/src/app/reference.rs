@@ -129,6 +129,15 @@ impl ViewerApp {
             .as_ref()
             .and_then(|w| w.in_flight())
             .is_some_and(|f| f.invalidate);
+        let scene = self.technique.worker_scene(&self.scene.loaded);
+        let params: Vec<(String, ParamValue)> = self
+            .reference
+            .yardstick
+            .params()
+            .entries
+            .into_iter()
+            .map(|(spec, value)| (spec.name.to_string(), value))
+            .collect();
         let worker = self.reference.worker.as_mut().expect("started above");
         if let Some(Err(e)) = worker.poll_started() {
             self.reference.worker = None;
@@ -145,19 +154,12 @@ impl ViewerApp {
         {
             let request = FrameRequest {
                 setting_key: key,
-                scene: self.technique.worker_scene(&self.scene.loaded),
+                scene,
                 scene_hash,
                 camera: self.scene.camera,
                 light: self.scene.light,
                 size,
-                params: self
-                    .reference
-                    .yardstick
-                    .params()
-                    .entries
-                    .into_iter()
-                    .map(|(spec, value)| (spec.name.to_string(), value))
-                    .collect(),
+                params,
                 invalidate: false,
                 debug_view: None,
                 exact: None,
@@ -168,6 +170,15 @@ impl ViewerApp {
                 return;
             }
         }
+        self.receive_reference(scene_hash, size);
+    }
+
+    /// Shows the batches the reference's worker finished, when they are of the shown scene and
+    /// size.
+    fn receive_reference(&mut self, scene_hash: u64, size: (u32, u32)) {
+        let Some(worker) = self.reference.worker.as_mut() else {
+            return;
+        };
         // The technique's frame has the UI frame's wait; the reference's batches are shown when
         // they arrive (tests wait for both).
         let wait = if self.technique.frame_wait == Duration::MAX {
