@@ -384,7 +384,10 @@ impl ViewerApp {
                     };
                     self.timing.ui(ui, &cx);
                     ui.separator();
-                    self.reference_error_ui(ui);
+                    let cx = self.metrics_context();
+                    if let Some(error) = self.reference.ui(ui, &cx) {
+                        self.report_error(error);
+                    }
                 });
             });
         let plot_height = if self.plot.open {
@@ -465,9 +468,17 @@ impl ViewerApp {
         egui::CollapsingHeader::new("Technique")
             .default_open(true)
             .show(ui, |ui| self.technique_ui(ui));
+        let debug_views: Vec<String> = self
+            .technique
+            .worker
+            .as_ref()
+            .map(|w| w.debug_views.iter().map(|(name, _)| name.clone()).collect())
+            .unwrap_or_default();
         egui::CollapsingHeader::new("View")
             .default_open(true)
-            .show(ui, |ui| self.view_ui(ui));
+            .show(ui, |ui| {
+                self.image.view_ui(ui, &debug_views, &mut self.plot.open)
+            });
         ui.collapsing("Light", |ui| self.scene.light_ui(ui));
         ui.collapsing("Camera", |ui| self.scene.camera_ui(ui));
         ui.collapsing("Path", |ui| self.timeline_ui(ui))

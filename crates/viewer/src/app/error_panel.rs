@@ -5,14 +5,29 @@
 use softshadow_core::{ParamValue, ShadowTechnique};
 use softshadow_metrics::ErrorReport;
 
-use super::{ViewerApp, DEFAULT_REFERENCE_SAMPLES};
+use softshadow_reference::Progress;
 
-impl ViewerApp {
-    pub(super) fn reference_error_ui(&mut self, ui: &mut egui::Ui) {
+use super::{reference::ReferenceState, ViewerApp, DEFAULT_REFERENCE_SAMPLES};
+
+/// What the error section shows besides the reference's own state.
+pub(super) struct MetricsContext {
+    /// The reference of the current inputs: light samples done of all.
+    pub(super) progress: Progress,
+    /// The metrics: of the current setting (`true`), or an earlier one's, shown stale.
+    pub(super) report: Option<(ErrorReport, bool)>,
+    /// What the current setting's metrics wait for, now.
+    pub(super) pending: String,
+    /// For a technique that keeps a history: what its metrics are of.
+    pub(super) history_note: Option<String>,
+}
+
+impl ReferenceState {
+    /// The error section: the reference's progress and samples, the metrics (current, or
+    /// stale with what they wait for). Returns an error to show, if the samples were refused.
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui, cx: &MetricsContext) -> Option<String> {
         ui.heading("Error against the reference");
-        let p = self.shown_reference_progress();
+        let p = cx.progress;
         let samples = self
-            .reference
             .yardstick
             .params()
             .get("samples_per_axis")
@@ -26,43 +41,63 @@ impl ViewerApp {
             "Light samples the reference has accumulated for the current scene, light, camera \
              and size; it restarts when one of them changes",
         );
+        let mut error = None;
         let mut new_samples = samples;
         if ui
             .add(egui::Slider::new(&mut new_samples, 1..=64).text("samples per axis"))
             .on_hover_text("light samples per axis of the reference: N x N in all")
             .changed()
         {
-            if let Err(e) = self
-                .reference
+            error = self
                 .yardstick
                 .set_param("samples_per_axis", ParamValue::Int(new_samples))
-            {
-                self.report_error(e.to_string());
+                .err()
+                .map(|e| e.to_string());
+        }
+        match &cx.report {
+            Some((report, true)) => {
+                ui.label(format!(
+                    "metrics rest on {} light samples ({samples} x {samples})",
+                    p.total
+                ));
+                if let Some(note) = &cx.history_note {
+                    ui.colored_label(ui.visuals().warn_fg_color, note);
+                }
+                metrics_grid(ui, report);
+            }
+            Some((report, false)) => {
+                // Metrics belong to one setting: an earlier one's are shown greyed, never as
+                // current, with what is happening now.
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!(
+                        "stale: these metrics are of an earlier setting; {}",
+                        cx.pending
+                    ),
+                );
+                ui.add_enabled_ui(false, |ui| metrics_grid(ui, report));
+            }
+            None => {
+                ui.label(format!("no metrics yet: {}", cx.pending));
             }
         }
-        if let Some(report) = self.metrics() {
-            ui.label(format!(
-                "metrics rest on {} light samples ({samples} x {samples})",
-                p.total
-            ));
-            if let Some(note) = self.history_note() {
-                ui.colored_label(ui.visuals().warn_fg_color, note);
-            }
-            metrics_grid(ui, report);
-        } else if let Some(report) = self.stale_metrics() {
-            // Metrics belong to one setting: an earlier one's are shown greyed, never as current,
-            // with what is happening now.
-            ui.colored_label(
-                ui.visuals().warn_fg_color,
-                format!(
-                    "stale: these metrics are of an earlier setting; {}",
-                    self.metrics_pending()
-                ),
-            );
-            let report = report.clone();
-            ui.add_enabled_ui(false, |ui| metrics_grid(ui, &report));
-        } else {
-            ui.label(format!("no metrics yet: {}", self.metrics_pending()));
+        error
+    }
+}
+
+impl ViewerApp {
+    /// The error section's context: progress, metrics, what they wait for.
+    pub(super) fn metrics_context(&self) -> MetricsContext {
+        let report = match (self.metrics(), self.stale_metrics()) {
+            (Some(report), _) => Some((report.clone(), true)),
+            (None, Some(report)) => Some((report.clone(), false)),
+            (None, None) => None,
+        };
+        MetricsContext {
+            progress: self.shown_reference_progress(),
+            report,
+            pending: self.metrics_pending(),
+            history_note: self.history_note(),
         }
     }
 

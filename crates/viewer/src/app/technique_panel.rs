@@ -1,26 +1,39 @@
 //! The left panel's technique section (one widget per parameter, from its spec) and view modes.
 
-use softshadow_core::{DebugLegend, ParamKind, ParamSpec, ParamValue};
+use softshadow_core::{DebugLegend, ParamKind, ParamSpec, ParamValue, Registry};
 
-use super::ViewerApp;
+use super::{technique::TechniqueState, ViewerApp};
 
 /// Fixed render sizes offered besides the image area's own.
 const RENDER_SIZES: [(u32, u32); 4] = [(320, 200), (640, 400), (800, 500), (1280, 800)];
 use crate::display::{DebugMapping, ViewMode};
 
-impl ViewerApp {
-    pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
+/// What the user asked of the technique section: another technique, new parameter values.
+#[derive(Default)]
+pub(super) struct TechniqueAction {
+    pub(super) select: Option<String>,
+    pub(super) changes: Vec<(String, ParamValue)>,
+}
+
+impl TechniqueState {
+    /// The technique picker (every technique of `registry`, those `features` cannot run marked)
+    /// and one widget per parameter; returns what was asked.
+    pub(super) fn ui(
+        &self,
+        ui: &mut egui::Ui,
+        registry: &Registry,
+        features: softshadow_core::wgpu::Features,
+    ) -> TechniqueAction {
         // Narrower sliders than egui's 100 points: more names fit beside their widget.
         ui.spacing_mut().slider_width = 80.0;
-        let mut chosen = None;
+        let mut action = TechniqueAction::default();
         egui::ComboBox::from_label("Technique")
-            .selected_text(self.technique.id.clone())
+            .selected_text(self.id.clone())
             // Every technique listed without scrolling (egui's default height scrolled the last
             // of eleven out of sight).
             .height(f32::INFINITY)
             .show_ui(ui, |ui| {
-                let features = self.gpu.features();
-                for info in &self.registry {
+                for info in registry {
                     // A technique this device cannot run (no ray queries, say) stays listed,
                     // marked, with why and what to install; choosing it shows the same message.
                     let (label, hover) = match info.unavailable_on(features) {
@@ -34,118 +47,46 @@ impl ViewerApp {
                         ),
                     };
                     if ui
-                        .selectable_label(self.technique.id == info.id, label)
+                        .selectable_label(self.id == info.id, label)
                         .on_hover_text(hover)
                         .clicked()
+                        && self.id != info.id
                     {
-                        chosen = Some(info.id.to_string());
+                        action.select = Some(info.id.to_string());
                     }
                 }
             });
-        if let Some(id) = chosen {
-            if id != self.technique.id {
-                self.select_technique(&id);
-            }
-        }
-        let Some(params) = &self.technique.params else {
-            return;
+        let Some(params) = &self.params else {
+            return action;
         };
-        let mut changes = Vec::new();
         for (spec, value) in &params.entries {
             if let Some(new) = param_widget(ui, spec, value) {
-                changes.push((spec.name.to_string(), new));
+                action.changes.push((spec.name.to_string(), new));
             }
         }
         if ui.button("Defaults").clicked() {
-            if let Some(info) = self.registry.get(&self.technique.id) {
+            if let Some(info) = registry.get(&self.id) {
                 for spec in &info.params {
-                    changes.push((spec.name.to_string(), spec.default_value()));
+                    action
+                        .changes
+                        .push((spec.name.to_string(), spec.default_value()));
                 }
             }
         }
-        for (name, value) in changes {
+        action
+    }
+}
+
+impl ViewerApp {
+    /// Draws the technique section and carries out what was asked.
+    pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
+        let action = self.technique.ui(ui, &self.registry, self.gpu.features());
+        if let Some(id) = action.select {
+            self.select_technique(&id);
+        }
+        for (name, value) in action.changes {
             self.set_param(&name, value);
         }
-    }
-
-    pub(super) fn view_ui(&mut self, ui: &mut egui::Ui) {
-        let current = self
-            .image
-            .renderers
-            .as_ref()
-            .map_or((0, 0), |r| (r.width, r.height));
-        let label = |size: Option<(u32, u32)>| match size {
-            None => format!("fit ({}x{})", current.0, current.1),
-            Some((w, h)) => format!("{w}x{h}"),
-        };
-        egui::ComboBox::from_label("render size")
-            .selected_text(label(self.image.render_size))
-            .show_ui(ui, |ui| {
-                let mut options = vec![None, Some(current)];
-                for size in RENDER_SIZES {
-                    if size != current {
-                        options.push(Some(size));
-                    }
-                }
-                for option in options {
-                    ui.selectable_value(&mut self.image.render_size, option, label(option));
-                }
-            })
-            .response
-            .on_hover_text(
-                "fit: the window less the side panels (fixed widths), so only resizing the \
-                 window changes it; a fixed size also keeps the reference and the timings when \
-                 the window is resized, and the image is scaled to fit",
-            );
-        ui.horizontal_wrapped(|ui| {
-            for mode in ViewMode::ALL {
-                ui.selectable_value(&mut self.image.view_mode, mode, mode.label());
-            }
-        });
-        ui.checkbox(&mut self.plot.open, "error-against-time plot")
-            .on_hover_text(
-                "The plot's panel under the image (at least a third of the window; drag its top \
-                 edge to resize). A \"fit\" render size follows it.",
-            );
-        // One row reserved for the mode's own control, so nothing below moves when the mode
-        // changes; the mode's legend floats over the image (`overlays`).
-        let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
-        ui.allocate_ui_with_layout(
-            row,
-            egui::Layout::left_to_right(egui::Align::Center),
-            |ui| {
-                ui.set_min_size(row);
-                match self.image.view_mode {
-                    ViewMode::Split => {
-                        ui.add(egui::Slider::new(&mut self.image.split, 0.0..=1.0).text("divider"));
-                    }
-                    ViewMode::Debug => {
-                        let names: Vec<String> = self
-                            .technique
-                            .worker
-                            .as_ref()
-                            .map(|w| w.debug_views.iter().map(|(name, _)| name.clone()).collect())
-                            .unwrap_or_default();
-                        // The worker shows the first view when the index is past this
-                        // technique's views; so does the picker.
-                        let shown = names
-                            .get(self.image.debug_view)
-                            .or(names.first())
-                            .cloned()
-                            .unwrap_or_else(|| "none".into());
-                        egui::ComboBox::from_label("Debug image")
-                            .selected_text(shown)
-                            .truncate()
-                            .show_ui(ui, |ui| {
-                                for (i, name) in names.iter().enumerate() {
-                                    ui.selectable_value(&mut self.image.debug_view, i, name);
-                                }
-                            });
-                    }
-                    _ => {}
-                }
-            },
-        );
     }
 }
 
@@ -310,5 +251,88 @@ pub(super) fn debug_legend(
             }
         },
         None => {}
+    }
+}
+
+impl super::image::ImageState {
+    /// The View section: render size, view mode, the plot panel's switch and the mode's own
+    /// control (the split's divider, the debug image among `debug_views`).
+    pub(super) fn view_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        debug_views: &[String],
+        plot_open: &mut bool,
+    ) {
+        let current = self
+            .renderers
+            .as_ref()
+            .map_or((0, 0), |r| (r.width, r.height));
+        let label = |size: Option<(u32, u32)>| match size {
+            None => format!("fit ({}x{})", current.0, current.1),
+            Some((w, h)) => format!("{w}x{h}"),
+        };
+        egui::ComboBox::from_label("render size")
+            .selected_text(label(self.render_size))
+            .show_ui(ui, |ui| {
+                let mut options = vec![None, Some(current)];
+                for size in RENDER_SIZES {
+                    if size != current {
+                        options.push(Some(size));
+                    }
+                }
+                for option in options {
+                    ui.selectable_value(&mut self.render_size, option, label(option));
+                }
+            })
+            .response
+            .on_hover_text(
+                "fit: the window less the side panels (fixed widths), so only resizing the \
+                 window changes it; a fixed size also keeps the reference and the timings when \
+                 the window is resized, and the image is scaled to fit",
+            );
+        ui.horizontal_wrapped(|ui| {
+            for mode in ViewMode::ALL {
+                ui.selectable_value(&mut self.view_mode, mode, mode.label());
+            }
+        });
+        ui.checkbox(plot_open, "error-against-time plot")
+            .on_hover_text(
+                "The plot's panel under the image (at least a third of the window; drag its top \
+                 edge to resize). A \"fit\" render size follows it.",
+            );
+        // One row reserved for the mode's own control, so nothing below moves when the mode
+        // changes; the mode's legend floats over the image (`overlays`).
+        let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
+        ui.allocate_ui_with_layout(
+            row,
+            egui::Layout::left_to_right(egui::Align::Center),
+            |ui| {
+                ui.set_min_size(row);
+                match self.view_mode {
+                    ViewMode::Split => {
+                        ui.add(egui::Slider::new(&mut self.split, 0.0..=1.0).text("divider"));
+                    }
+                    ViewMode::Debug => {
+                        let names = debug_views;
+                        // The worker shows the first view when the index is past this
+                        // technique's views; so does the picker.
+                        let shown = names
+                            .get(self.debug_view)
+                            .or(names.first())
+                            .cloned()
+                            .unwrap_or_else(|| "none".into());
+                        egui::ComboBox::from_label("Debug image")
+                            .selected_text(shown)
+                            .truncate()
+                            .show_ui(ui, |ui| {
+                                for (i, name) in names.iter().enumerate() {
+                                    ui.selectable_value(&mut self.debug_view, i, name);
+                                }
+                            });
+                    }
+                    _ => {}
+                }
+            },
+        );
     }
 }

@@ -477,151 +477,6 @@ impl ViewerApp {
             .save(&file)
             .map_err(|e| format!("{}: {e}", file.display()))
     }
-
-    pub(super) fn timeline_ui(&mut self, ui: &mut egui::Ui) {
-        let current = self
-            .timeline
-            .active
-            .as_ref()
-            .map(|(path, _)| path.name.clone());
-        let mut chosen: Option<Option<String>> = None;
-        egui::ComboBox::from_label("path")
-            .selected_text(current.clone().unwrap_or_else(|| "none".into()))
-            .show_ui(ui, |ui| {
-                if ui.selectable_label(current.is_none(), "none").clicked() {
-                    chosen = Some(None);
-                }
-                let declared = self.scene.loaded.paths.iter().map(|p| p.name.clone());
-                let builtin = BUILTIN_PATHS.iter().map(|(name, _)| name.to_string());
-                for name in builtin.chain(declared) {
-                    let what = BUILTIN_PATHS
-                        .iter()
-                        .find(|(n, _)| *n == name)
-                        .map_or("declared by the scene file", |(_, what)| what);
-                    if ui
-                        .selectable_label(current.as_deref() == Some(&name), &name)
-                        .on_hover_text(what)
-                        .clicked()
-                    {
-                        chosen = Some(Some(name));
-                    }
-                }
-            })
-            .response
-            .on_hover_text("Play the scene along a path: camera, light and dynamic casters move");
-        if let Some(choice) = chosen {
-            self.open_path(choice.as_deref());
-        }
-        if self.timeline.active.is_none() {
-            return;
-        }
-        ui.horizontal(|ui| {
-            let label = if self.timeline.playing {
-                "Pause"
-            } else {
-                "Play"
-            };
-            if ui.button(label).clicked() {
-                let playing = !self.timeline.playing;
-                self.set_playing(playing);
-            }
-            ui.checkbox(&mut self.timeline.looping, "loop");
-        });
-        let last = self.timeline.steps.saturating_sub(1);
-        let mut step = self.timeline.step;
-        if ui
-            .add(egui::Slider::new(&mut step, 0..=last).text("frame"))
-            .on_hover_text("Scrub: the frame of the path shown (fixed time steps)")
-            .changed()
-        {
-            self.scrub_to(step);
-        }
-        let mut steps = self.timeline.steps;
-        if ui
-            .add(egui::Slider::new(&mut steps, 2..=600).text("frames"))
-            .on_hover_text("Frames from the path's start to its end")
-            .changed()
-        {
-            self.set_path_steps(steps);
-        }
-        self.live_ui(ui);
-        ui.horizontal(|ui| {
-            ui.add(
-                egui::TextEdit::singleline(&mut self.timeline.record_folder).desired_width(130.0),
-            );
-            if let Some(r) = &self.timeline.recording {
-                let done = r.written.iter().filter(|w| **w).count();
-                if ui
-                    .button("Stop")
-                    .on_hover_text(format!("{done} of {} frames recorded", r.written.len()))
-                    .clicked()
-                {
-                    self.record_path(None);
-                }
-            } else if ui
-                .button("Record")
-                .on_hover_text(
-                    "Play the path once from its first step and write each step's frame, \
-                     technique beside the exact answer, as PNG into the folder, then one animated \
-                     PNG of them",
-                )
-                .clicked()
-            {
-                let folder = self.timeline.record_folder.clone();
-                self.record_path(Some(&folder));
-            }
-        });
-    }
-
-    fn live_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some(message) = &self.timeline.live_message {
-            ui.weak(message);
-            return;
-        }
-        let live = &self.timeline.live;
-        if live.is_empty() {
-            ui.weak("error and flicker appear as frames are played");
-            return;
-        }
-        let error = live.iter().map(|m| m.mae_shadowed).sum::<f64>() / live.len() as f64;
-        let flickers: Vec<f64> = live.iter().filter_map(|m| m.flicker).collect();
-        let flicker = if flickers.is_empty() {
-            "-".to_string()
-        } else {
-            format!(
-                "{:.4}",
-                flickers.iter().sum::<f64>() / flickers.len() as f64
-            )
-        };
-        ui.label(format!("error {error:.4}, flicker {flicker}"))
-            .on_hover_text(format!(
-                "Means over the last {} frames played, against each frame's exact answer: \
-                 error = mae_shadowed; flicker = mean over receiver pixels of \
-                 |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
-                 does not (docs/BENCHMARKS.md, \"Motion\")",
-                live.len()
-            ));
-        if let Some(last) = live.back() {
-            ui.small(format!(
-                "exact answer: {} ({:.0} ms a frame)",
-                last.exact, last.exact_ms
-            ))
-            .on_hover_text(
-                "The closed form where every caster is a rectangle parallel to the light; \
-                 elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
-                 penumbra point for N x N samples) is part of the error and flicker shown",
-            );
-            if let LiveExact::Traced { samples_per_axis } = last.exact {
-                if samples_per_axis < COARSE_TRACED_SAMPLES {
-                    ui.small(format!(
-                        "coarse: its own error reaches about {:.2} at a penumbra pixel; a \
-                         smaller render size affords more samples",
-                        1.0 / samples_per_axis as f64
-                    ));
-                }
-            }
-        }
-    }
 }
 
 /// Joins the `frames` PNG files Record wrote in `folder` into one animated PNG,
@@ -672,4 +527,174 @@ fn write_animation(folder: &std::path::Path, frames: u32) -> Result<(), String> 
     write().inspect_err(|_| {
         let _ = std::fs::remove_file(&out);
     })
+}
+
+/// What the user asked of the Path section.
+pub(super) enum TimelineAction {
+    Open(Option<String>),
+    Play(bool),
+    Scrub(u32),
+    Steps(u32),
+    Record(Option<String>),
+}
+
+impl TimelineState {
+    /// The Path section: the path picker, play / pause and loop, scrub, steps, the live error
+    /// and Record; returns what the app must do (`declared`: the paths the scene file declares).
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui, declared: &[String]) -> Option<TimelineAction> {
+        let mut action = None;
+        let current = self.active.as_ref().map(|(path, _)| path.name.clone());
+        let mut chosen: Option<Option<String>> = None;
+        egui::ComboBox::from_label("path")
+            .selected_text(current.clone().unwrap_or_else(|| "none".into()))
+            .show_ui(ui, |ui| {
+                if ui.selectable_label(current.is_none(), "none").clicked() {
+                    chosen = Some(None);
+                }
+                let declared = declared.iter().cloned();
+                let builtin = BUILTIN_PATHS.iter().map(|(name, _)| name.to_string());
+                for name in builtin.chain(declared) {
+                    let what = BUILTIN_PATHS
+                        .iter()
+                        .find(|(n, _)| *n == name)
+                        .map_or("declared by the scene file", |(_, what)| what);
+                    if ui
+                        .selectable_label(current.as_deref() == Some(&name), &name)
+                        .on_hover_text(what)
+                        .clicked()
+                    {
+                        chosen = Some(Some(name));
+                    }
+                }
+            })
+            .response
+            .on_hover_text("Play the scene along a path: camera, light and dynamic casters move");
+        if let Some(choice) = chosen {
+            return Some(TimelineAction::Open(choice));
+        }
+        if self.active.is_none() {
+            return None;
+        }
+        ui.horizontal(|ui| {
+            let label = if self.playing { "Pause" } else { "Play" };
+            if ui.button(label).clicked() {
+                action = Some(TimelineAction::Play(!self.playing));
+            }
+            ui.checkbox(&mut self.looping, "loop");
+        });
+        let last = self.steps.saturating_sub(1);
+        let mut step = self.step;
+        if ui
+            .add(egui::Slider::new(&mut step, 0..=last).text("frame"))
+            .on_hover_text("Scrub: the frame of the path shown (fixed time steps)")
+            .changed()
+        {
+            action = Some(TimelineAction::Scrub(step));
+        }
+        let mut steps = self.steps;
+        if ui
+            .add(egui::Slider::new(&mut steps, 2..=600).text("frames"))
+            .on_hover_text("Frames from the path's start to its end")
+            .changed()
+        {
+            action = Some(TimelineAction::Steps(steps));
+        }
+        self.live_ui(ui);
+        ui.horizontal(|ui| {
+            ui.add(egui::TextEdit::singleline(&mut self.record_folder).desired_width(130.0))
+                .on_hover_text(self.record_folder.clone());
+            if let Some(r) = &self.recording {
+                let done = r.written.iter().filter(|w| **w).count();
+                if ui
+                    .button("Stop")
+                    .on_hover_text(format!("{done} of {} frames recorded", r.written.len()))
+                    .clicked()
+                {
+                    action = Some(TimelineAction::Record(None));
+                }
+            } else if ui
+                .button("Record")
+                .on_hover_text(
+                    "Play the path once from its first step and write each step's frame, \
+                     technique beside the exact answer, as PNG into the folder, then one animated \
+                     PNG of them",
+                )
+                .clicked()
+            {
+                action = Some(TimelineAction::Record(Some(self.record_folder.clone())));
+            }
+        });
+        action
+    }
+
+    fn live_ui(&mut self, ui: &mut egui::Ui) {
+        if let Some(message) = &self.live_message {
+            ui.weak(message);
+            return;
+        }
+        let live = &self.live;
+        if live.is_empty() {
+            ui.weak("error and flicker appear as frames are played");
+            return;
+        }
+        let error = live.iter().map(|m| m.mae_shadowed).sum::<f64>() / live.len() as f64;
+        let flickers: Vec<f64> = live.iter().filter_map(|m| m.flicker).collect();
+        let flicker = if flickers.is_empty() {
+            "-".to_string()
+        } else {
+            format!(
+                "{:.4}",
+                flickers.iter().sum::<f64>() / flickers.len() as f64
+            )
+        };
+        ui.label(format!("error {error:.4}, flicker {flicker}"))
+            .on_hover_text(format!(
+                "Means over the last {} frames played, against each frame's exact answer: \
+                 error = mae_shadowed; flicker = mean over receiver pixels of \
+                 |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
+                 does not (docs/BENCHMARKS.md, \"Motion\")",
+                live.len()
+            ));
+        if let Some(last) = live.back() {
+            ui.small(format!(
+                "exact answer: {} ({:.0} ms a frame)",
+                last.exact, last.exact_ms
+            ))
+            .on_hover_text(
+                "The closed form where every caster is a rectangle parallel to the light; \
+                 elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
+                 penumbra point for N x N samples) is part of the error and flicker shown",
+            );
+            if let LiveExact::Traced { samples_per_axis } = last.exact {
+                if samples_per_axis < COARSE_TRACED_SAMPLES {
+                    ui.small(format!(
+                        "coarse: its own error reaches about {:.2} at a penumbra pixel; a \
+                         smaller render size affords more samples",
+                        1.0 / samples_per_axis as f64
+                    ));
+                }
+            }
+        }
+    }
+}
+
+impl ViewerApp {
+    /// Draws the Path section and carries out what was asked.
+    pub(super) fn timeline_ui(&mut self, ui: &mut egui::Ui) {
+        let declared: Vec<String> = self
+            .scene
+            .loaded
+            .paths
+            .iter()
+            .map(|p| p.name.clone())
+            .collect();
+        match self.timeline.ui(ui, &declared) {
+            Some(TimelineAction::Open(path)) => self.open_path(path.as_deref()),
+            Some(TimelineAction::Play(playing)) => self.set_playing(playing),
+            Some(TimelineAction::Scrub(step)) => self.scrub_to(step),
+            Some(TimelineAction::Steps(steps)) => self.set_path_steps(steps),
+            Some(TimelineAction::Record(folder)) => self.record_path(folder.as_deref()),
+            None => {}
+        }
+    }
 }
