@@ -572,9 +572,8 @@ impl TimelineState {
         if let Some(choice) = chosen {
             return Some(TimelineAction::Open(choice));
         }
-        if self.active.is_none() {
-            return None;
-        }
+        // Nothing more without a path.
+        self.active.as_ref()?;
         ui.horizontal(|ui| {
             let label = if self.playing { "Pause" } else { "Play" };
             if ui.button(label).clicked() {
