@@ -12,8 +12,9 @@
 //! `technique_panel` and `build_panel` (a precompute building off the UI thread), `image` (the
 //! renderers, the display pass, view mode and render size: `ImageState`), `reference` (the
 //! progressive reference and the metrics against it: `ReferenceState`), `timing_panel`
-//! (`TimingState`), `error_panel` (metrics and the error-against-time plot: `PlotState`) and
-//! `files_panel` (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
+//! (`TimingState`), `error_panel` (the metrics), `plot_panel` (the error-against-time plot:
+//! `PlotPanel`, drawn by its own `ui` and answering with a `PlotAction`), `files_panel`
+//! (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
 //! `render_worker` (the threads the technique and the reference render on). This file holds the
 //! app, the frame's order and the queries the window and the tests use.
 
@@ -23,6 +24,7 @@ mod file_reload;
 mod files_panel;
 mod image;
 mod overlays;
+mod plot_panel;
 mod reference;
 mod render_worker;
 mod scene_panel;
@@ -31,7 +33,8 @@ mod technique_panel;
 mod timeline;
 mod timing_panel;
 
-pub use technique::{FRAME_WAIT, SLOW_FRAME};
+pub use plot_panel::{format_tick, linear_ticks, log_ticks, series_style};
+pub use technique::{DEFAULT_HISTORY_FRAMES, FRAME_WAIT, SLOW_FRAME};
 pub use technique_panel::param_widget;
 pub use timeline::{
     LiveExact, LiveMetrics, PathTimings, ANIMATION_FILE, COARSE_TRACED_SAMPLES, DEFAULT_STEPS,
@@ -73,6 +76,8 @@ pub const LEFT_PANEL_WIDTH: f32 = 300.0;
 pub const RIGHT_PANEL_WIDTH: f32 = 280.0;
 /// Smallest render edge (the image area can be tiny while a window is being resized).
 const MIN_RENDER_EDGE: u32 = 16;
+/// The plot panel's default (and least) share of the window's height.
+pub const PLOT_SHARE: f32 = 1.0 / 3.0;
 
 /// How the viewer starts.
 #[derive(Clone, Debug)]
@@ -128,8 +133,8 @@ pub struct ViewerApp {
     timeline: timeline::TimelineState,
     /// Frame and pass timings ([`timing_panel`]).
     timing: timing_panel::TimingState,
-    /// The error-against-time plot's points and options ([`error_panel`]).
-    plot: error_panel::PlotState,
+    /// The error-against-time plot: its points, options and panel ([`plot_panel`]).
+    plot: plot_panel::PlotPanel,
     /// File paths, the screenshot request and the puffin server ([`files_panel`]).
     files: files_panel::FilesState,
     /// Errors and confirmations.
@@ -201,7 +206,9 @@ impl ViewerApp {
             reference: reference::ReferenceState::new(reference),
             timeline: Default::default(),
             timing: Default::default(),
-            plot: Default::default(),
+            plot: plot_panel::PlotPanel::new(
+                output_dir().join("viewer-sweep.toml").display().to_string(),
+            ),
             files: Default::default(),
             messages: Default::default(),
             file_reload: Default::default(),
@@ -214,10 +221,9 @@ impl ViewerApp {
             }
         }
         app.select_technique(&technique_id);
-        if let Some(error) = app.technique.error.clone() {
-            // A technique that cannot even be created with the given settings is bad input.
-            return Err(ViewerError::TechniqueStart(error));
-        }
+        // A technique that cannot even be created with the given settings is bad input.
+        app.wait_technique_started()
+            .map_err(ViewerError::TechniqueStart)?;
         Ok(app)
     }
 
@@ -250,16 +256,47 @@ impl ViewerApp {
         self.messages.status = Some(message.into());
     }
 
-    /// Points of the other views (scene, light or camera) measured this session: kept, shown
-    /// hollow on request.
+    /// Points of this scene's other views (light or camera) measured this session: kept,
+    /// shown hollow on request.
     pub fn points_of_other_views(&self) -> usize {
-        let view = self.current_view_key();
         self.plot
-            .views
-            .iter()
-            .filter(|v| v.key != view)
+            .other_views(self.scene.loaded.gpu.content_hash, self.current_view_key())
             .map(|v| v.points.len())
             .sum()
+    }
+
+    /// Where the plot drew the current view's points last frame (screen points), with them:
+    /// what a hover or a click there picks.
+    pub fn plot_point_positions(&self) -> Vec<(egui::Pos2, TradeoffPoint)> {
+        self.plot.drawn().to_vec()
+    }
+
+    /// Shows a plot point's setting: its technique with its parameters (a click on the point).
+    /// A point of an earlier version of a file technique restores its parameters on the version
+    /// in the file now, and says so.
+    pub fn restore_point(&mut self, point: &TradeoffPoint) {
+        if self.registry.get(&point.technique).is_none() {
+            self.report_error(format!(
+                "`{}` is no longer offered: its point cannot be shown",
+                point.technique
+            ));
+            return;
+        }
+        if self.technique.id != point.technique || self.technique.worker.is_none() {
+            self.select_technique(&point.technique);
+        }
+        for (name, value) in &point.params {
+            self.set_param(name, value.clone());
+        }
+        let now = self.file_version();
+        if point.version.is_some() && point.version != now {
+            self.confirm(format!(
+                "{}: showing {}'s parameters on v{} (the file holds no other version now)",
+                point.technique,
+                point.series(),
+                now.unwrap_or(1)
+            ));
+        }
     }
 
     /// Points of the error-against-time plot for the current scene, light and camera.
@@ -318,9 +355,7 @@ impl ViewerApp {
         }
         self.reload_technique_file();
 
-        // "fit" follows the window: its size less the panels' fixed widths.
         let window = ui.max_rect().size();
-        self.image.fit_size = egui::vec2(window.x - LEFT_PANEL_WIDTH - RIGHT_PANEL_WIDTH, window.y);
         let mut panel_frame = egui::Frame::side_top_panel(ui.style());
         if !self.opaque_panels {
             panel_frame = panel_frame.fill(egui::Color32::TRANSPARENT);
@@ -332,21 +367,49 @@ impl ViewerApp {
             .exact_size(LEFT_PANEL_WIDTH)
             .resizable(false)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.controls_ui(ui));
+                side_scroll_area(ui).show(ui, |ui| self.controls_ui(ui));
             });
         egui::Panel::right("measurements")
             .frame(panel_frame)
             .exact_size(RIGHT_PANEL_WIDTH)
             .resizable(false)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| {
-                    self.timing_ui(ui);
+                side_scroll_area(ui).show(ui, |ui| {
+                    let cx = timing_panel::TimingContext {
+                        technique: &self.technique.id,
+                        first_frame_ms: self.technique.first_frame_ms,
+                        cancelled: self.technique.cancelled_frame.is_some(),
+                        playing: self.timeline.playing,
+                        path: self.timeline.active.is_some().then(|| self.path_timings()),
+                    };
+                    self.timing.ui(ui, &cx);
                     ui.separator();
-                    self.reference_error_ui(ui);
-                    ui.separator();
-                    self.tradeoff_ui(ui);
+                    let cx = self.metrics_context();
+                    if let Some(error) = self.reference.ui(ui, &cx) {
+                        self.report_error(error);
+                    }
                 });
             });
+        let plot_height = if self.plot.open {
+            // Between the side panels, at least a third of the window: the plot is the answer.
+            let response = egui::Panel::bottom("plot")
+                .frame(panel_frame)
+                .resizable(true)
+                .default_size(window.y * PLOT_SHARE)
+                .size_range(window.y * PLOT_SHARE..=window.y * 0.7)
+                .show(ui, |ui| self.plot_ui(ui));
+            response.response.rect.height().round()
+        } else {
+            0.0
+        };
+        // "fit" follows the window and the plot panel, whose size is taken once a resize drag
+        // ends (each size on the way would restart the reference).
+        if !ui.input(|i| i.pointer.any_down()) || self.image.fit_size == egui::Vec2::ZERO {
+            self.image.fit_size = egui::vec2(
+                window.x - LEFT_PANEL_WIDTH - RIGHT_PANEL_WIDTH,
+                window.y - plot_height,
+            );
+        }
         // No panel fill under the image: on a CPU rasteriser every covered pixel costs.
         let size = egui::CentralPanel::no_frame()
             .show(ui, |ui| self.image_ui(ui))
@@ -378,27 +441,96 @@ impl ViewerApp {
 
     // ----- Panels -----
 
+    fn plot_ui(&mut self, ui: &mut egui::Ui) {
+        let cx = plot_panel::PlotContext {
+            registry: &self.registry,
+            scene: self.scene.loaded.gpu.content_hash,
+            view: self.current_view_key(),
+        };
+        match self.plot.ui(ui, &cx) {
+            Some(plot_panel::PlotAction::Restore(point)) => self.restore_point(&point),
+            Some(plot_panel::PlotAction::Export(path)) => self.export_sweep(&path),
+            None => {}
+        }
+    }
+
     fn controls_ui(&mut self, ui: &mut egui::Ui) {
         // Messages, progress and legends float over the image (`overlays`): nothing here moves.
         ui.heading("Soft-shadow viewer");
 
-        ui.collapsing("Scene", |ui| self.scene_ui(ui))
+        let mut open = None;
+        ui.collapsing("Scene", |ui| open = self.scene.ui(ui))
             .header_response
             .on_hover_text("Builtin scenes, or a scene / glTF file by path or drag and drop");
+        if let Some(spec) = open {
+            self.open_scene(&spec);
+        }
         egui::CollapsingHeader::new("Technique")
             .default_open(true)
             .show(ui, |ui| self.technique_ui(ui));
+        let debug_views: Vec<String> = self
+            .technique
+            .worker
+            .as_ref()
+            .map(|w| w.debug_views.iter().map(|(name, _)| name.clone()).collect())
+            .unwrap_or_default();
         egui::CollapsingHeader::new("View")
             .default_open(true)
-            .show(ui, |ui| self.view_ui(ui));
-        ui.collapsing("Light", |ui| self.light_ui(ui));
-        ui.collapsing("Camera", |ui| self.camera_ui(ui));
+            .show(ui, |ui| {
+                self.image.view_ui(ui, &debug_views, &mut self.plot.open)
+            });
+        ui.collapsing("Light", |ui| self.scene.light_ui(ui));
+        ui.collapsing("Camera", |ui| self.scene.camera_ui(ui));
         ui.collapsing("Path", |ui| self.timeline_ui(ui))
             .header_response
             .on_hover_text(
                 "Play, scrub and record the scene along a path, with live error and flicker",
             );
-        ui.collapsing("Files", |ui| self.files_ui(ui));
+        let mut files = None;
+        ui.collapsing("Files", |ui| files = self.files.ui(ui));
+        match files {
+            Some(files_panel::FilesAction::SaveState(path)) => self.save_state(&path),
+            Some(files_panel::FilesAction::LoadState(path)) => self.load_state(&path),
+            Some(files_panel::FilesAction::Puffin(on)) => self.set_puffin(on),
+            None => {}
+        }
+    }
+}
+
+/// A side panel's scroll area, its scroll bar in a lane of its own (egui's floating bar
+/// covered the legend and the right edge of the controls).
+fn side_scroll_area(ui: &mut egui::Ui) -> egui::ScrollArea {
+    ui.spacing_mut().scroll = egui::style::ScrollStyle::solid();
+    egui::ScrollArea::vertical()
+}
+
+/// Where the viewer writes by default (screenshots, the state, recordings, exported sweeps):
+/// `SOFTSHADOW_VIEWER_DIR`, else `$XDG_STATE_HOME/softshadow/viewer`, else
+/// `~/.local/state/softshadow/viewer`; created when something is written there.
+pub fn output_dir() -> PathBuf {
+    let from_env = |name: &str| {
+        std::env::var_os(name)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    if let Some(dir) = from_env("SOFTSHADOW_VIEWER_DIR") {
+        return dir;
+    }
+    if let Some(dir) = from_env("XDG_STATE_HOME") {
+        return dir.join("softshadow").join("viewer");
+    }
+    match from_env("HOME") {
+        Some(home) => home.join(".local/state/softshadow/viewer"),
+        None => PathBuf::from("softshadow-viewer"),
+    }
+}
+
+/// Creates the folder `path` is written into (a default output folder may not exist yet).
+pub(crate) fn create_parent(path: &Path) -> Result<(), String> {
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(parent) => std::fs::create_dir_all(parent)
+            .map_err(|e| format!("cannot create the folder `{}`: {e}", parent.display())),
+        None => Ok(()),
     }
 }
 

@@ -8,15 +8,36 @@ use softshadow_core::{AreaLight, Camera, ParamValue};
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TradeoffPoint {
     pub technique: String,
+    /// The version of a technique defined by a WGSL file (1: the file as first loaded, one more
+    /// per saved version that compiled); `None` for every other technique.
+    pub version: Option<u32>,
     /// Every parameter with its value.
     pub params: Vec<(String, ParamValue)>,
-    /// Rolling median GPU time of the technique's own passes, ms.
+    /// Median GPU time of the technique's own passes over its clean cost frames, ms.
     pub gpu_ms: f64,
+    /// Fastest and slowest of those frames, ms.
+    pub gpu_range: (f64, f64),
+    /// Frames with the caches dropped that ran alone (no other frame on the device's CPU) and
+    /// that `gpu_ms` rests on.
+    pub cost_frames: usize,
     /// `mae_shadowed` against the converged reference.
     pub error: f64,
+    /// For a technique that keeps a history (its descriptor's `varies_per_frame`): the error
+    /// was measured after this many still frames, once its history had settled; `None`: of the
+    /// frame as it is, which any frame of the setting repeats.
+    pub settled_after: Option<u32>,
 }
 
 impl TradeoffPoint {
+    /// The plot's series of the point: the technique id, with ` vN` for a file technique's
+    /// version (`pcf v1`, `pcf v2`).
+    pub fn series(&self) -> String {
+        match self.version {
+            Some(v) => format!("{} v{v}", self.technique),
+            None => self.technique.clone(),
+        }
+    }
+
     /// `pcss(filter_samples=32, kernel=grid)`, non-default values only.
     pub fn label(&self, defaults: &[(String, ParamValue)]) -> String {
         let changed: Vec<String> = self
@@ -26,15 +47,17 @@ impl TradeoffPoint {
             .map(|(name, value)| format!("{name}={value}"))
             .collect();
         if changed.is_empty() {
-            self.technique.clone()
+            self.series()
         } else {
-            format!("{}({})", self.technique, changed.join(", "))
+            format!("{}({})", self.series(), changed.join(", "))
         }
     }
 
-    /// Same technique and settings (the time and error may differ).
-    pub fn same_setting(&self, technique: &str, params: &[(String, ParamValue)]) -> bool {
-        self.technique == technique && self.params == params
+    /// Same technique, version and settings (the time and error may differ).
+    pub fn same_setting(&self, other: &TradeoffPoint) -> bool {
+        self.technique == other.technique
+            && self.version == other.version
+            && self.params == other.params
     }
 }
 
@@ -96,8 +119,11 @@ pub fn sweep_toml(
         out.push_str(&format!("\n[{table}]\n{body}"));
     }
     for point in points {
+        let settled = point
+            .settled_after
+            .map_or(String::new(), |n| format!(" (settled after {n} frames)"));
         out.push_str(&format!(
-            "\n# gpu {:.3} ms, mae_shadowed {:.5}\n[[technique]]\nid = {}\n",
+            "\n# gpu {:.3} ms, mae_shadowed {:.5}{settled}\n[[technique]]\nid = {}\n",
             point.gpu_ms,
             point.error,
             toml_string(&point.technique)
@@ -139,7 +165,11 @@ mod tests {
                 ("bias_texels".into(), ParamValue::Float(1.0)),
             ],
             gpu_ms,
+            gpu_range: (gpu_ms, gpu_ms),
+            cost_frames: 5,
             error,
+            version: None,
+            settled_after: None,
         }
     }
 

@@ -4,7 +4,11 @@
 
 use anyhow::{ensure, Context, Result};
 use egui::accesskit::Role;
-use egui_kittest::{kittest::Queryable, wgpu::WgpuTestRenderer, Harness, SnapshotOptions};
+use egui_kittest::{
+    kittest::{NodeT, Queryable},
+    wgpu::WgpuTestRenderer,
+    Harness, SnapshotOptions,
+};
 use softshadow_bench::results::FrameKind;
 use softshadow_core::{wgpu, Gpu, ParamValue};
 use softshadow_viewer::{app::LiveExact, ViewMode, ViewerApp, ViewerOptions};
@@ -448,6 +452,12 @@ fn snapshot(harness: &mut Harness<ViewerApp>, name: &str) -> Result<()> {
         egui::pos2(panel.left() - 6.0, 0.0),
         egui::pos2(SIZE.x, SIZE.y),
     ));
+    // The plot panel's points and legend follow the measured times too.
+    let plot = harness.get_by_label("Error against time").rect();
+    harness.mask(egui::Rect::from_min_max(
+        egui::pos2(plot.left() - 6.0, plot.top() - 6.0),
+        egui::pos2(SIZE.x, SIZE.y),
+    ));
     let pixels = (SIZE.x * SIZE.y) as usize;
     harness.snapshot_options(
         name,
@@ -539,7 +549,7 @@ fn an_exported_sweep_benchmarks_the_view_the_viewer_plotted() -> Result<()> {
         .context("the export is confirmed")?;
     ensure!(status.contains("sweep.toml"), "{status}");
     harness
-        .query_by_label_contains("sweep.toml")
+        .query_by_label_contains("points to")
         .context("the confirmation is on screen")?;
 
     let sweep = softshadow_bench::Sweep::load(&sweep_path, &softshadow::registry())?;
@@ -1157,13 +1167,19 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
         second > first + 0.05,
         "an all-lit version must measure worse than the pcf: {second} against {first}"
     );
-    let names: Vec<&str> = app.points().iter().map(|p| p.technique.as_str()).collect();
+    let names: Vec<String> = app.points().iter().map(|p| p.series()).collect();
     ensure!(
         names.len() == 2
-            && names.contains(&id.as_str())
-            && names.contains(&format!("{id} v1").as_str()),
+            && names.contains(&format!("{id} v1"))
+            && names.contains(&format!("{id} v2")),
         "the new version is a new point, the old one stays as v1: {names:?}"
     );
+    // Issue 43: each version keeps its legend entry.
+    for version in ["v1", "v2"] {
+        harness
+            .query_by_label(&format!("{id} {version}"))
+            .with_context(|| format!("the legend lists {id} {version}"))?;
+    }
 
     // Version 3 does not compile: the error is shown, the last good version keeps drawing.
     std::fs::write(
@@ -1391,5 +1407,446 @@ fn the_timeline_plays_a_path_with_live_error_and_flicker_and_records_it() -> Res
         *harness.state().light() == light,
         "closing the path restores the light"
     );
+    Ok(())
+}
+
+// ----- Issue 43: the plot is the answer, every number true, versions and recordings kept,
+// nothing cut -----
+
+/// Issue 43: the plot is a panel of its own under the image (at least a third of the window),
+/// hovering a point names its setting, error and cost, and a click restores that setting.
+#[test]
+fn the_plot_panel_names_a_point_on_hover_and_a_click_restores_its_setting() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    harness.run_steps(7);
+    let heading = harness.get_by_label("Error against time").rect();
+    ensure!(
+        heading.top() <= SIZE.y * 2.0 / 3.0 && heading.left() >= 250.0,
+        "the plot panel spans at least a third of the window's height under the image: {heading:?}"
+    );
+    harness
+        .state_mut()
+        .set_param("filter_samples", ParamValue::Int(8));
+    harness.run_steps(7);
+    let drawn = harness.state().plot_point_positions();
+    ensure!(drawn.len() == 2, "two points drawn: {drawn:?}");
+    let (at, point) = drawn
+        .iter()
+        .find(|(_, p)| {
+            p.params
+                .contains(&("filter_samples".into(), ParamValue::Int(32)))
+        })
+        .cloned()
+        .context("the default setting's point")?;
+    harness.hover_at(at);
+    harness.run_steps(2);
+    harness
+        .query_by_label_contains("click: show this setting")
+        .context("the hover names the point")?;
+    harness
+        .query_by_label_contains(&format!("mae_shadowed {:.4}", point.error))
+        .context("the hover gives its error")?;
+    harness
+        .query_by_label_contains("median of 5 clean frames")
+        .context("the hover says what the cost rests on")?;
+    harness.event(egui::Event::PointerButton {
+        pos: at,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    harness.step();
+    harness.event(egui::Event::PointerButton {
+        pos: at,
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: egui::Modifiers::NONE,
+    });
+    harness.run_steps(2);
+    let samples = harness
+        .state()
+        .technique_params()
+        .and_then(|p| p.get("filter_samples").cloned());
+    ensure!(
+        samples == Some(ParamValue::Int(32)),
+        "a click restores the point's setting: {samples:?}"
+    );
+    Ok(())
+}
+
+/// Issue 43: a technique that keeps a history (pcss with `temporal`) is plotted with the error
+/// of its settled frame, labelled, not its first frame's.
+#[test]
+fn a_technique_with_a_history_is_plotted_once_settled() -> Result<()> {
+    let mut harness = harness("pcss")?;
+    harness
+        .state_mut()
+        .set_param("temporal", ParamValue::Bool(true));
+    harness
+        .state_mut()
+        .set_param("max_history", ParamValue::Int(4));
+    let temporal = |h: &Harness<ViewerApp>| {
+        h.state()
+            .points()
+            .iter()
+            .find(|p| {
+                p.params
+                    .contains(&("temporal".into(), ParamValue::Bool(true)))
+            })
+            .cloned()
+    };
+    // Five cost frames (each drops the history), then still frames until four are averaged.
+    harness.run_steps(6);
+    ensure!(
+        temporal(&harness).is_none(),
+        "no point before the history settled: {:?}",
+        harness.state().points()
+    );
+    for _ in 0..12 {
+        harness.step();
+        if temporal(&harness).is_some() {
+            break;
+        }
+    }
+    let point = temporal(&harness).context("a point once settled")?;
+    ensure!(point.settled_after == Some(4), "{point:?}");
+    harness
+        .query_by_label_contains("settled")
+        .context("the plot labels it settled")?;
+    Ok(())
+}
+
+/// Issue 43: "show N points of other views" means this scene's other cameras and lights, never
+/// another scene's points.
+#[test]
+fn other_views_are_the_same_scenes_only() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.run_steps(2);
+    ensure!(harness.state().points().len() == 1);
+    harness.state_mut().open_scene("stiff-contact");
+    harness.run_steps(2);
+    ensure!(
+        harness.state().points_of_other_views() == 0,
+        "another scene's point counted as another view: {}",
+        harness.state().points_of_other_views()
+    );
+    ensure!(harness
+        .query_by_label_contains("show 0 points of 0 other views")
+        .is_some());
+    Ok(())
+}
+
+/// `sleepy_harness` with a second technique, `watcher` (hard), that counts its cost frames run
+/// while `sleepy` sleeps: a frame sharing the CPU with an abandoned one.
+fn watched_sleepy_harness(
+    sleep: std::time::Duration,
+) -> Result<(
+    Harness<'static, ViewerApp>,
+    std::sync::Arc<std::sync::atomic::AtomicUsize>,
+)> {
+    use std::sync::{atomic::AtomicBool, atomic::AtomicUsize, Arc};
+    let sleeping = Arc::new(AtomicBool::new(false));
+    let overlapped = Arc::new(AtomicUsize::new(0));
+    let hard = softshadow::registry()
+        .get("hard")
+        .context("hard is built in")?
+        .clone();
+    let mut registry = softshadow::registry();
+    for (id, sleep) in [("sleepy", sleep), ("watcher", std::time::Duration::ZERO)] {
+        let create = hard.create.clone();
+        let (sleeping, overlapped) = (sleeping.clone(), overlapped.clone());
+        registry.add(softshadow_core::TechniqueInfo::new(
+            id,
+            "hard, sleeping a while or watching who sleeps",
+            "test",
+            hard.params.clone(),
+            move |gpu| {
+                Ok(Box::new(Watched {
+                    inner: create(gpu)?,
+                    sleep,
+                    sleeping: sleeping.clone(),
+                    overlapped: overlapped.clone(),
+                    cache_dropped: false,
+                })
+                    as Box<dyn softshadow_core::ShadowTechnique>)
+            },
+        ))?;
+    }
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut app = ViewerApp::new(
+        gpu,
+        render_state.renderer.clone(),
+        &ViewerOptions {
+            registry,
+            scene: "atty-square".into(),
+            technique: "watcher".into(),
+            ..ViewerOptions::default()
+        },
+    )?;
+    app.set_frame_wait(softshadow_viewer::app::FRAME_WAIT);
+    app.set_reference_param("samples_per_axis", ParamValue::Int(4));
+    app.set_reference_param("shadow_map_size", ParamValue::Int(256));
+    let harness = Harness::builder()
+        .with_size(SIZE)
+        .renderer(WgpuTestRenderer::from_render_state(render_state))
+        .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app);
+    Ok((harness, overlapped))
+}
+
+/// `hard` that sleeps (`sleepy`) or notes cost frames run while another sleeps (`watcher`).
+struct Watched {
+    inner: Box<dyn softshadow_core::ShadowTechnique>,
+    sleep: std::time::Duration,
+    sleeping: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    overlapped: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    cache_dropped: bool,
+}
+
+impl softshadow_core::ShadowTechnique for Watched {
+    fn id(&self) -> &str {
+        if self.sleep.is_zero() {
+            "watcher"
+        } else {
+            "sleepy"
+        }
+    }
+    fn settings(&self) -> &dyn softshadow_core::TechniqueSettings {
+        self.inner.settings()
+    }
+    fn settings_mut(&mut self) -> &mut dyn softshadow_core::TechniqueSettings {
+        self.inner.settings_mut()
+    }
+    fn requirements(&self) -> softshadow_core::Requirements {
+        self.inner.requirements()
+    }
+    fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        inputs: &softshadow_core::ShadowInputs<'_>,
+    ) -> Result<(), softshadow_core::TechniqueError> {
+        self.inner.prepare(gpu, inputs)
+    }
+    fn invalidate_cache(&mut self) {
+        self.cache_dropped = true;
+        self.inner.invalidate_cache();
+    }
+    fn render(
+        &mut self,
+        frame: &mut softshadow_core::Frame<'_>,
+        inputs: &softshadow_core::ShadowInputs<'_>,
+        out: &softshadow_core::VisibilityBuffer,
+    ) -> Result<(), softshadow_core::TechniqueError> {
+        use std::sync::atomic::Ordering::SeqCst;
+        let cost = std::mem::take(&mut self.cache_dropped);
+        if self.sleep.is_zero() {
+            if cost && self.sleeping.load(SeqCst) {
+                self.overlapped.fetch_add(1, SeqCst);
+            }
+        } else {
+            self.sleeping.store(true, SeqCst);
+            std::thread::sleep(self.sleep);
+            self.sleeping.store(false, SeqCst);
+        }
+        self.inner.render(frame, inputs, out)
+    }
+}
+
+/// Issue 43: a technique picked while another's frame runs shows its frames at once, but its
+/// cost rests only on frames that ran alone; the banner says what the metrics wait for (not a
+/// complete reference "re-accumulating"); a running frame's progress is estimated from the same
+/// setting's earlier frames or not at all; Cancel keeps the measured cost.
+#[test]
+fn costs_rest_on_frames_that_ran_alone_and_banners_say_what_happens_now() -> Result<()> {
+    let (mut harness, overlapped) = watched_sleepy_harness(std::time::Duration::from_millis(2500))?;
+    let run_until = |h: &mut Harness<ViewerApp>, what: &str, done: &dyn Fn(&ViewerApp) -> bool| {
+        for _ in 0..3000 {
+            if done(h.state()) {
+                return Ok(());
+            }
+            h.step();
+        }
+        anyhow::bail!("{what}: not reached")
+    };
+    run_until(&mut harness, "watcher's point", &|a| a.points().len() == 1)?;
+    // sleepy's first frame: nothing of it to go by.
+    harness.state_mut().select_technique("sleepy");
+    run_until(&mut harness, "a slow frame", &|a| {
+        a.slow_frame_seconds().is_some()
+    })?;
+    // The messages' area appears a frame after it is first laid out.
+    harness.run_steps(2);
+    harness
+        .query_by_label_contains("no earlier frame of this setting")
+        .with_context(|| {
+            format!(
+                "a first frame has no estimate: {:?}",
+                harness
+                    .query_all_by_label_contains(" ")
+                    .map(|n| format!("{:?}", n.accesskit_node().value()))
+                    .collect::<Vec<_>>()
+            )
+        })?;
+    harness
+        .query_by_label_contains("waiting for sleepy's frame of this setting")
+        .context("the stale metrics say what they wait for")?;
+    ensure!(harness.query_by_label_contains("re-accumulating").is_none());
+    // Back to the watcher while sleepy sleeps: its frames show, its cost frames wait.
+    harness.state_mut().select_technique("watcher");
+    run_until(&mut harness, "watcher's frame", &|a| {
+        a.timing_rows().iter().any(|r| r.name.starts_with("hard/"))
+    })?;
+    run_until(&mut harness, "watcher's cost", &|a| {
+        a.cost_ms().is_some() && a.points().len() == 1
+    })?;
+    let overlapped = overlapped.load(std::sync::atomic::Ordering::SeqCst);
+    ensure!(
+        overlapped == 0,
+        "{overlapped} cost frames ran beside an abandoned frame"
+    );
+    let point = harness.state().points()[0].clone();
+    ensure!(point.cost_frames == 5, "{point:?}");
+    // sleepy again: its one slow cost frame measured, then Cancel on a later frame keeps it.
+    harness.state_mut().select_technique("sleepy");
+    run_until(&mut harness, "sleepy's point", &|a| {
+        a.points().iter().any(|p| p.technique == "sleepy")
+    })?;
+    run_until(&mut harness, "a later slow frame", &|a| {
+        a.slow_frame_seconds().is_some()
+    })?;
+    harness.run_steps(2);
+    harness.get_by_label("Cancel").click();
+    harness.run_steps(2);
+    ensure!(
+        harness.state().cost_ms().is_some(),
+        "Cancel keeps the measured cost"
+    );
+    harness
+        .query_by_label_contains("cost of the technique")
+        .context("the cost stays on screen")?;
+    Ok(())
+}
+
+/// Issue 43: Record on a paused path plays it from its first step, writes exactly one frame per
+/// step and stops at the path's end, loop or not.
+#[test]
+fn record_writes_one_frame_per_step_from_a_paused_path_and_stops_at_its_end() -> Result<()> {
+    let mut harness = harness("hard")?;
+    harness.state_mut().set_render_size(Some((96, 64)));
+    // orbit turns the camera at every step: no two steps show the same frame.
+    harness.state_mut().open_path(Some("orbit"));
+    harness.state_mut().set_path_steps(6);
+    harness.state_mut().set_path_looping(true);
+    harness.state_mut().scrub_to(3);
+    harness.run_steps(3);
+    let folder = tempfile::tempdir()?;
+    let recorded = folder.path().join("frames");
+    harness
+        .state_mut()
+        .record_path(Some(recorded.to_str().context("utf-8 temp path")?));
+    harness.run_steps(14);
+    let status = harness.state().status().unwrap_or_default().to_string();
+    ensure!(
+        status.starts_with("recorded 6 frames"),
+        "the recording stopped by itself after one pass: {status:?} {:?}",
+        harness.state().errors()
+    );
+    let mut frames = Vec::new();
+    for step in 0..6 {
+        frames.push(image::open(recorded.join(format!("frame-{step:04}.png")))?.to_rgba8());
+    }
+    ensure!(!recorded.join("frame-0006.png").exists());
+    for pair in frames.windows(2) {
+        ensure!(pair[0] != pair[1], "two steps recorded the same frame");
+    }
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(
+        recorded.join("animation.png"),
+    )?));
+    let control = decoder.read_info()?.info().animation_control;
+    ensure!(control.map(|c| c.num_frames) == Some(6), "{control:?}");
+    Ok(())
+}
+
+/// Issue 43: every label and button of the side panels is inside its panel for every
+/// technique, at 1280 x 800 and 1000 x 700 (long parameter names wrap, msm's view modes wrap);
+/// the debug image picker names the view shown after a switch; the output paths default to the
+/// viewer's own folder.
+#[test]
+fn nothing_is_cut_at_1280x800_and_1000x700() -> Result<()> {
+    let mut harness = harness("backprojection")?;
+    let mut state = harness.state().state();
+    state.params = small_settings();
+    let dir = tempfile::tempdir()?;
+    let state_path = dir.path().join("state.json");
+    state.save(&state_path)?;
+    harness.state_mut().load_state(&state_path);
+    harness.state_mut().set_render_size(Some((64, 48)));
+    harness.state_mut().set_view_mode(ViewMode::Debug);
+    harness.state_mut().set_debug_view(3);
+    harness.run_steps(2);
+    harness.state_mut().select_technique("pcss");
+    harness.run_steps(2);
+    let picker = harness.get_by_role_and_label(Role::ComboBox, "Debug image");
+    ensure!(
+        picker
+            .accesskit_node()
+            .value()
+            .is_some_and(|v| !v.is_empty() && v != "none"),
+        "the debug image picker names the view shown: {:?}",
+        picker.accesskit_node().value()
+    );
+    harness.state_mut().set_view_mode(ViewMode::Shaded);
+    // Tall enough that the Files header is on screen to be clicked, once laid out anew.
+    harness.set_size(egui::vec2(1280.0, 800.0));
+    harness.run_steps(3);
+    harness
+        .get_by_role_and_label(Role::DisclosureTriangle, "Files")
+        .click();
+    harness.run_steps(2);
+    let output = softshadow_viewer::app::output_dir().display().to_string();
+    let fields: Vec<String> = harness
+        .query_all_by_role(Role::TextInput)
+        .filter_map(|n| n.accesskit_node().value())
+        .collect();
+    ensure!(
+        fields.iter().filter(|f| f.starts_with(&output)).count() >= 3,
+        "screenshot, state and sweep default under {output}: {fields:?} {:?}",
+        harness
+            .query_all_by_role(Role::DisclosureTriangle)
+            .map(|n| format!(
+                "{:?} {:?} {:?}",
+                n.accesskit_node().label(),
+                n.accesskit_node().data().is_expanded(),
+                n.rect()
+            ))
+            .collect::<Vec<_>>()
+    );
+    let ids: Vec<String> = softshadow::registry()
+        .iter()
+        .map(|t| t.id.to_string())
+        .collect();
+    for size in [egui::vec2(1280.0, 800.0), egui::vec2(1000.0, 700.0)] {
+        harness.set_size(size);
+        for id in &ids {
+            harness.state_mut().select_technique(id);
+            harness.run_steps(2);
+            let left = softshadow_viewer::app::LEFT_PANEL_WIDTH;
+            let right = size.x - softshadow_viewer::app::RIGHT_PANEL_WIDTH;
+            for node in harness.query_all_by_role(Role::Label).chain(
+                harness
+                    .query_all_by_role(Role::Button)
+                    .chain(harness.query_all_by_role(Role::Slider)),
+            ) {
+                let r = node.rect();
+                let cut = (r.left() < left && r.right() > left + 0.5)
+                    || (r.left() >= right && r.right() > size.x + 0.5);
+                ensure!(
+                    !cut,
+                    "{id} at {size:?}: `{}` {r:?} is cut at its panel's edge",
+                    node.accesskit_node().label().unwrap_or_default()
+                );
+            }
+        }
+    }
     Ok(())
 }

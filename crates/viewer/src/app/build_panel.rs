@@ -56,6 +56,46 @@ impl BuildState {
     pub(super) fn is_running(&self) -> bool {
         self.running.is_some()
     }
+
+    /// The running precompute's progress with Cancel, or Build again once cancelled, for
+    /// technique `id`.
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui, id: &str) {
+        if let Some((done, total, unit)) = self.running {
+            let fraction = if total == 0 {
+                0.0
+            } else {
+                done as f32 / total as f32
+            };
+            let cancelling = self.control.is_cancelled();
+            ui.group(|ui| {
+                ui.label(format!("{id}: building its precompute"));
+                ui.add(egui::ProgressBar::new(fraction).text(format!(
+                    "{:.0} % ({done} of {total} {unit})",
+                    fraction * 100.0
+                )));
+                ui.horizontal(|ui| {
+                    if cancelling {
+                        ui.label("cancelling...");
+                    } else if ui
+                        .button("Cancel")
+                        .on_hover_text("Stop the build; nothing is drawn until it builds again")
+                        .clicked()
+                    {
+                        self.control.cancel();
+                    }
+                });
+                ui.weak("The frame is drawn, timed and plotted once it is done.");
+            });
+        } else if self.cancelled {
+            ui.group(|ui| {
+                ui.label(format!("{id}: precompute cancelled"));
+                if ui.button("Build again").clicked() {
+                    self.control.clear_cancel();
+                    self.cancelled = false;
+                }
+            });
+        }
+    }
 }
 
 impl ViewerApp {
@@ -82,42 +122,5 @@ impl ViewerApp {
     pub fn build_again(&mut self) {
         self.technique.build.control.clear_cancel();
         self.technique.build.cancelled = false;
-    }
-
-    pub(super) fn build_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some((done, total, unit)) = self.technique.build.running {
-            let fraction = if total == 0 {
-                0.0
-            } else {
-                done as f32 / total as f32
-            };
-            let cancelling = self.technique.build.control.is_cancelled();
-            ui.group(|ui| {
-                ui.label(format!("{}: building its precompute", self.technique.id));
-                ui.add(egui::ProgressBar::new(fraction).text(format!(
-                    "{:.0} % ({done} of {total} {unit})",
-                    fraction * 100.0
-                )));
-                ui.horizontal(|ui| {
-                    if cancelling {
-                        ui.label("cancelling...");
-                    } else if ui
-                        .button("Cancel")
-                        .on_hover_text("Stop the build; nothing is drawn until it builds again")
-                        .clicked()
-                    {
-                        self.cancel_build();
-                    }
-                });
-                ui.weak("The frame is drawn, timed and plotted once it is done.");
-            });
-        } else if self.technique.build.cancelled {
-            ui.group(|ui| {
-                ui.label(format!("{}: precompute cancelled", self.technique.id));
-                if ui.button("Build again").clicked() {
-                    self.build_again();
-                }
-            });
-        }
     }
 }

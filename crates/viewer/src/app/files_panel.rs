@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use softshadow_core::{ParamValue, ShadowTechnique};
 
-use super::{scene_panel::load_scene, shown_path, ViewerApp};
+use super::{create_parent, output_dir, scene_panel::load_scene, shown_path, ViewerApp};
 use crate::{
     orbit::Orbit,
     state::{ViewerState, STATE_VERSION},
@@ -23,8 +23,8 @@ pub(super) struct FilesState {
 impl Default for FilesState {
     fn default() -> Self {
         Self {
-            state_path: "viewer-state.json".into(),
-            screenshot_path: "screenshot.png".into(),
+            state_path: output_dir().join("viewer-state.json").display().to_string(),
+            screenshot_path: output_dir().join("screenshot.png").display().to_string(),
             screenshot_request: None,
             puffin_server: None,
             puffin_message: None,
@@ -32,35 +32,46 @@ impl Default for FilesState {
     }
 }
 
-impl ViewerApp {
-    pub(super) fn files_ui(&mut self, ui: &mut egui::Ui) {
+/// What the user asked of the files section.
+pub(super) enum FilesAction {
+    SaveState(PathBuf),
+    LoadState(PathBuf),
+    Puffin(bool),
+}
+
+impl FilesState {
+    /// The screenshot, state and puffin controls; returns what the app must do.
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui) -> Option<FilesAction> {
+        let mut action = None;
         // Each path on its own row, its buttons below: nothing is clipped at the panel's width.
         let width = ui.available_width();
-        ui.add(egui::TextEdit::singleline(&mut self.files.screenshot_path).desired_width(width));
+        ui.add(egui::TextEdit::singleline(&mut self.screenshot_path).desired_width(width))
+            .on_hover_text(self.screenshot_path.clone());
         if ui.button("Screenshot").clicked() {
-            self.files.screenshot_request = Some(PathBuf::from(self.files.screenshot_path.trim()));
+            self.screenshot_request = Some(PathBuf::from(self.screenshot_path.trim()));
         }
-        ui.add(egui::TextEdit::singleline(&mut self.files.state_path).desired_width(width));
+        ui.add(egui::TextEdit::singleline(&mut self.state_path).desired_width(width))
+            .on_hover_text(self.state_path.clone());
         ui.horizontal(|ui| {
+            let path = PathBuf::from(self.state_path.trim());
             if ui.button("Save state").clicked() {
-                let path = PathBuf::from(self.files.state_path.trim());
-                self.save_state(&path);
+                action = Some(FilesAction::SaveState(path.clone()));
             }
             if ui.button("Load").clicked() {
-                let path = PathBuf::from(self.files.state_path.trim());
-                self.load_state(&path);
+                action = Some(FilesAction::LoadState(path));
             }
         });
-        let mut puffin = self.files.puffin_server.is_some();
+        let mut puffin = self.puffin_server.is_some();
         if ui
             .checkbox(&mut puffin, "Serve CPU scopes to puffin_viewer")
             .changed()
         {
-            self.set_puffin(puffin);
+            action = Some(FilesAction::Puffin(puffin));
         }
-        if let Some(message) = &self.files.puffin_message {
+        if let Some(message) = &self.puffin_message {
             ui.small(message);
         }
+        action
     }
 }
 
@@ -86,6 +97,10 @@ impl ViewerApp {
     }
 
     pub fn save_state(&mut self, path: &Path) {
+        if let Err(e) = create_parent(path) {
+            self.report_error(format!("cannot save the state: {e}"));
+            return;
+        }
         match self.state().save(path) {
             Ok(()) => self.confirm(format!("saved the state to {}", shown_path(path))),
             Err(e) => self.report_error(e.to_string()),
@@ -120,11 +135,22 @@ impl ViewerApp {
         }
     }
 
-    /// Writes the plot's points as a benchmark sweep file.
+    /// Writes the plot's points as a benchmark sweep file; points of an earlier version of a
+    /// file technique are left out (the file no longer holds that shader) and the confirmation
+    /// says how many.
     pub fn export_sweep(&mut self, path: &Path) {
+        if let Err(e) = create_parent(path) {
+            self.report_error(format!("cannot export the sweep: {e}"));
+            return;
+        }
         let Some(r) = &self.image.renderers else {
             return;
         };
+        let current = |p: &&crate::tradeoff::TradeoffPoint| {
+            p.version.is_none() || p.version == self.file_reload.version_of(&p.technique)
+        };
+        let points: Vec<_> = self.points().iter().filter(current).cloned().collect();
+        let left_out = self.points().len() - points.len();
         let reference: Vec<(String, ParamValue)> = self
             .reference
             .yardstick
@@ -133,7 +159,7 @@ impl ViewerApp {
             .into_iter()
             .collect();
         let text = sweep_toml(
-            self.points(),
+            &points,
             View {
                 scene: &self.scene.loaded.spec,
                 width: r.width,
@@ -145,9 +171,14 @@ impl ViewerApp {
         );
         match std::fs::write(path, text) {
             Ok(()) => self.confirm(format!(
-                "wrote {} points to {}",
-                self.points().len(),
-                shown_path(path)
+                "wrote {} points to {}{}",
+                points.len(),
+                shown_path(path),
+                if left_out > 0 {
+                    format!(" ({left_out} of earlier file versions left out: not in the file now)")
+                } else {
+                    String::new()
+                }
             )),
             Err(e) => self.report_error(format!(
                 "cannot write `{}`: {e}: check the folder exists",

@@ -109,7 +109,7 @@ impl ViewerApp {
     }
 
     fn messages_ui(&mut self, ui: &mut egui::Ui) {
-        self.build_ui(ui);
+        self.technique.build.ui(ui, &self.technique.id);
         self.slow_frame_ui(ui);
         if let Some(error) = &self.technique.error {
             ui.colored_label(egui::Color32::LIGHT_RED, error);
@@ -145,21 +145,39 @@ impl ViewerApp {
     /// far against its last frame, and Cancel; after a Cancel, Render again.
     fn slow_frame_ui(&mut self, ui: &mut egui::Ui) {
         if let Some(seconds) = self.slow_frame_seconds() {
-            let last = self
-                .technique
-                .worker
-                .as_ref()
-                .and_then(|w| w.last_frame_ms)
+            let in_flight = self.technique.worker.as_ref().and_then(|w| w.in_flight());
+            // Only this setting's earlier frame of the same kind says how long it takes.
+            let last = in_flight
+                .and_then(|f| {
+                    self.technique
+                        .estimate_ms(f.setting_key, f.invalidate, f.exact)
+                })
                 .map(|ms| ms / 1e3);
+            let exact = in_flight.is_some_and(|f| f.exact);
             ui.group(|ui| {
-                ui.label(format!("{}: computing a frame", self.technique.id));
+                ui.label(if exact {
+                    format!(
+                        "{}: computing a frame and its exact answer (path step {})",
+                        self.technique.id, self.timeline.step
+                    )
+                } else {
+                    format!("{}: computing a frame", self.technique.id)
+                });
                 let text = match last {
-                    Some(last) => format!("{seconds:.1} s of about {last:.1} s (its last frame)"),
-                    None => format!("{seconds:.1} s (its first frame)"),
+                    Some(last) => {
+                        format!("{seconds:.1} s of about {last:.1} s (its last such frame)")
+                    }
+                    None => format!("{seconds:.1} s (no earlier frame of this setting to go by)"),
                 };
-                // Progress against the last frame's time; a first frame has nothing to go by.
                 let fraction = last.map_or(0.0, |last| (seconds / last.max(1e-3)).min(0.99));
-                ui.add(egui::ProgressBar::new(fraction as f32).text(text));
+                let bar = egui::ProgressBar::new(fraction as f32);
+                // Without an estimate the bar only shows that work goes on.
+                ui.add(if last.is_some() {
+                    bar
+                } else {
+                    bar.animate(true)
+                });
+                ui.label(text);
                 if ui
                     .button("Cancel")
                     .on_hover_text(

@@ -45,6 +45,9 @@ impl ReferenceState {
 pub(super) struct Measured {
     pub(super) key: u64,
     pub(super) report: ErrorReport,
+    /// For a technique that keeps a history: the frames of history the measured frame rests on
+    /// once settled; `None` for a frame before that (or a technique without a history).
+    pub(super) settled_after: Option<u32>,
 }
 
 /// The name of the reference's worker thread.
@@ -119,25 +122,44 @@ impl ViewerApp {
         }
         let complete = self.reference.key == Some(key) && self.reference.progress.is_complete();
         let scene_hash = self.scene.loaded.gpu.content_hash;
+        // A technique cost frame runs alone: no batch beside it.
+        let cost_frame_running = self
+            .technique
+            .worker
+            .as_ref()
+            .and_then(|w| w.in_flight())
+            .is_some_and(|f| f.invalidate);
+        let scene = self.technique.worker_scene(&self.scene.loaded);
+        let params: Vec<(String, ParamValue)> = self
+            .reference
+            .yardstick
+            .params()
+            .entries
+            .into_iter()
+            .map(|(spec, value)| (spec.name.to_string(), value))
+            .collect();
         let worker = self.reference.worker.as_mut().expect("started above");
+        if let Some(Err(e)) = worker.poll_started() {
+            self.reference.worker = None;
+            self.report_error(format!("reference failed to start: {e}"));
+            return;
+        }
         // Not while the camera is dragged: each frame would restart it.
         // Nor while a path plays: every step would restart it.
-        if !worker.busy() && !complete && !self.image.interacting && !self.timeline.playing {
+        if !worker.busy()
+            && !complete
+            && !self.image.interacting
+            && !self.timeline.playing
+            && !cost_frame_running
+        {
             let request = FrameRequest {
                 setting_key: key,
-                scene: self.technique.worker_scene(&self.scene.loaded),
+                scene,
                 scene_hash,
                 camera: self.scene.camera,
                 light: self.scene.light,
                 size,
-                params: self
-                    .reference
-                    .yardstick
-                    .params()
-                    .entries
-                    .into_iter()
-                    .map(|(spec, value)| (spec.name.to_string(), value))
-                    .collect(),
+                params,
                 invalidate: false,
                 debug_view: None,
                 exact: None,
@@ -148,6 +170,15 @@ impl ViewerApp {
                 return;
             }
         }
+        self.receive_reference(scene_hash, size);
+    }
+
+    /// Shows the batches the reference's worker finished, when they are of the shown scene and
+    /// size.
+    fn receive_reference(&mut self, scene_hash: u64, size: (u32, u32)) {
+        let Some(worker) = self.reference.worker.as_mut() else {
+            return;
+        };
         // The technique's frame has the UI frame's wait; the reference's batches are shown when
         // they arrive (tests wait for both).
         let wait = if self.technique.frame_wait == Duration::MAX {
@@ -208,8 +239,9 @@ impl ViewerApp {
         progress
     }
 
-    /// Metrics once the reference has converged and whenever the setting or the inputs changed;
-    /// the plot point's time follows the rolling median.
+    /// Metrics once the reference has converged and whenever the setting or the inputs changed
+    /// (for a technique that keeps a history, again once it has settled); a plot point once the
+    /// cost is measured on clean frames and, for such a technique, of its settled frame.
     pub(super) fn measure(&mut self) {
         puffin::profile_function!();
         // A reference for other inputs (the camera moved while it waited) does not count.
@@ -223,34 +255,57 @@ impl ViewerApp {
         {
             return;
         }
-        let setting = self.setting();
         let key = self.current_measure_key();
-        if self.reference.measured.as_ref().map(|m| m.key) != Some(key) {
+        let history = self.history_length();
+        let settled = self
+            .technique
+            .history
+            .settled(self.current_setting_key())
+            .filter(|_| history.is_some());
+        let stale = match &self.reference.measured {
+            Some(m) => m.key != key || (settled.is_some() && m.settled_after.is_none()),
+            None => true,
+        };
+        if stale {
             match self.compute_metrics() {
-                Ok(report) => self.reference.measured = Some(Measured { key, report }),
+                Ok(report) => {
+                    self.reference.measured = Some(Measured {
+                        key,
+                        report,
+                        settled_after: settled,
+                    })
+                }
                 Err(e) => {
                     self.report_error(format!("cannot measure the error: {e}"));
                     return;
                 }
             }
         }
-        let (Some(measured), Some(gpu_ms)) =
-            (&self.reference.measured, self.timing.cost.technique_ms())
-        else {
+        let (Some(measured), Some(gpu_ms), Some(range)) = (
+            &self.reference.measured,
+            self.timing.cost.technique_ms(),
+            self.timing.cost.technique_range(),
+        ) else {
             return;
         };
-        if self.timing.cost.len() < self.timing.cost_frames_wanted() {
+        if self.timing.cost.len() < self.timing.cost_frames_wanted()
+            || (history.is_some() && measured.settled_after.is_none())
+        {
             return;
         }
+        // Timestamp noise can put a tiny pass below zero; a cost is never negative.
         let point = TradeoffPoint {
             technique: self.technique.id.clone(),
-            params: setting,
-            // Timestamp noise can put a tiny pass below zero; a cost is never negative.
+            version: self.file_version(),
+            params: self.setting(),
             gpu_ms: gpu_ms.max(0.0),
+            gpu_range: (range.0.max(0.0), range.1.max(0.0)),
+            cost_frames: self.timing.cost.len(),
             error: measured.report.mae_shadowed,
+            settled_after: measured.settled_after,
         };
-        let view = self.current_view_key();
-        self.plot.insert(view, point);
+        let (scene, view) = (self.scene.loaded.gpu.content_hash, self.current_view_key());
+        self.plot.insert(scene, view, point);
     }
 
     /// The converged reference's inputs, the technique and its parameters: what one set of

@@ -82,22 +82,36 @@ pub(super) struct FrameDone {
     pub(super) live: Option<Result<LiveMetrics, String>>,
     /// With [`FrameRequest::exact`]: the frame's exact answer (row-major).
     pub(super) exact: Option<Vec<f32>>,
+    /// Wall time from the request to the answer, ms (set by [`RenderWorker::receive`]).
+    pub(super) wall_ms: f64,
 }
 
 /// The technique's thread: requests go in, finished frames come out.
 pub(super) struct RenderWorker {
     /// `None` once retired: the thread then ends.
     requests: Option<mpsc::Sender<FrameRequest>>,
-    /// The worker's device (a clone): reused by the next worker once this one has ended.
-    gpu: Gpu,
+    /// Whether the technique was created on the worker (its error otherwise); taken once read.
+    started: Option<mpsc::Receiver<Result<Gpu, StartError>>>,
+    /// The worker's device (a clone), once it exists: reused by the next worker once this one
+    /// has ended.
+    gpu: Option<Gpu>,
     thread: Option<thread::JoinHandle<()>>,
     frames: mpsc::Receiver<FrameDone>,
-    /// The request being rendered: when it was sent and whether it is a cost frame.
-    in_flight: Option<(Instant, u64)>,
-    /// Wall time of the last frame that came back, ms.
-    pub(super) last_frame_ms: Option<f64>,
+    /// The request being rendered.
+    in_flight: Option<InFlight>,
     /// Debug views of the last frame: name and legend.
     pub(super) debug_views: Vec<(String, DebugLegend)>,
+}
+
+/// The request a worker is rendering: when it was sent and what it asked.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct InFlight {
+    pub(super) since: Instant,
+    pub(super) setting_key: u64,
+    /// A cost frame (caches dropped).
+    pub(super) invalidate: bool,
+    /// The frame also computes the exact answer of a path step.
+    pub(super) exact: bool,
 }
 
 /// Why a [`RenderWorker`] could not start.
@@ -116,67 +130,109 @@ impl std::fmt::Display for StartError {
     }
 }
 
+/// What is left of a retired worker: its device when it was idle (for the next worker), or
+/// its thread when it was abandoned mid-frame (it ends when that frame does).
+pub(super) struct Retired {
+    pub(super) device: Option<Gpu>,
+    pub(super) running: Option<thread::JoinHandle<()>>,
+}
+
 impl RenderWorker {
-    /// Starts a thread named `name` with its own device on `gpu`'s adapter and creates the
-    /// technique there with `create`; waits until it exists (its creation error is returned
-    /// here).
-    /// `device` is a retired worker's device to reuse ([`RenderWorker::retire`]); without one a
-    /// new device is created.
+    /// Starts a thread named `name` that makes its own device on `gpu`'s adapter (or takes
+    /// `device`, a retired worker's) and creates the technique there with `create`. Returns at
+    /// once: the UI never waits for a device or a pipeline to compile; requests sent meanwhile
+    /// wait in the channel, and a creation error comes back through [`Self::poll_started`].
     pub(super) fn spawn(
         gpu: &Gpu,
         device: Option<Gpu>,
         name: &str,
         create: CreateOnWorker,
     ) -> Result<Self, StartError> {
-        let device = match device {
-            Some(device) => device,
-            None => {
-                let instance = gpu.instance.clone().ok_or_else(|| {
-                    StartError::Device("the viewer's GPU context has no instance".into())
-                })?;
-                pollster::block_on(Gpu::from_adapter_with(
-                    instance,
-                    gpu.adapter.clone(),
-                    crate::MEMORY_HINTS,
-                ))
-                .map_err(|e| StartError::Device(e.to_string()))?
-            }
+        let instance = match &device {
+            Some(_) => None,
+            None => Some(gpu.instance.clone().ok_or_else(|| {
+                StartError::Device("the viewer's GPU context has no instance".into())
+            })?),
         };
-        let worker_gpu = device.clone();
+        let adapter = gpu.adapter.clone();
         let (request_tx, request_rx) = mpsc::channel::<FrameRequest>();
         let (frame_tx, frame_rx) = mpsc::channel::<FrameDone>();
-        let (started_tx, started_rx) = mpsc::channel::<Result<(), String>>();
+        let (started_tx, started_rx) = mpsc::channel::<Result<Gpu, StartError>>();
         let thread = thread::Builder::new()
             .name(format!("render worker: {name}"))
             .spawn(move || {
+                let device = match (device, instance) {
+                    (Some(device), _) => device,
+                    (None, Some(instance)) => match pollster::block_on(Gpu::from_adapter_with(
+                        instance,
+                        adapter,
+                        crate::MEMORY_HINTS,
+                    )) {
+                        Ok(device) => device,
+                        Err(e) => {
+                            let _ = started_tx.send(Err(StartError::Device(e.to_string())));
+                            return;
+                        }
+                    },
+                    (None, None) => return,
+                };
                 let technique = match create(&device) {
                     Ok(technique) => {
-                        let _ = started_tx.send(Ok(()));
+                        let _ = started_tx.send(Ok(device.clone()));
                         technique
                     }
                     Err(e) => {
-                        let _ = started_tx.send(Err(e));
+                        let _ = started_tx.send(Err(StartError::Technique(e)));
                         return;
                     }
                 };
                 Worker::new(device, technique).run(&request_rx, &frame_tx);
             })
             .map_err(|e| StartError::Device(format!("cannot start its thread: {e}")))?;
-        match started_rx.recv() {
-            Ok(Ok(())) => Ok(Self {
-                requests: Some(request_tx),
-                gpu: worker_gpu,
-                thread: Some(thread),
-                frames: frame_rx,
-                in_flight: None,
-                last_frame_ms: None,
-                debug_views: Vec::new(),
-            }),
-            Ok(Err(e)) => Err(StartError::Technique(e)),
+        Ok(Self {
+            requests: Some(request_tx),
+            started: Some(started_rx),
+            gpu: None,
+            thread: Some(thread),
+            frames: frame_rx,
+            in_flight: None,
+            debug_views: Vec::new(),
+        })
+    }
+
+    /// Waits until the technique exists on the worker; its creation error otherwise.
+    pub(super) fn wait_started(&mut self) -> Result<(), StartError> {
+        let Some(started) = self.started.take() else {
+            return Ok(());
+        };
+        match started.recv() {
+            Ok(Ok(device)) => {
+                self.gpu = Some(device);
+                Ok(())
+            }
+            Ok(Err(e)) => Err(e),
             Err(_) => Err(StartError::Technique(
                 "the render worker stopped while creating the technique (see the log)".into(),
             )),
         }
+    }
+
+    /// Whether the technique has been created: `None` while it is being created, then once
+    /// `Some(Ok)` or `Some(Err)` with why it could not be.
+    pub(super) fn poll_started(&mut self) -> Option<Result<(), StartError>> {
+        let result = match self.started.as_ref()?.try_recv() {
+            Err(mpsc::TryRecvError::Empty) => return None,
+            Ok(Ok(device)) => {
+                self.gpu = Some(device);
+                Ok(())
+            }
+            Ok(Err(e)) => Err(e),
+            Err(mpsc::TryRecvError::Disconnected) => Err(StartError::Technique(
+                "the render worker stopped while creating the technique (see the log)".into(),
+            )),
+        };
+        self.started = None;
+        Some(result)
     }
 
     /// A worker for a registered technique with `params`, its precompute watched by `build`
@@ -207,20 +263,37 @@ impl RenderWorker {
 
     /// Ends the worker. An idle one ends at once, its technique's resources freed, and its device
     /// comes back for the next worker (a new device per switch grew resident memory by about
-    /// 0.5 MiB per switch); a busy one is abandoned: its thread ends when its frame does (a
-    /// submitted GPU frame cannot be stopped) and takes its device with it.
-    pub(super) fn retire(mut self) -> Option<Gpu> {
+    /// 0.5 MiB per switch); a busy one (or one still creating its technique) is abandoned: its
+    /// thread comes back, and ends when its frame does (a submitted GPU frame cannot be
+    /// stopped), taking its device with it.
+    pub(super) fn retire(mut self) -> Retired {
         self.requests = None;
-        if self.busy() {
-            return None;
+        // A technique created since the last look is idle, not abandoned.
+        let _ = self.poll_started();
+        let thread = self.thread.take();
+        if self.busy() || self.started.is_some() {
+            return Retired {
+                device: None,
+                running: thread,
+            };
         }
-        if let Some(thread) = self.thread.take() {
+        if let Some(thread) = thread {
             if thread.join().is_err() {
-                return None; // It panicked: do not reuse its device.
+                // It panicked: do not reuse its device.
+                return Retired {
+                    device: None,
+                    running: None,
+                };
             }
         }
-        let _ = self.gpu.wait_idle();
-        Some(self.gpu.clone())
+        let device = self.gpu.take();
+        if let Some(device) = &device {
+            let _ = device.wait_idle();
+        }
+        Retired {
+            device,
+            running: None,
+        }
     }
 
     /// Whether a frame is being rendered.
@@ -228,21 +301,31 @@ impl RenderWorker {
         self.in_flight.is_some()
     }
 
+    /// The request being rendered, if one is.
+    pub(super) fn in_flight(&self) -> Option<InFlight> {
+        self.in_flight
+    }
+
     /// How long the frame being rendered has taken so far.
     pub(super) fn busy_for(&self) -> Option<Duration> {
-        self.in_flight.map(|(since, _)| since.elapsed())
+        self.in_flight.map(|f| f.since.elapsed())
     }
 
     /// Sends a request; `false` when the worker has stopped.
     pub(super) fn request(&mut self, request: FrameRequest) -> bool {
-        let key = request.setting_key;
+        let in_flight = InFlight {
+            since: Instant::now(),
+            setting_key: request.setting_key,
+            invalidate: request.invalidate,
+            exact: request.exact.is_some(),
+        };
         let Some(requests) = &self.requests else {
             return false;
         };
         if requests.send(request).is_err() {
             return false;
         }
-        self.in_flight = Some((Instant::now(), key));
+        self.in_flight = Some(in_flight);
         true
     }
 
@@ -265,9 +348,13 @@ impl RenderWorker {
                 Err(mpsc::RecvTimeoutError::Disconnected) => Err(()),
             }
         };
-        let (since, _) = self.in_flight.take().expect("checked above");
-        let done = received?;
-        self.last_frame_ms = Some(since.elapsed().as_secs_f64() * 1e3);
+        let in_flight = self.in_flight.take().expect("checked above");
+        let mut done = received?;
+        // Once a frame is back the technique exists: take its device for reuse.
+        if self.started.is_some() {
+            let _ = self.wait_started();
+        }
+        done.wall_ms = in_flight.since.elapsed().as_secs_f64() * 1e3;
         self.debug_views = done.debug_views.clone();
         Ok(Some(done))
     }
@@ -363,6 +450,7 @@ impl Worker {
                 stats: self.technique.stats(),
                 live,
                 exact,
+                wall_ms: 0.0,
             };
             if frames.send(done).is_err() {
                 return; // The UI dropped this worker.

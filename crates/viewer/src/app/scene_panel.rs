@@ -27,47 +27,52 @@ impl SceneState {
     }
 }
 
-impl ViewerApp {
-    pub(super) fn scene_ui(&mut self, ui: &mut egui::Ui) {
+impl SceneState {
+    /// The scene picker and path field; returns the scene to open, if one was picked.
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui) -> Option<String> {
         let mut open = None;
+        // A file is named by its file name (a whole path widened the box onto two lines); the
+        // whole spec is on hover.
+        let spec = self.loaded.spec.clone();
+        let shown = std::path::Path::new(&spec)
+            .file_name()
+            .map_or(spec.clone(), |n| n.to_string_lossy().into_owned());
         egui::ComboBox::from_label("Scene")
-            .selected_text(self.scene.loaded.spec.clone())
+            .selected_text(shown)
+            .truncate()
+            .width(ui.available_width() - 60.0)
             .show_ui(ui, |ui| {
                 for info in softshadow_scenes::builtin_scenes() {
                     if ui
-                        .selectable_label(self.scene.loaded.spec == info.id, info.id)
+                        .selectable_label(self.loaded.spec == info.id, info.id)
                         .on_hover_text(info.description)
                         .clicked()
                     {
                         open = Some(info.id.to_string());
                     }
                 }
-            });
+            })
+            .response
+            .on_hover_text(spec);
         ui.horizontal(|ui| {
             let field = ui.add(
-                egui::TextEdit::singleline(&mut self.scene.path_field)
+                egui::TextEdit::singleline(&mut self.path_field)
                     .hint_text("scene.toml / model.glb")
                     .desired_width(170.0),
             );
             // Enter in the field opens, as the Open button does.
             let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-            if (ui.button("Open").clicked() || entered) && !self.scene.path_field.trim().is_empty()
-            {
-                open = Some(self.scene.path_field.trim().to_string());
+            if (ui.button("Open").clicked() || entered) && !self.path_field.trim().is_empty() {
+                open = Some(self.path_field.trim().to_string());
             }
         });
         ui.small("Or drop a .toml / .gltf / .glb file on the window.");
-        ui.label(format!(
-            "{} triangles",
-            self.scene.loaded.scene.triangle_count()
-        ));
-        if let Some(spec) = open {
-            self.open_scene(&spec);
-        }
+        ui.label(format!("{} triangles", self.loaded.scene.triangle_count()));
+        open
     }
 
     pub(super) fn light_ui(&mut self, ui: &mut egui::Ui) {
-        let light = &mut self.scene.light;
+        let light = &mut self.light;
         ui.horizontal(|ui| {
             ui.label("position");
             ui.add(
@@ -105,23 +110,28 @@ impl ViewerApp {
         ui.add(egui::Slider::new(&mut light.height, 0.0..=4.0).text("height"));
         ui.add(egui::Slider::new(&mut light.intensity, 0.0..=4.0).text("intensity"));
         if ui.button("Reset light").clicked() {
-            self.scene.light = self.scene.loaded.scene.light;
+            self.light = self.loaded.scene.light;
         }
     }
 
     pub(super) fn camera_ui(&mut self, ui: &mut egui::Ui) {
         ui.small("Image: left drag orbits, right or middle drag pans, scroll zooms.");
+        ui.add(egui::Slider::new(&mut self.camera.fov_y_degrees, 10.0..=120.0).text("fov (deg)"));
         ui.add(
-            egui::Slider::new(&mut self.scene.camera.fov_y_degrees, 10.0..=120.0).text("fov (deg)"),
-        );
-        ui.add(
-            egui::Slider::new(&mut self.scene.orbit.distance, 0.1..=100.0)
+            egui::Slider::new(&mut self.orbit.distance, 0.1..=100.0)
                 .logarithmic(true)
                 .text("distance"),
         );
         if ui.button("Reset camera and light").clicked() {
             self.reset_view();
         }
+    }
+
+    /// Camera and light back to the scene's own.
+    pub(super) fn reset_view(&mut self) {
+        self.camera = self.loaded.scene.camera;
+        self.light = self.loaded.scene.light;
+        self.orbit = Orbit::from_camera(&self.camera);
     }
 }
 
@@ -170,9 +180,7 @@ impl ViewerApp {
 
     /// Camera and light back to the scene's own.
     pub fn reset_view(&mut self) {
-        self.scene.camera = self.scene.loaded.scene.camera;
-        self.scene.light = self.scene.loaded.scene.light;
-        self.scene.orbit = Orbit::from_camera(&self.scene.camera);
+        self.scene.reset_view();
     }
 
     /// Scene, light and camera: what the plot's points are comparable for.

@@ -1,7 +1,12 @@
 //! The active technique: switching, its parameters, and its frames, which run on a render
 //! worker ([`super::render_worker`]) so the UI stays responsive whatever they cost.
 
-use std::{collections::BTreeMap, sync::Arc, time::Duration};
+use std::{
+    collections::BTreeMap,
+    sync::Arc,
+    thread::JoinHandle,
+    time::{Duration, Instant},
+};
 
 use softshadow_core::{scene::Fnv1a, ParamSet, ParamValue, Scene, ShadingMode, TechniqueInfo};
 
@@ -44,6 +49,64 @@ pub(super) struct TechniqueState {
     pub(super) error: Option<String>,
     /// Its precompute when it builds off the UI thread ([`super::build_panel`]).
     pub(super) build: BuildState,
+    /// Threads of workers abandoned mid-frame, until their frame ends: while one runs, no cost
+    /// frame is asked for (it would share the CPU with it and read slow).
+    abandoned: Vec<JoinHandle<()>>,
+    /// Wall time of the last finished frame per setting and kind (cost frame or not, with the
+    /// exact answer of a path step or not), ms: what a running frame's progress is estimated
+    /// from.
+    frame_ms: BTreeMap<(u64, bool, bool), f64>,
+    /// The still frames of the current setting, for a technique that keeps a history.
+    pub(super) history: HistoryState,
+    /// When the active technique was picked, until its first frame is shown.
+    picked_at: Option<Instant>,
+    /// Time from picking the active technique to its first frame shown, ms.
+    pub(super) first_frame_ms: Option<f64>,
+}
+
+/// Frames of history a technique that keeps one is settled after when it declares no
+/// `max_history` parameter.
+pub const DEFAULT_HISTORY_FRAMES: u32 = 16;
+
+/// Still frames (no cache dropped) of one setting in a row, and the history the technique
+/// reports after them (its `history_frames` counter, where it has one).
+#[derive(Default)]
+pub(super) struct HistoryState {
+    key: Option<u64>,
+    pub(super) still_frames: u32,
+    history_frames: Option<f64>,
+    /// The frames of history the shown frame rests on once settled.
+    pub(super) settled_after: Option<u32>,
+}
+
+impl HistoryState {
+    /// Notes a shown frame of setting `key`; `target`: the history length it settles at.
+    fn note(&mut self, key: u64, invalidated: bool, history_frames: Option<f64>, target: u32) {
+        if self.key != Some(key) || invalidated {
+            *self = Self {
+                key: Some(key),
+                ..Self::default()
+            };
+            if invalidated {
+                return;
+            }
+        }
+        self.still_frames += 1;
+        let before = self.history_frames.replace(history_frames.unwrap_or(0.0));
+        let settled = match history_frames {
+            // Its counter reached the history length, or stopped growing after enough frames.
+            Some(h) => h >= f64::from(target) || (before == Some(h) && self.still_frames > target),
+            None => self.still_frames >= target,
+        };
+        if settled && self.settled_after.is_none() {
+            self.settled_after = Some(history_frames.map_or(self.still_frames, |h| h as u32));
+        }
+    }
+
+    /// Frames of history the frame of `key` settled after, if it has.
+    pub(super) fn settled(&self, key: u64) -> Option<u32> {
+        self.settled_after.filter(|_| self.key == Some(key))
+    }
 }
 
 impl TechniqueState {
@@ -60,7 +123,39 @@ impl TechniqueState {
             frame_wait: FRAME_WAIT,
             error: None,
             build: BuildState::default(),
+            abandoned: Vec::new(),
+            frame_ms: BTreeMap::new(),
+            history: HistoryState::default(),
+            picked_at: None,
+            first_frame_ms: None,
         }
+    }
+
+    /// Retires the worker; an abandoned one's thread is kept until its frame ends.
+    fn retire_worker(&mut self) {
+        if let Some(worker) = self.worker.take() {
+            let retired = worker.retire();
+            self.spare_device = retired.device;
+            self.abandoned.extend(retired.running);
+        }
+    }
+
+    /// Whether a worker abandoned mid-frame still runs (its frame shares the CPU).
+    pub(super) fn abandoned_running(&mut self) -> bool {
+        let (done, running): (Vec<_>, Vec<_>) = std::mem::take(&mut self.abandoned)
+            .into_iter()
+            .partition(|t| t.is_finished());
+        for thread in done {
+            let _ = thread.join();
+        }
+        self.abandoned = running;
+        !self.abandoned.is_empty()
+    }
+
+    /// The last frame's wall time of this setting and kind, ms: what a running frame is
+    /// compared with (`None`: no earlier frame to go by).
+    pub(super) fn estimate_ms(&self, key: u64, invalidate: bool, exact: bool) -> Option<f64> {
+        self.frame_ms.get(&(key, invalidate, exact)).copied()
     }
 }
 
@@ -97,13 +192,17 @@ impl ViewerApp {
     /// that fails to build shows its error and leaves no active technique. The old technique's
     /// frame, if one is running, is abandoned (its worker ends when the frame does).
     pub fn select_technique(&mut self, id: &str) {
-        self.technique.id = id.to_string();
-        if let Some(worker) = self.technique.worker.take() {
-            self.technique.spare_device = worker.retire();
+        if self.technique.id != id {
+            // Another technique's debug views: start from its first.
+            self.image.debug_view = 0;
         }
+        self.technique.id = id.to_string();
+        self.technique.retire_worker();
         self.technique.params = None;
         self.technique.shown_key = None;
         self.technique.cancelled_frame = None;
+        self.technique.picked_at = Some(Instant::now());
+        self.technique.first_frame_ms = None;
         self.release_memory();
         self.technique.error = None;
         self.timing.rolling.clear();
@@ -138,6 +237,18 @@ impl ViewerApp {
         }
     }
 
+    /// Waits until the active technique exists on its worker (the app's first technique: a
+    /// technique that cannot be created with the given settings is bad input).
+    pub(super) fn wait_technique_started(&mut self) -> Result<(), String> {
+        let Some(worker) = self.technique.worker.as_mut() else {
+            return Err(self.technique.error.clone().unwrap_or_default());
+        };
+        worker.wait_started().map_err(|e| {
+            self.technique.worker = None;
+            format!("technique `{}` failed to start: {e}", self.technique.id)
+        })
+    }
+
     /// Sets one parameter of the active technique (range-checked; an error is shown). The next
     /// frame the worker renders uses it.
     pub fn set_param(&mut self, name: &str, value: ParamValue) {
@@ -168,24 +279,30 @@ impl ViewerApp {
     /// Stops waiting for the technique's running frame (the Cancel button): its worker is
     /// abandoned and no frame is asked for until [`ViewerApp::render_again`].
     pub fn cancel_frame(&mut self) {
-        let Some(worker) = self.technique.worker.take() else {
+        let Some(seconds) = self.technique.worker.as_ref().map(|w| w.busy_for()) else {
             return;
         };
-        let seconds = worker.busy_for().map_or(0.0, |d| d.as_secs_f64());
-        self.technique.spare_device = worker.retire();
+        let seconds = seconds.map_or(0.0, |d| d.as_secs_f64());
+        self.technique.retire_worker();
         // A precompute running inside the technique stops too.
         self.technique.build.cancel_control();
         self.technique.cancelled_frame = Some(format!(
             "{}: frame cancelled after {seconds:.1} s; nothing is drawn until Render again",
             self.technique.id
         ));
-        self.timing.cost.clear();
+        // The cost measured so far stays: its frames were whole and clean.
     }
 
     /// Starts the technique again after [`ViewerApp::cancel_frame`] (the Render again button).
     pub fn render_again(&mut self) {
         let id = self.technique.id.clone();
         self.select_technique(&id);
+    }
+
+    /// Time from picking the active technique to its first frame shown, ms (`None` until
+    /// then).
+    pub fn first_frame_ms(&self) -> Option<f64> {
+        self.technique.first_frame_ms
     }
 
     /// Seconds the technique's running frame has taken so far, once it counts as slow
@@ -222,38 +339,25 @@ impl ViewerApp {
         if self.image.renderers.is_none() || self.technique.cancelled_frame.is_some() {
             return;
         }
-        let scene_hash = self.scene.loaded.gpu.content_hash;
-        let scene = self.technique.worker_scene(&self.scene.loaded);
-        let setting_key = self.current_setting_key();
-        let params = self.setting();
+        if let Some(Err(e)) = self
+            .technique
+            .worker
+            .as_mut()
+            .and_then(|w| w.poll_started())
+        {
+            self.technique.worker = None;
+            let message = format!("technique `{}` failed to start: {e}", self.technique.id);
+            self.technique.error = Some(message.clone());
+            self.report_error(message);
+            return;
+        }
+        let request = self.frame_request();
         let Some(worker) = self.technique.worker.as_mut() else {
             return;
         };
-        if !worker.busy() {
-            // The first frames of a setting pay the whole cost (as the benchmark's `timing`
-            // does); later ones may keep light-space results while only the camera moves. Not
-            // while the user drags: the camera-only frames are what keeps that interactive.
-            let invalidate = self.timing.cost.len() < self.timing.cost_frames_wanted()
-                && !self.image.interacting
-                && !self.timeline.playing;
-            let r = self.image.renderers.as_ref().expect("checked above");
-            let request = FrameRequest {
-                setting_key,
-                scene,
-                scene_hash,
-                camera: self.scene.camera,
-                light: self.scene.light,
-                size: (r.width, r.height),
-                params,
-                invalidate,
-                debug_view: (self.image.view_mode == ViewMode::Debug)
-                    .then_some(self.image.debug_view),
-                exact: self.timeline.exact_run(),
-            };
-            if !worker.request(request) {
-                self.worker_stopped();
-                return;
-            }
+        if !worker.busy() && !worker.request(request) {
+            self.worker_stopped();
+            return;
         }
         match worker.receive(self.technique.frame_wait) {
             Ok(Some(done)) => self.show_frame(done),
@@ -262,14 +366,65 @@ impl ViewerApp {
         }
     }
 
+    /// The frame to ask for now. The first frames of a setting pay the whole cost (as the
+    /// benchmark's `timing` does), and only when they run alone: no abandoned frame and no
+    /// reference batch on the CPU beside them (a frame that shared it read up to 12x slow). Not
+    /// while the user drags or a path plays: camera-only frames keep those interactive.
+    fn frame_request(&mut self) -> FrameRequest {
+        let alone = !self.technique.abandoned_running()
+            && !self.reference.worker.as_ref().is_some_and(|w| w.busy());
+        let invalidate = self.timing.cost.len() < self.timing.cost_frames_wanted()
+            && !self.image.interacting
+            && !self.timeline.playing
+            && alone;
+        let r = self
+            .image
+            .renderers
+            .as_ref()
+            .expect("checked by the caller");
+        FrameRequest {
+            setting_key: self.current_setting_key(),
+            scene: self.technique.worker_scene(&self.scene.loaded),
+            scene_hash: self.scene.loaded.gpu.content_hash,
+            camera: self.scene.camera,
+            light: self.scene.light,
+            size: (r.width, r.height),
+            params: self.setting(),
+            invalidate,
+            debug_view: (self.image.view_mode == ViewMode::Debug).then_some(self.image.debug_view),
+            exact: self.timeline.exact_wanted(),
+        }
+    }
+
     fn worker_stopped(&mut self) {
+        let why = match self
+            .technique
+            .worker
+            .as_mut()
+            .and_then(|w| w.poll_started())
+        {
+            Some(Err(e)) => format!("it failed to start: {e}"),
+            _ => "its render worker stopped (a panic on its thread; the log says why); pick the \
+                  technique again to restart it"
+                .into(),
+        };
         self.technique.worker = None;
-        let message = format!(
-            "{}: its render worker stopped (a panic on its thread; the log says why); pick the \
-             technique again to restart it",
-            self.technique.id
-        );
-        self.technique.error = Some(message);
+        self.technique.error = Some(format!("{}: {why}", self.technique.id));
+    }
+
+    /// The history length the active technique settles at when it keeps a history at its
+    /// current setting (its descriptor's `varies_per_frame`): its `max_history` parameter, else
+    /// [`DEFAULT_HISTORY_FRAMES`]; `None` when its frames do not depend on earlier ones.
+    pub(super) fn history_length(&self) -> Option<u32> {
+        let info = self.registry.get(&self.technique.id)?;
+        let setting = self.setting();
+        info.varies_per_frame_at(&setting)?;
+        let declared = setting
+            .iter()
+            .find(|(name, _)| name == "max_history")
+            .and_then(|(_, v)| v.as_f64())
+            .map(|v| v.max(1.0) as u32);
+        Some(declared.unwrap_or(DEFAULT_HISTORY_FRAMES))
     }
 
     /// Shades and shows a finished frame, and counts its timings where they belong to the
@@ -279,6 +434,10 @@ impl ViewerApp {
             return; // Of a scene no longer open.
         }
         let current = done.setting_key == self.current_setting_key();
+        self.technique.frame_ms.insert(
+            (done.setting_key, done.invalidated, done.live.is_some()),
+            done.wall_ms,
+        );
         let shown_ok = done.result.is_ok();
         let mut path_timing = None;
         match done.result {
@@ -298,15 +457,11 @@ impl ViewerApp {
                             return;
                         }
                         self.technique.shown_key = Some(done.setting_key);
+                        self.note_first_frame();
                     }
                 }
-                if let Some(gpu) = output.gpu.as_ref().filter(|_| current) {
-                    self.timing.rolling.push(gpu.clone());
-                    if done.invalidated && self.timing.cost.len() < self.timing.cost_frames_wanted()
-                    {
-                        self.timing.cost.push(gpu.clone());
-                        self.timing.slow_cost_frames |= output.cpu_ms > SLOW_COST_FRAME_MS;
-                    }
+                if current {
+                    self.count_frame(&output, done.invalidated, &done.stats);
                 }
                 self.timing.last_output = Some(output);
                 self.technique.error = None;
@@ -327,15 +482,59 @@ impl ViewerApp {
         if current && shown_ok {
             self.path_frame_shown(done.live, done.exact.as_deref(), path_timing.as_ref());
         }
+        self.show_debug(done.debug_image, done.debug_views.is_empty());
+    }
+
+    /// Counts a frame of the current setting: its timings, a cost frame's cost, the history.
+    fn count_frame(
+        &mut self,
+        output: &softshadow_core::FrameOutput,
+        invalidated: bool,
+        stats: &softshadow_core::TechniqueStats,
+    ) {
+        if let Some(gpu) = &output.gpu {
+            self.timing.rolling.push(gpu.clone());
+            if invalidated && self.timing.cost.len() < self.timing.cost_frames_wanted() {
+                self.timing.cost.push(gpu.clone());
+                self.timing.slow_cost_frames |= output.cpu_ms > SLOW_COST_FRAME_MS;
+            }
+        }
+        if let Some(target) = self.history_length() {
+            let key = self.current_setting_key();
+            let counter = stats.get("history_frames").copied();
+            self.technique
+                .history
+                .note(key, invalidated, counter, target);
+        }
+    }
+
+    /// Logs and keeps the time from picking the technique to its first frame shown.
+    fn note_first_frame(&mut self) {
+        if let Some(picked) = self.technique.picked_at.take() {
+            let ms = picked.elapsed().as_secs_f64() * 1e3;
+            log::info!(
+                "{}: first frame shown {ms:.0} ms after it was picked",
+                self.technique.id
+            );
+            self.technique.first_frame_ms = Some(ms);
+        }
+    }
+
+    /// The debug image (or why there is none) that came with a frame.
+    fn show_debug(
+        &mut self,
+        image: Option<Result<super::render_worker::DebugImage, String>>,
+        no_views: bool,
+    ) {
         self.image.debug_message = None;
         self.image.debug_mapping = None;
-        match done.debug_image {
+        match image {
             Some(Ok(image)) => {
                 self.show_debug_image(&image);
                 self.image.debug_mapping = Some(image.mapping);
             }
             Some(Err(message)) => self.image.debug_message = Some(message),
-            None if self.image.view_mode == ViewMode::Debug && done.debug_views.is_empty() => {
+            None if self.image.view_mode == ViewMode::Debug && no_views => {
                 self.image.debug_message =
                     Some(format!("`{}` has no debug views", self.technique.id));
             }

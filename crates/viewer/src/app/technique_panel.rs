@@ -1,24 +1,39 @@
 //! The left panel's technique section (one widget per parameter, from its spec) and view modes.
 
-use softshadow_core::{DebugLegend, ParamKind, ParamSpec, ParamValue};
+use softshadow_core::{DebugLegend, ParamKind, ParamSpec, ParamValue, Registry};
 
-use super::ViewerApp;
+use super::{technique::TechniqueState, ViewerApp};
 
 /// Fixed render sizes offered besides the image area's own.
 const RENDER_SIZES: [(u32, u32); 4] = [(320, 200), (640, 400), (800, 500), (1280, 800)];
 use crate::display::{DebugMapping, ViewMode};
 
-impl ViewerApp {
-    pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
-        let mut chosen = None;
+/// What the user asked of the technique section: another technique, new parameter values.
+#[derive(Default)]
+pub(super) struct TechniqueAction {
+    pub(super) select: Option<String>,
+    pub(super) changes: Vec<(String, ParamValue)>,
+}
+
+impl TechniqueState {
+    /// The technique picker (every technique of `registry`, those `features` cannot run marked)
+    /// and one widget per parameter; returns what was asked.
+    pub(super) fn ui(
+        &self,
+        ui: &mut egui::Ui,
+        registry: &Registry,
+        features: softshadow_core::wgpu::Features,
+    ) -> TechniqueAction {
+        // Narrower sliders than egui's 100 points: more names fit beside their widget.
+        ui.spacing_mut().slider_width = 80.0;
+        let mut action = TechniqueAction::default();
         egui::ComboBox::from_label("Technique")
-            .selected_text(self.technique.id.clone())
+            .selected_text(self.id.clone())
             // Every technique listed without scrolling (egui's default height scrolled the last
             // of eleven out of sight).
             .height(f32::INFINITY)
             .show_ui(ui, |ui| {
-                let features = self.gpu.features();
-                for info in &self.registry {
+                for info in registry {
                     // A technique this device cannot run (no ray queries, say) stays listed,
                     // marked, with why and what to install; choosing it shows the same message.
                     let (label, hover) = match info.unavailable_on(features) {
@@ -32,115 +47,71 @@ impl ViewerApp {
                         ),
                     };
                     if ui
-                        .selectable_label(self.technique.id == info.id, label)
+                        .selectable_label(self.id == info.id, label)
                         .on_hover_text(hover)
                         .clicked()
+                        && self.id != info.id
                     {
-                        chosen = Some(info.id.to_string());
+                        action.select = Some(info.id.to_string());
                     }
                 }
             });
-        if let Some(id) = chosen {
-            if id != self.technique.id {
-                self.select_technique(&id);
-            }
-        }
-        let Some(params) = &self.technique.params else {
-            return;
+        let Some(params) = &self.params else {
+            return action;
         };
-        let mut changes = Vec::new();
         for (spec, value) in &params.entries {
             if let Some(new) = param_widget(ui, spec, value) {
-                changes.push((spec.name.to_string(), new));
+                action.changes.push((spec.name.to_string(), new));
             }
         }
         if ui.button("Defaults").clicked() {
-            if let Some(info) = self.registry.get(&self.technique.id) {
+            if let Some(info) = registry.get(&self.id) {
                 for spec in &info.params {
-                    changes.push((spec.name.to_string(), spec.default_value()));
+                    action
+                        .changes
+                        .push((spec.name.to_string(), spec.default_value()));
                 }
             }
         }
-        for (name, value) in changes {
+        action
+    }
+}
+
+impl ViewerApp {
+    /// Draws the technique section and carries out what was asked.
+    pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
+        let action = self.technique.ui(ui, &self.registry, self.gpu.features());
+        if let Some(id) = action.select {
+            self.select_technique(&id);
+        }
+        for (name, value) in action.changes {
             self.set_param(&name, value);
         }
-    }
-
-    pub(super) fn view_ui(&mut self, ui: &mut egui::Ui) {
-        let current = self
-            .image
-            .renderers
-            .as_ref()
-            .map_or((0, 0), |r| (r.width, r.height));
-        let label = |size: Option<(u32, u32)>| match size {
-            None => format!("fit ({}x{})", current.0, current.1),
-            Some((w, h)) => format!("{w}x{h}"),
-        };
-        egui::ComboBox::from_label("render size")
-            .selected_text(label(self.image.render_size))
-            .show_ui(ui, |ui| {
-                let mut options = vec![None, Some(current)];
-                for size in RENDER_SIZES {
-                    if size != current {
-                        options.push(Some(size));
-                    }
-                }
-                for option in options {
-                    ui.selectable_value(&mut self.image.render_size, option, label(option));
-                }
-            })
-            .response
-            .on_hover_text(
-                "fit: the window less the side panels (fixed widths), so only resizing the \
-                 window changes it; a fixed size also keeps the reference and the timings when \
-                 the window is resized, and the image is scaled to fit",
-            );
-        ui.horizontal_wrapped(|ui| {
-            for mode in ViewMode::ALL {
-                ui.selectable_value(&mut self.image.view_mode, mode, mode.label());
-            }
-        });
-        // One row reserved for the mode's own control, so nothing below moves when the mode
-        // changes; the mode's legend floats over the image (`overlays`).
-        let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
-        ui.allocate_ui_with_layout(
-            row,
-            egui::Layout::left_to_right(egui::Align::Center),
-            |ui| {
-                ui.set_min_size(row);
-                match self.image.view_mode {
-                    ViewMode::Split => {
-                        ui.add(egui::Slider::new(&mut self.image.split, 0.0..=1.0).text("divider"));
-                    }
-                    ViewMode::Debug => {
-                        let names: Vec<String> = self
-                            .technique
-                            .worker
-                            .as_ref()
-                            .map(|w| w.debug_views.iter().map(|(name, _)| name.clone()).collect())
-                            .unwrap_or_default();
-                        egui::ComboBox::from_label("Debug image")
-                            .selected_text(
-                                names
-                                    .get(self.image.debug_view)
-                                    .cloned()
-                                    .unwrap_or_default(),
-                            )
-                            .show_ui(ui, |ui| {
-                                for (i, name) in names.iter().enumerate() {
-                                    ui.selectable_value(&mut self.image.debug_view, i, name);
-                                }
-                            });
-                    }
-                    _ => {}
-                }
-            },
-        );
     }
 }
 
 /// One widget per parameter, from its spec; returns the new value when the user changed it.
+/// A name too long to fit beside its widget goes on a row of its own above it (wrapped, its
+/// description on hover), so no name is cut at the panel's edge.
 pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> Option<ParamValue> {
+    let name = spec.name.as_ref();
+    let description = spec.description.as_ref();
+    let spacing = ui.spacing().clone();
+    let beside = match &spec.kind {
+        ParamKind::Float { .. } | ParamKind::Int { .. } => {
+            spacing.slider_width + spacing.interact_size.x + 3.0 * spacing.item_spacing.x
+        }
+        ParamKind::Choice { .. } => spacing.combo_width + 3.0 * spacing.item_spacing.x,
+        ParamKind::Bool { .. } => spacing.icon_width + 2.0 * spacing.item_spacing.x,
+    };
+    let fits = text_width(ui, name) + beside <= ui.available_width();
+    let text = if fits {
+        name
+    } else {
+        ui.add(egui::Label::new(name).wrap())
+            .on_hover_text(description);
+        ""
+    };
     let new = match &spec.kind {
         ParamKind::Float {
             min,
@@ -152,9 +123,9 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
             ui.add(
                 egui::Slider::new(&mut x, *min..=*max)
                     .logarithmic(*logarithmic)
-                    .text(spec.name.as_ref()),
+                    .text(text),
             )
-            .on_hover_text(spec.description.as_ref())
+            .on_hover_text(description)
             .changed()
             .then_some(ParamValue::Float(x))
         }
@@ -168,24 +139,30 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
             ui.add(
                 egui::Slider::new(&mut i, *min..=*max)
                     .logarithmic(logarithmic)
-                    .text(spec.name.as_ref()),
+                    .text(text),
             )
-            .on_hover_text(spec.description.as_ref())
+            .on_hover_text(description)
             .changed()
             .then_some(ParamValue::Int(i))
         }
         ParamKind::Bool { .. } => {
             let mut b = matches!(value, ParamValue::Bool(true));
-            ui.checkbox(&mut b, spec.name.as_ref())
-                .on_hover_text(spec.description.as_ref())
+            ui.checkbox(&mut b, text)
+                .on_hover_text(description)
                 .changed()
                 .then_some(ParamValue::Bool(b))
         }
         ParamKind::Choice { options, .. } => {
             let current = value.to_string();
             let mut chosen = None;
-            egui::ComboBox::from_label(spec.name.as_ref())
+            let combo = if fits {
+                egui::ComboBox::from_label(name)
+            } else {
+                egui::ComboBox::from_id_salt(name).width(ui.available_width())
+            };
+            combo
                 .selected_text(current.clone())
+                .truncate()
                 .show_ui(ui, |ui| {
                     for option in options.iter() {
                         if ui.selectable_label(current == *option, *option).clicked()
@@ -196,11 +173,20 @@ pub fn param_widget(ui: &mut egui::Ui, spec: &ParamSpec, value: &ParamValue) -> 
                     }
                 })
                 .response
-                .on_hover_text(spec.description.as_ref());
+                .on_hover_text(format!("{current}: {description}"));
             chosen
         }
     };
     new
+}
+
+/// Width of `text` in the body font on one line, points.
+fn text_width(ui: &egui::Ui, text: &str) -> f32 {
+    let font = egui::TextStyle::Body.resolve(ui.style());
+    ui.painter()
+        .layout_no_wrap(text.to_string(), font, egui::Color32::WHITE)
+        .size()
+        .x
 }
 
 /// What the debug image's colours mean: the mapped value range, and what the technique says its
@@ -265,5 +251,88 @@ pub(super) fn debug_legend(
             }
         },
         None => {}
+    }
+}
+
+impl super::image::ImageState {
+    /// The View section: render size, view mode, the plot panel's switch and the mode's own
+    /// control (the split's divider, the debug image among `debug_views`).
+    pub(super) fn view_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        debug_views: &[String],
+        plot_open: &mut bool,
+    ) {
+        let current = self
+            .renderers
+            .as_ref()
+            .map_or((0, 0), |r| (r.width, r.height));
+        let label = |size: Option<(u32, u32)>| match size {
+            None => format!("fit ({}x{})", current.0, current.1),
+            Some((w, h)) => format!("{w}x{h}"),
+        };
+        egui::ComboBox::from_label("render size")
+            .selected_text(label(self.render_size))
+            .show_ui(ui, |ui| {
+                let mut options = vec![None, Some(current)];
+                for size in RENDER_SIZES {
+                    if size != current {
+                        options.push(Some(size));
+                    }
+                }
+                for option in options {
+                    ui.selectable_value(&mut self.render_size, option, label(option));
+                }
+            })
+            .response
+            .on_hover_text(
+                "fit: the window less the side panels (fixed widths), so only resizing the \
+                 window changes it; a fixed size also keeps the reference and the timings when \
+                 the window is resized, and the image is scaled to fit",
+            );
+        ui.horizontal_wrapped(|ui| {
+            for mode in ViewMode::ALL {
+                ui.selectable_value(&mut self.view_mode, mode, mode.label());
+            }
+        });
+        ui.checkbox(plot_open, "error-against-time plot")
+            .on_hover_text(
+                "The plot's panel under the image (at least a third of the window; drag its top \
+                 edge to resize). A \"fit\" render size follows it.",
+            );
+        // One row reserved for the mode's own control, so nothing below moves when the mode
+        // changes; the mode's legend floats over the image (`overlays`).
+        let row = egui::vec2(ui.available_width(), ui.spacing().interact_size.y);
+        ui.allocate_ui_with_layout(
+            row,
+            egui::Layout::left_to_right(egui::Align::Center),
+            |ui| {
+                ui.set_min_size(row);
+                match self.view_mode {
+                    ViewMode::Split => {
+                        ui.add(egui::Slider::new(&mut self.split, 0.0..=1.0).text("divider"));
+                    }
+                    ViewMode::Debug => {
+                        let names = debug_views;
+                        // The worker shows the first view when the index is past this
+                        // technique's views; so does the picker.
+                        let shown = names
+                            .get(self.debug_view)
+                            .or(names.first())
+                            .cloned()
+                            .unwrap_or_else(|| "none".into());
+                        egui::ComboBox::from_label("Debug image")
+                            .selected_text(shown)
+                            .truncate()
+                            .show_ui(ui, |ui| {
+                                for (i, name) in names.iter().enumerate() {
+                                    ui.selectable_value(&mut self.debug_view, i, name);
+                                }
+                            });
+                    }
+                    _ => {}
+                }
+            },
+        );
     }
 }

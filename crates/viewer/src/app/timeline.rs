@@ -19,7 +19,7 @@ use softshadow_bench::results::FrameKind;
 use softshadow_core::{GpuFrameTiming, Scene, SceneGpu};
 use softshadow_scenes::path::{self, Path, Pose, BUILTIN_PATHS};
 
-use super::{format_ms, shown_path, ViewerApp};
+use super::{shown_path, ViewerApp};
 use crate::{
     orbit::Orbit,
     timing::{PassRow, RollingTimings},
@@ -118,9 +118,16 @@ pub(super) struct TimelineState {
     pub(super) live: VecDeque<LiveMetrics>,
     /// Why there are no live metrics (no closed form, or the worker's error).
     pub(super) live_message: Option<String>,
-    /// Folder Record writes to, and the frames written so far while recording.
+    /// Folder Record writes to, and which steps are written while recording.
     pub(super) record_folder: String,
-    pub(super) recording: Option<u32>,
+    pub(super) recording: Option<Recording>,
+}
+
+/// A recording under way: one pass over the path, one PNG per step.
+pub(super) struct Recording {
+    folder: PathBuf,
+    /// Per step, whether its frame is written.
+    written: Vec<bool>,
 }
 
 impl Default for TimelineState {
@@ -139,7 +146,7 @@ impl Default for TimelineState {
             timings: Default::default(),
             live: VecDeque::new(),
             live_message: None,
-            record_folder: "viewer-path".into(),
+            record_folder: super::output_dir().join("recording").display().to_string(),
             recording: None,
         }
     }
@@ -151,6 +158,13 @@ impl TimelineState {
     /// exact answers computed).
     pub(super) fn exact_run(&self) -> Option<u64> {
         self.active.as_ref().map(|_| self.run)
+    }
+
+    /// The run to compute the exact answer for with the next frame: only while the current
+    /// step is not measured yet (a paused path computes nothing more once its step is).
+    pub(super) fn exact_wanted(&self) -> Option<u64> {
+        self.exact_run()
+            .filter(|_| self.measured != Some(self.step))
     }
 
     fn time(&self) -> f32 {
@@ -221,6 +235,10 @@ impl ViewerApp {
 
     /// Plays the open path in `steps` frames from its start to its end (2 to 600).
     pub fn set_path_steps(&mut self, steps: u32) {
+        if self.timeline.recording.is_some() {
+            // A recording is one frame per step of one pass: other steps end it.
+            self.finish_recording();
+        }
         self.timeline.steps = steps.clamp(2, 600);
         self.scrub_to(self.timeline.step);
         self.timeline.applied = None;
@@ -262,36 +280,58 @@ impl ViewerApp {
             .collect()
     }
 
-    /// Writes every played frame (technique beside the exact answer) as PNG into `folder`;
-    /// `None` stops and joins the frames into one animated PNG there ([`ANIMATION_FILE`]).
+    /// Records one pass over the open path into `folder`: plays it from its first step and
+    /// writes each step's frame (technique beside the exact answer) once, as
+    /// `frame-NNNN.png` by step; after the last step it stops recording and joins the frames
+    /// into one animated PNG there ([`ANIMATION_FILE`]). `None` stops early (the frames so far
+    /// are joined when they run from the first step without a gap).
     pub fn record_path(&mut self, folder: Option<&str>) {
-        match folder {
-            Some(folder) => match std::fs::create_dir_all(folder) {
-                Ok(()) => {
-                    self.timeline.record_folder = folder.to_string();
-                    self.timeline.recording = Some(0);
-                }
-                Err(e) => self.report_error(format!("cannot record into `{folder}`: {e}")),
-            },
-            None => {
-                if let Some(frames) = self.timeline.recording.take() {
-                    let dir = PathBuf::from(&self.timeline.record_folder);
-                    let folder = shown_path(&dir);
-                    if frames == 0 {
-                        self.confirm(format!("recorded no frames in {folder}"));
-                        return;
-                    }
-                    match write_animation(&dir, frames) {
-                        Ok(()) => self.confirm(format!(
-                            "recorded {frames} frames in {folder} (and {ANIMATION_FILE} at {} fps)",
-                            softshadow_bench::motion::ANIMATION_FPS
-                        )),
-                        Err(e) => self.report_error(format!(
-                            "recorded {frames} frames in {folder}, but not {ANIMATION_FILE}: {e}"
-                        )),
-                    }
-                }
-            }
+        let Some(folder) = folder else {
+            self.finish_recording();
+            return;
+        };
+        if self.timeline.active.is_none() {
+            self.report_error("Record: no path is open; pick one under Path first");
+            return;
+        }
+        let folder = PathBuf::from(folder.trim());
+        if let Err(e) = std::fs::create_dir_all(&folder) {
+            self.report_error(format!("cannot record into `{}`: {e}", folder.display()));
+            return;
+        }
+        // Frames of an earlier recording would join this one's animation.
+        for step in 0..600 {
+            let _ = std::fs::remove_file(folder.join(format!("frame-{step:04}.png")));
+        }
+        self.timeline.recording = Some(Recording {
+            folder,
+            written: vec![false; self.timeline.steps as usize],
+        });
+        self.scrub_to(0);
+        self.timeline.playing = true;
+    }
+
+    /// Ends the recording: the animated PNG of the frames written from the first step on.
+    fn finish_recording(&mut self) {
+        let Some(recording) = self.timeline.recording.take() else {
+            return;
+        };
+        let folder = shown_path(&recording.folder);
+        let frames = recording.written.iter().take_while(|w| **w).count() as u32;
+        let total = recording.written.iter().filter(|w| **w).count();
+        if frames == 0 {
+            self.confirm(format!("recorded {total} frames in {folder}"));
+            return;
+        }
+        match write_animation(&recording.folder, frames) {
+            Ok(()) => self.confirm(format!(
+                "recorded {total} frames in {folder} (and {ANIMATION_FILE} of {frames} at {} \
+                 fps)",
+                softshadow_bench::motion::ANIMATION_FPS
+            )),
+            Err(e) => self.report_error(format!(
+                "recorded {total} frames in {folder}, but not {ANIMATION_FILE}: {e}"
+            )),
         }
     }
 
@@ -350,6 +390,15 @@ impl ViewerApp {
             }
             self.note_step(live, exact);
         }
+        let recorded_all = self
+            .timeline
+            .recording
+            .as_ref()
+            .is_some_and(|r| r.written.iter().all(|w| *w));
+        if recorded_all {
+            // One pass: the recording ends with the path's last step, loop or not.
+            self.finish_recording();
+        }
         if self.timeline.playing {
             let last = self.timeline.steps.saturating_sub(1);
             if step < last {
@@ -375,19 +424,34 @@ impl ViewerApp {
             Some(Err(message)) => self.timeline.live_message = Some(message),
             None => {}
         }
-        if let Some(written) = self.timeline.recording {
-            if let Err(e) = self.write_recorded_frame(written, exact) {
+        let step = self.timeline.step;
+        let Some(recording) = &self.timeline.recording else {
+            return;
+        };
+        if recording.written.get(step as usize) != Some(&false) {
+            return;
+        }
+        match self.write_recorded_frame(&recording.folder, step, exact) {
+            Ok(()) => {
+                if let Some(r) = self.timeline.recording.as_mut() {
+                    r.written[step as usize] = true;
+                }
+            }
+            Err(e) => {
                 self.report_error(format!("cannot record the frame: {e}"));
                 self.timeline.recording = None;
-            } else {
-                self.timeline.recording = Some(written + 1);
             }
         }
     }
 
     /// One PNG per frame: the technique's shaded image, and beside it the exact answer as grey
     /// (white lit, black umbra) where the scene has one.
-    fn write_recorded_frame(&self, index: u32, exact: Option<&[f32]>) -> Result<(), String> {
+    fn write_recorded_frame(
+        &self,
+        folder: &std::path::Path,
+        index: u32,
+        exact: Option<&[f32]>,
+    ) -> Result<(), String> {
         let r = self.image.renderers.as_ref().ok_or("nothing rendered")?;
         let (w, h) = (r.width, r.height);
         let shaded = r.technique.read_shaded().map_err(|e| e.to_string())?;
@@ -408,220 +472,10 @@ impl ViewerApp {
                 }
             }
         }
-        let file =
-            PathBuf::from(&self.timeline.record_folder).join(format!("frame-{index:04}.png"));
+        let file = folder.join(format!("frame-{index:04}.png"));
         image
             .save(&file)
             .map_err(|e| format!("{}: {e}", file.display()))
-    }
-
-    pub(super) fn timeline_ui(&mut self, ui: &mut egui::Ui) {
-        let current = self
-            .timeline
-            .active
-            .as_ref()
-            .map(|(path, _)| path.name.clone());
-        let mut chosen: Option<Option<String>> = None;
-        egui::ComboBox::from_label("path")
-            .selected_text(current.clone().unwrap_or_else(|| "none".into()))
-            .show_ui(ui, |ui| {
-                if ui.selectable_label(current.is_none(), "none").clicked() {
-                    chosen = Some(None);
-                }
-                let declared = self.scene.loaded.paths.iter().map(|p| p.name.clone());
-                let builtin = BUILTIN_PATHS.iter().map(|(name, _)| name.to_string());
-                for name in builtin.chain(declared) {
-                    let what = BUILTIN_PATHS
-                        .iter()
-                        .find(|(n, _)| *n == name)
-                        .map_or("declared by the scene file", |(_, what)| what);
-                    if ui
-                        .selectable_label(current.as_deref() == Some(&name), &name)
-                        .on_hover_text(what)
-                        .clicked()
-                    {
-                        chosen = Some(Some(name));
-                    }
-                }
-            })
-            .response
-            .on_hover_text("Play the scene along a path: camera, light and dynamic casters move");
-        if let Some(choice) = chosen {
-            self.open_path(choice.as_deref());
-        }
-        if self.timeline.active.is_none() {
-            return;
-        }
-        ui.horizontal(|ui| {
-            let label = if self.timeline.playing {
-                "Pause"
-            } else {
-                "Play"
-            };
-            if ui.button(label).clicked() {
-                let playing = !self.timeline.playing;
-                self.set_playing(playing);
-            }
-            ui.checkbox(&mut self.timeline.looping, "loop");
-        });
-        let last = self.timeline.steps.saturating_sub(1);
-        let mut step = self.timeline.step;
-        if ui
-            .add(egui::Slider::new(&mut step, 0..=last).text("frame"))
-            .on_hover_text("Scrub: the frame of the path shown (fixed time steps)")
-            .changed()
-        {
-            self.scrub_to(step);
-        }
-        let mut steps = self.timeline.steps;
-        if ui
-            .add(egui::Slider::new(&mut steps, 2..=600).text("frames"))
-            .on_hover_text("Frames from the path's start to its end")
-            .changed()
-        {
-            self.set_path_steps(steps);
-        }
-        self.live_ui(ui);
-        ui.horizontal(|ui| {
-            ui.add(
-                egui::TextEdit::singleline(&mut self.timeline.record_folder).desired_width(130.0),
-            );
-            if self.timeline.recording.is_some() {
-                if ui.button("Stop").clicked() {
-                    self.record_path(None);
-                }
-            } else if ui
-                .button("Record")
-                .on_hover_text(
-                    "Write every played frame, technique beside the exact answer, as PNG; on Stop, \
-                     also one animated PNG of them",
-                )
-                .clicked()
-            {
-                let folder = self.timeline.record_folder.clone();
-                self.record_path(Some(&folder));
-            }
-        });
-    }
-
-    /// The timing panel's table of the path's steps: per pass, the median over the last steps
-    /// of each kind (camera only, light or caster moving, still), as `bench --path` splits its
-    /// frame times. Nothing without a path or before a step was timed.
-    pub(super) fn path_timing_ui(&self, ui: &mut egui::Ui) {
-        if self.timeline.active.is_none() {
-            return;
-        }
-        let groups = self.path_timings();
-        if groups.is_empty() {
-            ui.small("along the path: GPU timings appear as steps are played");
-            return;
-        }
-        let kind_name = |kind: FrameKind| match kind {
-            FrameKind::Camera => "camera only",
-            FrameKind::Light => "light moving",
-            FrameKind::Still => "still",
-            FrameKind::First => "first",
-        };
-        ui.small(format!(
-            "along the path: median of the last steps of each kind ({})",
-            groups
-                .iter()
-                .map(|g| format!("{} {}", g.steps, kind_name(g.kind)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ))
-        .on_hover_text(
-            "Each step of the path is timed once, as it is first shown, and counted by what \
-             changed since the step before: light-space work is redone when the light or a \
-             caster moves and may be kept while only the camera moves (FrameChanges), as \
-             `bench --path`'s camera-only / light-moving frame times",
-        );
-        // Every pass any kind ran, in the order first seen.
-        let mut names: Vec<&str> = Vec::new();
-        for g in &groups {
-            for p in &g.passes {
-                if !names.contains(&p.name.as_str()) {
-                    names.push(&p.name);
-                }
-            }
-        }
-        egui::Grid::new("path timings")
-            .striped(true)
-            .show(ui, |ui| {
-                ui.strong("pass");
-                for g in &groups {
-                    ui.strong(format!("{} ms", kind_name(g.kind)));
-                }
-                ui.end_row();
-                for name in names {
-                    ui.label(name);
-                    for g in &groups {
-                        let ms = g.passes.iter().find(|p| p.name == name);
-                        ui.label(ms.map_or("-".into(), |p| format_ms(p.median_ms)));
-                    }
-                    ui.end_row();
-                }
-                ui.strong("technique");
-                for g in &groups {
-                    ui.strong(format_ms(g.technique_ms));
-                }
-                ui.end_row();
-                ui.strong("frame (GPU passes)");
-                for g in &groups {
-                    ui.strong(format_ms(g.total_ms));
-                }
-                ui.end_row();
-            });
-    }
-
-    fn live_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some(message) = &self.timeline.live_message {
-            ui.weak(message);
-            return;
-        }
-        let live = &self.timeline.live;
-        if live.is_empty() {
-            ui.weak("error and flicker appear as frames are played");
-            return;
-        }
-        let error = live.iter().map(|m| m.mae_shadowed).sum::<f64>() / live.len() as f64;
-        let flickers: Vec<f64> = live.iter().filter_map(|m| m.flicker).collect();
-        let flicker = if flickers.is_empty() {
-            "-".to_string()
-        } else {
-            format!(
-                "{:.4}",
-                flickers.iter().sum::<f64>() / flickers.len() as f64
-            )
-        };
-        ui.label(format!("error {error:.4}, flicker {flicker}"))
-            .on_hover_text(format!(
-                "Means over the last {} frames played, against each frame's exact answer: \
-                 error = mae_shadowed; flicker = mean over receiver pixels of \
-                 |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
-                 does not (docs/BENCHMARKS.md, \"Motion\")",
-                live.len()
-            ));
-        if let Some(last) = live.back() {
-            ui.small(format!(
-                "exact answer: {} ({:.0} ms a frame)",
-                last.exact, last.exact_ms
-            ))
-            .on_hover_text(
-                "The closed form where every caster is a rectangle parallel to the light; \
-                 elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
-                 penumbra point for N x N samples) is part of the error and flicker shown",
-            );
-            if let LiveExact::Traced { samples_per_axis } = last.exact {
-                if samples_per_axis < COARSE_TRACED_SAMPLES {
-                    ui.small(format!(
-                        "coarse: its own error reaches about {:.2} at a penumbra pixel; a \
-                         smaller render size affords more samples",
-                        1.0 / samples_per_axis as f64
-                    ));
-                }
-            }
-        }
     }
 }
 
@@ -673,4 +527,173 @@ fn write_animation(folder: &std::path::Path, frames: u32) -> Result<(), String> 
     write().inspect_err(|_| {
         let _ = std::fs::remove_file(&out);
     })
+}
+
+/// What the user asked of the Path section.
+pub(super) enum TimelineAction {
+    Open(Option<String>),
+    Play(bool),
+    Scrub(u32),
+    Steps(u32),
+    Record(Option<String>),
+}
+
+impl TimelineState {
+    /// The Path section: the path picker, play / pause and loop, scrub, steps, the live error
+    /// and Record; returns what the app must do (`declared`: the paths the scene file declares).
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui, declared: &[String]) -> Option<TimelineAction> {
+        let mut action = None;
+        let current = self.active.as_ref().map(|(path, _)| path.name.clone());
+        let mut chosen: Option<Option<String>> = None;
+        egui::ComboBox::from_label("path")
+            .selected_text(current.clone().unwrap_or_else(|| "none".into()))
+            .show_ui(ui, |ui| {
+                if ui.selectable_label(current.is_none(), "none").clicked() {
+                    chosen = Some(None);
+                }
+                let declared = declared.iter().cloned();
+                let builtin = BUILTIN_PATHS.iter().map(|(name, _)| name.to_string());
+                for name in builtin.chain(declared) {
+                    let what = BUILTIN_PATHS
+                        .iter()
+                        .find(|(n, _)| *n == name)
+                        .map_or("declared by the scene file", |(_, what)| what);
+                    if ui
+                        .selectable_label(current.as_deref() == Some(&name), &name)
+                        .on_hover_text(what)
+                        .clicked()
+                    {
+                        chosen = Some(Some(name));
+                    }
+                }
+            })
+            .response
+            .on_hover_text("Play the scene along a path: camera, light and dynamic casters move");
+        if let Some(choice) = chosen {
+            return Some(TimelineAction::Open(choice));
+        }
+        // Nothing more without a path.
+        self.active.as_ref()?;
+        ui.horizontal(|ui| {
+            let label = if self.playing { "Pause" } else { "Play" };
+            if ui.button(label).clicked() {
+                action = Some(TimelineAction::Play(!self.playing));
+            }
+            ui.checkbox(&mut self.looping, "loop");
+        });
+        let last = self.steps.saturating_sub(1);
+        let mut step = self.step;
+        if ui
+            .add(egui::Slider::new(&mut step, 0..=last).text("frame"))
+            .on_hover_text("Scrub: the frame of the path shown (fixed time steps)")
+            .changed()
+        {
+            action = Some(TimelineAction::Scrub(step));
+        }
+        let mut steps = self.steps;
+        if ui
+            .add(egui::Slider::new(&mut steps, 2..=600).text("frames"))
+            .on_hover_text("Frames from the path's start to its end")
+            .changed()
+        {
+            action = Some(TimelineAction::Steps(steps));
+        }
+        self.live_ui(ui);
+        ui.horizontal(|ui| {
+            ui.add(egui::TextEdit::singleline(&mut self.record_folder).desired_width(130.0))
+                .on_hover_text(self.record_folder.clone());
+            if let Some(r) = &self.recording {
+                let done = r.written.iter().filter(|w| **w).count();
+                if ui
+                    .button("Stop")
+                    .on_hover_text(format!("{done} of {} frames recorded", r.written.len()))
+                    .clicked()
+                {
+                    action = Some(TimelineAction::Record(None));
+                }
+            } else if ui
+                .button("Record")
+                .on_hover_text(
+                    "Play the path once from its first step and write each step's frame, \
+                     technique beside the exact answer, as PNG into the folder, then one animated \
+                     PNG of them",
+                )
+                .clicked()
+            {
+                action = Some(TimelineAction::Record(Some(self.record_folder.clone())));
+            }
+        });
+        action
+    }
+
+    fn live_ui(&mut self, ui: &mut egui::Ui) {
+        if let Some(message) = &self.live_message {
+            ui.weak(message);
+            return;
+        }
+        let live = &self.live;
+        if live.is_empty() {
+            ui.weak("error and flicker appear as frames are played");
+            return;
+        }
+        let error = live.iter().map(|m| m.mae_shadowed).sum::<f64>() / live.len() as f64;
+        let flickers: Vec<f64> = live.iter().filter_map(|m| m.flicker).collect();
+        let flicker = if flickers.is_empty() {
+            "-".to_string()
+        } else {
+            format!(
+                "{:.4}",
+                flickers.iter().sum::<f64>() / flickers.len() as f64
+            )
+        };
+        ui.label(format!("error {error:.4}, flicker {flicker}"))
+            .on_hover_text(format!(
+                "Means over the last {} frames played, against each frame's exact answer: \
+                 error = mae_shadowed; flicker = mean over receiver pixels of \
+                 |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
+                 does not (docs/BENCHMARKS.md, \"Motion\")",
+                live.len()
+            ));
+        if let Some(last) = live.back() {
+            ui.small(format!(
+                "exact answer: {} ({:.0} ms a frame)",
+                last.exact, last.exact_ms
+            ))
+            .on_hover_text(
+                "The closed form where every caster is a rectangle parallel to the light; \
+                 elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
+                 penumbra point for N x N samples) is part of the error and flicker shown",
+            );
+            if let LiveExact::Traced { samples_per_axis } = last.exact {
+                if samples_per_axis < COARSE_TRACED_SAMPLES {
+                    ui.small(format!(
+                        "coarse: its own error reaches about {:.2} at a penumbra pixel; a \
+                         smaller render size affords more samples",
+                        1.0 / samples_per_axis as f64
+                    ));
+                }
+            }
+        }
+    }
+}
+
+impl ViewerApp {
+    /// Draws the Path section and carries out what was asked.
+    pub(super) fn timeline_ui(&mut self, ui: &mut egui::Ui) {
+        let declared: Vec<String> = self
+            .scene
+            .loaded
+            .paths
+            .iter()
+            .map(|p| p.name.clone())
+            .collect();
+        match self.timeline.ui(ui, &declared) {
+            Some(TimelineAction::Open(path)) => self.open_path(path.as_deref()),
+            Some(TimelineAction::Play(playing)) => self.set_playing(playing),
+            Some(TimelineAction::Scrub(step)) => self.scrub_to(step),
+            Some(TimelineAction::Steps(steps)) => self.set_path_steps(steps),
+            Some(TimelineAction::Record(folder)) => self.record_path(folder.as_deref()),
+            None => {}
+        }
+    }
 }

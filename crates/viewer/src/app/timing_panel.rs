@@ -4,9 +4,10 @@
 
 use std::{collections::VecDeque, time::Instant};
 
+use softshadow_bench::results::FrameKind;
 use softshadow_core::FrameOutput;
 
-use super::{format_ms, FrameStats, ViewerApp, COST_FRAMES};
+use super::{format_ms, timeline::PathTimings, FrameStats, ViewerApp, COST_FRAMES};
 use crate::timing::{median, PassRow, RollingTimings};
 
 /// GPU timings of the current setting and the frame-time window.
@@ -43,6 +44,15 @@ impl TimingState {
         }
     }
 
+    /// The UI frame interval's median and the frames drawn.
+    pub(super) fn stats(&self) -> FrameStats {
+        FrameStats {
+            frame_ms: (!self.frame_times.is_empty())
+                .then(|| median(self.frame_times.iter().copied())),
+            frames: self.frames,
+        }
+    }
+
     /// Empties the windows when the setting changes (a median never mixes two settings).
     pub(super) fn new_setting(&mut self, key: u64) {
         self.setting_key = Some(key);
@@ -53,8 +63,22 @@ impl TimingState {
     }
 }
 
-impl ViewerApp {
-    pub(super) fn timing_ui(&mut self, ui: &mut egui::Ui) {
+/// What the timing panel shows besides its own state.
+pub(super) struct TimingContext<'a> {
+    pub(super) technique: &'a str,
+    /// Time from picking the technique to its first frame, ms.
+    pub(super) first_frame_ms: Option<f64>,
+    /// The technique's frame was cancelled (no cost is being measured).
+    pub(super) cancelled: bool,
+    /// A path plays (every step is a setting of its own).
+    pub(super) playing: bool,
+    /// The played path's step timings, when a path is open.
+    pub(super) path: Option<Vec<PathTimings>>,
+}
+
+impl TimingState {
+    /// The GPU time section: frame interval, the cost of computing, this frame's passes.
+    pub(super) fn ui(&self, ui: &mut egui::Ui, cx: &TimingContext<'_>) {
         ui.heading("GPU time");
         let stats = self.stats();
         ui.label(format!(
@@ -62,14 +86,14 @@ impl ViewerApp {
             stats
                 .frame_ms
                 .map_or("-".into(), |ms| format!("{ms:.1} ms, {:.1} fps", 1e3 / ms)),
-            self.timing.frame_times.len()
+            self.frame_times.len()
         ))
         .on_hover_text(
             "Wall time between two drawn viewer frames: the technique's frame, the reference's \
              accumulation step while it converges, the display and egui. The table below holds \
              the technique's own GPU passes only.",
         );
-        if let Some(output) = &self.timing.last_output {
+        if let Some(output) = &self.last_output {
             ui.label(format!(
                 "technique frame CPU wall time {:.1} ms",
                 output.cpu_ms
@@ -79,7 +103,17 @@ impl ViewerApp {
                  submitting and (with serial timing) waiting for every pass",
             );
         }
-        let source = self.timing.last_output.as_ref().map(|o| o.timing_source);
+        if let Some(ms) = cx.first_frame_ms {
+            ui.label(format!(
+                "first frame {:.0} ms after {} was picked",
+                ms, cx.technique
+            ))
+            .on_hover_text(
+                "From the click that picked the technique to its first frame on screen: device \
+                 and pipeline creation and the frame, beside any abandoned frame still running",
+            );
+        }
+        let source = self.last_output.as_ref().map(|o| o.timing_source);
         if let Some(source) = source {
             ui.label(format!("pass times: {source}")).on_hover_text(
                 "serial: each pass submitted on its own and waited for, its wall time is the \
@@ -87,29 +121,41 @@ impl ViewerApp {
                  compute work); timestamps: GPU timestamp queries (the default on a GPU)",
             );
         }
-        if self
-            .timing
-            .last_output
-            .as_ref()
-            .is_some_and(|o| o.gpu.is_none())
-        {
+        if self.last_output.as_ref().is_some_and(|o| o.gpu.is_none()) {
             ui.label("this adapter has no timestamp queries: GPU times unavailable");
             return;
         }
 
-        // The cost of computing: what the plot and the benchmark's `timing` use.
-        let wanted = self.timing.cost_frames_wanted();
-        match (
-            self.timing.cost.technique_ms(),
-            self.timing.cost.technique_range(),
-        ) {
-            (Some(ms), Some((lo, hi))) if self.timing.cost.len() >= wanted => {
+        self.cost_ui(ui, cx.cancelled);
+
+        // A played path makes every step a new setting: its own table, split by what moved.
+        if let Some(path) = &cx.path {
+            path_timing_ui(ui, path);
+        }
+        let rows = self.rolling.rows();
+        if rows.is_empty() {
+            ui.label(if cx.playing {
+                "no GPU timings of one setting while the path plays (each step is a new one): \
+                 see the path's table above"
+            } else {
+                "no GPU timings yet"
+            });
+            return;
+        }
+        self.passes_ui(ui, &rows, source);
+    }
+
+    /// The cost of computing: what the plot and the benchmark's `timing` use.
+    fn cost_ui(&self, ui: &mut egui::Ui, cancelled: bool) {
+        let wanted = self.cost_frames_wanted();
+        match (self.cost.technique_ms(), self.cost.technique_range()) {
+            (Some(ms), Some((lo, hi))) if self.cost.len() >= wanted => {
                 ui.strong(format!("cost of the technique {} ms", format_ms(ms)))
                     .on_hover_text(
                         "median GPU time of the technique's passes over frames rendered with its \
                          kept results dropped (invalidate_cache), as the benchmark's `timing`",
                     );
-                let frames = self.timing.cost.len();
+                let frames = self.cost.len();
                 ui.label(if frames == 1 {
                     "one frame: its spread is not known".to_string()
                 } else {
@@ -123,60 +169,62 @@ impl ViewerApp {
                     "the fastest and slowest of the frames the cost rests on: how far a \
                      re-measurement of the same setting may move",
                 );
-                if self.timing.slow_cost_frames {
+                if self.slow_cost_frames {
                     ui.small(format!(
                         "a frame took over {SLOW_COST_FRAME_MS:.0} ms: not repeated {COST_FRAMES} \
                          times"
                     ));
                 }
             }
+            _ if cancelled => {
+                ui.label("cost not measured: its frame was cancelled");
+            }
             _ => {
                 ui.label(format!(
-                    "measuring the cost: frame {} of {wanted} with caches dropped",
-                    self.timing.cost.len()
+                    "measuring the cost: frame {} of {wanted} with caches dropped, each alone \
+                     on the CPU",
+                    self.cost.len()
                 ));
             }
         }
+    }
 
-        // A played path makes every step a new setting: its own table, split by what moved.
-        self.path_timing_ui(ui);
-        let rows = self.timing.rolling.rows();
-        if rows.is_empty() {
-            ui.label(if self.timeline.playing {
-                "no GPU timings of one setting while the path plays (each step is a new one): \
-                 see the path's table above"
-            } else {
-                "no GPU timings yet"
-            });
-            return;
-        }
+    /// This frame's passes: the table of rolling medians, what was kept, the bar chart.
+    fn passes_ui(
+        &self,
+        ui: &mut egui::Ui,
+        rows: &[PassRow],
+        source: Option<softshadow_core::TimingSource>,
+    ) {
         ui.small(format!(
             "this frame's passes, median of the last {} frames ({})",
-            self.timing.rolling.len(),
+            self.rolling.len(),
             source.map_or("-", |s| s.as_str())
         ));
         egui::Grid::new("timings").striped(true).show(ui, |ui| {
             ui.strong("pass");
             ui.strong("ms");
             ui.end_row();
-            for row in &rows {
+            for row in rows {
                 ui.label(&row.name);
                 ui.label(format_ms(row.median_ms));
                 ui.end_row();
             }
             ui.strong("technique")
                 .on_hover_text("the technique's own passes");
-            ui.strong(format_ms(self.timing.rolling.technique_ms().unwrap_or(0.0)));
+            ui.strong(format_ms(self.rolling.technique_ms().unwrap_or(0.0)));
             ui.end_row();
             ui.strong("frame (GPU passes)")
                 .on_hover_text("G-buffer, technique and shading passes of the technique's frame");
-            ui.strong(format_ms(self.timing.rolling.total_ms().unwrap_or(0.0)));
+            ui.strong(format_ms(self.rolling.total_ms().unwrap_or(0.0)));
             ui.end_row();
         });
         // Passes the full computation runs that this frame left out (kept results).
-        let passes_run = self.passes_run();
+        let passes_run = self
+            .last_output
+            .as_ref()
+            .map_or(&[][..], |o| o.passes_run.as_slice());
         let skipped: Vec<String> = self
-            .timing
             .cost
             .rows()
             .into_iter()
@@ -190,8 +238,74 @@ impl ViewerApp {
                      (FrameChanges::light_space)",
                 );
         }
-        timing_chart(ui, &rows);
+        timing_chart(ui, rows);
     }
+}
+
+/// The timing panel's table of the path's steps: per pass, the median over the last steps
+/// of each kind (camera only, light or caster moving, still), as `bench --path` splits its
+/// frame times. Nothing without a path or before a step was timed.
+fn path_timing_ui(ui: &mut egui::Ui, groups: &[PathTimings]) {
+    if groups.is_empty() {
+        ui.small("along the path: GPU timings appear as steps are played");
+        return;
+    }
+    let kind_name = |kind: FrameKind| match kind {
+        FrameKind::Camera => "camera only",
+        FrameKind::Light => "light moving",
+        FrameKind::Still => "still",
+        FrameKind::First => "first",
+    };
+    ui.small(format!(
+        "along the path: median of the last steps of each kind ({})",
+        groups
+            .iter()
+            .map(|g| format!("{} {}", g.steps, kind_name(g.kind)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ))
+    .on_hover_text(
+        "Each step of the path is timed once, as it is first shown, and counted by what \
+         changed since the step before: light-space work is redone when the light or a \
+         caster moves and may be kept while only the camera moves (FrameChanges), as \
+         `bench --path`'s camera-only / light-moving frame times",
+    );
+    // Every pass any kind ran, in the order first seen.
+    let mut names: Vec<&str> = Vec::new();
+    for g in groups {
+        for p in &g.passes {
+            if !names.contains(&p.name.as_str()) {
+                names.push(&p.name);
+            }
+        }
+    }
+    egui::Grid::new("path timings")
+        .striped(true)
+        .show(ui, |ui| {
+            ui.strong("pass");
+            for g in groups {
+                ui.strong(format!("{} ms", kind_name(g.kind)));
+            }
+            ui.end_row();
+            for name in names {
+                ui.label(name);
+                for g in groups {
+                    let ms = g.passes.iter().find(|p| p.name == name);
+                    ui.label(ms.map_or("-".into(), |p| format_ms(p.median_ms)));
+                }
+                ui.end_row();
+            }
+            ui.strong("technique");
+            for g in groups {
+                ui.strong(format_ms(g.technique_ms));
+            }
+            ui.end_row();
+            ui.strong("frame (GPU passes)");
+            for g in groups {
+                ui.strong(format_ms(g.total_ms));
+            }
+            ui.end_row();
+        });
 }
 
 /// One bar per pass, longest = the chart's width, with the pass's name and time written over its
@@ -257,10 +371,6 @@ impl ViewerApp {
     }
 
     pub fn stats(&self) -> FrameStats {
-        FrameStats {
-            frame_ms: (!self.timing.frame_times.is_empty())
-                .then(|| median(self.timing.frame_times.iter().copied())),
-            frames: self.timing.frames,
-        }
+        self.timing.stats()
     }
 }
