@@ -27,10 +27,41 @@ pub fn info() -> TechniqueInfo {
             let most = 2f64.powf(q.number("max_depth") + 1.0).powi(2);
             let maps = most.min(q.number("max_shadow_maps"));
             let compare = 2.0 * maps * q.pixels * PIXEL_ITERATION;
+            // GPU memory (bytes); the parameter uniform (about 200 bytes) is left to the
+            // tolerance.
+            let capacity = q.number("max_shadow_maps");
+            let drawn = if q.choice("start", "corners") {
+                (2f64.powf(q.number("max_depth")) + 1.0).powi(2)
+            } else {
+                most
+            };
+            let slots = drawn.min(capacity).log2().ceil().exp2().max(16.0);
+            let accumulate = if q.choice("evaluation", "accumulate") {
+                1.0
+            } else {
+                0.0
+            };
+            let gpu_bytes =
+                // The shadow maps: a Depth32Float array of max_shadow_maps layers, whatever a
+                // frame draws.
+                4.0 * capacity * q.number("shadow_map_size").powi(2)
+                // The differing pixels' image (R32Float), and the accumulation buffer with
+                // evaluation = accumulate.
+                + (1.0 + accumulate) * 4.0 * q.pixels
+                // The views' uniform array (512 views of 112 bytes), the pairs' and the terms'
+                // (1024 items of 16 bytes each).
+                + 512.0 * 112.0 + 2.0 * 1024.0 * 16.0
+                // The differing-pixel counters and their readback (2 pairs per map, 4 bytes).
+                + 2.0 * 8.0 * capacity
+                // The depth pass's view slots: 256 bytes per map drawn, rounded up to a power of
+                // two, at least 16 (core::shadow_map::DepthMapRenderer; the most maps at
+                // max_depth here, fewer where the refinement stops early).
+                + 256.0 * slots;
             Cost::seconds(
                 maps * q.number("shadow_map_size").powi(2) * DEPTH_TEXEL + compare,
                 "min(max_shadow_maps, maps at max_depth) x shadow_map_size²",
             )
+            .with_gpu_memory(gpu_bytes, 0.01)
         },
     ))
     .with_expectations(expectations())

@@ -30,10 +30,39 @@ pub fn info() -> TechniqueInfo {
         let levels = side.max(2.0).log2().ceil();
         let maps = side * side * (LAYER_TEXEL + levels * HIERARCHY_TEXEL);
         let gather = 2.0 * q.pixels * q.number("max_patches").powi(2).min(65_535.0);
+        // GPU memory (bytes). The MSSM holds the levels the light can need
+        // (core::hierarchy::needed_levels): all of them here, as for most of the overview's
+        // lights; a light whose widest search area is narrower needs fewer, 8 x side² bytes less
+        // each (pdsm-cylinder and pdsm-quads: one, 8 % less at 1024², within the tolerance). The
+        // uniforms, counters and 1 x 1 stand-ins (about 2 KiB) are left to the tolerance.
+        let mssm = if q.choice("hierarchy", "mssm") { 1.0 } else { 0.0 };
+        let coarse = if q.choice("hierarchy", "none") {
+            0.0
+        } else if q.choice("adaptive_resolution", "half") {
+            1.0 / 4.0
+        } else if q.choice("adaptive_resolution", "quarter") {
+            1.0 / 16.0
+        } else {
+            0.0
+        };
+        let gpu_bytes =
+            // The shadow map (Depth32Float).
+            4.0 * q.number("shadow_map_size").powi(2)
+            // The HSM (Rg32Float) over the padded map, every mip level: (4 side² - 1) / 3 texels.
+            + 8.0 * (4.0 * side * side - 1.0) / 3.0
+            // The MSSM's levels 1.. (Rg32Float, each at the padded size).
+            + mssm * 8.0 * levels * side * side
+            // The per-pixel debug images: classification (Rgba8Unorm) and level (R32Float).
+            + 8.0 * q.pixels
+            // Adaptive screen resolution's coarse image (Rg32Float, a texel per 2² or 4² pixels).
+            + coarse * 8.0 * q.pixels
+            // The depth pass's view slots and the hierarchy's level slots (16 x 256 each).
+            + 2.0 * 4096.0;
         Cost::seconds(
             maps + gather * PIXEL_ITERATION,
             "padded shadow_map_size² x log2(shadow_map_size)",
         )
+        .with_gpu_memory(gpu_bytes, 0.1)
     }))
     .with_expectations(expectations())
     .with_overview(&[("max_patches", &["8", "16"])])

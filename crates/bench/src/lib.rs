@@ -465,7 +465,11 @@ impl Bench {
         let info = resolve_technique(&self.registry, &spec.technique)?;
         self.load_scene_and_renderer(spec)?;
         // What the device holds without the technique: the scene, the renderer, the reference
-        // kept from earlier runs (the wait frees what earlier runs dropped).
+        // kept from earlier runs (the wait frees what earlier runs dropped). The empty submit
+        // first flushes the queue's pending writes, whose staging buffers (a scene's
+        // `create_buffer_init` uploads) would otherwise be in the baseline and freed by the
+        // technique's first frame, hiding as many bytes of what it creates.
+        self.gpu.queue.submit([]);
         self.gpu.wait_idle()?;
         let memory_baseline = self.gpu.memory_in_use();
         let mut technique = info.create_with(&self.gpu, &spec.params)?;

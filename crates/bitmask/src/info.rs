@@ -31,10 +31,44 @@ pub fn info() -> TechniqueInfo {
             let maps = layers * side * side * (LAYER_TEXEL + levels * HIERARCHY_TEXEL);
             let gather = 2.0 * q.pixels * layers * q.number("max_patches").powi(2).min(65_535.0);
             let filter = 2.0 * q.pixels * q.number("filter_passes") * 64.0;
+            // GPU memory (bytes). Each layer's MSSM holds the levels the light can need
+            // (core::hierarchy::needed_levels): all of them here, as for most of the overview's
+            // lights; a light whose widest search area is narrower needs fewer, 8 x side² bytes
+            // less each per layer (pdsm-cylinder and pdsm-quads: one, 8 % less at 1024², within
+            // the tolerance). The uniforms, counters and 1 x 1 stand-ins (about 2 KiB per layer)
+            // are left to the tolerance.
+            let mssm = if q.choice("hierarchy", "mssm") { 1.0 } else { 0.0 };
+            let coarse = if q.choice("hierarchy", "none") {
+                0.0
+            } else if q.choice("adaptive_resolution", "half") {
+                1.0 / 4.0
+            } else if q.choice("adaptive_resolution", "quarter") {
+                1.0 / 16.0
+            } else {
+                0.0
+            };
+            let per_layer =
+                // The layer's depth map (Depth32Float: the centre map, then the peeled ones).
+                4.0 * q.number("shadow_map_size").powi(2)
+                // Its HSM (Rg32Float) over the padded map, every mip: (4 side² - 1) / 3 texels.
+                + 8.0 * (4.0 * side * side - 1.0) / 3.0
+                // Its MSSM's levels 1.. (Rg32Float, each at the padded size).
+                + mssm * 8.0 * levels * side * side
+                // Its hierarchy's level slots (16 x 256).
+                + 4096.0;
+            let gpu_bytes = layers * per_layer
+                // The per-pixel images: bitmask, area, filter ping and pong, level (R32Float each).
+                + 20.0 * q.pixels
+                // Adaptive screen resolution's coarse image (Rg32Float, a texel per 2² or 4²
+                // pixels).
+                + coarse * 8.0 * q.pixels
+                // The depth pass's view slots (core::shadow_map::DepthMapRenderer: 16 x 256).
+                + 4096.0;
             Cost::seconds(
                 maps + (gather + filter) * PIXEL_ITERATION,
                 "layers x padded shadow_map_size² x log2(shadow_map_size)",
             )
+            .with_gpu_memory(gpu_bytes, 0.1)
         },
     ))
     .with_expectations(expectations())

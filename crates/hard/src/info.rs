@@ -20,10 +20,15 @@ pub fn info() -> TechniqueInfo {
     )
     .with_shaders(SHADERS)
     .with_cost(CostModel::new(&["shadow_map_size"], |q| {
-        Cost::seconds(
-            q.number("shadow_map_size").powi(2) * DEPTH_TEXEL,
-            "shadow_map_size²",
-        )
+        let texels = q.number("shadow_map_size").powi(2);
+        // GPU memory (bytes); its uniforms (about 300 bytes: 1.6 % at 64²) are left to the
+        // tolerance.
+        let gpu_bytes =
+            // The shadow map (Depth32Float).
+            4.0 * texels
+            // The depth pass's view slots (core::shadow_map::DepthMapRenderer: 16 x 256).
+            + 4096.0;
+        Cost::seconds(texels * DEPTH_TEXEL, "shadow_map_size²").with_gpu_memory(gpu_bytes, 0.02)
     }))
     .with_expectations(expectations())
     .with_overview(&[("shadow_map_size", &["512", "2048"])])

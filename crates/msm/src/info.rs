@@ -26,7 +26,15 @@ pub fn info() -> TechniqueInfo {
         let maps = texels * (DEPTH_TEXEL + 4.0 / 3.0 * LAYER_TEXEL);
         let taps = q.number("filter_taps").powi(2);
         let filter = 2.0 * q.pixels * taps * 8.0 * PIXEL_ITERATION;
-        Cost::seconds(maps + filter, "shadow_map_size²")
+        // GPU memory (bytes); the uniforms (about 300 bytes) are left to the tolerance.
+        let gpu_bytes =
+            // The shadow map (Depth32Float).
+            4.0 * texels
+            // The moment map (Rgba32Float, every variant) and its mip chain: 4/3 of level 0.
+            + 16.0 * 4.0 / 3.0 * texels
+            // The depth pass's view slots (core::shadow_map::DepthMapRenderer: 16 x 256).
+            + 4096.0;
+        Cost::seconds(maps + filter, "shadow_map_size²").with_gpu_memory(gpu_bytes, 0.01)
     }))
     .with_expectations(expectations())
     .with_overview(&[("variant", &["msm4", "evsm2", "evsm4"])])

@@ -7,7 +7,7 @@ use softshadow_core::{
     Cost, CostModel, Expectations, TechniqueInfo,
 };
 
-use crate::{Pcss, PcssSettings, ID, SHADERS};
+use crate::{Pcss, PcssSettings, TemporalTargets, ID, SHADERS};
 
 /// The registry entry.
 pub fn info() -> TechniqueInfo {
@@ -22,10 +22,21 @@ pub fn info() -> TechniqueInfo {
     .with_cost(CostModel::new(
         &["shadow_map_size", "filter_samples", "blocker_samples"],
         |q| {
-            let map = q.number("shadow_map_size").powi(2) * DEPTH_TEXEL;
+            let texels = q.number("shadow_map_size").powi(2);
             let samples = q.number("blocker_samples") + q.number("filter_samples");
             let filter = 2.0 * q.pixels * samples * PIXEL_ITERATION;
-            Cost::seconds(map + filter, "shadow_map_size²")
+            // GPU memory (bytes); the uniforms (about 300 bytes) are left to the tolerance.
+            let temporal = if q.flag("temporal") { 1.0 } else { 0.0 };
+            let gpu_bytes =
+                // The shadow map (Depth32Float).
+                4.0 * texels
+                // The depth pass's view slots (core::shadow_map::DepthMapRenderer: 16 x 256).
+                + 4096.0
+                // Temporal mode, per pixel: this frame's R32Float, the Rg32Float history and the
+                // Rgba32Float positions, both ping-pong (4 + 2 x 8 + 2 x 16).
+                + temporal * TemporalTargets::BYTES_PER_PIXEL as f64 * q.pixels;
+            Cost::seconds(texels * DEPTH_TEXEL + filter, "shadow_map_size²")
+                .with_gpu_memory(gpu_bytes, 0.01)
         },
     ))
     .with_expectations(expectations())

@@ -7,7 +7,7 @@ use softshadow_core::{
     Cost, CostModel, CostQuery, Expectations, TechniqueInfo,
 };
 
-use crate::{estimate_bytes, Pdsm, PdsmSettings, ID, SHADERS};
+use crate::{estimate_bytes, Pdsm, PdsmSettings, ID, READBACK_BATCH_BYTES, SHADERS};
 
 /// Seconds per light sample and sample-map texel of the sample maps, their readback and the part
 /// of the construction that walks them (16 samples of 1024² into a 128² PDSM: 0.75 s).
@@ -68,6 +68,48 @@ fn estimate(q: &CostQuery<'_>) -> Cost {
         gpu_tolerance: 0.0,
         dominant: "samples x (shadow_map_size² + pdsm_size² x shadow_map_size)".into(),
     }
+    .with_gpu_memory(gpu_bytes(q), 0.02)
+}
+
+/// Compressed vertices per PDSM texel on the GPU, on average (1.5-1.8 in the overview's scenes at
+/// 16 and 64 samples; fewer with very few samples, where the PDSM is mostly empty).
+const VERTICES_PER_TEXEL: f64 = 2.0;
+
+/// GPU memory (bytes) at the peak of a frame that builds the PDSM: what the technique keeps
+/// between builds, and the larger of the build's sample maps and the PDSM it uploads (the PDSM of
+/// the frame before is dropped by then). A frame that loads the PDSM from the disk cache reads no
+/// maps back; the scene's dynamic casters add their PCF map (Depth32Float, dynamic_map_size²;
+/// none in the overview's scenes); the uniforms (about 200 bytes) are left to the tolerance.
+fn gpu_bytes(q: &CostQuery<'_>) -> f64 {
+    let (k, m, n) = (
+        q.number("samples"),
+        q.number("shadow_map_size"),
+        q.number("pdsm_size"),
+    );
+    // A read-back map's rows are padded to 256 bytes; a batch holds 64 MiB of maps, at least one.
+    let map_bytes = (4.0 * m / 256.0).ceil() * 256.0 * m;
+    let batch = k.min((READBACK_BATCH_BYTES as f64 / map_bytes).floor().max(1.0));
+    let held =
+        // The centre map of the `shadow_map` debug view (Depth32Float), made with the PDSM.
+        4.0 * m * m
+        // The debug views' images: vertices per texel and attenuation (R32Float, n² each).
+        + 8.0 * n * n
+        // The evaluation's stencil (Stencil8), per pixel.
+        + q.pixels
+        // The depth passes' view slots: 256 bytes per sample map, rounded up to a power of two,
+        // at least 16, and the dynamic casters' 16 (core::shadow_map::DepthMapRenderer).
+        + 256.0 * k.log2().ceil().exp2().max(16.0)
+        + 4096.0;
+    let build =
+        // The sample map rendered into (Depth32Float).
+        4.0 * m * m
+        // One batch of read-back maps.
+        + batch * map_bytes;
+    let kept =
+        // The PDSM: its index (4 bytes per texel), ends texture (two Rgba32Float texels per
+        // texel) and vertices (8 bytes each).
+        n * n * (4.0 + 32.0 + 8.0 * VERTICES_PER_TEXEL);
+    held + build.max(kept)
 }
 
 /// Bounds against the exact answer (`softshadow_core::expectations`, docs/STABILITY.md).

@@ -7,7 +7,7 @@ use softshadow_core::{
     Cost, CostModel, Expectations, TechniqueInfo,
 };
 
-use crate::{Raytraced, RaytracedSettings, ID, SHADERS};
+use crate::{Raytraced, RaytracedSettings, Targets, ID, SHADERS};
 
 /// Seconds per shadow ray on lavapipe (about 0.5-1 M rays/s on 2 cores, docs/BENCHMARKS.md).
 const RAY: f64 = 2e-6;
@@ -27,7 +27,15 @@ pub fn info() -> TechniqueInfo {
         let rays = 2.0 * q.pixels * q.number("rays_per_pixel") * RAY;
         // The filter's 7 x 7 taps and the penumbra estimate's 9 x 9.
         let denoise = 2.0 * q.pixels * 130.0 * PIXEL_ITERATION;
-        Cost::seconds(rays + denoise, "rays_per_pixel")
+        // GPU memory (bytes): the per-pixel targets, made whatever the settings (raw Rg32Float,
+        // Rg32Float history and Rgba32Float positions both ping-pong, the R32Float radius:
+        // 8 + 2 x 8 + 2 x 16 + 4). Left out: the four 1 x 1 stand-ins and the uniforms (about
+        // 1.3 KiB on lavapipe, 1 % at 48 x 48); and the acceleration structures, which depend on
+        // the scene's casters, not on these parameters (core::accel's estimate: 72 bytes per
+        // triangle, 7 MiB for blob-floating's 99,856) and which wgpu-hal 30 does not count on
+        // Vulkan at all (its counter covers DX12 only), so the count holds none of them.
+        let gpu_bytes = Targets::BYTES_PER_PIXEL as f64 * q.pixels;
+        Cost::seconds(rays + denoise, "rays_per_pixel").with_gpu_memory(gpu_bytes, 0.02)
     }))
     .with_expectations(expectations())
     .with_overview(&[("rays_per_pixel", &["1", "4"])])

@@ -26,12 +26,27 @@ pub fn info() -> TechniqueInfo {
         // at every camera pixel.
         |q| {
             let samples = q.number("samples_per_axis").powi(2);
+            let texels = q.number("shadow_map_size").powi(2);
+            // GPU memory (bytes); the resolve uniform (16 bytes) is left to the tolerance.
+            let pow2 = |x: f64| x.log2().ceil().exp2();
+            let gpu_bytes =
+                // The depth maps of one accumulation pass: a Depth32Float array of BATCH (16)
+                // layers, whatever the samples.
+                16.0 * 4.0 * texels
+                // The lit counts and the result (R32Float each, per pixel); the result of the
+                // frame before is dropped when the cache is (NVIDIA freed it later: 12 bytes).
+                + 8.0 * q.pixels
+                // The depth pass's view slots: 256 bytes per light sample, rounded up to a power
+                // of two, at least 16 (core::shadow_map::DepthMapRenderer).
+                + 256.0 * pow2(samples).max(16.0)
+                // The batches' uniforms: 2048 bytes per batch of 16 samples, rounded up to a
+                // power of two, at least 4.
+                + 2048.0 * pow2((samples / 16.0).ceil()).max(4.0);
             Cost::seconds(
-                2.0 * samples
-                    * (q.number("shadow_map_size").powi(2) * DEPTH_TEXEL
-                        + q.pixels * PIXEL_ITERATION),
+                2.0 * samples * (texels * DEPTH_TEXEL + q.pixels * PIXEL_ITERATION),
                 "2 frames x samples_per_axis² x (shadow_map_size² + pixels)",
             )
+            .with_gpu_memory(gpu_bytes, 0.01)
         },
     ))
     .with_expectations(expectations())

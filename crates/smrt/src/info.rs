@@ -24,10 +24,20 @@ pub fn info() -> TechniqueInfo {
         |q| {
             // The map, then at most rays x samples texel reads per pixel (a ray stops at its
             // first hit, so lit pixels pay all of them).
-            let map = q.number("shadow_map_size").powi(2) * DEPTH_TEXEL;
+            let texels = q.number("shadow_map_size").powi(2);
             let steps = q.number("ray_count") * q.number("samples_per_ray");
             let trace = q.pixels * steps * PIXEL_ITERATION;
-            Cost::seconds(map + trace, "shadow_map_size²")
+            // GPU memory (bytes); the uniforms (about 350 bytes: 1.2 % at 64²) are left to the
+            // tolerance.
+            let gpu_bytes =
+                // The shadow map (Depth32Float).
+                4.0 * texels
+                // The depth pass's view slots (core::shadow_map::DepthMapRenderer: 16 x 256).
+                + 4096.0
+                // The per-pixel debug image (R32Float), made whether or not it is shown.
+                + 4.0 * q.pixels;
+            Cost::seconds(texels * DEPTH_TEXEL + trace, "shadow_map_size²")
+                .with_gpu_memory(gpu_bytes, 0.02)
         },
     ))
     .with_expectations(expectations())

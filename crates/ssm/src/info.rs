@@ -33,11 +33,31 @@ pub fn info() -> TechniqueInfo {
         } else {
             1.0
         };
-        let pairs = q.number("occluder_map_size").powi(2) * q.number("ssm_size").powi(2);
+        let (n, r) = (q.number("occluder_map_size"), q.number("ssm_size"));
+        let pairs = n.powi(2) * r.powi(2);
+        // GPU memory (bytes); the uniforms and the counters (about 500 bytes: 2 % with a 64²
+        // occluder map and a 32² SSM) are left to the tolerance.
+        let scatter_texel = if q.choice("precision", "fp32") { 4.0 } else { 2.0 };
+        let sums = batched - 1.0;
+        let queries = passes * if sums > 0.0 { n } else { 1.0 };
+        let gpu_bytes =
+            // The occluder maps (Depth32Float), the back one with two_pass.
+            passes * 4.0 * n * n
+            // The receiver map (Depth32Float).
+            + 4.0 * r * r
+            // The soft shadow maps blended into, one per occluder map (R32Float; R16Float with
+            // fp16 and fp16-batched).
+            + passes * scatter_texel * r * r
+            // fp16-batched: the FP32 totals of the batches (R32Float).
+            + passes * sums * 4.0 * r * r
+            // The occlusion queries' resolve and readback buffers (8 bytes per query each,
+            // the readback after 256 bytes of counters).
+            + 16.0 * queries + 256.0;
         Cost::seconds(
             passes * batched * pairs * SCATTER_PAIR,
             "occluder_map_size² x ssm_size²",
         )
+        .with_gpu_memory(gpu_bytes, 0.03)
     }))
     .with_expectations(expectations())
     .with_overview(&[("ssm_size", &["64", "128", "256"])])
