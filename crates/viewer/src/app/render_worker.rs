@@ -21,8 +21,8 @@ use std::{
 };
 
 use softshadow_core::{
-    readback, AreaLight, BuildControl, Camera, DebugLegend, Gpu, ParamValue, RenderError, Renderer,
-    Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
+    readback, AreaLight, BuildControl, Camera, DebugLegend, Gpu, MemoryUse, ParamValue,
+    RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
 };
 
 use super::timeline::{LiveExact, LiveMetrics};
@@ -84,6 +84,10 @@ pub(super) struct FrameDone {
     pub(super) exact: Option<Vec<f32>>,
     /// Wall time from the request to the answer, ms (set by [`RenderWorker::receive`]).
     pub(super) wall_ms: f64,
+    /// The GPU memory the technique held at the frame's peak: the worker's device beyond what
+    /// it held before the technique was made, less the scene's and the renderer's
+    /// (`softshadow_core::memory`); `None` where the device counts none.
+    pub(super) technique_memory: Option<MemoryUse>,
 }
 
 /// The technique's thread: requests go in, finished frames come out.
@@ -176,6 +180,9 @@ impl RenderWorker {
                     },
                     (None, None) => return,
                 };
+                // Before the technique: what it holds is counted from here.
+                let _ = device.wait_idle();
+                let baseline = device.memory_in_use();
                 let technique = match create(&device) {
                     Ok(technique) => {
                         let _ = started_tx.send(Ok(device.clone()));
@@ -186,7 +193,7 @@ impl RenderWorker {
                         return;
                     }
                 };
-                Worker::new(device, technique).run(&request_rx, &frame_tx);
+                Worker::new(device, technique, baseline).run(&request_rx, &frame_tx);
             })
             .map_err(|e| StartError::Device(format!("cannot start its thread: {e}")))?;
         Ok(Self {
@@ -390,10 +397,15 @@ struct Worker {
     debug_target: Option<DisplayTarget>,
     /// The last measured frame, for flicker.
     previous: Option<MeasuredFrame>,
+    /// The device's memory before the technique was made.
+    memory_baseline: MemoryUse,
+    /// The scene's and the renderer's memory on this device (counted when they are made).
+    memory_of_scene: MemoryUse,
+    memory_of_renderer: MemoryUse,
 }
 
 impl Worker {
-    fn new(gpu: Gpu, technique: Box<dyn ShadowTechnique>) -> Self {
+    fn new(gpu: Gpu, technique: Box<dyn ShadowTechnique>, memory_baseline: MemoryUse) -> Self {
         Self {
             gpu,
             technique,
@@ -403,7 +415,21 @@ impl Worker {
             display: None,
             debug_target: None,
             previous: None,
+            memory_baseline,
+            memory_of_scene: MemoryUse::default(),
+            memory_of_renderer: MemoryUse::default(),
         }
+    }
+
+    /// What the technique held at `frame_peak`: the device's memory less the baseline, the
+    /// scene's and the renderer's.
+    fn technique_memory(&self, frame_peak: MemoryUse) -> Option<MemoryUse> {
+        self.gpu.counts_memory().then(|| {
+            frame_peak
+                .since(self.memory_baseline)
+                .since(self.memory_of_scene)
+                .since(self.memory_of_renderer)
+        })
     }
 
     fn run(mut self, requests: &mpsc::Receiver<FrameRequest>, frames: &mpsc::Sender<FrameDone>) {
@@ -413,6 +439,10 @@ impl Worker {
                 request = newer;
             }
             let result = self.frame(&request);
+            let technique_memory = result
+                .as_ref()
+                .ok()
+                .and_then(|(output, _)| self.technique_memory(output.memory_peak));
             let debug_image = match (&result, request.debug_view) {
                 (Ok(_), Some(index)) => self.debug_image(index),
                 _ => None,
@@ -451,6 +481,7 @@ impl Worker {
                 live,
                 exact,
                 wall_ms: 0.0,
+                technique_memory,
             };
             if frames.send(done).is_err() {
                 return; // The UI dropped this worker.
@@ -465,10 +496,13 @@ impl Worker {
         if self.scene.as_ref().map(|(hash, _)| *hash) != Some(request.scene_hash) {
             self.scene = None;
             self.prepared = None;
-            self.scene = Some((
-                request.scene_hash,
-                SceneGpu::upload(&self.gpu, &request.scene),
-            ));
+            let _ = self.gpu.wait_idle();
+            let before = self.gpu.memory_in_use();
+            let scene = SceneGpu::upload(&self.gpu, &request.scene);
+            self.gpu.queue.submit([]);
+            let _ = self.gpu.wait_idle();
+            self.memory_of_scene = self.gpu.memory_in_use().since(before);
+            self.scene = Some((request.scene_hash, scene));
         }
         let (width, height) = request.size;
         if self
@@ -477,7 +511,10 @@ impl Worker {
             .is_none_or(|r| (r.width, r.height) != (width, height))
         {
             self.renderer = None;
+            let _ = self.gpu.wait_idle();
+            let before = self.gpu.memory_in_use();
             self.renderer = Some(Renderer::new(&self.gpu, width, height)?);
+            self.memory_of_renderer = self.gpu.memory_in_use().since(before);
             self.prepared = None;
         }
         let current = self.technique.params();

@@ -464,6 +464,7 @@ impl ViewerApp {
                     self.count_frame(&output, done.invalidated, &done.stats);
                 }
                 self.timing.last_output = Some(output);
+                self.timing.last_memory = done.technique_memory;
                 self.technique.error = None;
             }
             Err(e) if self.technique.build.note(Err(&e)) => {

@@ -21,6 +21,8 @@ pub(super) struct TimingState {
     /// scene, light, camera, size): a change empties both.
     pub(super) setting_key: Option<u64>,
     pub(super) last_output: Option<FrameOutput>,
+    /// The GPU memory the technique held at its last frame's peak, where the device counts it.
+    pub(super) last_memory: Option<softshadow_core::MemoryUse>,
     pub(super) frame_times: VecDeque<f64>,
     pub(super) last_frame: Option<Instant>,
     /// Frames rendered so far.
@@ -111,6 +113,18 @@ impl TimingState {
             .on_hover_text(
                 "From the click that picked the technique to its first frame on screen: device \
                  and pipeline creation and the frame, beside any abandoned frame still running",
+            );
+        }
+        if let Some(m) = &self.last_memory {
+            ui.label(format!(
+                "GPU memory of the technique {:.1} MiB ({:.1} MiB textures)",
+                m.total_mib(),
+                m.textures as f64 / (1024.0 * 1024.0)
+            ))
+            .on_hover_text(
+                "The buffers and textures the technique held at its last frame's peak, as the \
+                 driver layer counts them (the scene's and the renderer's left out; acceleration \
+                 structures are not counted on Vulkan): what the benchmark records as memory.peak",
             );
         }
         let source = self.last_output.as_ref().map(|o| o.timing_source);
