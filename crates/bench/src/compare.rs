@@ -272,9 +272,13 @@ pub fn timestamps_against_serial(runs: &[Run]) -> Vec<TimestampsAgainstSerial> {
         .collect()
 }
 
+/// One setting's row of a resolution series: its label and, per size, its median frame time
+/// (`None`: no run at that size finished).
+pub type SeriesRow = (String, Vec<Option<f64>>);
+
 /// Frame time per setting and image size (a sweep with `sizes`): rows of settings in run
 /// order, columns the sizes in run order, each cell the median over the scenes.
-pub fn resolution_series(runs: &[Run]) -> (Vec<(u32, u32)>, Vec<(String, Vec<Option<f64>>)>) {
+pub fn resolution_series(runs: &[Run]) -> (Vec<(u32, u32)>, Vec<SeriesRow>) {
     let mut sizes: Vec<(u32, u32)> = Vec::new();
     let mut settings: Vec<String> = Vec::new();
     let all: Vec<&Run> = runs.iter().filter(|r| r.motion.is_none()).collect();

@@ -179,10 +179,11 @@ impl SlopeFrustum {
     /// next to the light, `stiff-depth-range`). When `casters_cross_light_plane`, the casters'
     /// slopes are unbounded, so the receivers alone bound the window and the near plane drops to
     /// 1e-3 of the far one (`stiff-partly-outside`). Receivers that reach the light plane (a
-    /// point at or behind it) have unbounded slopes too: they count only at depths where a caster
-    /// can shadow them ([`receiver_clip_depth`]), so the part behind the plane neither widens,
-    /// shifts nor empties the window (`stiff-receiver-behind-light`). `None` when nothing in front
-    /// of the light can shadow a receiver.
+    /// point at or behind it) have unbounded slopes too: they count only from the nearest
+    /// caster's depth on (where a shadow can begin; with casters crossing too, from the larger of
+    /// the near plane and 1/16 of the receivers' far depth), so the part behind the plane neither
+    /// widens, shifts nor empties the window (`stiff-receiver-behind-light`). `None` when nothing
+    /// in front of the light can shadow a receiver.
     pub fn fit_clipped(
         eye: Vec2,
         casters: &[Vec3],

@@ -562,7 +562,7 @@ fn report(
         eprintln!("warning: {w}");
     }
     let cpu = cpu
-        .map(|p| softshadow_bench::merge::load(p))
+        .map(softshadow_bench::merge::load)
         .transpose()?
         .map(|loaded| softshadow_bench::merge::merge(&[loaded]))
         .transpose()?;
