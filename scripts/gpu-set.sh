@@ -3,7 +3,7 @@
 # network, the stiff suite, the overview at 256x256, a resolution series (256x256 to 3840x2160),
 # the motion sweep and the overview at 1920x1080 (on three of its scenes, the exact answer at
 # 8 x 8 light samples), each stage under a time limit, in that order
-# (the most needed first), at most seven and a half minutes.
+# (the most needed first), at most seven minutes (317 s on an H200).
 #
 #   scripts/gpu-set.sh [--reduced] [--bin PATH] [--out DIR]
 #
