@@ -276,6 +276,51 @@ pub fn timestamps_against_serial(runs: &[Run]) -> Vec<TimestampsAgainstSerial> {
 /// (`None`: no run at that size finished).
 pub type SeriesRow = (String, Vec<Option<f64>>);
 
+/// One pass timed both ways on one adapter, over every run that ran it: the median of its
+/// timestamp times and of its serial times (each run's calibration frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassAgainstSerial {
+    pub pass: String,
+    pub runs: usize,
+    pub timestamps_ms: f64,
+    pub serial_ms: f64,
+}
+
+/// Per pass name (first-seen order), the runs timed with timestamps that carry its serial time.
+pub fn passes_against_serial(runs: &[Run]) -> Vec<PassAgainstSerial> {
+    let mut order: Vec<&str> = Vec::new();
+    let mut times: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    for run in runs.iter().filter(|r| r.status == Status::Ok) {
+        let Some(timing) = &run.timing else { continue };
+        if timing.source != TimingSource::Timestamps {
+            continue;
+        }
+        for pass in &timing.passes {
+            let Some(serial) = pass.serial_ms else {
+                continue;
+            };
+            if !order.contains(&pass.name.as_str()) {
+                order.push(&pass.name);
+            }
+            let entry = times.entry(&pass.name).or_default();
+            entry.0.push(pass.ms_median);
+            entry.1.push(serial);
+        }
+    }
+    order
+        .into_iter()
+        .map(|name| {
+            let (stamps, serial) = times.remove(name).unwrap_or_default();
+            PassAgainstSerial {
+                pass: name.to_string(),
+                runs: stamps.len(),
+                timestamps_ms: median(stamps),
+                serial_ms: median(serial),
+            }
+        })
+        .collect()
+}
+
 /// Frame time per setting and image size (a sweep with `sizes`): rows of settings in run
 /// order, columns the sizes in run order, each cell the median over the scenes.
 pub fn resolution_series(runs: &[Run]) -> (Vec<(u32, u32)>, Vec<SeriesRow>) {

@@ -33,6 +33,7 @@
 //!   on each (the ones that move most first).
 //! - `timestamps FILE`: per technique, its own passes timed with timestamp queries against the
 //!   same passes submitted and waited for one by one (the calibration frame).
+//! - `pass-timestamps FILE`: the same per pass (the G-buffer and the shading included).
 //! - `resolution FILE`: frame time per setting (rows) and image size (columns).
 //! - `ms-budgets FILE`: the summary with budgets in milliseconds over the scenes at 1920x1080.
 //! - `memory FILE`: per technique setting, the GPU memory it holds (after its frames / peak) and
@@ -64,8 +65,8 @@ use crate::{
 
 mod adapters;
 use adapters::{
-    cpu_gpu_table, memory_table, ms_budgets_table, rank_moves_table, resolution_table,
-    settled_table, timestamps_table,
+    cpu_gpu_table, memory_table, ms_budgets_table, pass_timestamps_table, rank_moves_table,
+    resolution_table, settled_table, timestamps_table,
 };
 
 const BEGIN: &str = "<!-- generated:";
@@ -253,6 +254,7 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         "cpu-gpu" => cpu_gpu_table(&cpu(&options)?.runs, &results.runs),
         "rank-moves" => rank_moves_table(&cpu(&options)?.runs, &results.runs),
         "timestamps" => timestamps_table(&results.runs),
+        "pass-timestamps" => pass_timestamps_table(&results.runs),
         "resolution" => resolution_table(&results.runs),
         "ms-budgets" => ms_budgets_table(&results.runs),
         "memory" => memory_table(&results.runs),
@@ -265,7 +267,7 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         "grid" => grid_table(&results.runs, &options)?,
         other => {
             return Err(format!(
-                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs, grid, motion, cpu-gpu, rank-moves, timestamps, resolution, ms-budgets, memory or settled"
+                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs, grid, motion, cpu-gpu, rank-moves, timestamps, pass-timestamps, resolution, ms-budgets, memory or settled"
             ))
         }
     };

@@ -82,6 +82,24 @@ pub(super) fn timestamps_table(runs: &[Run]) -> String {
     t
 }
 
+pub(super) fn pass_timestamps_table(runs: &[Run]) -> String {
+    let mut t = String::from(
+        "| pass | runs | timestamps (ms, median) | serial (ms, median) | serial / timestamps |\n|---|---|---|---|---|\n",
+    );
+    for row in crate::compare::passes_against_serial(runs) {
+        let _ = writeln!(
+            t,
+            "| `{}` | {} | {} | {} | {:.1} |",
+            row.pass,
+            row.runs,
+            ms(row.timestamps_ms),
+            ms(row.serial_ms),
+            row.serial_ms / row.timestamps_ms
+        );
+    }
+    t
+}
+
 pub(super) fn resolution_table(runs: &[Run]) -> String {
     let (sizes, rows) = crate::compare::resolution_series(runs);
     let mut t = String::from("| technique, settings that differ |");
