@@ -17,6 +17,7 @@
 
 #![warn(missing_docs)]
 
+pub mod analytic;
 pub mod exact;
 pub mod raycast;
 pub mod traced;

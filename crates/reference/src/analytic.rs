@@ -1,0 +1,720 @@
+//! Analytic visibility of any opaque triangle mesh under a rectangle light, without sampling.
+//!
+//! **What it computes.** Seen from a receiver point `p`, every caster triangle between the light
+//! plane and `p` projects through `p` onto the light's plane as a polygon; the visible fraction of
+//! the light is its area minus the area of the union of those polygons clipped to the light, over
+//! its area. Atty et al. 2006 (sections 3.3 and 3.4) do this for rectangles parallel to the light
+//! ([`crate::exact`]); the projection is a central projection, so it holds for any triangle: a
+//! triangle projects to a triangle while it lies strictly between the two planes.
+//!
+//! **What counts as between.** The same open segment the sampled answers test
+//! ([`crate::raycast`]): a point `q` of the light is hidden when the segment from `p` to `q` meets
+//! a caster at a parameter `t` in `(SEGMENT_EPSILON, 1 - LIGHT_END_EPSILON)` (`t = 0` at `p`).
+//! Along that segment the light-space depth is `p.z (1 - t)`, so this is the slab of depths
+//! `(LIGHT_END_EPSILON p.z, (1 - SEGMENT_EPSILON) p.z)`: each triangle is clipped to it before it
+//! is projected. That defines every degenerate case the same way as the ray cast does, with no
+//! sampling left:
+//! - a triangle through `p` (its plane contains `p`) projects to a segment: no area;
+//! - a triangle seen edge-on from `p` likewise; one edge-on to the light (perpendicular to its
+//!   plane) is an ordinary triangle from `p`;
+//! - a caster touching the receiver (contact), or `p` lying on a caster: the part within
+//!   `SEGMENT_EPSILON p.z` of `p`'s depth is cut away, as the ray cast ignores hits that near the
+//!   receiver (the G-buffer's f32 positions lie on either side of their surface by more than
+//!   rounding), and the rest projects within `1 / SEGMENT_EPSILON` times the light's distance;
+//! - a polygon edge on the light's edge: the union is clipped to the light rectangle, so a
+//!   zero-width sliver along it adds nothing.
+//!
+//! A light of zero area has no rectangle to clip to; [`AnalyticCasters::new`] refuses it and the
+//! caller uses a sampled answer.
+//!
+//! **How.** Per point (in parallel over pixels with rayon): the caster triangles whose bounding
+//! boxes meet the pyramid from `p` to the light, from a BVH over their light-space boxes; each
+//! one inside the slab is projected (f64); the union's area is that of the region the projected
+//! triangles cover at least once, counted with the nonzero winding rule (each triangle oriented
+//! counter-clockwise). A shared edge of two neighbouring triangles whose projections lie on
+//! either side of it cancels, so what reaches the polygon library is the projected silhouette of
+//! each mesh (plus the outline of any triangle the slab cuts): a closed mesh contributes its
+//! silhouette loops only, not its triangles. The loops are clipped to the light rectangle
+//! (Sutherland-Hodgman, which keeps the winding number inside the rectangle) and their union's
+//! area is computed by `i_overlay` with its 64-bit integer engine (docs/TECHNIQUES.md, "The
+//! analytic exact answer", says why that library).
+
+use std::collections::HashMap;
+
+use i_overlay::core::{fill_rule::FillRule, overlay_rule::OverlayRule};
+use i_overlay::float::overlay::FloatOverlay;
+use rayon::prelude::*;
+use softshadow_core::{glam::Vec3, AreaLight, Scene};
+
+use crate::raycast::{LIGHT_END_EPSILON, SEGMENT_EPSILON};
+
+/// Triangles per BVH leaf at most.
+const LEAF_SIZE: usize = 4;
+/// No neighbour across an edge (a mesh border, a non-manifold edge, a degenerate triangle).
+const NONE: u32 = u32::MAX;
+
+/// A 2D point on the light plane (light-space x, y).
+type P2 = [f64; 2];
+
+/// A node of the light-space BVH: a leaf when `count > 0` (triangles `first .. first + count`),
+/// else interior with children `first` and `first + 1`.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    first: u32,
+    count: u32,
+}
+
+/// The casters of a scene in light space, ready for [`AnalyticCasters::visible_fraction`]:
+/// welded vertices (f64), triangles as vertex ids, the neighbour across each edge and a BVH.
+#[derive(Clone, Debug)]
+pub struct AnalyticCasters {
+    /// Half extents of the light rectangle.
+    half: P2,
+    vertices: Vec<[f64; 3]>,
+    /// Triangles in BVH leaf order.
+    triangles: Vec<[u32; 3]>,
+    /// Per triangle and edge `k` (from vertex `k` to `k + 1`): the triangle across it and whether
+    /// that triangle runs the edge the same way (bit 31), or [`NONE`].
+    neighbours: Vec<[u32; 3]>,
+    nodes: Vec<Node>,
+}
+
+/// The analytic answer cannot be computed for this scene.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AnalyticError {
+    /// The light has no area: no rectangle to clip the union to (the sampled answers degenerate
+    /// to its centre line or point instead).
+    #[error("the light is {width} x {height}: the analytic exact answer needs a light of positive area (a sampled answer is used)")]
+    NoArea {
+        /// The light's width.
+        width: f32,
+        /// The light's height.
+        height: f32,
+    },
+}
+
+impl AnalyticCasters {
+    /// The casters of `scene` (every `casts_shadow` instance, transformed; triangles with a
+    /// non-finite vertex or an out-of-range index are skipped) in the light space of `light`.
+    /// Vertices enter light space as the closed form takes them (`AreaLight::to_light_space`, the
+    /// scene's own f32 precision); everything after that is f64.
+    pub fn new(scene: &Scene, light: &AreaLight) -> Result<Self, AnalyticError> {
+        let half = light.half_extent();
+        if !(half.x > 0.0 && half.y > 0.0) {
+            return Err(AnalyticError::NoArea {
+                width: light.width,
+                height: light.height,
+            });
+        }
+        let view = light.view();
+        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        for instance in scene.instances.iter().filter(|i| i.casts_shadow) {
+            let Some(mesh) = scene.meshes.get(instance.mesh) else {
+                continue;
+            };
+            for tri in mesh.indices.chunks_exact(3) {
+                let mut t = [0u32; 3];
+                let mut ok = true;
+                for (k, &index) in tri.iter().enumerate() {
+                    let Some(p) = mesh.positions.get(index as usize) else {
+                        ok = false;
+                        break;
+                    };
+                    let world = instance.transform.transform_point3(*p);
+                    if !world.is_finite() {
+                        ok = false;
+                        break;
+                    }
+                    // Welded by exact position: flat-shaded meshes split their vertices per face,
+                    // and the silhouette needs the neighbour across every edge.
+                    let key = world.to_array().map(f32::to_bits);
+                    t[k] = *ids.entry(key).or_insert_with(|| {
+                        let l: Vec3 = (view * world.extend(1.0)).truncate();
+                        vertices.push([l.x as f64, l.y as f64, l.z as f64]);
+                        (vertices.len() - 1) as u32
+                    });
+                }
+                // A triangle with two equal corners covers nothing and borders nothing.
+                if ok && t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                    triangles.push(t);
+                }
+            }
+        }
+        let mut casters = Self {
+            half: [half.x as f64, half.y as f64],
+            vertices,
+            triangles,
+            neighbours: Vec::new(),
+            nodes: Vec::new(),
+        };
+        casters.build_bvh();
+        casters.find_neighbours();
+        Ok(casters)
+    }
+
+    /// Number of caster triangles (degenerate ones dropped).
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    fn bounds(&self, t: &[u32; 3]) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for &v in t {
+            let p = self.vertices[v as usize];
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// A median-split BVH over the triangles' light-space boxes (the pyramid cull needs boxes,
+    /// not a tuned ray-tracing tree).
+    fn build_bvh(&mut self) {
+        let n = self.triangles.len();
+        if n == 0 {
+            return;
+        }
+        let centroid = |s: &Self, t: &[u32; 3]| {
+            let mut c = [0.0; 3];
+            for &v in t {
+                for (a, x) in c.iter_mut().enumerate() {
+                    *x += s.vertices[v as usize][a] / 3.0;
+                }
+            }
+            c
+        };
+        let centroids: Vec<[f64; 3]> = self.triangles.iter().map(|t| centroid(self, t)).collect();
+        let mut order: Vec<usize> = (0..n).collect();
+        let empty = Node {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            first: 0,
+            count: 0,
+        };
+        self.nodes.push(empty);
+        let mut work = vec![(0usize, 0usize, n)];
+        while let Some((node, start, end)) = work.pop() {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            let mut clo = [f64::INFINITY; 3];
+            let mut chi = [f64::NEG_INFINITY; 3];
+            for &i in &order[start..end] {
+                let (tlo, thi) = self.bounds(&self.triangles[i]);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(tlo[a]);
+                    hi[a] = hi[a].max(thi[a]);
+                    clo[a] = clo[a].min(centroids[i][a]);
+                    chi[a] = chi[a].max(centroids[i][a]);
+                }
+            }
+            self.nodes[node] = Node {
+                lo,
+                hi,
+                first: start as u32,
+                count: (end - start) as u32,
+            };
+            let axis = (0..3)
+                .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+                .expect("three axes");
+            if end - start <= LEAF_SIZE || chi[axis] - clo[axis] <= 0.0 {
+                continue;
+            }
+            let mid = (end - start) / 2;
+            order[start..end].select_nth_unstable_by(mid, |&x, &y| {
+                centroids[x][axis].total_cmp(&centroids[y][axis])
+            });
+            let left = self.nodes.len();
+            self.nodes.push(empty);
+            self.nodes.push(empty);
+            self.nodes[node].first = left as u32;
+            self.nodes[node].count = 0;
+            work.push((left, start, start + mid));
+            work.push((left + 1, start + mid, end));
+        }
+        self.triangles = order.iter().map(|&i| self.triangles[i]).collect();
+    }
+
+    /// The neighbour across each edge, where exactly two triangles share it.
+    fn find_neighbours(&mut self) {
+        let mut edges: HashMap<(u32, u32), Vec<(u32, u32)>> = HashMap::new();
+        for (t, tri) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (i, j) = (tri[k], tri[(k + 1) % 3]);
+                edges
+                    .entry((i.min(j), i.max(j)))
+                    .or_default()
+                    .push((t as u32, k as u32));
+            }
+        }
+        self.neighbours = vec![[NONE; 3]; self.triangles.len()];
+        for sharing in edges.values() {
+            if let [(t, k), (u, m)] = sharing[..] {
+                let first = |t: u32, k: u32| self.triangles[t as usize][k as usize];
+                // Bit 31: the neighbour runs the shared edge in the same direction (the mesh is
+                // not consistently oriented there).
+                let same = ((first(t, k) == first(u, m)) as u32) << 31;
+                self.neighbours[t as usize][k as usize] = u | same;
+                self.neighbours[u as usize][m as usize] = t | same;
+            }
+        }
+    }
+
+    /// Visible fraction of the light from the light-space point `p` (see the [module
+    /// docs](self)): 0 at or behind the light plane or when `p` is not finite, 1 when nothing is
+    /// in the way. `scratch` is reused between calls of one thread.
+    pub fn visible_fraction(&self, p: Vec3, scratch: &mut Scratch) -> f64 {
+        let p = [p.x as f64, p.y as f64, p.z as f64];
+        if !p.iter().all(|c| c.is_finite()) || p[2] <= 0.0 {
+            return 0.0;
+        }
+        let [a, b] = self.half;
+        let light = 4.0 * a * b;
+        let covered = self.covered_area(p, scratch);
+        (1.0 - covered / light).clamp(0.0, 1.0)
+    }
+
+    /// The area of the light hidden from `p` (f64; `p.z > 0`).
+    fn covered_area(&self, p: [f64; 3], scratch: &mut Scratch) -> f64 {
+        let slab = [
+            LIGHT_END_EPSILON as f64 * p[2],
+            (1.0 - SEGMENT_EPSILON as f64) * p[2],
+        ];
+        scratch.start(self.triangles.len());
+        self.collect(p, slab, scratch);
+        if scratch.included.is_empty() && scratch.contours.is_empty() {
+            return 0.0;
+        }
+        self.silhouette_loops(p, scratch);
+        let [a, b] = self.half;
+        let mut contours = std::mem::take(&mut scratch.contours);
+        contours.retain_mut(|c| {
+            *c = clip_to_rect(c, a, b);
+            c.len() >= 3
+        });
+        let area = union_area(&contours);
+        scratch.contours = contours;
+        area
+    }
+
+    /// Walks the BVH over the pyramid from `p` to the light: marks the triangles wholly inside the
+    /// slab whose projection meets the light (with their orientation) and adds the clipped
+    /// projection of those the slab cuts as contours of their own.
+    fn collect(&self, p: [f64; 3], slab: [f64; 2], scratch: &mut Scratch) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let [a, b] = self.half;
+        let mut stack = vec![0u32];
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if !pyramid_meets_box(p, self.half, slab, node) {
+                continue;
+            }
+            if node.count == 0 {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+                continue;
+            }
+            for t in node.first..node.first + node.count {
+                let tri = self.triangles[t as usize];
+                let v = tri.map(|i| self.vertices[i as usize]);
+                let (zmin, zmax) = (
+                    v[0][2].min(v[1][2]).min(v[2][2]),
+                    v[0][2].max(v[1][2]).max(v[2][2]),
+                );
+                if zmax <= slab[0] || zmin >= slab[1] {
+                    continue;
+                }
+                if zmin > slab[0] && zmax < slab[1] {
+                    let q = v.map(|o| project(p, o));
+                    let area2 = cross(q[0], q[1], q[2]);
+                    if area2 == 0.0 || !area2.is_finite() || !meets_rect(&q, a, b) {
+                        continue;
+                    }
+                    scratch.mark(t, area2 > 0.0);
+                } else {
+                    let mut poly: Vec<P2> = clip_to_slab(&v, slab)
+                        .into_iter()
+                        .map(|o| project(p, o))
+                        .collect();
+                    let area2 = shoelace2(&poly);
+                    if poly.len() >= 3 && area2 != 0.0 && area2.is_finite() {
+                        if area2 < 0.0 {
+                            poly.reverse();
+                        }
+                        scratch.contours.push(poly);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The boundary of the marked triangles, each oriented counter-clockwise in projection, as
+    /// closed loops of projected vertices added to `scratch.contours`: an edge two marked
+    /// neighbours run in opposite directions cancels (Stokes: the winding number of the boundary
+    /// is the number of marked triangles covering a point).
+    fn silhouette_loops(&self, p: [f64; 3], scratch: &mut Scratch) {
+        let mut edges: Vec<(u32, u32)> = Vec::new();
+        for &(t, ccw) in &scratch.included {
+            let tri = self.triangles[t as usize];
+            for k in 0..3 {
+                let (i, j) = (tri[k], tri[(k + 1) % 3]);
+                let neighbour = self.neighbours[t as usize][k];
+                if neighbour != NONE {
+                    let u = neighbour & !(1 << 31);
+                    let same = neighbour >> 31 == 1;
+                    if let Some(u_ccw) = scratch.orientation(u) {
+                        // Both run the edge one way in projection when their orientations
+                        // agree and they list it in opposite orders, or the other way round.
+                        let opposite_in_projection = (ccw == u_ccw) != same;
+                        if opposite_in_projection {
+                            continue;
+                        }
+                    }
+                }
+                edges.push(if ccw { (i, j) } else { (j, i) });
+            }
+        }
+        // Chain the directed edges into closed walks: every vertex has as many edges out as in,
+        // so a walk from any edge returns to its start.
+        edges.sort_unstable();
+        let mut used = vec![false; edges.len()];
+        let mut cursor: HashMap<u32, usize> = HashMap::new();
+        for start in 0..edges.len() {
+            if used[start] {
+                continue;
+            }
+            let mut walk = Vec::new();
+            let mut e = start;
+            loop {
+                used[e] = true;
+                walk.push(project(p, self.vertices[edges[e].0 as usize]));
+                let next = edges[e].1;
+                if next == edges[start].0 {
+                    break;
+                }
+                let from = *cursor
+                    .entry(next)
+                    .or_insert_with(|| edges.partition_point(|x| x.0 < next));
+                let mut k = from;
+                while k < edges.len() && edges[k].0 == next && used[k] {
+                    k += 1;
+                }
+                if k >= edges.len() || edges[k].0 != next {
+                    // Unreachable for a cycle; a broken one is dropped rather than guessed at.
+                    walk.clear();
+                    break;
+                }
+                cursor.insert(next, k);
+                e = k;
+            }
+            if walk.len() >= 3 {
+                scratch.contours.push(walk);
+            }
+        }
+    }
+}
+
+/// Per-thread working memory of [`AnalyticCasters::visible_fraction`].
+#[derive(Debug, Default)]
+pub struct Scratch {
+    /// Per triangle: the call that marked it (its generation) and its orientation.
+    stamps: Vec<(u32, bool)>,
+    generation: u32,
+    included: Vec<(u32, bool)>,
+    contours: Vec<Vec<P2>>,
+}
+
+impl Scratch {
+    fn start(&mut self, triangles: usize) {
+        if self.stamps.len() != triangles || self.generation == u32::MAX {
+            self.stamps = vec![(0, false); triangles];
+            self.generation = 0;
+        }
+        self.generation += 1;
+        self.included.clear();
+        self.contours.clear();
+    }
+
+    fn mark(&mut self, t: u32, ccw: bool) {
+        self.stamps[t as usize] = (self.generation, ccw);
+        self.included.push((t, ccw));
+    }
+
+    fn orientation(&self, t: u32) -> Option<bool> {
+        let (g, ccw) = self.stamps[t as usize];
+        (g == self.generation).then_some(ccw)
+    }
+}
+
+/// `o` (light space) projected through `p` onto the light plane `z = 0` (`o.z < p.z`).
+#[inline]
+fn project(p: [f64; 3], o: [f64; 3]) -> P2 {
+    let k = p[2] / (p[2] - o[2]);
+    [p[0] + (o[0] - p[0]) * k, p[1] + (o[1] - p[1]) * k]
+}
+
+/// Twice the signed area of the triangle `a, b, c` (positive counter-clockwise).
+#[inline]
+fn cross(a: P2, b: P2, c: P2) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+/// Twice the signed area of a closed polygon.
+fn shoelace2(poly: &[P2]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
+}
+
+/// Whether the bounding box of `q` meets the open rectangle `(-a, a) x (-b, b)`.
+fn meets_rect(q: &[P2; 3], a: f64, b: f64) -> bool {
+    let (mut x0, mut x1, mut y0, mut y1) = (q[0][0], q[0][0], q[0][1], q[0][1]);
+    for v in &q[1..] {
+        x0 = x0.min(v[0]);
+        x1 = x1.max(v[0]);
+        y0 = y0.min(v[1]);
+        y1 = y1.max(v[1]);
+    }
+    x0 < a && x1 > -a && y0 < b && y1 > -b
+}
+
+/// Whether the pyramid from `p` to the light `[-a, a] x [-b, b]`, within the depth slab, can
+/// meet the box of `node`: at depth `z` the pyramid's section is the light scaled by
+/// `s = 1 - z / p.z` towards `p`, so over the box's depths it lies within the box spanned by the
+/// sections at the two ends (conservative: the box's own shape in depth is ignored).
+fn pyramid_meets_box(p: [f64; 3], half: P2, slab: [f64; 2], node: &Node) -> bool {
+    let z0 = node.lo[2].max(slab[0]);
+    let z1 = node.hi[2].min(slab[1]);
+    if z0 > z1 {
+        return false;
+    }
+    let (s0, s1) = (1.0 - z1 / p[2], 1.0 - z0 / p[2]);
+    (0..2).all(|axis| {
+        let (c, h) = (p[axis], half[axis]);
+        let lo = (c + (-h - c) * s0).min(c + (-h - c) * s1);
+        let hi = (c + (h - c) * s0).max(c + (h - c) * s1);
+        node.lo[axis] <= hi && node.hi[axis] >= lo
+    })
+}
+
+/// The triangle `v` clipped to the depths `slab[0] <= z <= slab[1]` (Sutherland-Hodgman).
+fn clip_to_slab(v: &[[f64; 3]; 3], slab: [f64; 2]) -> Vec<[f64; 3]> {
+    let mut poly: Vec<[f64; 3]> = v.to_vec();
+    for (bound, keep_above) in [(slab[0], true), (slab[1], false)] {
+        let inside = |o: &[f64; 3]| {
+            if keep_above {
+                o[2] >= bound
+            } else {
+                o[2] <= bound
+            }
+        };
+        let mut out = Vec::with_capacity(poly.len() + 1);
+        for i in 0..poly.len() {
+            let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);
+            if inside(&cur) {
+                out.push(cur);
+            }
+            if inside(&cur) != inside(&next) {
+                let t = (bound - cur[2]) / (next[2] - cur[2]);
+                out.push([
+                    cur[0] + (next[0] - cur[0]) * t,
+                    cur[1] + (next[1] - cur[1]) * t,
+                    bound,
+                ]);
+            }
+        }
+        poly = out;
+        if poly.is_empty() {
+            break;
+        }
+    }
+    poly
+}
+
+/// A closed polygon (any winding, self-intersecting or not) clipped to the rectangle
+/// `[-a, a] x [-b, b]` (Sutherland-Hodgman against each side: inside the rectangle every point
+/// keeps its winding number; the edges it adds along the sides enclose no area).
+fn clip_to_rect(poly: &[P2], a: f64, b: f64) -> Vec<P2> {
+    let mut poly = poly.to_vec();
+    for (axis, bound, keep_below) in [(0, a, true), (0, -a, false), (1, b, true), (1, -b, false)] {
+        let inside = |o: &P2| {
+            if keep_below {
+                o[axis] <= bound
+            } else {
+                o[axis] >= bound
+            }
+        };
+        if poly.iter().all(inside) {
+            continue;
+        }
+        let mut out = Vec::with_capacity(poly.len() + 4);
+        for i in 0..poly.len() {
+            let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);
+            if inside(&cur) {
+                out.push(cur);
+            }
+            if inside(&cur) != inside(&next) {
+                let t = (bound - cur[axis]) / (next[axis] - cur[axis]);
+                let mut x = [
+                    cur[0] + (next[0] - cur[0]) * t,
+                    cur[1] + (next[1] - cur[1]) * t,
+                ];
+                x[axis] = bound;
+                out.push(x);
+            }
+        }
+        poly = out;
+        if poly.is_empty() {
+            break;
+        }
+    }
+    poly
+}
+
+/// Area of the region that `contours` (closed, each counter-clockwise where it adds coverage)
+/// wind around at least once: i_overlay's 64-bit engine with the positive fill rule.
+fn union_area(contours: &[Vec<P2>]) -> f64 {
+    if contours.is_empty() {
+        return 0.0;
+    }
+    let shapes = FloatOverlay::<P2, i64>::from_subj(contours)
+        .overlay(OverlayRule::Subject, FillRule::Positive);
+    // Outer contours and holes run opposite ways, so the signed sum is the area.
+    let twice: f64 = shapes.iter().flatten().map(|c| shoelace2(c)).sum();
+    0.5 * twice.abs()
+}
+
+/// Analytic per-pixel visibility of `scene` (row-major, like `positions`), in parallel with
+/// rayon: 1.0 where the position is `None` or the pixel is not a receiver, else
+/// [`AnalyticCasters::visible_fraction`] of the light-space point. `Err` when the light has no
+/// area.
+pub fn visibility_image(
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    receiver_mask: &[bool],
+) -> Result<Vec<f32>, AnalyticError> {
+    let casters = AnalyticCasters::new(scene, &scene.light)?;
+    let view = scene.light.view();
+    Ok(positions
+        .par_iter()
+        .enumerate()
+        .map_init(Scratch::default, |scratch, (i, p)| match p {
+            Some(p) if receiver_mask.get(i).copied().unwrap_or(false) => {
+                let l = (view * p.extend(1.0)).truncate();
+                casters.visible_fraction(l, scratch) as f32
+            }
+            _ => 1.0,
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Twice the area of what `union_area` is given, summed: the union when nothing overlaps.
+    fn area_sum(contours: &[Vec<P2>]) -> f64 {
+        contours.iter().map(|c| 0.5 * shoelace2(c)).sum()
+    }
+
+    /// The triangle (0, 0), (1, 0), (1, 1e-3 * 7) cut into thousands of slivers fanning from
+    /// its first corner: each sliver is nearly collinear (its angle about 1.4e-6 rad) and every
+    /// neighbour shares an edge. Their union is the triangle, to rounding.
+    #[test]
+    fn the_union_of_thousands_of_nearly_collinear_slivers_is_their_triangle() {
+        let n = 5000;
+        let top = 7e-3;
+        let slivers: Vec<Vec<P2>> = (0..n)
+            .map(|k| {
+                let y0 = top * k as f64 / n as f64;
+                let y1 = top * (k + 1) as f64 / n as f64;
+                vec![[0.0, 0.0], [1.0, y0], [1.0, y1]]
+            })
+            .collect();
+        let area = union_area(&slivers);
+        let expected = 0.5 * top;
+        assert!(
+            ((area - expected) / expected).abs() < 1e-12,
+            "{area} vs {expected}"
+        );
+        assert!(((area_sum(&slivers) - expected) / expected).abs() < 1e-12);
+        // The same slivers twice, and reversed ones (clockwise: no coverage with the positive
+        // rule) do not change it.
+        let mut doubled = slivers.clone();
+        doubled.extend(slivers.iter().cloned());
+        let area2 = union_area(&doubled);
+        assert!(((area2 - expected) / expected).abs() < 1e-12, "{area2}");
+    }
+
+    /// Thousands of tiny triangles scattered over the unit square, overlapping at random: the
+    /// union never exceeds the sum of their areas or the square, and equals the sum where they
+    /// are spaced apart.
+    #[test]
+    fn the_union_of_scattered_tiny_triangles_is_bounded_and_exact_when_disjoint() {
+        let mut rng = crate::SplitMix64(7);
+        let mut next = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        let tiny: Vec<Vec<P2>> = (0..3000)
+            .map(|_| {
+                let (x, y) = (next(), next());
+                vec![[x, y], [x + 1e-3 * next(), y], [x, y + 1e-3 * next()]]
+            })
+            .collect();
+        let area = union_area(&tiny);
+        assert!(
+            area > 0.0 && area <= area_sum(&tiny) * (1.0 + 1e-12) && area < 1.0,
+            "{area}"
+        );
+        // On a 60 x 60 grid of cells 1/60 wide, one triangle per cell: disjoint.
+        let spaced: Vec<Vec<P2>> = (0..3600)
+            .map(|k| {
+                let (x, y) = ((k % 60) as f64 / 60.0, (k / 60) as f64 / 60.0);
+                let s = 1e-3 * (1.0 + next());
+                vec![[x, y], [x + s, y + 1e-9], [x, y + s]]
+            })
+            .collect();
+        let (area, sum) = (union_area(&spaced), area_sum(&spaced));
+        assert!(((area - sum) / sum).abs() < 1e-12, "{area} vs {sum}");
+    }
+
+    /// Clipping to the rectangle keeps the part inside; a polygon wholly outside vanishes.
+    #[test]
+    fn clip_to_rect_keeps_the_inside() {
+        let square = vec![[-2.0, -2.0], [0.5, -2.0], [0.5, 0.5], [-2.0, 0.5]];
+        let clipped = clip_to_rect(&square, 1.0, 1.0);
+        assert!(
+            (0.5 * shoelace2(&clipped) - 2.25).abs() < 1e-15,
+            "{clipped:?}"
+        );
+        let outside = vec![[2.0, 2.0], [3.0, 2.0], [3.0, 3.0]];
+        assert!(clip_to_rect(&outside, 1.0, 1.0).len() < 3);
+    }
+
+    /// A light of no area is refused with a line that says what is used instead.
+    #[test]
+    fn a_light_without_area_is_refused() {
+        let scene = Scene {
+            name: "t".into(),
+            meshes: Vec::new(),
+            instances: Vec::new(),
+            light: AreaLight {
+                width: 0.0,
+                ..AreaLight::default()
+            },
+            camera: softshadow_core::Camera::default(),
+        };
+        let error = AnalyticCasters::new(&scene, &scene.light).unwrap_err();
+        assert!(error.to_string().contains("positive area"), "{error}");
+    }
+}
