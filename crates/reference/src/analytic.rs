@@ -40,6 +40,7 @@
 //! analytic exact answer", says why that library).
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use i_overlay::core::{fill_rule::FillRule, overlay_rule::OverlayRule};
 use i_overlay::float::overlay::FloatOverlay;
@@ -93,6 +94,31 @@ pub enum AnalyticError {
         /// The light's height.
         height: f32,
     },
+    /// [`Progress::cancel`] was set before every pixel was done.
+    #[error("the analytic exact answer was cancelled before it finished")]
+    Cancelled,
+}
+
+/// What a receiver point sees of the light ([`AnalyticCasters::light_seen`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSeen {
+    /// The visible fraction of the light's area.
+    pub visibility: f64,
+    /// The form factor from the point, with its normal, to the visible part of the light: the
+    /// exact irradiance over the light's radiance times pi (a Lambertian light).
+    pub irradiance: f64,
+    /// The same for the whole light, as if nothing were in the way: 0 when the point faces away
+    /// from all of it.
+    pub unoccluded: f64,
+}
+
+impl LightSeen {
+    /// At or behind the light plane: nothing of a one-sided light is seen.
+    pub const DARK: Self = Self {
+        visibility: 0.0,
+        irradiance: 0.0,
+        unoccluded: 0.0,
+    };
 }
 
 impl AnalyticCasters {
@@ -270,18 +296,44 @@ impl AnalyticCasters {
     /// docs](self)): 0 at or behind the light plane or when `p` is not finite, 1 when nothing is
     /// in the way. `scratch` is reused between calls of one thread.
     pub fn visible_fraction(&self, p: Vec3, scratch: &mut Scratch) -> f64 {
-        let p = [p.x as f64, p.y as f64, p.z as f64];
-        if !p.iter().all(|c| c.is_finite()) || p[2] <= 0.0 {
-            return 0.0;
-        }
-        let [a, b] = self.half;
-        let light = 4.0 * a * b;
-        let covered = self.covered_area(p, scratch);
-        (1.0 - covered / light).clamp(0.0, 1.0)
+        self.light_seen(p, None, scratch).visibility
     }
 
-    /// The area of the light hidden from `p` (f64; `p.z > 0`).
-    fn covered_area(&self, p: [f64; 3], scratch: &mut Scratch) -> f64 {
+    /// What the light-space point `p` with the light-space unit normal `normal` sees of the
+    /// light: its visible fraction and, with a normal, the exact irradiance from the visible part
+    /// and from the whole light, as form factors (Lambert's contour integral,
+    /// [`polygon_form_factor`]: the irradiance over the light's radiance times pi). Without a
+    /// normal both form factors are 0.
+    pub fn light_seen(&self, p: Vec3, normal: Option<Vec3>, scratch: &mut Scratch) -> LightSeen {
+        let p = [p.x as f64, p.y as f64, p.z as f64];
+        if !p.iter().all(|c| c.is_finite()) || p[2] <= 0.0 {
+            return LightSeen::DARK;
+        }
+        let [a, b] = self.half;
+        let covered = self.covered_region(p, scratch);
+        let twice_covered: f64 = covered.iter().map(|c| shoelace2(c)).sum();
+        let visibility = (1.0 - 0.5 * twice_covered.abs() / (4.0 * a * b)).clamp(0.0, 1.0);
+        let Some(n) = normal.filter(|n| n.is_finite() && n.length_squared() > 0.0) else {
+            return LightSeen {
+                visibility,
+                ..LightSeen::DARK
+            };
+        };
+        let n = n.normalize();
+        let n = [n.x as f64, n.y as f64, n.z as f64];
+        let light = [[-a, -b], [a, -b], [a, b], [-a, b]];
+        let unoccluded = polygon_form_factor(p, n, &light).max(0.0);
+        let hidden: f64 = covered.iter().map(|c| polygon_form_factor(p, n, c)).sum();
+        LightSeen {
+            visibility,
+            irradiance: (unoccluded - hidden).clamp(0.0, unoccluded),
+            unoccluded,
+        }
+    }
+
+    /// The part of the light hidden from `p` (f64; `p.z > 0`): the union's contours, outer ones
+    /// counter-clockwise and holes clockwise (so signed sums over them are sums over the region).
+    fn covered_region(&self, p: [f64; 3], scratch: &mut Scratch) -> Vec<Vec<P2>> {
         let slab = [
             LIGHT_END_EPSILON as f64 * p[2],
             (1.0 - SEGMENT_EPSILON as f64) * p[2],
@@ -289,7 +341,7 @@ impl AnalyticCasters {
         scratch.start(self.triangles.len());
         self.collect(p, slab, scratch);
         if scratch.included.is_empty() && scratch.contours.is_empty() {
-            return 0.0;
+            return Vec::new();
         }
         self.silhouette_loops(p, scratch);
         let [a, b] = self.half;
@@ -298,9 +350,9 @@ impl AnalyticCasters {
             *c = clip_to_rect(c, a, b);
             c.len() >= 3
         });
-        let area = union_area(&contours);
+        let union = union_contours(&contours);
         scratch.contours = contours;
-        area
+        union
     }
 
     /// Walks the BVH over the pyramid from `p` to the light: marks the triangles wholly inside the
@@ -583,17 +635,84 @@ fn clip_to_rect(poly: &[P2], a: f64, b: f64) -> Vec<P2> {
     poly
 }
 
-/// Area of the region that `contours` (closed, each counter-clockwise where it adds coverage)
-/// wind around at least once: i_overlay's 64-bit engine with the positive fill rule.
-fn union_area(contours: &[Vec<P2>]) -> f64 {
+/// The region that `contours` (closed, each counter-clockwise where it adds coverage) wind
+/// around at least once, as i_overlay's 64-bit engine gives it with the positive fill rule: outer
+/// contours counter-clockwise, holes clockwise.
+fn union_contours(contours: &[Vec<P2>]) -> Vec<Vec<P2>> {
     if contours.is_empty() {
+        return Vec::new();
+    }
+    FloatOverlay::<P2, i64>::from_subj(contours)
+        .overlay(OverlayRule::Subject, FillRule::Positive)
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// Area of the region [`union_contours`] gives.
+#[cfg(test)]
+fn union_area(contours: &[Vec<P2>]) -> f64 {
+    let twice: f64 = union_contours(contours).iter().map(|c| shoelace2(c)).sum();
+    0.5 * twice.abs()
+}
+
+/// The form factor from a point `p` with unit normal `n` to the polygon `contour` of the light
+/// plane `z = 0` (light space; `p.z > 0`): signed, positive for a counter-clockwise contour,
+/// so the sum over a region's contours is the region's. Lambert's contour integral (Lambert
+/// 1760; in graphics Baum et al. 1989, equation 3): `F = -(1 / 2 pi) sum_i theta_i n . g_i`,
+/// with `theta_i` the angle the edge `v_i v_i+1` subtends at `p` and `g_i` the unit normal of
+/// the plane through `p` and that edge. The contour is first clipped to the point's horizon
+/// (`(q - p) . n > 0`); the integral holds for what lies above it.
+pub fn polygon_form_factor(p: [f64; 3], n: [f64; 3], contour: &[[f64; 2]]) -> f64 {
+    let above = clip_to_horizon(contour, p, n);
+    let k = above.len();
+    if k < 3 {
         return 0.0;
     }
-    let shapes = FloatOverlay::<P2, i64>::from_subj(contours)
-        .overlay(OverlayRule::Subject, FillRule::Positive);
-    // Outer contours and holes run opposite ways, so the signed sum is the area.
-    let twice: f64 = shapes.iter().flatten().map(|c| shoelace2(c)).sum();
-    0.5 * twice.abs()
+    let mut sum = 0.0;
+    for i in 0..k {
+        let (q0, q1) = (above[i], above[(i + 1) % k]);
+        let a = [q0[0] - p[0], q0[1] - p[1], -p[2]];
+        let b = [q1[0] - p[0], q1[1] - p[1], -p[2]];
+        let g = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let length = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        if length == 0.0 {
+            continue;
+        }
+        let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let theta = length.atan2(dot);
+        sum += theta * (n[0] * g[0] + n[1] * g[1] + n[2] * g[2]) / length;
+    }
+    -sum / (2.0 * std::f64::consts::PI)
+}
+
+/// The part of `contour` (on the plane `z = 0`) above the horizon of `p` with normal `n`:
+/// where `(q - p) . n > 0` (Sutherland-Hodgman against that line, which keeps the winding
+/// number on its inside).
+fn clip_to_horizon(contour: &[P2], p: [f64; 3], n: [f64; 3]) -> Vec<P2> {
+    let height = |q: &P2| (q[0] - p[0]) * n[0] + (q[1] - p[1]) * n[1] - p[2] * n[2];
+    let heights: Vec<f64> = contour.iter().map(height).collect();
+    if heights.iter().all(|h| *h > 0.0) {
+        return contour.to_vec();
+    }
+    let mut out = Vec::with_capacity(contour.len() + 1);
+    for i in 0..contour.len() {
+        let j = (i + 1) % contour.len();
+        let (h0, h1) = (heights[i], heights[j]);
+        if h0 > 0.0 {
+            out.push(contour[i]);
+        }
+        if (h0 > 0.0) != (h1 > 0.0) {
+            let t = h0 / (h0 - h1);
+            let (q0, q1) = (contour[i], contour[j]);
+            out.push([q0[0] + (q1[0] - q0[0]) * t, q0[1] + (q1[1] - q0[1]) * t]);
+        }
+    }
+    out
 }
 
 /// Analytic per-pixel visibility of `scene` (row-major, like `positions`), in parallel with
@@ -605,19 +724,60 @@ pub fn visibility_image(
     positions: &[Option<Vec3>],
     receiver_mask: &[bool],
 ) -> Result<Vec<f32>, AnalyticError> {
+    let seen = light_seen_image(scene, positions, None, receiver_mask, &Progress::default())?;
+    Ok(seen.iter().map(|s| s.visibility as f32).collect())
+}
+
+/// How far a [`light_seen_image`] has come, and a way to stop it: shared with another thread
+/// (a progress bar, a Cancel button).
+#[derive(Debug, Default)]
+pub struct Progress {
+    /// Receiver pixels done so far.
+    pub done: AtomicUsize,
+    /// Set to stop: the pixels not yet started are skipped and the call returns
+    /// [`AnalyticError::Cancelled`].
+    pub cancel: AtomicBool,
+}
+
+/// [`AnalyticCasters::light_seen`] at every pixel of `scene` (row-major, like `positions`), in
+/// parallel with rayon; `normals` are world-space unit normals per pixel (the G-buffer's; without
+/// them the form factors are 0). Where the position is `None` or the pixel is not a receiver:
+/// visibility 1 and form factors 0. `Err` when the light has no area or `progress.cancel` was
+/// set.
+pub fn light_seen_image(
+    scene: &Scene,
+    positions: &[Option<Vec3>],
+    normals: Option<&[Vec3]>,
+    receiver_mask: &[bool],
+    progress: &Progress,
+) -> Result<Vec<LightSeen>, AnalyticError> {
     let casters = AnalyticCasters::new(scene, &scene.light)?;
     let view = scene.light.view();
-    Ok(positions
+    let off_receivers = LightSeen {
+        visibility: 1.0,
+        ..LightSeen::DARK
+    };
+    let seen: Vec<LightSeen> = positions
         .par_iter()
         .enumerate()
         .map_init(Scratch::default, |scratch, (i, p)| match p {
             Some(p) if receiver_mask.get(i).copied().unwrap_or(false) => {
-                let l = (view * p.extend(1.0)).truncate();
-                casters.visible_fraction(l, scratch) as f32
+                if progress.cancel.load(Ordering::Relaxed) {
+                    return LightSeen::DARK;
+                }
+                let point = view.transform_point3(*p);
+                let normal = normals.and_then(|n| n.get(i)).map(|n| view.transform_vector3(*n));
+                let seen = casters.light_seen(point, normal, scratch);
+                progress.done.fetch_add(1, Ordering::Relaxed);
+                seen
             }
-            _ => 1.0,
+            _ => off_receivers,
         })
-        .collect())
+        .collect();
+    if progress.cancel.load(Ordering::Relaxed) {
+        return Err(AnalyticError::Cancelled);
+    }
+    Ok(seen)
 }
 
 #[cfg(test)]
@@ -716,5 +876,118 @@ mod tests {
         };
         let error = AnalyticCasters::new(&scene, &scene.light).unwrap_err();
         assert!(error.to_string().contains("positive area"), "{error}");
+    }
+
+    /// Lambert's closed form for a point at height `h` over a corner of an `x` by `y`
+    /// rectangle in a parallel plane, facing it (signed: odd in `x` and in `y`).
+    fn corner_form_factor(x: f64, y: f64, h: f64) -> f64 {
+        let (x, y) = (x / h, y / h);
+        let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+        (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+    }
+
+    /// The closed form for the rectangle `[x0, x1] x [y0, y1]` of the plane `z = 0` from
+    /// `p` facing it, by inclusion and exclusion of corner rectangles.
+    fn rect_form_factor(r: [f64; 4], p: [f64; 3]) -> f64 {
+        let g = |x: f64, y: f64| corner_form_factor(x - p[0], y - p[1], p[2]);
+        g(r[1], r[3]) - g(r[0], r[3]) - g(r[1], r[2]) + g(r[0], r[2])
+    }
+
+    /// The contour integral equals Lambert's closed form for an unoccluded rectangle seen from
+    /// points under it, beside it and far off, facing it; a point facing away sees nothing.
+    #[test]
+    fn the_contour_integral_equals_the_closed_form_for_a_rectangle() {
+        let light = [[-0.5, -0.3], [0.5, -0.3], [0.5, 0.3], [-0.5, 0.3]];
+        let facing = [0.0, 0.0, -1.0];
+        for p in [[0.0, 0.0, 1.0], [0.2, -0.1, 0.3], [2.0, 1.5, 0.7], [0.5, 0.3, 4.0]] {
+            let integral = polygon_form_factor(p, facing, &light);
+            let closed = rect_form_factor([-0.5, 0.5, -0.3, 0.3], p);
+            assert!((integral - closed).abs() < 1e-12, "{p:?}: {integral} vs {closed}");
+            assert!(closed > 0.0);
+            assert_eq!(polygon_form_factor(p, [0.0, 0.0, 1.0], &light), 0.0);
+        }
+        // A normal along the plane, at a point under the light's middle: half the light is
+        // above its horizon, and the form factor of a perpendicular rectangle is known too:
+        // from a point at height h over one end of its side l on the planes' common line, with
+        // w its side away from that line, F = (1 / 2 pi) (atan(1 / Y) - Y / sqrt(X^2 + Y^2)
+        // atan(1 / sqrt(X^2 + Y^2))), X = w / l, Y = h / l (Howell's catalogue of configuration factors).
+        let p = [0.0, 0.0, 1.0];
+        let along = polygon_form_factor(p, [1.0, 0.0, 0.0], &light);
+        let perpendicular = |w: f64, l: f64, h: f64| {
+            let (x, y) = (w / l, h / l);
+            let r = (x * x + y * y).sqrt();
+            ((1.0 / y).atan() - y / r * (1.0 / r).atan()) / (2.0 * std::f64::consts::PI)
+        };
+        // The half x > 0 is two rectangles, l = 0.3 along the common line on either side of the
+        // foot, w = 0.5 away from it.
+        let closed = 2.0 * perpendicular(0.5, 0.3, 1.0);
+        assert!((along - closed).abs() < 1e-12, "{along} vs {closed}");
+    }
+
+    /// A square occluder parallel to the light: the irradiance from the visible part equals the
+    /// closed form of the light minus that of the occluder's projection clipped to the light,
+    /// within 1e-9; the unoccluded irradiance that of the light; a receiver facing away from the
+    /// whole light has irradiance 0 whatever its visibility.
+    #[test]
+    fn the_irradiance_under_a_parallel_occluder_equals_the_closed_form() {
+        let square = softshadow_core::Mesh {
+            name: "square".into(),
+            positions: vec![
+                Vec3::new(-0.2, 2.0, -0.2),
+                Vec3::new(0.2, 2.0, -0.2),
+                Vec3::new(0.2, 2.0, 0.2),
+                Vec3::new(-0.2, 2.0, 0.2),
+            ],
+            normals: Vec::new(),
+            indices: vec![0, 1, 2, 0, 2, 3],
+        };
+        let scene = Scene {
+            name: "t".into(),
+            meshes: vec![square],
+            instances: vec![softshadow_core::Instance::new(
+                0,
+                softshadow_core::glam::Mat4::from_translation(Vec3::new(0.1, 0.0, 0.05)),
+            )],
+            light: AreaLight::default(),
+            camera: softshadow_core::Camera::default(),
+        };
+        let casters = AnalyticCasters::new(&scene, &scene.light).unwrap();
+        let light = &scene.light;
+        let up = light.view().transform_vector3(Vec3::Y);
+        let corners = [Vec3::new(-0.1, 2.0, -0.15), Vec3::new(0.3, 2.0, 0.25)]
+            .map(|c| light.to_light_space(c).as_dvec3());
+        let mut scratch = Scratch::default();
+        let mut penumbra = 0;
+        for k in 0..40 {
+            let world = Vec3::new(-1.0 + 0.05 * k as f32, 0.0, 0.3 - 0.02 * k as f32);
+            let p = light.to_light_space(world);
+            let seen = casters.light_seen(p, Some(up), &mut scratch);
+            let pd = p.as_dvec3();
+            let project = |o: softshadow_core::glam::DVec3| {
+                let t = pd.z / (pd.z - o.z);
+                [pd.x + (o.x - pd.x) * t, pd.y + (o.y - pd.y) * t]
+            };
+            let (q0, q1) = (project(corners[0]), project(corners[1]));
+            let (a, b) = (0.5, 0.5);
+            let shadow = [
+                q0[0].min(q1[0]).max(-a),
+                q0[0].max(q1[0]).min(a),
+                q0[1].min(q1[1]).max(-b),
+                q0[1].max(q1[1]).min(b),
+            ];
+            let whole = rect_form_factor([-a, a, -b, b], [pd.x, pd.y, pd.z]);
+            let hidden = if shadow[0] < shadow[1] && shadow[2] < shadow[3] {
+                rect_form_factor(shadow, [pd.x, pd.y, pd.z])
+            } else {
+                0.0
+            };
+            assert!((seen.unoccluded - whole).abs() < 1e-9, "{world}");
+            assert!((seen.irradiance - (whole - hidden)).abs() < 1e-9, "{world}: {seen:?}");
+            penumbra += (seen.visibility > 0.0 && seen.visibility < 1.0) as usize;
+            let away = casters.light_seen(p, Some(-up), &mut scratch);
+            assert_eq!((away.irradiance, away.unoccluded), (0.0, 0.0));
+            assert_eq!(away.visibility, seen.visibility);
+        }
+        assert!(penumbra >= 5, "{penumbra} penumbra points");
     }
 }
