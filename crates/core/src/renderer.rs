@@ -368,6 +368,20 @@ impl Renderer {
             .collect())
     }
 
+    /// World-space unit normal per pixel as the shading uses it (facing the camera; zero where
+    /// no geometry was hit), from the G-buffer's RGBA16F normal target.
+    pub fn read_world_normals(&self) -> Result<Vec<glam::Vec3>, GpuError> {
+        let normal = readback::read_texture(&self.gpu, &self.gbuffer.normal)?;
+        let component = |b: &[u8]| half::f16::from_le_bytes([b[0], b[1]]).to_f32();
+        Ok(normal
+            .chunks_exact(8)
+            .map(|n| {
+                let v = glam::Vec3::new(component(&n[0..2]), component(&n[2..4]), component(&n[4..6]));
+                v.normalize_or_zero()
+            })
+            .collect())
+    }
+
     /// `true` for pixels that see a shadow receiver.
     pub fn read_receiver_mask(&self) -> Result<Vec<bool>, GpuError> {
         let normal = readback::read_texture(&self.gpu, &self.gbuffer.normal)?;

@@ -148,10 +148,78 @@ pub struct ErrorReport {
     pub flip_mean: Option<f64>,
 }
 
+/// The error in irradiance, where the shaded image shows it: each pixel's technique irradiance
+/// is `V x E0` (its visibility times the exact unoccluded irradiance `E0`) against the exact
+/// irradiance `E` from the visible part of the light (docs/BENCHMARKS.md, "The irradiance
+/// error"). A receiver that faces away from the whole light has `E0 = E = 0`: it counts zero
+/// here, whatever its visibility error.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct IrradianceReport {
+    /// Mean of `|V E0 - E|` over receiver pixels over the mean of `E0` over them.
+    pub irradiance_mae: f64,
+    /// The same over the shadowed receiver pixels (`V_ref < 1`, those `mae_shadowed` averages
+    /// over), normalised by the mean of `E0` over them.
+    pub irradiance_mae_shadowed: f64,
+    /// Receiver pixels facing away from the whole light (`E0 = 0`).
+    pub facing_away_pixels: u64,
+}
+
 /// Largest reference visibility of a pixel counted as umbra by [`ErrorReport::brighter_umbra`]:
 /// the exact answers (closed form, ray cast) write 0 there; the margin keeps an accumulated
 /// reference's last-sample rounding in.
 pub const UMBRA_THRESHOLD: f32 = 0.01;
+
+/// [`IrradianceReport`] of the technique's visibility `v` against the exact answer: its
+/// visibility `v_ref` (which pixels are shadowed), irradiance `irradiance` and unoccluded
+/// irradiance `unoccluded`, over the pixels of `receiver_mask`. A non-finite `V` scores the
+/// worse of `V = 0` and `V = 1`. Errors as [`compare`]'s, and [`MetricsError::LengthMismatch`]
+/// when the irradiance images differ in length from `v`.
+pub fn compare_irradiance(
+    v: &[f32],
+    v_ref: &[f32],
+    irradiance: &[f32],
+    unoccluded: &[f32],
+    receiver_mask: &[bool],
+) -> Result<IrradianceReport, MetricsError> {
+    check_lengths(v, v_ref, receiver_mask)?;
+    for other in [irradiance, unoccluded] {
+        if other.len() != v.len() {
+            check_lengths(v, other, receiver_mask)?;
+        }
+    }
+    // (sum of errors, sum of E0) over receivers and over shadowed receivers.
+    let (mut all, mut shadowed) = ([0.0f64; 2], [0.0f64; 2]);
+    let mut facing_away_pixels = 0;
+    for (index, &receiver) in receiver_mask.iter().enumerate() {
+        if !receiver {
+            continue;
+        }
+        let (e, e0, r) = (irradiance[index], unoccluded[index], v_ref[index]);
+        for value in [e, e0, r] {
+            if !value.is_finite() {
+                return Err(MetricsError::NonFiniteReference { index, value });
+            }
+        }
+        let (e, e0) = (e as f64, e0 as f64);
+        let vi = v[index];
+        let error = if vi.is_finite() {
+            (vi.clamp(0.0, 1.0) as f64 * e0 - e).abs()
+        } else {
+            e.max(e0 - e)
+        };
+        facing_away_pixels += (e0 == 0.0) as u64;
+        all = [all[0] + error, all[1] + e0];
+        if r < 1.0 {
+            shadowed = [shadowed[0] + error, shadowed[1] + e0];
+        }
+    }
+    let ratio = |[error, e0]: [f64; 2]| if e0 > 0.0 { error / e0 } else { 0.0 };
+    Ok(IrradianceReport {
+        irradiance_mae: ratio(all),
+        irradiance_mae_shadowed: ratio(shadowed),
+        facing_away_pixels,
+    })
+}
 
 /// Counts of numerically unhealthy values in a visibility buffer (see [`stability`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -406,3 +406,32 @@ fn flicker_counts_only_the_change_the_truth_does_not_make() {
         Err(MetricsError::LengthMismatch { .. })
     ));
 }
+
+/// Hand-computed irradiance errors: four receivers and one masked out.
+///
+/// | pixel | V    | V_ref | E     | E0  | \|V E0 - E\| | shadowed |
+/// |-------|------|-------|-------|-----|------------|----------|
+/// | 0     | 0.5  | 0.25  | 0.125 | 0.5 | 0.125      | yes      |
+/// | 1     | 1.0  | 0.0   | 0.0   | 0.0 | 0 (faces away) | yes  |
+/// | 2     | 1.0  | 1.0   | 0.25  | 0.25| 0          | no       |
+/// | 3     | NaN  | 0.5   | 0.25  | 1.0 | 0.75 (worse of 0 and 1) | yes |
+/// | 4     | 0.0  | 1.0   | 1.0   | 1.0 | -          | masked   |
+///
+/// All: 0.875 / 1.75 = 0.5; shadowed: 0.875 / 1.5.
+#[test]
+fn irradiance_errors_by_hand() {
+    let v = [0.5, 1.0, 1.0, f32::NAN, 0.0];
+    let v_ref = [0.25, 0.0, 1.0, 0.5, 1.0];
+    let e = [0.125, 0.0, 0.25, 0.25, 1.0];
+    let e0 = [0.5, 0.0, 0.25, 1.0, 1.0];
+    let mask = [true, true, true, true, false];
+    let r = compare_irradiance(&v, &v_ref, &e, &e0, &mask).unwrap();
+    assert_eq!(r.irradiance_mae, 0.5);
+    assert_eq!(r.irradiance_mae_shadowed, 0.875 / 1.5);
+    assert_eq!(r.facing_away_pixels, 1);
+    // V = E / E0 where E0 > 0 scores 0, whatever V is where the pixel faces away (pixel 1).
+    let matching = [0.25, 1.0, 1.0, 0.25, 0.0];
+    let exact = compare_irradiance(&matching, &v_ref, &e, &e0, &mask).unwrap();
+    assert_eq!(exact.irradiance_mae, 0.0);
+    assert!(compare_irradiance(&v, &v_ref, &e[..4], &e0, &mask).is_err());
+}

@@ -5,13 +5,17 @@
 //!   per pixel into the visibility buffer. Cached by a hash of scene, light, camera, parameters
 //!   and resolution, so it is not recomputed while nothing changed.
 //! - [`exact`]: closed-form visibility for rectangles parallel to the light.
+//! - [`analytic`]: analytic visibility of any opaque triangle mesh under a rectangle light (the
+//!   union of the casters' projections onto the light, in f64), and the exact irradiance from
+//!   the visible part of the light.
 //! - [`raycast`]: CPU ray-cast visibility (BVH over the casters, N x N stratified light samples)
 //!   for any scene.
 //! - [`traced`]: the same estimate as the ray cast, traced on the device with ray queries (more
 //!   samples affordable; needs `EXPERIMENTAL_RAY_QUERY`).
-//! - [`exact_visibility`]: the closed form where it applies, else the ray cast, and which one;
-//!   [`exact_answer`]: the same with the ray-traced answer where the device has ray queries, and
-//!   each answer's sampling error.
+//! - [`exact_visibility`]: the closed form where it applies, else the analytic answer (a light
+//!   with area), else the ray cast, and which one; [`exact_answer`]: the same with the exact
+//!   irradiance, the ray-traced answer where the analytic one is not asked for or cannot be had
+//!   and the device has ray queries, and each answer's sampling error.
 //!
 //! Reads: the casters and the G-buffer. Writes: the visibility buffer.
 
@@ -85,6 +89,8 @@ softshadow_core::technique_settings! {
 pub enum GroundTruth {
     /// [`exact::visibility_image`]: every caster a rectangle parallel to the light.
     ClosedForm,
+    /// [`analytic::light_seen_image`]: any opaque mesh under a light with area, no sampling.
+    Analytic,
     /// [`raycast::visibility_image`] with this many light samples per axis.
     RayCast {
         /// Light samples per axis.
@@ -99,10 +105,12 @@ pub enum GroundTruth {
 }
 
 impl std::fmt::Display for GroundTruth {
-    /// `closed-form` or `raycast(samples_per_axis=N)`, as results.json records it.
+    /// `closed-form`, `analytic`, `raytraced(samples_per_axis=N)` or
+    /// `raycast(samples_per_axis=N)`, as results.json records it.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::ClosedForm => write!(f, "closed-form"),
+            Self::Analytic => write!(f, "analytic"),
             Self::RayCast { samples_per_axis } => {
                 write!(f, "raycast(samples_per_axis={samples_per_axis})")
             }
@@ -114,16 +122,20 @@ impl std::fmt::Display for GroundTruth {
 }
 
 /// The exact visibility of each receiver pixel: the closed form where the scene has one, else the
-/// CPU ray cast with `samples_per_axis`² light samples (1 at non-receivers, as both give).
+/// analytic answer where the light has area, else the CPU ray cast with `samples_per_axis`²
+/// light samples (1 at non-receivers, as all give).
 pub fn exact_visibility(
     scene: &softshadow_core::Scene,
     positions: &[Option<softshadow_core::glam::Vec3>],
     receiver: &[bool],
     samples_per_axis: u32,
 ) -> (Vec<f32>, GroundTruth) {
-    match exact::visibility_image(scene, positions, receiver) {
-        Some(v) => (v, GroundTruth::ClosedForm),
-        None => (
+    if let Some(v) = exact::visibility_image(scene, positions, receiver) {
+        return (v, GroundTruth::ClosedForm);
+    }
+    match analytic::visibility_image(scene, positions, receiver) {
+        Ok(v) => (v, GroundTruth::Analytic),
+        Err(_) => (
             raycast::visibility_image(scene, positions, receiver, samples_per_axis),
             GroundTruth::RayCast { samples_per_axis },
         ),
@@ -133,6 +145,9 @@ pub fn exact_visibility(
 /// How [`exact_answer`] computes the exact answer where the closed form does not apply.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct ExactMethod {
+    /// Use the analytic answer ([`analytic`]) wherever the closed form does not apply and the
+    /// light has area; `false` makes the sampled answers the exact answer (a cross-check).
+    pub analytic: bool,
     /// Light samples per axis of the CPU ray cast ([`raycast`]): the fallback.
     pub raycast_samples_per_axis: u32,
     /// Light samples per axis of the ray-traced answer ([`traced`]), used when the device has ray
@@ -158,6 +173,27 @@ impl ExactMethod {
             },
         }
     }
+
+    /// The method as text, for cache keys: the sampled answer on `gpu`, after `analytic, ` when
+    /// the analytic answer is asked for (it is used wherever the light has area).
+    pub fn key_on(&self, gpu: Option<&Gpu>) -> String {
+        let sampled = self.sampled_on(gpu);
+        if self.analytic {
+            format!("analytic, else {sampled}")
+        } else {
+            sampled.to_string()
+        }
+    }
+}
+
+/// The exact irradiance per pixel ([`analytic::LightSeen`]), as form factors.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExactIrradiance {
+    /// From the visible part of the light (0 off receivers).
+    pub irradiance: Vec<f32>,
+    /// From the whole light, as if nothing were in the way (0 off receivers and where the
+    /// receiver faces away from all of the light).
+    pub unoccluded: Vec<f32>,
 }
 
 /// An exact answer with what made it (see [`exact_answer`]).
@@ -172,6 +208,8 @@ pub struct ExactAnswer {
     pub standard_error: Vec<f32>,
     /// Why the ray-traced answer was asked for and not used (the ray cast was), if so.
     pub fallback: Option<String>,
+    /// The exact irradiance, where the analytic answer applies and normals were given.
+    pub irradiance: Option<ExactIrradiance>,
 }
 
 impl ExactAnswer {
@@ -201,25 +239,79 @@ impl ExactAnswer {
 }
 
 /// The exact visibility of each receiver pixel and how it was had: the closed form where every
-/// caster is a rectangle parallel to the light; else, when `gpu` has ray queries and
+/// caster is a rectangle parallel to the light; else, with `method.analytic` and a light with
+/// area, the analytic answer ([`analytic`]); else, when `gpu` has ray queries and
 /// `method.traced_samples_per_axis` is set, the ray-traced answer ([`traced`]); else (or when
-/// tracing fails: [`ExactAnswer::fallback`] says why) the CPU ray cast ([`raycast`]).
+/// tracing fails: [`ExactAnswer::fallback`] says why) the CPU ray cast ([`raycast`]). With
+/// `method.analytic`, `normals` (world space, per pixel) and a light with area, the exact
+/// irradiance too ([`ExactAnswer::irradiance`]). `progress` follows the analytic answer and can
+/// cancel it: `Err` only then.
 pub fn exact_answer(
+    gpu: Option<&Gpu>,
+    scene: &softshadow_core::Scene,
+    positions: &[Option<softshadow_core::glam::Vec3>],
+    normals: Option<&[softshadow_core::glam::Vec3]>,
+    receiver: &[bool],
+    method: ExactMethod,
+    progress: &analytic::Progress,
+) -> Result<ExactAnswer, analytic::AnalyticError> {
+    let closed_form = exact::visibility_image(scene, positions, receiver);
+    if method.analytic {
+        match analytic::light_seen_image(scene, positions, normals, receiver, progress) {
+            Ok(seen) => return Ok(analytic_answer(seen, closed_form, normals.is_some())),
+            Err(analytic::AnalyticError::NoArea { .. }) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    if let Some(visibility) = closed_form {
+        let standard_error = vec![0.0; visibility.len()];
+        return Ok(ExactAnswer {
+            visibility,
+            truth: GroundTruth::ClosedForm,
+            standard_error,
+            fallback: None,
+            irradiance: None,
+        });
+    }
+    Ok(sampled_answer(gpu, scene, positions, receiver, method))
+}
+
+/// The analytic answer as an [`ExactAnswer`]: the closed form's visibility where it applies
+/// (equal within 1e-9, and the fast path it always was), the irradiance with normals.
+fn analytic_answer(
+    seen: Vec<analytic::LightSeen>,
+    closed_form: Option<Vec<f32>>,
+    with_irradiance: bool,
+) -> ExactAnswer {
+    let irradiance = with_irradiance.then(|| ExactIrradiance {
+        irradiance: seen.iter().map(|s| s.irradiance as f32).collect(),
+        unoccluded: seen.iter().map(|s| s.unoccluded as f32).collect(),
+    });
+    let (visibility, truth) = match closed_form {
+        Some(v) => (v, GroundTruth::ClosedForm),
+        None => (
+            seen.iter().map(|s| s.visibility as f32).collect(),
+            GroundTruth::Analytic,
+        ),
+    };
+    ExactAnswer {
+        standard_error: vec![0.0; visibility.len()],
+        visibility,
+        truth,
+        fallback: None,
+        irradiance,
+    }
+}
+
+/// The sampled exact answer: ray-traced on a device with ray queries when asked for, else (or
+/// when tracing fails) the CPU ray cast.
+fn sampled_answer(
     gpu: Option<&Gpu>,
     scene: &softshadow_core::Scene,
     positions: &[Option<softshadow_core::glam::Vec3>],
     receiver: &[bool],
     method: ExactMethod,
 ) -> ExactAnswer {
-    if let Some(visibility) = exact::visibility_image(scene, positions, receiver) {
-        let standard_error = vec![0.0; visibility.len()];
-        return ExactAnswer {
-            visibility,
-            truth: GroundTruth::ClosedForm,
-            standard_error,
-            fallback: None,
-        };
-    }
     let mut fallback = None;
     if let (GroundTruth::RayTraced { samples_per_axis }, Some(gpu)) = (method.sampled_on(gpu), gpu)
     {
@@ -231,6 +323,7 @@ pub fn exact_answer(
                     truth: GroundTruth::RayTraced { samples_per_axis },
                     standard_error,
                     fallback: None,
+                    irradiance: None,
                 }
             }
             Err(e) => {
@@ -249,6 +342,7 @@ pub fn exact_answer(
         truth: GroundTruth::RayCast { samples_per_axis },
         standard_error,
         fallback,
+        irradiance: None,
     }
 }
 
@@ -855,18 +949,25 @@ mod ground_truth_tests {
             .to_string(),
             "raycast(samples_per_axis=16)"
         );
+        assert_eq!(GroundTruth::Analytic.to_string(), "analytic");
         // atty-square's caster is a square parallel to the light: closed form. The balls are
-        // not: ray cast. Both at one ground point under the scene's caster and one far outside.
-        for (id, expected) in [
-            ("atty-square", GroundTruth::ClosedForm),
+        // not: analytic; under a point light (no area): ray cast. Each at one ground point under
+        // the scene's caster and one far outside.
+        for (id, point_light, expected) in [
+            ("atty-square", false, GroundTruth::ClosedForm),
+            ("balls-3x3x3", false, GroundTruth::Analytic),
             (
                 "balls-3x3x3",
+                true,
                 GroundTruth::RayCast {
                     samples_per_axis: 4,
                 },
             ),
         ] {
-            let scene = softshadow_scenes::builtin(id, &[]).unwrap();
+            let mut scene = softshadow_scenes::builtin(id, &[]).unwrap();
+            if point_light {
+                (scene.light.width, scene.light.height) = (0.0, 0.0);
+            }
             let positions = [
                 Some(Vec3::new(0.0, 0.0, 0.0)),
                 Some(Vec3::new(1e4, 0.0, 1e4)),
@@ -883,6 +984,7 @@ mod ground_truth_tests {
     #[test]
     fn exact_answer_without_a_device_and_its_sampling_error() {
         let method = ExactMethod {
+            analytic: false,
             raycast_samples_per_axis: 8,
             traced_samples_per_axis: Some(32),
         };
@@ -897,7 +999,9 @@ mod ground_truth_tests {
             Some(Vec3::new(1e4, 0.0, 1e4)),
         ];
         let square = softshadow_scenes::builtin("atty-square", &[]).unwrap();
-        let closed = exact_answer(None, &square, &positions, &[true, true], method);
+        let progress = analytic::Progress::default();
+        let closed = exact_answer(None, &square, &positions, None, &[true, true], method, &progress)
+            .unwrap();
         assert_eq!(closed.truth, GroundTruth::ClosedForm);
         assert_eq!(closed.sampling_error(&[true, true]), Some(0.0));
         let blob = softshadow_scenes::builtin("blob-floating", &[]).unwrap();
@@ -906,7 +1010,7 @@ mod ground_truth_tests {
             .map(|i| Some(Vec3::new(-1.5 + 3.0 * i as f32 / 63.0, 0.0, 0.0)))
             .collect();
         let mask = vec![true; ground.len()];
-        let cast = exact_answer(None, &blob, &ground, &mask, method);
+        let cast = exact_answer(None, &blob, &ground, None, &mask, method, &progress).unwrap();
         assert_eq!(cast.truth, method.sampled_on(None));
         assert!(cast.fallback.is_none());
         let error = cast.sampling_error(&mask).unwrap();
