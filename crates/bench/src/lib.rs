@@ -82,6 +82,8 @@ pub enum BenchError {
     Technique(#[from] TechniqueError),
     #[error(transparent)]
     Metrics(#[from] softshadow_metrics::MetricsError),
+    #[error(transparent)]
+    Exact(#[from] softshadow_reference::analytic::AnalyticError),
     /// A fault asked for by `SOFTSHADOW_FAULT` ([`fault`]), or a bad value of it.
     #[error("{0}")]
     Fault(String),
@@ -122,7 +124,8 @@ pub struct BenchOptions {
     pub images: bool,
     /// Exact ground truth for `error.vs_exact` and `error.reference_vs_exact` (only with
     /// `error`): `None` skips it; `Some(n)` uses the closed form when every caster is a rectangle
-    /// parallel to the light, else the ray-traced answer with
+    /// parallel to the light, else (with [`analytic`](Self::analytic)) the analytic answer where
+    /// the light has area, else the ray-traced answer with
     /// [`traced_samples_per_axis`](Self::traced_samples_per_axis) where the device has ray
     /// queries, else the CPU ray cast with `n x n` light samples
     /// (`softshadow_reference::exact_answer`).
@@ -130,6 +133,11 @@ pub struct BenchOptions {
     /// Light samples per axis of the ray-traced exact answer where the device has ray queries;
     /// `None` always uses the CPU ray cast.
     pub traced_samples_per_axis: Option<u32>,
+    /// Use the analytic exact answer wherever the light has area (the default); `false` (`bench
+    /// --no-analytic`) makes the sampled answers the exact answer, as a cross-check. Missing
+    /// (read as `false`) in results written before it existed, whose exact answers were sampled.
+    #[serde(default)]
+    pub analytic: bool,
     /// Also time frames in which only the camera moves (`timing_camera_only`): light-space work
     /// is then kept from the first frame.
     pub camera_only: bool,
@@ -153,6 +161,7 @@ impl Default for BenchOptions {
             images: true,
             exact_samples_per_axis: Some(DEFAULT_EXACT_SAMPLES),
             traced_samples_per_axis: Some(DEFAULT_TRACED_SAMPLES),
+            analytic: true,
             camera_only: true,
             reference_cache: None,
             path: None,
@@ -174,6 +183,7 @@ impl BenchOptions {
     pub fn exact_method(&self) -> Option<softshadow_reference::ExactMethod> {
         self.exact_samples_per_axis
             .map(|n| softshadow_reference::ExactMethod {
+                analytic: self.analytic,
                 raycast_samples_per_axis: n,
                 traced_samples_per_axis: self.traced_samples_per_axis,
             })
@@ -303,6 +313,17 @@ struct ExactResult {
     /// An answer with no shadow at all (V = 1) against the exact one: the error a technique that
     /// draws nothing would get, the floor every bound must stay below.
     all_lit_vs_exact: ErrorReport,
+    /// The exact irradiance and the same two comparisons in irradiance, where the analytic
+    /// answer gave it.
+    irradiance: Option<ExactIrradianceResult>,
+}
+
+/// The exact irradiance of one scene and size, and the reference's and no shadow's irradiance
+/// errors against it.
+struct ExactIrradianceResult {
+    images: softshadow_reference::ExactIrradiance,
+    reference_vs_exact: softshadow_metrics::IrradianceReport,
+    all_lit_vs_exact: softshadow_metrics::IrradianceReport,
 }
 
 /// Runs benchmark runs on one GPU, caching scenes, renderers and reference images between runs.
@@ -676,6 +697,20 @@ impl Bench {
                     },
                 });
             }
+            let irradiance = match reference.exact.as_ref().map(|e| (e, &e.irradiance)) {
+                Some((exact, Some(i))) => Some(results::IrradianceFields {
+                    vs_exact: softshadow_metrics::compare_irradiance(
+                        &visibility,
+                        &exact.visibility,
+                        &i.images.irradiance,
+                        &i.images.unoccluded,
+                        &mask,
+                    )?,
+                    reference_vs_exact: i.reference_vs_exact,
+                    all_lit_vs_exact: i.all_lit_vs_exact,
+                }),
+                _ => None,
+            };
             run.error = Some(results::ErrorFields {
                 reference: reference.label.clone(),
                 report,
@@ -684,6 +719,7 @@ impl Bench {
                 vs_exact,
                 reference_vs_exact,
                 all_lit_vs_exact,
+                irradiance,
             });
             run.images.extend(reference.images.clone());
             if write_images {
@@ -758,7 +794,7 @@ impl Bench {
         let label = format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","));
         let pixels = (spec.width * spec.height) as usize;
         let method = self.options.exact_method();
-        let sampled = method.map(|m| m.sampled_on(Some(&self.gpu)).to_string());
+        let sampled = method.map(|m| m.key_on(Some(&self.gpu)));
 
         let cache = self.options.reference_cache.as_deref().map(|dir| {
             let key = ReferenceKey {
@@ -807,10 +843,12 @@ impl Bench {
                 let visibility = renderer.read_visibility()?;
                 let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
                 let mut exact_sampling_error = None;
+                let mut exact_irradiance = None;
                 let exact = match method {
                     Some(method) => {
                         puffin::profile_scope!("exact ground truth");
                         let positions = renderer.read_world_positions()?;
+                        let normals = renderer.read_world_normals()?;
                         let mask = renderer.read_receiver_mask()?;
                         // The exact answer of the scene as it is seen and lit here (a sweep's
                         // `[camera]` / `[light]` replace the scene's own).
@@ -823,11 +861,14 @@ impl Bench {
                             Some(&self.gpu),
                             &viewed,
                             &positions,
+                            Some(&normals),
                             &mask,
                             method,
-                        );
+                            self.build_control.as_ref(),
+                        )?;
                         exact_sampling_error = answer.sampling_error(&mask);
                         exact_warning = answer.fallback;
+                        exact_irradiance = answer.irradiance;
                         Some((answer.truth.to_string(), answer.visibility))
                     }
                     None => None,
@@ -838,6 +879,7 @@ impl Bench {
                     shaded_rgb,
                     exact,
                     exact_sampling_error,
+                    exact_irradiance,
                 };
                 if let Some((cache, key)) = &cache {
                     if let Err(e) = cache.store(*key, &reference_cache::encode(&made)) {
@@ -859,12 +901,30 @@ impl Bench {
                     softshadow_metrics::compare(&cached.visibility, &exact, &mask)?;
                 let all_lit = vec![1.0; exact.len()];
                 let all_lit_vs_exact = softshadow_metrics::compare(&all_lit, &exact, &mask)?;
+                let irradiance_of = |v: &[f32], e: &softshadow_reference::ExactIrradiance| {
+                    softshadow_metrics::compare_irradiance(
+                        v,
+                        &exact,
+                        &e.irradiance,
+                        &e.unoccluded,
+                        &mask,
+                    )
+                };
+                let irradiance = match &cached.exact_irradiance {
+                    Some(e) => Some(ExactIrradianceResult {
+                        reference_vs_exact: irradiance_of(&cached.visibility, e)?,
+                        all_lit_vs_exact: irradiance_of(&all_lit, e)?,
+                        images: e.clone(),
+                    }),
+                    None => None,
+                };
                 Some(ExactResult {
                     visibility: exact,
                     label,
                     sampling_error: cached.exact_sampling_error,
                     reference_vs_exact,
                     all_lit_vs_exact,
+                    irradiance,
                 })
             }
             None => None,

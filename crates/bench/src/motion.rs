@@ -254,7 +254,7 @@ impl Bench {
         let mut timings = TimingAccumulator::default();
         let mut exact_methods: BTreeMap<String, u32> = BTreeMap::new();
         let mut sampling_errors = Vec::new();
-        let sampled = method.sampled_on(Some(&gpu)).to_string();
+        let sampled = method.key_on(Some(&gpu));
         let mut cache_counts = cache.as_ref().map(|_| ExactCacheCounts::default());
         let mut passes: BTreeMap<String, u32> = BTreeMap::new();
         let mut last_passes = Vec::new();
@@ -324,13 +324,16 @@ impl Bench {
                 None => {
                     puffin::profile_scope!("exact answer of a path frame");
                     let positions = renderer.read_world_positions()?;
+                    // Visibility only: the irradiance error is measured on still runs.
                     let answer = softshadow_reference::exact_answer(
                         Some(&gpu),
                         &scene,
                         &positions,
+                        None,
                         &mask,
                         method,
-                    );
+                        None,
+                    )?;
                     if let Some(why) = &answer.fallback {
                         if !run.warnings.contains(why) {
                             run.warnings.push(why.clone());

@@ -13,7 +13,8 @@
 //! Payload layout (little endian): reference label (u32 length, UTF-8), visibility count u32,
 //! visibility f32s, shaded RGB count u32, bytes, then a u32 flag for the exact answer and, when
 //! set, its label and visibility in the same encodings and its sampling error (f64; NaN for
-//! none).
+//! none), then a u32 flag for the exact irradiance and, when set, its irradiance and unoccluded
+//! irradiance images (f32s each).
 
 use std::path::Path;
 
@@ -24,10 +25,11 @@ use softshadow_core::{
     shader::{ShaderSpec, COMMON_MODULES},
     AreaLight, Camera, Scene,
 };
+use softshadow_reference::ExactIrradiance;
 
 /// Bump when the layout changes, or when the reference or the exact answer changes what they
 /// compute in code the key cannot see (the CPU ray cast): older files are then rebuilt.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Where a run's reference images came from, in results.json (`reference_cache`).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -64,8 +66,8 @@ pub struct ReferenceKey<'a> {
     pub label: &'a str,
     /// The reference technique's shaders.
     pub shaders: &'a [ShaderSpec],
-    /// The sampled exact method the bench would use where the closed form does not apply
-    /// (`softshadow_reference::ExactMethod::sampled_on`, as text), `None` without an exact answer.
+    /// The exact method the bench would use where the closed form does not apply
+    /// (`softshadow_reference::ExactMethod::key_on`), `None` without an exact answer.
     pub exact_method: Option<&'a str>,
 }
 
@@ -104,6 +106,8 @@ pub struct CachedReference {
     pub exact: Option<(String, Vec<f32>)>,
     /// The exact answer's sampling error (`softshadow_reference::ExactAnswer::sampling_error`).
     pub exact_sampling_error: Option<f64>,
+    /// The exact irradiance, where the analytic answer gave it.
+    pub exact_irradiance: Option<ExactIrradiance>,
 }
 
 fn put_str(out: &mut Vec<u8>, text: &str) {
@@ -145,6 +149,14 @@ pub fn encode(reference: &CachedReference) -> Vec<u8> {
         }
         None => out.extend_from_slice(&0u32.to_le_bytes()),
     }
+    match &reference.exact_irradiance {
+        Some(e) => {
+            out.extend_from_slice(&1u32.to_le_bytes());
+            put_f32s(&mut out, &e.irradiance);
+            put_f32s(&mut out, &e.unoccluded);
+        }
+        None => out.extend_from_slice(&0u32.to_le_bytes()),
+    }
     out
 }
 
@@ -170,11 +182,26 @@ pub fn decode(payload: &[u8], pixels: usize) -> Result<CachedReference, String> 
         ),
         flag => return Err(format!("bad exact-answer flag {flag}")),
     };
+    let exact_irradiance = match r.u32()? {
+        0 => None,
+        1 => Some(ExactIrradiance {
+            irradiance: take_f32s(&mut r)?,
+            unoccluded: take_f32s(&mut r)?,
+        }),
+        flag => return Err(format!("bad exact-irradiance flag {flag}")),
+    };
     if r.remaining() != 0 {
         return Err(format!("{} bytes after the payload", r.remaining()));
     }
     let exact_len = exact.as_ref().map_or(pixels, |(_, v)| v.len());
-    if visibility.len() != pixels || shaded_rgb.len() != 3 * pixels || exact_len != pixels {
+    let irradiance_ok = exact_irradiance
+        .as_ref()
+        .is_none_or(|e| e.irradiance.len() == pixels && e.unoccluded.len() == pixels);
+    if visibility.len() != pixels
+        || shaded_rgb.len() != 3 * pixels
+        || exact_len != pixels
+        || !irradiance_ok
+    {
         return Err(format!("image sizes do not match {pixels} pixels"));
     }
     if visibility.iter().any(|v| !v.is_finite()) {
@@ -186,12 +213,13 @@ pub fn decode(payload: &[u8], pixels: usize) -> Result<CachedReference, String> 
         shaded_rgb,
         exact,
         exact_sampling_error,
+        exact_irradiance,
     })
 }
 
 /// Bump when the per-frame exact answer changes in code its key cannot see (the closed form,
 /// the ray cast, the G-buffer positions it starts from): older entries are then rebuilt.
-pub const EXACT_FORMAT_VERSION: u32 = 2;
+pub const EXACT_FORMAT_VERSION: u32 = 3;
 
 /// The per-frame exact answers of motion runs ([`crate::motion`]) in `dir`: one file per frame's
 /// scene (its moved instances, light and camera), size and exact method, shared by every
@@ -206,8 +234,8 @@ pub fn exact_in_dir(dir: &Path) -> DiskCache {
 }
 
 /// The key of one frame's exact answer: `scene` holds the frame's pose (camera, light, moved
-/// instances), so [`Scene::content_hash`] covers them. `method` is the sampled method the frame
-/// would use where the closed form does not apply (`raytraced(samples_per_axis=32)`, ...).
+/// instances), so [`Scene::content_hash`] covers them. `method` is the method the frame would use
+/// where the closed form does not apply (`softshadow_reference::ExactMethod::key_on`).
 pub fn exact_key(scene: &Scene, width: u32, height: u32, method: &str) -> u64 {
     let mut h = Fnv1a::default();
     h.write_u64(scene.content_hash());
@@ -219,7 +247,7 @@ pub fn exact_key(scene: &Scene, width: u32, height: u32, method: &str) -> u64 {
 /// One frame's exact answer as the cache keeps it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CachedExact {
-    /// `closed-form`, `raytraced(...)` or `raycast(...)`.
+    /// `closed-form`, `analytic`, `raytraced(...)` or `raycast(...)`.
     pub label: String,
     pub visibility: Vec<f32>,
     /// Its sampling error (`softshadow_reference::ExactAnswer::sampling_error`).
@@ -273,6 +301,10 @@ mod tests {
             shaded_rgb: (0..12).collect(),
             exact: Some(("closed form".into(), vec![0.0, 0.2, 0.6, 1.0])),
             exact_sampling_error: Some(0.004),
+            exact_irradiance: Some(ExactIrradiance {
+                irradiance: vec![0.0, 0.1, 0.2, 0.3],
+                unoccluded: vec![0.0, 0.3, 0.3, 0.3],
+            }),
         };
         let payload = encode(&reference);
         assert_eq!(decode(&payload, 4).unwrap(), reference);

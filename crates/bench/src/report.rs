@@ -151,6 +151,51 @@ pub fn scored_mae(run: &Run) -> Option<f64> {
     mae.is_finite().then_some(mae)
 }
 
+/// The error in irradiance over shadowed receivers against the exact irradiance
+/// (`IrradianceReport::irradiance_mae_shadowed`), where the run has it.
+pub fn irradiance_mae_shadowed(run: &Run) -> Option<f64> {
+    let e = run
+        .error
+        .as_ref()?
+        .irradiance
+        .as_ref()?
+        .vs_exact
+        .irradiance_mae_shadowed;
+    e.is_finite().then_some(e)
+}
+
+/// The error in irradiance over all receivers (`IrradianceReport::irradiance_mae`).
+pub fn irradiance_mae(run: &Run) -> Option<f64> {
+    let e = run
+        .error
+        .as_ref()?
+        .irradiance
+        .as_ref()?
+        .vs_exact
+        .irradiance_mae;
+    e.is_finite().then_some(e)
+}
+
+/// What the across-scenes tables rank by (docs/BENCHMARKS.md, "The irradiance error").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Score {
+    /// [`scored_mae`]: the visibility error over shadowed receivers (the default).
+    Visibility,
+    /// [`irradiance_mae_shadowed`]: the error where the shaded image shows it (runs without an
+    /// analytic exact answer have none and are left out).
+    Irradiance,
+}
+
+impl Score {
+    /// The run's error by this score.
+    pub fn of(self, run: &Run) -> Option<f64> {
+        match self {
+            Score::Visibility => scored_mae(run),
+            Score::Irradiance => irradiance_mae_shadowed(run),
+        }
+    }
+}
+
 /// The too-dark part of [`mae_shadowed`], against the same answer (`ErrorReport::darker_shadowed`).
 pub fn darker_shadowed(run: &Run) -> Option<f64> {
     let error = run.error.as_ref()?;
@@ -565,10 +610,28 @@ pub fn render_html_beside(
     }
     if !runs.is_empty() {
         // Still-frame tables; a report of runs along paths only has the motion section.
-        body.push_str(&summary_table(runs, &scenes, Budgets::FloorMultiples));
+        body.push_str(&summary_table(
+            runs,
+            &scenes,
+            Budgets::FloorMultiples,
+            Score::Visibility,
+        ));
+        if runs.iter().any(|r| irradiance_mae_shadowed(r).is_some()) {
+            body.push_str(&summary_table(
+                runs,
+                &scenes,
+                Budgets::FloorMultiples,
+                Score::Irradiance,
+            ));
+        }
         let ms_scenes = ms_budget_scenes(runs, &scenes);
         if !ms_scenes.is_empty() {
-            body.push_str(&summary_table(runs, &ms_scenes, Budgets::Milliseconds));
+            body.push_str(&summary_table(
+                runs,
+                &ms_scenes,
+                Budgets::Milliseconds,
+                Score::Visibility,
+            ));
         }
         if let Some(cpu) = cpu {
             body.push_str(&cpu_to_gpu_section(cpu, runs));
@@ -978,7 +1041,7 @@ fn motion_table(runs: &[Run], in_group: &[usize]) -> String {
 
 fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
     let mut t = String::from(
-        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th class=\"l\">vs</th><th>FLIP</th><th title=\"mean over receiver pixels of the change between the run's last frame and one more in which nothing moved\">still flicker</th><th title=\"for a technique that accumulates over frames: mae_shadowed once settled, after that many still frames\">settled mae_shadowed</th><th title=\"GPU memory the technique holds: after its frames / at its peak\">GPU memory MiB</th><th class=\"l\">status</th></tr>",
+        "<table><tr><th class=\"l\">technique</th><th class=\"l\">parameters</th><th>frame ms</th><th title=\"the run's first frame, with nothing built or loaded yet\">cold frame ms</th><th>technique ms</th><th class=\"l\">timing</th><th>mae_shadowed</th><th>of it too dark</th><th title=\"mean over umbra pixels of how much too bright (light leaking)\">too bright in umbra</th><th title=\"mean |V E0 - E| over shadowed receivers over their mean unoccluded irradiance E0, against the exact irradiance E: the error where the shaded image shows it (receivers facing away from the light count 0)\">irradiance error</th><th class=\"l\">vs</th><th>FLIP</th><th title=\"mean over receiver pixels of the change between the run's last frame and one more in which nothing moved\">still flicker</th><th title=\"for a technique that accumulates over frames: mae_shadowed once settled, after that many still frames\">settled mae_shadowed</th><th title=\"GPU memory the technique holds: after its frames / at its peak\">GPU memory MiB</th><th class=\"l\">status</th></tr>",
     );
     let mut order = in_scene.to_vec();
     order.sort_by(|&a, &b| {
@@ -1008,7 +1071,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
         };
         let _ = write!(
             t,
-            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr{}><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             if front.contains(&i) { " class=\"front\"" } else { "" },
             escape(&run.technique),
             escape(&params_text(run)),
@@ -1021,6 +1084,7 @@ fn runs_table(runs: &[Run], in_scene: &[usize], front: &[usize]) -> String {
             mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
             darker_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
             brighter_umbra(run).map_or("-".into(), |v| format!("{v:.4}")),
+            irradiance_mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
             if run.error.is_some() { mae_against(run) } else { "-" },
             flip(run).map_or("-".into(), |v| format!("{v:.4}")),
             still_flicker_text(run.still_flicker),
@@ -1134,14 +1198,16 @@ fn ok_runs_in<'a>(runs: &'a [Run], scene: &str, width: u32, height: u32) -> Vec<
 /// mae_shadowed within each budget of [`BUDGETS`] x the fastest cost-floor run's frame time on
 /// that scene, and the lowest frame time at which the technique reaches [`TARGET_MAE`].
 pub fn headline_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<HeadlineRow> {
-    headline_rows_within(runs, scenes, Budgets::FloorMultiples)
+    headline_rows_within(runs, scenes, Budgets::FloorMultiples, Score::Visibility)
 }
 
-/// [`headline_rows`] with `budgets` (multiples of the cost floor, or milliseconds).
+/// [`headline_rows`] with `budgets` (multiples of the cost floor, or milliseconds), ranked by
+/// `score`.
 pub fn headline_rows_within(
     runs: &[Run],
     scenes: &[(String, u32, u32)],
     budgets: Budgets,
+    score: Score,
 ) -> Vec<HeadlineRow> {
     let mut rows = Vec::new();
     for (scene, width, height) in scenes {
@@ -1158,7 +1224,7 @@ pub fn headline_rows_within(
             let points: Vec<(f64, f64)> = in_scene
                 .iter()
                 .filter(|r| r.technique == technique)
-                .filter_map(|r| Some((budgets.time_ms(r)?, scored_mae(r)?)))
+                .filter_map(|r| Some((budgets.time_ms(r)?, score.of(r)?)))
                 .collect();
             let best_within = budgets
                 .limits_ms(floor)
@@ -1248,20 +1314,22 @@ fn median(mut values: Vec<f64>) -> Option<f64> {
 /// Per technique (by name), its standing across `scenes`, from the headline rows and each
 /// scene's Pareto front.
 pub fn summary_rows(runs: &[Run], scenes: &[(String, u32, u32)]) -> Vec<SummaryRow> {
-    summary_rows_within(runs, scenes, Budgets::FloorMultiples)
+    summary_rows_within(runs, scenes, Budgets::FloorMultiples, Score::Visibility)
 }
 
-/// [`summary_rows`] with `budgets` (multiples of the cost floor, or milliseconds).
+/// [`summary_rows`] with `budgets` (multiples of the cost floor, or milliseconds), ranked by
+/// `score`.
 pub fn summary_rows_within(
     runs: &[Run],
     scenes: &[(String, u32, u32)],
     budgets: Budgets,
+    score: Score,
 ) -> Vec<SummaryRow> {
     let count = budgets.values().len();
     // Per scene and size, so that one scene at two sizes is two scenes here as in the headline.
     let per_scene: Vec<Vec<HeadlineRow>> = scenes
         .iter()
-        .map(|key| headline_rows_within(runs, std::slice::from_ref(key), budgets))
+        .map(|key| headline_rows_within(runs, std::slice::from_ref(key), budgets, score))
         .collect();
     let headline: Vec<&HeadlineRow> = per_scene.iter().flatten().collect();
     let mut techniques: Vec<&str> = headline.iter().map(|r| r.technique.as_str()).collect();
@@ -1285,7 +1353,7 @@ pub fn summary_rows_within(
         let in_scene = ok_runs_in(runs, scene, *width, *height);
         let points: Vec<(&str, f64, f64)> = in_scene
             .iter()
-            .filter_map(|r| Some((r.technique.as_str(), budgets.time_ms(r)?, scored_mae(r)?)))
+            .filter_map(|r| Some((r.technique.as_str(), budgets.time_ms(r)?, score.of(r)?)))
             .collect();
         let front = pareto_front(&points.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>());
         let mut front_techniques: Vec<&str> = front.iter().map(|&k| points[k].0).collect();
@@ -1348,11 +1416,17 @@ pub fn best_per_budget(rows: &[SummaryRow]) -> Vec<Option<(String, usize)>> {
         .collect()
 }
 
-fn summary_table(runs: &[Run], scenes: &[(String, u32, u32)], budgets: Budgets) -> String {
-    let rows = summary_rows_within(runs, scenes, budgets);
-    let mut t = match budgets {
-        Budgets::FloorMultiples => format!("<h2>Across scenes: which technique for which budget</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on each scene. "),
-        Budgets::Milliseconds => format!("<h2>Across scenes at {}x{}: the lowest error within a budget in milliseconds</h2><p>GPU time (timestamp queries) of the technique's own passes, without the G-buffer and the shading a renderer draws anyway, on the scenes at that size. ", MS_BUDGET_SIZE.0, MS_BUDGET_SIZE.1),
+fn summary_table(
+    runs: &[Run],
+    scenes: &[(String, u32, u32)],
+    budgets: Budgets,
+    score: Score,
+) -> String {
+    let rows = summary_rows_within(runs, scenes, budgets, score);
+    let mut t = match (budgets, score) {
+        (Budgets::FloorMultiples, Score::Visibility) => format!("<h2>Across scenes: which technique for which budget</h2><p>Budgets are multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time on each scene. "),
+        (Budgets::FloorMultiples, Score::Irradiance) => format!("<h2>Across scenes, ranked by the irradiance error</h2><p>The same budgets (multiples of the fastest <code>{COST_FLOOR_TECHNIQUE}</code> run's frame time), each run scored by its irradiance error over shadowed receivers (<code>irradiance_mae_shadowed</code>: where the shaded image shows the error; runs without an analytic exact answer left out) instead of <code>mae_shadowed</code>. "),
+        (Budgets::Milliseconds, _) => format!("<h2>Across scenes at {}x{}: the lowest error within a budget in milliseconds</h2><p>GPU time (timestamp queries) of the technique's own passes, without the G-buffer and the shading a renderer draws anyway, on the scenes at that size. ", MS_BUDGET_SIZE.0, MS_BUDGET_SIZE.1),
     };
     if runs.iter().any(|r| r.settled.is_some()) {
         t.push_str("Techniques that accumulate over frames (marked <i>settled</i> in the runs) are scored by their error once settled. ");
@@ -1513,7 +1587,7 @@ fn csv_field(text: &str) -> String {
 /// The runs as one flat CSV (one row per run), for pandas or R.
 pub fn runs_csv(merged: &Merged) -> String {
     let mut out = String::from(
-        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,still_flicker,settled_frames,settled_mae_shadowed,settled_frame_ms,memory_bytes,memory_peak_bytes,message\n",
+        "index,scene,technique,params,width,height,status,timing_source,frame_ms,frame_ms_p10,frame_ms_p90,technique_ms,cpu_ms,camera_only_frame_ms,cold_frame_ms,mae_shadowed,darker_shadowed,brighter_umbra,irradiance_mae_shadowed,irradiance_mae,facing_away_pixels,mae_against,mae_shadowed_vs_reference,mae_all_vs_reference,rmse_vs_reference,flip_mean,still_flicker,settled_frames,settled_mae_shadowed,settled_frame_ms,memory_bytes,memory_peak_bytes,message\n",
     );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for run in &merged.results.runs {
@@ -1545,6 +1619,11 @@ pub fn runs_csv(merged: &Merged) -> String {
             num(mae_shadowed(run)),
             num(darker_shadowed(run)),
             num(brighter_umbra(run)),
+            num(irradiance_mae_shadowed(run)),
+            num(irradiance_mae(run)),
+            num(error
+                .and_then(|e| e.irradiance.as_ref())
+                .map(|i| i.vs_exact.facing_away_pixels as f64)),
             if error.is_some() {
                 mae_against(run).to_string()
             } else {

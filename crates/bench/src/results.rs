@@ -553,6 +553,23 @@ pub struct ErrorFields {
     /// draws nothing would score, so a reader (and the tests) can tell a bound from "no shadow".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub all_lit_vs_exact: Option<ErrorReport>,
+    /// The same three comparisons in irradiance (`V x E0` against the exact `E`,
+    /// docs/BENCHMARKS.md, "The irradiance error"), where the exact answer is analytic (or the
+    /// closed form, with the analytic irradiance beside it). Absent otherwise and in results
+    /// written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub irradiance: Option<IrradianceFields>,
+}
+
+/// The irradiance errors of a run (`error.irradiance` in results.json).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct IrradianceFields {
+    /// The technique against the exact irradiance.
+    pub vs_exact: softshadow_metrics::IrradianceReport,
+    /// The reference against it.
+    pub reference_vs_exact: softshadow_metrics::IrradianceReport,
+    /// No shadow at all (V = 1) against it.
+    pub all_lit_vs_exact: softshadow_metrics::IrradianceReport,
 }
 
 /// Percentile by linear interpolation between closest ranks (`q` in [0, 1]).

@@ -418,6 +418,11 @@ impl Sweep {
         if options.traced_samples_per_axis != Some(crate::DEFAULT_TRACED_SAMPLES) {
             text.push_str(&format!(" traced={:?}", options.traced_samples_per_axis));
         }
+        // The analytic exact answer (so a sweep begun with sampled answers is not resumed with
+        // analytic ones).
+        if options.analytic {
+            text.push_str(" analytic");
+        }
         format!("{:016x}", fnv1a(text.as_bytes()))
     }
 

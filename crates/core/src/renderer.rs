@@ -376,7 +376,11 @@ impl Renderer {
         Ok(normal
             .chunks_exact(8)
             .map(|n| {
-                let v = glam::Vec3::new(component(&n[0..2]), component(&n[2..4]), component(&n[4..6]));
+                let v = glam::Vec3::new(
+                    component(&n[0..2]),
+                    component(&n[2..4]),
+                    component(&n[4..6]),
+                );
                 v.normalize_or_zero()
             })
             .collect())

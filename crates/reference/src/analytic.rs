@@ -40,12 +40,12 @@
 //! analytic exact answer", says why that library).
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 
 use i_overlay::core::{fill_rule::FillRule, overlay_rule::OverlayRule};
 use i_overlay::float::overlay::FloatOverlay;
 use rayon::prelude::*;
-use softshadow_core::{glam::Vec3, AreaLight, Scene};
+use softshadow_core::{glam::Vec3, AreaLight, BuildControl, Scene};
 
 use crate::raycast::{LIGHT_END_EPSILON, SEGMENT_EPSILON};
 
@@ -94,7 +94,7 @@ pub enum AnalyticError {
         /// The light's height.
         height: f32,
     },
-    /// [`Progress::cancel`] was set before every pixel was done.
+    /// The work was cancelled (its `BuildControl`) before every pixel was done.
     #[error("the analytic exact answer was cancelled before it finished")]
     Cancelled,
 }
@@ -724,34 +724,32 @@ pub fn visibility_image(
     positions: &[Option<Vec3>],
     receiver_mask: &[bool],
 ) -> Result<Vec<f32>, AnalyticError> {
-    let seen = light_seen_image(scene, positions, None, receiver_mask, &Progress::default())?;
+    let seen = light_seen_image(scene, positions, None, receiver_mask, None)?;
     Ok(seen.iter().map(|s| s.visibility as f32).collect())
-}
-
-/// How far a [`light_seen_image`] has come, and a way to stop it: shared with another thread
-/// (a progress bar, a Cancel button).
-#[derive(Debug, Default)]
-pub struct Progress {
-    /// Receiver pixels done so far.
-    pub done: AtomicUsize,
-    /// Set to stop: the pixels not yet started are skipped and the call returns
-    /// [`AnalyticError::Cancelled`].
-    pub cancel: AtomicBool,
 }
 
 /// [`AnalyticCasters::light_seen`] at every pixel of `scene` (row-major, like `positions`), in
 /// parallel with rayon; `normals` are world-space unit normals per pixel (the G-buffer's; without
 /// them the form factors are 0). Where the position is `None` or the pixel is not a receiver:
-/// visibility 1 and form factors 0. `Err` when the light has no area or `progress.cancel` was
-/// set.
+/// visibility 1 and form factors 0. `control` (optional) counts the receiver pixels done as a
+/// build of "exact-answer pixels" (a progress bar) and stops the work when cancelled. `Err` when
+/// the light has no area or the work was cancelled.
 pub fn light_seen_image(
     scene: &Scene,
     positions: &[Option<Vec3>],
     normals: Option<&[Vec3]>,
     receiver_mask: &[bool],
-    progress: &Progress,
+    control: Option<&BuildControl>,
 ) -> Result<Vec<LightSeen>, AnalyticError> {
     let casters = AnalyticCasters::new(scene, &scene.light)?;
+    let cancelled = || control.is_some_and(BuildControl::is_cancelled);
+    if let Some(control) = control {
+        let receivers = receiver_mask.iter().filter(|r| **r).count();
+        control.start(
+            receivers.min(u32::MAX as usize) as u32,
+            "exact-answer pixels",
+        );
+    }
     let view = scene.light.view();
     let off_receivers = LightSeen {
         visibility: 1.0,
@@ -762,19 +760,26 @@ pub fn light_seen_image(
         .enumerate()
         .map_init(Scratch::default, |scratch, (i, p)| match p {
             Some(p) if receiver_mask.get(i).copied().unwrap_or(false) => {
-                if progress.cancel.load(Ordering::Relaxed) {
+                if cancelled() {
                     return LightSeen::DARK;
                 }
                 let point = view.transform_point3(*p);
-                let normal = normals.and_then(|n| n.get(i)).map(|n| view.transform_vector3(*n));
+                let normal = normals
+                    .and_then(|n| n.get(i))
+                    .map(|n| view.transform_vector3(*n));
                 let seen = casters.light_seen(point, normal, scratch);
-                progress.done.fetch_add(1, Ordering::Relaxed);
+                if let Some(control) = control {
+                    control.done.fetch_add(1, Ordering::Relaxed);
+                }
                 seen
             }
             _ => off_receivers,
         })
         .collect();
-    if progress.cancel.load(Ordering::Relaxed) {
+    if let Some(control) = control {
+        control.finish();
+    }
+    if cancelled() {
         return Err(AnalyticError::Cancelled);
     }
     Ok(seen)
@@ -899,10 +904,18 @@ mod tests {
     fn the_contour_integral_equals_the_closed_form_for_a_rectangle() {
         let light = [[-0.5, -0.3], [0.5, -0.3], [0.5, 0.3], [-0.5, 0.3]];
         let facing = [0.0, 0.0, -1.0];
-        for p in [[0.0, 0.0, 1.0], [0.2, -0.1, 0.3], [2.0, 1.5, 0.7], [0.5, 0.3, 4.0]] {
+        for p in [
+            [0.0, 0.0, 1.0],
+            [0.2, -0.1, 0.3],
+            [2.0, 1.5, 0.7],
+            [0.5, 0.3, 4.0],
+        ] {
             let integral = polygon_form_factor(p, facing, &light);
             let closed = rect_form_factor([-0.5, 0.5, -0.3, 0.3], p);
-            assert!((integral - closed).abs() < 1e-12, "{p:?}: {integral} vs {closed}");
+            assert!(
+                (integral - closed).abs() < 1e-12,
+                "{p:?}: {integral} vs {closed}"
+            );
             assert!(closed > 0.0);
             assert_eq!(polygon_form_factor(p, [0.0, 0.0, 1.0], &light), 0.0);
         }
@@ -982,7 +995,10 @@ mod tests {
                 0.0
             };
             assert!((seen.unoccluded - whole).abs() < 1e-9, "{world}");
-            assert!((seen.irradiance - (whole - hidden)).abs() < 1e-9, "{world}: {seen:?}");
+            assert!(
+                (seen.irradiance - (whole - hidden)).abs() < 1e-9,
+                "{world}: {seen:?}"
+            );
             penumbra += (seen.visibility > 0.0 && seen.visibility < 1.0) as usize;
             let away = casters.light_seen(p, Some(-up), &mut scratch);
             assert_eq!((away.irradiance, away.unoccluded), (0.0, 0.0));

@@ -244,7 +244,7 @@ impl ExactAnswer {
 /// `method.traced_samples_per_axis` is set, the ray-traced answer ([`traced`]); else (or when
 /// tracing fails: [`ExactAnswer::fallback`] says why) the CPU ray cast ([`raycast`]). With
 /// `method.analytic`, `normals` (world space, per pixel) and a light with area, the exact
-/// irradiance too ([`ExactAnswer::irradiance`]). `progress` follows the analytic answer and can
+/// irradiance too ([`ExactAnswer::irradiance`]). `control` follows the analytic answer and can
 /// cancel it: `Err` only then.
 pub fn exact_answer(
     gpu: Option<&Gpu>,
@@ -253,11 +253,11 @@ pub fn exact_answer(
     normals: Option<&[softshadow_core::glam::Vec3]>,
     receiver: &[bool],
     method: ExactMethod,
-    progress: &analytic::Progress,
+    control: Option<&softshadow_core::BuildControl>,
 ) -> Result<ExactAnswer, analytic::AnalyticError> {
     let closed_form = exact::visibility_image(scene, positions, receiver);
     if method.analytic {
-        match analytic::light_seen_image(scene, positions, normals, receiver, progress) {
+        match analytic::light_seen_image(scene, positions, normals, receiver, control) {
             Ok(seen) => return Ok(analytic_answer(seen, closed_form, normals.is_some())),
             Err(analytic::AnalyticError::NoArea { .. }) => {}
             Err(e) => return Err(e),
@@ -999,9 +999,8 @@ mod ground_truth_tests {
             Some(Vec3::new(1e4, 0.0, 1e4)),
         ];
         let square = softshadow_scenes::builtin("atty-square", &[]).unwrap();
-        let progress = analytic::Progress::default();
-        let closed = exact_answer(None, &square, &positions, None, &[true, true], method, &progress)
-            .unwrap();
+        let closed =
+            exact_answer(None, &square, &positions, None, &[true, true], method, None).unwrap();
         assert_eq!(closed.truth, GroundTruth::ClosedForm);
         assert_eq!(closed.sampling_error(&[true, true]), Some(0.0));
         let blob = softshadow_scenes::builtin("blob-floating", &[]).unwrap();
@@ -1010,7 +1009,7 @@ mod ground_truth_tests {
             .map(|i| Some(Vec3::new(-1.5 + 3.0 * i as f32 / 63.0, 0.0, 0.0)))
             .collect();
         let mask = vec![true; ground.len()];
-        let cast = exact_answer(None, &blob, &ground, None, &mask, method, &progress).unwrap();
+        let cast = exact_answer(None, &blob, &ground, None, &mask, method, None).unwrap();
         assert_eq!(cast.truth, method.sampled_on(None));
         assert!(cast.fallback.is_none());
         let error = cast.sampling_error(&mask).unwrap();

@@ -299,6 +299,7 @@ fn runs_and_options(
         images: !args.no_images,
         exact_samples_per_axis: (!args.no_exact).then_some(args.exact_samples.max(1)),
         traced_samples_per_axis: (args.traced_samples > 0).then_some(args.traced_samples),
+        analytic: !args.no_analytic,
         camera_only: !args.no_camera_only,
         reference_cache: args.reference_cache.clone(),
         // Each run names its own path (`RunSpec::path`).

@@ -185,16 +185,20 @@ struct BenchArgs {
     /// Skip the reference and the error metrics (timings only).
     #[arg(long)]
     no_error: bool,
-    /// Skip the exact ground truth (closed form, ray-traced or CPU ray cast) and
+    /// Skip the exact ground truth (closed form, analytic, ray-traced or CPU ray cast) and
     /// `error.reference_vs_exact`.
     #[arg(long)]
     no_exact: bool,
-    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form, on
-    /// a device without ray queries).
+    /// Use the sampled ground truth (ray-traced or CPU ray cast) where the analytic answer
+    /// would apply: a cross-check of the analytic answer.
+    #[arg(long)]
+    no_analytic: bool,
+    /// Light samples per axis of the CPU ray-cast ground truth (scenes without a closed form,
+    /// under a light without area or with --no-analytic, on a device without ray queries).
     #[arg(long, default_value_t = softshadow_bench::DEFAULT_EXACT_SAMPLES)]
     exact_samples: u32,
-    /// Light samples per axis of the ray-traced ground truth (scenes without a closed form, on a
-    /// device with ray queries); 0 uses the CPU ray cast there too.
+    /// Light samples per axis of the ray-traced ground truth (where the sampled answer is used,
+    /// on a device with ray queries); 0 uses the CPU ray cast there too.
     #[arg(long, default_value_t = softshadow_bench::DEFAULT_TRACED_SAMPLES)]
     traced_samples: u32,
     /// Do not write images.

@@ -127,9 +127,9 @@ pub(super) fn resolution_table(runs: &[Run]) -> String {
 }
 
 pub(super) fn ms_budgets_table(runs: &[Run]) -> String {
-    use crate::report::{ms_budget_scenes, summary_rows_within, Budgets, MS_BUDGETS};
+    use crate::report::{ms_budget_scenes, summary_rows_within, Budgets, Score, MS_BUDGETS};
     let scenes = ms_budget_scenes(runs, &scenes_of(runs));
-    let rows = summary_rows_within(runs, &scenes, Budgets::Milliseconds);
+    let rows = summary_rows_within(runs, &scenes, Budgets::Milliseconds, Score::Visibility);
     let mut t = String::from("| technique | on the Pareto front |");
     for b in MS_BUDGETS {
         let _ = write!(
