@@ -95,6 +95,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.079, 0.0313)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.11, 0.0463)),
         ("stiff-large-light", at_most(MaeShadowed, 0.105, 0.0419)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1573, 0.016)),
         ("atty-square", at_most(MaeShadowed, 0.085, 0.0338)),
         (
             "blob-floating:triangles=20000",

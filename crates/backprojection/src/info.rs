@@ -110,6 +110,9 @@ fn expectations() -> Expectations {
         ("stiff-light-leak", at_most(MaeShadowed, 0.09, 0.0332)),
         // 0.0877 (74 % too dark) with one level for the whole area and no edge refinement.
         ("stiff-large-light", at_most(MaeShadowed, 0.115, 0.0462)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1328, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.02, 0.0081)),
         (
             "blob-floating:triangles=20000",

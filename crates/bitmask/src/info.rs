@@ -114,6 +114,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.056, 0.0224)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.086, 0.0343)),
         ("stiff-large-light", at_most(MaeShadowed, 0.11, 0.0416)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1325, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.026, 0.0102)),
         (
             "blob-floating:triangles=20000",

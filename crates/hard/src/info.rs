@@ -79,6 +79,9 @@ fn expectations() -> Expectations {
             "stiff-large-light",
             known_failure(MaeShadowed, 0.4295, 0.043),
         ),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1529, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.32, 0.2063)),
         (
             "blob-floating:triangles=20000",

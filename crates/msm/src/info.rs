@@ -70,6 +70,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0453)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.32, 0.2035)),
         ("stiff-large-light", at_most(MaeShadowed, 0.12, 0.0489)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1828, 0.018)),
         ("atty-square", at_most(MaeShadowed, 0.078, 0.0314)),
         (
             "blob-floating:triangles=20000",

@@ -83,6 +83,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.13, 0.0508)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.36, 0.2800)),
         ("stiff-large-light", at_most(MaeShadowed, 0.21, 0.1008)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1351, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.082, 0.0327)),
         (
             "blob-floating:triangles=20000",

@@ -3,7 +3,7 @@
 
 use softshadow_core::{
     cost::rates::DEPTH_TEXEL,
-    expectations::{at_most, ErrorMetric::*},
+    expectations::{at_most, known_failure, ErrorMetric::*},
     Cost, CostModel, CostQuery, Expectations, TechniqueInfo,
 };
 
@@ -136,6 +136,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.031, 0.0120)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.03, 0.0120)),
         ("stiff-large-light", at_most(MaeShadowed, 0.043, 0.0172)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.142, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.027, 0.0107)),
         (
             "blob-floating:triangles=20000",

@@ -127,6 +127,14 @@ pub fn infos() -> Vec<BuiltinInfo> {
             description: "stiff (large penumbrae, issue 30): a light_width x light_width/2 light 2 above the ground, a 0.6 x 0.4 rectangle 0.25 below it and a 1.0 x 0.5 rectangle 0.7 above the ground (penumbrae wider than the casters; coarse hierarchy levels over-darken)",
             params: vec![light_width(1.2)],
         },
+        BuiltinInfo {
+            id: "stiff-thin-roof",
+            description: "stiff (issue 38): a roof `thickness` thick (below a shadow map's bias) over a wall, the light high above: under the eaves the wall sees the light at a grazing angle and the roof's underside faces away from it; the V error and the irradiance error disagree there",
+            params: vec![
+                light_width(1.0),
+                ParamInfo::new("thickness", 0.002, 0.0005, 0.05, "thickness of the roof slab"),
+            ],
+        },
     ]
 }
 
@@ -225,9 +233,37 @@ pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, Scen
                 ],
             )
         }
+        "stiff-thin-roof" => thin_roof(v("light_width"), v("thickness")),
         _ => return Err(SceneError::UnknownScene { spec: id.into() }),
     };
     Ok(scene)
+}
+
+/// Issue 38's architecture in small: a 2 x 1 wall 0.1 thick and over it a 2.6 x 1.4 roof slab
+/// `thickness` thick (both cast and receive), overhanging the wall's front by 0.75, over the
+/// ground; the light 5 above, slightly in front. The roof's underside (facing away from the
+/// light) and the wall under the eaves (lit at a grazing angle when at all) are in the roof's
+/// umbra, which a shadow map whose bias exceeds the roof's thickness misses; the camera looks up
+/// at them from the front.
+fn thin_roof(light_width: f32, thickness: f32) -> Scene {
+    let mut b = Builder::new("stiff-thin-roof");
+    b.ground();
+    let wall = b.mesh(primitives::cuboid(Vec3::new(2.0, 1.0, 0.1)), "wall");
+    b.caster(wall, Mat4::from_translation(Vec3::new(0.0, 0.5, 0.0)), true);
+    let roof = b.mesh(
+        primitives::cuboid(Vec3::new(2.6, thickness, 1.4)),
+        "thin roof",
+    );
+    let roof_at = Vec3::new(0.0, 1.0 + 0.5 * thickness, 0.1);
+    b.caster(roof, Mat4::from_translation(roof_at), true);
+    let light = AreaLight::looking_at(
+        Vec3::new(0.8, 5.0, 1.2),
+        Vec3::new(0.0, 0.5, 0.2),
+        light_width,
+        light_width,
+    );
+    let camera = camera(Vec3::new(1.6, 0.45, 4.2), Vec3::new(0.0, 0.7, 0.0));
+    b.finish(light, camera)
 }
 
 /// A two-sided horizontal rectangle occluder (`size` along x and z), caster only.

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
 
-const EXPECTED: [&str; 18] = [
+const EXPECTED: [&str; 19] = [
     "stiff-contact",
     "stiff-near-light",
     "stiff-point-light",
@@ -23,6 +23,7 @@ const EXPECTED: [&str; 18] = [
     "stiff-fusion",
     "stiff-light-leak",
     "stiff-large-light",
+    "stiff-thin-roof",
 ];
 
 fn caster_depths(spec: &str) -> Vec<f32> {

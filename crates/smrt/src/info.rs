@@ -77,6 +77,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.11, 0.0455)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.15, 0.0602)),
         ("stiff-large-light", at_most(MaeShadowed, 0.15, 0.0614)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1349, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.068, 0.0273)),
         // Halfway to hard (0.1540).
         (

@@ -2,7 +2,7 @@
 //! its parameters, requirements, shaders, cost model, error bounds and overview settings.
 
 use softshadow_core::{
-    expectations::{at_most, ErrorMetric::*},
+    expectations::{at_most, known_failure, ErrorMetric::*},
     Cost, CostModel, Expectations, TechniqueInfo,
 };
 
@@ -88,6 +88,9 @@ fn expectations() -> Expectations {
         ("stiff-fusion", at_most(MaeShadowed, 0.056, 0.0221)),
         ("stiff-light-leak", at_most(MaeShadowed, 0.058, 0.0234)),
         ("stiff-large-light", at_most(MaeShadowed, 0.061, 0.0245)),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.2115, 0.021)),
         ("atty-square", at_most(MaeShadowed, 0.0088, 0.0035)),
         (
             "blob-floating:triangles=20000",

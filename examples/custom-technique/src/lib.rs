@@ -122,6 +122,9 @@ fn expectations() -> Expectations {
             "stiff-large-light",
             known_failure(MaeShadowed, 0.3805, 0.038),
         ),
+        // A roof thinner than the depth bias: its underside (facing away from the light, so
+        // dark in the image whatever V says) reads lit. The irradiance error is small there.
+        ("stiff-thin-roof", known_failure(MaeShadowed, 0.1494, 0.015)),
         ("atty-square", at_most(MaeShadowed, 0.196, 0.1847)),
         (
             "blob-floating:triangles=20000",

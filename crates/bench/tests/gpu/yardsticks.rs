@@ -273,9 +273,10 @@ fn measure_the_traced_sample_count() -> Result<()> {
 }
 
 /// The bench names the exact answer each run used and its sampling error: the closed form (0) on
-/// atty-square; on the blob the ray-traced answer (32 x 32) on this device, the 16 x 16 CPU ray
-/// cast on a device without ray queries (a larger error, about twice); and along a path every
-/// frame's method is counted and the sampling errors summarised.
+/// atty-square, the analytic answer (0) on the blob; with `analytic: false` the ray-traced
+/// answer (32 x 32) there on this device, the 16 x 16 CPU ray cast on a device without ray
+/// queries (a larger error, about twice); and along a path every frame's method is counted and
+/// the sampling errors summarised.
 #[test]
 fn the_bench_names_its_exact_answer_and_its_sampling_error() -> Result<()> {
     use softshadow_bench::{Bench, BenchOptions, RunSpec};
@@ -311,6 +312,23 @@ fn the_bench_names_its_exact_answer_and_its_sampling_error() -> Result<()> {
         exact(&run)
     );
     let run = crate::common::run_checked(&mut bench, &spec(blob))?;
+    ensure!(
+        exact(&run) == (Some("analytic".into()), Some(0.0)),
+        "{:?}",
+        exact(&run)
+    );
+    let irradiance = run.error.as_ref().and_then(|e| e.irradiance.as_ref());
+    ensure!(
+        irradiance.is_some(),
+        "no irradiance errors with the analytic answer"
+    );
+
+    let sampled = || BenchOptions {
+        analytic: false,
+        ..options()
+    };
+    let mut bench = Bench::new(gpu()?, softshadow::registry(), sampled())?;
+    let run = crate::common::run_checked(&mut bench, &spec(blob))?;
     let (method, traced_error) = exact(&run);
     ensure!(
         method.as_deref() == Some("raytraced(samples_per_axis=32)"),
@@ -320,7 +338,7 @@ fn the_bench_names_its_exact_answer_and_its_sampling_error() -> Result<()> {
     ensure!(traced_error > 0.0 && traced_error < 0.01, "{traced_error}");
 
     let without = Gpu::new_headless_without(softshadow_core::accel::RAY_QUERY)?;
-    let mut bench = Bench::new(without, softshadow::registry(), options())?;
+    let mut bench = Bench::new(without, softshadow::registry(), sampled())?;
     let run = crate::common::run_checked(&mut bench, &spec(blob))?;
     let (method, cast_error) = exact(&run);
     ensure!(
@@ -340,7 +358,7 @@ fn the_bench_names_its_exact_answer_and_its_sampling_error() -> Result<()> {
         BenchOptions {
             frames: 2,
             path: Some("light-sweep".into()),
-            ..options()
+            ..sampled()
         },
     )?;
     let run = crate::common::run_checked(&mut bench, &spec(blob))?;
@@ -352,5 +370,63 @@ fn the_bench_names_its_exact_answer_and_its_sampling_error() -> Result<()> {
     );
     let summary = motion.exact_sampling_error.as_ref().expect("estimated");
     ensure!(summary.mean > 0.0 && summary.max < 0.01, "{summary:?}");
+    Ok(())
+}
+
+/// The ray-traced answer at 16 x 16, 32 x 32 and 64 x 64 light samples lies within its own
+/// stated sampling error of the analytic answer on meshes (blob-floating, balls-3x3x3,
+/// cad-bracket), and its error shrinks with the sample count (the CPU ray cast's twin of this
+/// test is in the reference crate).
+#[test]
+fn the_ray_traced_answer_converges_to_the_analytic_one() -> Result<()> {
+    use softshadow_core::glam::Vec3;
+    use softshadow_reference::{analytic, traced};
+    let gpu = gpu()?;
+    let cad = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../assets/scenes/cad-bracket.toml"
+    );
+    let scenes = [
+        softshadow_scenes::builtin("blob-floating", &[])?,
+        softshadow_scenes::builtin("balls-3x3x3", &[])?,
+        softshadow_scenes::load_scene_file(cad)?.scene,
+    ];
+    // A 24 x 24 grid of ground points (y = 0) around the casters.
+    let points: Vec<Option<Vec3>> = (0..24 * 24)
+        .map(|k| {
+            let (i, j) = ((k % 24) as f32, (k / 24) as f32);
+            Some(Vec3::new(-1.8 + 3.6 * i / 23.0, 0.0, -1.8 + 3.6 * j / 23.0))
+        })
+        .collect();
+    let mask = vec![true; points.len()];
+    for scene in &scenes {
+        let exact = analytic::visibility_image(scene, &points, &mask)?;
+        let shadowed = exact.iter().filter(|v| **v < 1.0).count();
+        ensure!(shadowed > 40, "{}: {shadowed} shadowed points", scene.name);
+        let mut previous = f64::INFINITY;
+        for n in [16, 32, 64] {
+            let (v, e) = traced::visibility_image_and_error(&gpu, scene, &points, &mask, n)?;
+            let (mut error, mut stated, mut count) = (0.0, 0.0, 0);
+            for k in 0..points.len() {
+                if v[k] < 1.0 || exact[k] < 1.0 {
+                    error += (v[k] as f64 - exact[k] as f64).abs();
+                    stated += e[k] as f64;
+                    count += 1;
+                }
+            }
+            let (error, stated) = (error / count as f64, stated / count as f64);
+            eprintln!(
+                "{} traced {n} x {n}: error {error:.5}, stated {stated:.5}",
+                scene.name
+            );
+            ensure!(
+                error <= stated,
+                "{} at {n} x {n}: mean error {error:.5} over its stated {stated:.5}",
+                scene.name
+            );
+            ensure!(error < previous, "{}: {error} after {previous}", scene.name);
+            previous = error;
+        }
+    }
     Ok(())
 }
