@@ -39,7 +39,7 @@ pub fn info() -> TechniqueInfo {
 /// where drawing no shadow would be as good it is a known failure.
 fn expectations() -> Expectations {
     Expectations::new(&[
-        ("stiff-contact", at_most(MaeShadowed, 0.45, 0.1775)),
+        ("stiff-contact", at_most(MaeShadowed, 0.45, 0.1774)),
         (
             "stiff-near-light",
             known_failure(MaeShadowed, 0.7495, 0.075),
@@ -55,7 +55,7 @@ fn expectations() -> Expectations {
             "stiff-zero-thickness",
             known_failure(MaeShadowed, 0.217, 0.022),
         ),
-        ("stiff-partly-outside", at_most(MaeShadowed, 0.32, 0.1963)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.32, 0.1950)),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
         (
             "stiff-aspect-100",

@@ -57,14 +57,14 @@ pub fn info() -> TechniqueInfo {
 /// default 32 x 32 samples the reference is within a few thousandths everywhere.
 fn expectations() -> Expectations {
     Expectations::new(&[
-        ("stiff-contact", at_most(MaeShadowed, 0.0065, 0.0026)),
+        ("stiff-contact", at_most(MaeShadowed, 0.0065, 0.0020)),
         ("stiff-near-light", at_most(MaeShadowed, 0.0033, 0.0013)),
         ("stiff-point-light", at_most(MaeShadowed, 0.001, 0.0)),
         ("stiff-wide-light", at_most(MaeShadowed, 0.003, 0.0012)),
         ("stiff-grazing", at_most(MaeShadowed, 0.004, 0.0016)),
         ("stiff-depth-range", at_most(MaeShadowed, 0.0038, 0.0015)),
         ("stiff-zero-thickness", at_most(MaeShadowed, 0.0065, 0.0026)),
-        ("stiff-partly-outside", at_most(MaeShadowed, 0.006, 0.0023)),
+        ("stiff-partly-outside", at_most(MaeShadowed, 0.006, 0.0019)),
         ("stiff-no-occluder", at_most(MaxAbs, 1e-6, 0.0)),
         ("stiff-aspect-100", at_most(MaeShadowed, 0.0053, 0.0021)),
         ("stiff-tiny-patches", at_most(MaeShadowed, 0.0083, 0.0033)),
@@ -72,7 +72,7 @@ fn expectations() -> Expectations {
         ("stiff-behind-light", at_most(MaeShadowed, 0.003, 0.0012)),
         (
             "stiff-receiver-behind-light",
-            at_most(MaeShadowed, 0.0044, 0.0018),
+            at_most(MaeShadowed, 0.0044, 0.0013),
         ),
         ("stiff-light-up", at_most(MaeShadowed, 0.0015, 5.0e-04)),
         ("stiff-fusion", at_most(MaeShadowed, 0.004, 0.0016)),

@@ -31,9 +31,14 @@ struct View {
 
 impl View {
     fn new(gpu: &Gpu, spec: &str) -> Result<Self> {
+        Self::at(gpu, spec, SIZE)
+    }
+
+    /// The G-buffer of `spec` at `size`².
+    fn at(gpu: &Gpu, spec: &str, size: u32) -> Result<Self> {
         let scene = softshadow_scenes::load(spec)?.scene;
         let scene_gpu = SceneGpu::upload(gpu, &scene);
-        let mut renderer = Renderer::new(gpu, SIZE, SIZE)?;
+        let mut renderer = Renderer::new(gpu, size, size)?;
         let mut hard = softshadow_hard::Hard::new(gpu, Default::default())?;
         renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut hard, None)?;
         let positions = renderer.read_world_positions()?;
@@ -267,6 +272,75 @@ fn measure_the_traced_sample_count() -> Result<()> {
             report.mae_all,
             report.max_abs,
             view.sampling_error(&cast, &error)
+        );
+    }
+    Ok(())
+}
+
+/// The analytic exact answer's time against triangle count, beside the sampled answers', and the
+/// sampled answers' true error against it on the paper scenes (docs/BENCHMARKS.md, "The exact
+/// answer"). Prints markdown tables.
+#[test]
+#[ignore = "a measurement: run it on an otherwise idle machine"]
+fn measure_the_analytic_answer() -> Result<()> {
+    let gpu = gpu()?;
+    let seconds = |start: std::time::Instant| start.elapsed().as_secs_f64();
+    println!("| scene (128²) | triangles | analytic | ray-traced 32 x 32 | CPU ray cast 16 x 16 |");
+    println!("|---|---|---|---|---|");
+    for spec in [
+        "polycount-1k",
+        "polycount-10k",
+        "polycount-100k",
+        "polycount-1m",
+    ] {
+        let view = View::at(&gpu, spec, 128)?;
+        let triangles: usize = view.scene.meshes.iter().map(|m| m.indices.len() / 3).sum();
+        let start = std::time::Instant::now();
+        softshadow_reference::analytic::visibility_image(&view.scene, &view.positions, &view.mask)?;
+        let analytic = seconds(start);
+        let start = std::time::Instant::now();
+        view.traced(&gpu, 32)?;
+        let traced = seconds(start);
+        let start = std::time::Instant::now();
+        view.raycast(16);
+        let cast = seconds(start);
+        println!("| {spec} | {triangles} | {analytic:.2} s | {traced:.2} s | {cast:.2} s |");
+    }
+    let view = View::at(&gpu, "blob-floating", 256)?;
+    let start = std::time::Instant::now();
+    softshadow_reference::analytic::visibility_image(&view.scene, &view.positions, &view.mask)?;
+    println!(
+        "\nblob-floating (100k triangles) at 256²: analytic {:.1} s\n",
+        seconds(start)
+    );
+
+    println!("| scene (128²) | ray-traced 32 x 32: true error, stated | CPU ray cast 16 x 16: true error, stated |");
+    println!("|---|---|---|");
+    let paper = [
+        "blob-floating",
+        "blob-contact",
+        "balls-3x3x3",
+        "single-silhouette",
+        "pdsm-cylinder",
+        "pdsm-quads",
+        CAD_SCENE,
+    ];
+    for spec in paper {
+        let view = View::at(&gpu, spec, 128)?;
+        let exact = softshadow_reference::analytic::visibility_image(
+            &view.scene,
+            &view.positions,
+            &view.mask,
+        )?;
+        let (rt, rt_error) = view.traced(&gpu, 32)?;
+        let (cast, cast_error) = view.raycast(16);
+        let name = spec.rsplit('/').next().unwrap_or(spec);
+        println!(
+            "| {name} | {:.4}, {:.4} | {:.4}, {:.4} |",
+            compare(&rt, &exact, &view.mask)?.mae_shadowed,
+            view.sampling_error(&rt, &rt_error),
+            compare(&cast, &exact, &view.mask)?.mae_shadowed,
+            view.sampling_error(&cast, &cast_error),
         );
     }
     Ok(())
