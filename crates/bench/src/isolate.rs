@@ -55,7 +55,7 @@ const POLL: Duration = Duration::from_millis(10);
 const STDERR_LINES: usize = 40;
 
 /// The environment variable that tells a child its parent's process id ([`die_with_parent`]).
-const PARENT_ENV: &str = "SOFTSHADOW_BENCH_PARENT";
+pub const PARENT_ENV: &str = "SOFTSHADOW_BENCH_PARENT";
 
 /// Everything a child needs to make one run.
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -32,10 +32,13 @@ mod technique;
 mod technique_panel;
 mod timeline;
 mod timing_panel;
+mod worker_process;
 
 pub use plot_panel::{format_tick, linear_ticks, log_ticks, series_style};
 pub use technique::{DEFAULT_HISTORY_FRAMES, FRAME_WAIT, SLOW_FRAME};
 pub use technique_panel::param_widget;
+pub use worker_process::WorkerCommand;
+pub(crate) use worker_process::serve as serve_worker;
 pub use timeline::{
     LiveExact, LiveMetrics, PathTimings, ANIMATION_FILE, COARSE_TRACED_SAMPLES, DEFAULT_STEPS,
     LIVE_WINDOW,
@@ -92,6 +95,11 @@ pub struct ViewerOptions {
     pub params: Vec<(String, ParamValue)>,
     /// A saved viewer state to start from (overrides scene, technique and params).
     pub state: Option<PathBuf>,
+    /// The program each technique's render worker runs in, a process per technique
+    /// (`workbench view-worker`; docs/ARCHITECTURE.md, "The viewer's render worker"): a frame
+    /// that never ends is then stopped by Cancel. `None`: the worker is a thread of the viewer,
+    /// which cannot stop such a frame (for a host whose registry no program of its own serves).
+    pub worker: Option<WorkerCommand>,
 }
 
 impl Default for ViewerOptions {
@@ -102,6 +110,7 @@ impl Default for ViewerOptions {
             technique: String::new(),
             params: Vec::new(),
             state: None,
+            worker: None,
         }
     }
 }
@@ -197,7 +206,7 @@ impl ViewerApp {
             registry,
             egui_renderer,
             scene: scene_panel::SceneState::new(scene, camera, light),
-            technique: technique::TechniqueState::new(settings),
+            technique: technique::TechniqueState::new(settings, options.worker.clone()),
             image: image::ImageState::new(
                 DisplayPass::new(&gpu)?,
                 state.as_ref().map_or(ViewMode::Shaded, |s| s.view_mode),
