@@ -51,6 +51,7 @@ pub(super) struct FrameRequest {
     pub(super) camera: Camera,
     pub(super) light: AreaLight,
     pub(super) size: (u32, u32),
+    #[serde(with = "wire_params")]
     pub(super) params: Vec<(String, ParamValue)>,
     /// Drop the technique's caches first (a cost frame, as the benchmark's `timing`).
     pub(super) invalidate: bool,
@@ -836,6 +837,58 @@ mod wire_result {
             }
             WireError::Other(message) => RenderError::Remote(message),
         }))
+    }
+}
+
+/// Parameter values as they cross a pipe: tagged (`ParamValue` is untagged for JSON, which
+/// bincode cannot read back).
+pub(super) mod wire_params {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use softshadow_core::ParamValue;
+
+    #[derive(Serialize, Deserialize)]
+    enum Wire {
+        Bool(bool),
+        Int(i64),
+        Float(f64),
+        Choice(String),
+    }
+
+    pub(in super::super) fn serialize<S: Serializer>(
+        params: &[(String, ParamValue)],
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        let wire: Vec<(&String, Wire)> = params
+            .iter()
+            .map(|(name, value)| {
+                let value = match value {
+                    ParamValue::Bool(b) => Wire::Bool(*b),
+                    ParamValue::Int(i) => Wire::Int(*i),
+                    ParamValue::Float(x) => Wire::Float(*x),
+                    ParamValue::Choice(c) => Wire::Choice(c.clone()),
+                };
+                (name, value)
+            })
+            .collect();
+        wire.serialize(serializer)
+    }
+
+    pub(in super::super) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Vec<(String, ParamValue)>, D::Error> {
+        let wire = Vec::<(String, Wire)>::deserialize(deserializer)?;
+        Ok(wire
+            .into_iter()
+            .map(|(name, value)| {
+                let value = match value {
+                    Wire::Bool(b) => ParamValue::Bool(b),
+                    Wire::Int(i) => ParamValue::Int(i),
+                    Wire::Float(x) => ParamValue::Float(x),
+                    Wire::Choice(c) => ParamValue::Choice(c),
+                };
+                (name, value)
+            })
+            .collect())
     }
 }
 

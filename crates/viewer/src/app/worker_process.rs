@@ -53,6 +53,7 @@ pub(super) enum TechniqueSource {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub(super) struct Start {
     pub(super) technique: TechniqueSource,
+    #[serde(with = "super::render_worker::wire_params")]
     pub(super) params: Vec<(String, ParamValue)>,
     /// The worker's number in the viewer's session (from 0): what `SOFTSHADOW_FAULT`'s `K`
     /// counts in the viewer.
