@@ -290,7 +290,7 @@ fn signal_of(status: ExitStatus) -> Option<(i32, String)> {
 
 /// The line of a child's stderr that best says why it ended: a panic's message, else the last
 /// line that is not a hint of Rust's.
-fn last_words(stderr: &[String]) -> Option<String> {
+pub fn last_words(stderr: &[String]) -> Option<String> {
     let panic = stderr
         .iter()
         .rposition(|line| line.contains("panicked at"))

@@ -37,12 +37,12 @@ mod worker_process;
 pub use plot_panel::{format_tick, linear_ticks, log_ticks, series_style};
 pub use technique::{DEFAULT_HISTORY_FRAMES, FRAME_WAIT, SLOW_FRAME};
 pub use technique_panel::param_widget;
-pub use worker_process::WorkerCommand;
-pub(crate) use worker_process::serve as serve_worker;
 pub use timeline::{
     LiveExact, LiveMetrics, PathTimings, ANIMATION_FILE, COARSE_TRACED_SAMPLES, DEFAULT_STEPS,
     LIVE_WINDOW,
 };
+pub(crate) use worker_process::serve as serve_worker;
+pub use worker_process::WorkerCommand;
 
 use std::{
     path::{Path, PathBuf},

@@ -1863,7 +1863,11 @@ const WORKER_CHILD_ENV: &str = "SOFTSHADOW_VIEWER_TEST_WORKER";
 fn render_worker_child() {
     if std::env::var_os(WORKER_CHILD_ENV).is_some() {
         let code = softshadow_viewer::serve_render_worker(&softshadow::registry());
-        std::process::exit(if code == std::process::ExitCode::SUCCESS { 0 } else { 1 });
+        std::process::exit(if code == std::process::ExitCode::SUCCESS {
+            0
+        } else {
+            1
+        });
     }
 }
 
@@ -1878,9 +1882,14 @@ fn process_harness(
     let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
     let worker = softshadow_viewer::WorkerCommand {
         program: std::env::current_exe()?.into_os_string(),
-        args: ["render_worker_child", "--exact", "--nocapture", "--test-threads=1"]
-            .map(Into::into)
-            .to_vec(),
+        args: [
+            "render_worker_child",
+            "--exact",
+            "--nocapture",
+            "--test-threads=1",
+        ]
+        .map(Into::into)
+        .to_vec(),
         env: vec![(WORKER_CHILD_ENV.into(), "1".into())],
     };
     let mut app = ViewerApp::new(
@@ -1954,7 +1963,10 @@ fn a_never_ending_wgsl_file_is_cancelled_and_hard_is_shown_and_timed() -> Result
     while harness.state().first_frame_ms().is_none() || ensure_hard_was_timed(&harness).is_err() {
         harness.step();
         steps += 1;
-        ensure!(steps < 200, "hard was never shown and timed after the Cancel");
+        ensure!(
+            steps < 200,
+            "hard was never shown and timed after the Cancel"
+        );
     }
     eprintln!(
         "hard shown and timed {:.0} ms after the Cancel (its first frame {:.0} ms after it was picked)",

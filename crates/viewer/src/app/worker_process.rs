@@ -83,6 +83,9 @@ enum FromWorker {
 /// mistake (`running 1 test` from a test harness is skipped, for one).
 const FRAME_TAG: &str = "softshadow-worker-message";
 
+/// How every message [`serve`] writes to stderr begins.
+const OWN_MESSAGE: &str = "the render worker";
+
 /// Lines of the child's stderr kept to explain how it ended.
 const STDERR_LINES: usize = 40;
 
@@ -104,10 +107,13 @@ fn read_message<T: DeserializeOwned>(input: &mut impl BufRead) -> std::io::Resul
             return Ok(None);
         }
         let text = String::from_utf8_lossy(&line);
-        let Some(length) = text.trim_end().strip_prefix(FRAME_TAG) else {
+        // The tag may follow what something printed without a newline (a test harness's
+        // `test name ... `).
+        let Some(at) = text.find(FRAME_TAG) else {
             log::debug!("render worker pipe: {}", text.trim_end());
             continue;
         };
+        let length = &text[at + FRAME_TAG.len()..];
         let length: usize = length.trim().parse().map_err(std::io::Error::other)?;
         let mut bytes = vec![0; length];
         input.read_exact(&mut bytes)?;
@@ -145,14 +151,20 @@ impl ProcessLink {
             Some(status) => format!("its process ended ({status})"),
             None => "its process stopped answering".into(),
         };
-        let last = self.stderr.lock().ok().and_then(|tail| {
-            tail.iter()
-                .rev()
-                .find(|l| !l.trim().is_empty() && !l.starts_with("note:"))
-                .cloned()
-        });
-        match last {
-            Some(line) => format!("{how}; its last words: {}", line.trim()),
+        let tail: Vec<String> = self
+            .stderr
+            .lock()
+            .map(|tail| tail.iter().cloned().collect())
+            .unwrap_or_default();
+        // The worker's own last message (each starts with `the render worker`) says it best;
+        // else a panic's message, else the last line.
+        let own = tail
+            .iter()
+            .rev()
+            .find(|line| line.starts_with(OWN_MESSAGE))
+            .cloned();
+        match own.or_else(|| softshadow_bench::isolate::last_words(&tail)) {
+            Some(line) => format!("{how}; its last words: {line}"),
             None => how,
         }
     }
@@ -327,7 +339,7 @@ pub fn serve(registry: &Registry) -> ExitCode {
     let faults: Faults = match start.faults.parse() {
         Ok(faults) => faults,
         Err(e) => {
-            eprintln!("{e}");
+            eprintln!("the render worker cannot inject its faults: {e}");
             return ExitCode::FAILURE;
         }
     };
@@ -375,7 +387,20 @@ pub fn serve(registry: &Registry) -> ExitCode {
             // `lost`: the device is destroyed before the first frame, which then meets it.
             faults.in_the_middle(start.index, worker.gpu());
         }
-        let mut done = worker.answer(&request);
+        // wgpu panics on some calls to a lost device (a buffer mapped at creation): the loss
+        // is then what the viewer is told.
+        let answered =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| worker.answer(&request)));
+        let mut done = match answered {
+            Ok(done) => done,
+            Err(_) => {
+                match worker.gpu().lost() {
+                    Some(why) => eprintln!("the render worker's device was lost: {why}"),
+                    None => eprintln!("the render worker panicked (above: where and why)"),
+                }
+                return ExitCode::FAILURE;
+            }
+        };
         done.build = control
             .progress_with_unit()
             .map(|p| (p.done, p.total, p.unit.into_owned()));
@@ -409,8 +434,9 @@ fn make_worker(
             .find(id)
             .cloned()
             .map_err(|e| StartError::Technique(e.to_string()))?,
-        TechniqueSource::File(path) => softshadow_wgsl::load(path)
-            .map_err(|e| StartError::Technique(e.to_string()))?,
+        TechniqueSource::File(path) => {
+            softshadow_wgsl::load(path).map_err(|e| StartError::Technique(e.to_string()))?
+        }
     };
     // Before the technique: what it holds is counted from here.
     let _ = gpu.wait_idle();
@@ -429,7 +455,7 @@ mod tests {
 
     #[test]
     fn framed_messages_come_back_whole_after_stray_lines() {
-        let mut pipe = b"running 1 test\n".to_vec();
+        let mut pipe = b"running 1 test\ntest render_worker_child ... ".to_vec();
         write_message(&mut pipe, &(7u64, vec![1.5f32, -2.0], "x".to_string())).unwrap();
         pipe.extend_from_slice(b"a library's line\n");
         write_message(&mut pipe, &42u32).unwrap();
