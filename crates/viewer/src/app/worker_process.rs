@@ -76,7 +76,7 @@ enum ToWorker {
 #[derive(Serialize, Deserialize)]
 enum FromWorker {
     Started(Result<(), StartError>),
-    Frame(FrameDone),
+    Frame(Box<FrameDone>),
 }
 
 /// What starts a framed message on a pipe: a line that a library printing to stdout cannot
@@ -290,7 +290,7 @@ fn receive_frames(
                     }
                     None => build.finish(),
                 }
-                frames.send(done).is_ok()
+                frames.send(*done).is_ok()
             }
         };
         if !sent {
@@ -405,7 +405,7 @@ pub fn serve(registry: &Registry) -> ExitCode {
             .progress_with_unit()
             .map(|p| (p.done, p.total, p.unit.into_owned()));
         let lost = done.device_lost.clone();
-        if write_message(&mut output, &FromWorker::Frame(done)).is_err() {
+        if write_message(&mut output, &FromWorker::Frame(Box::new(done))).is_err() {
             return ExitCode::FAILURE;
         }
         if let Some(why) = lost {
