@@ -27,6 +27,7 @@ fn harness(technique: &str) -> Result<Harness<'static, ViewerApp>> {
             registry: softshadow::registry(),
             scene: "atty-square".into(),
             technique: technique.into(),
+            worker: worker_under_test(),
             ..ViewerOptions::default()
         },
     )?;
@@ -616,6 +617,7 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
                 ("shadow_map_size".into(), ParamValue::Int(256)),
                 ("disk_cache".into(), ParamValue::Bool(false)),
             ],
+            worker: worker_under_test(),
             ..ViewerOptions::default()
         },
     )?;
@@ -1121,6 +1123,7 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
             registry,
             scene: "atty-square".into(),
             technique: id.clone(),
+            worker: worker_under_test(),
             ..ViewerOptions::default()
         },
     )?;
@@ -1871,17 +1874,12 @@ fn render_worker_child() {
     }
 }
 
-/// The viewer on `technique` of `registry` with a render worker process per technique (this
-/// test binary's [`render_worker_child`]), waiting for each technique frame at most `wait`.
-fn process_harness(
-    registry: softshadow_core::Registry,
-    technique: &str,
-    wait: std::time::Duration,
-) -> Result<Harness<'static, ViewerApp>> {
-    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
-    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
-    let worker = softshadow_viewer::WorkerCommand {
-        program: std::env::current_exe()?.into_os_string(),
+/// A render worker process: this test binary run again as [`render_worker_child`].
+fn worker_process() -> softshadow_viewer::WorkerCommand {
+    softshadow_viewer::WorkerCommand {
+        program: std::env::current_exe()
+            .expect("the test binary's path")
+            .into_os_string(),
         args: [
             "render_worker_child",
             "--exact",
@@ -1891,7 +1889,27 @@ fn process_harness(
         .map(Into::into)
         .to_vec(),
         env: vec![(WORKER_CHILD_ENV.into(), "1".into())],
-    };
+    }
+}
+
+/// The render worker of the tests on the built-in techniques: a thread, or with
+/// `SOFTSHADOW_VIEWER_TEST_WORKERS=process` a process per technique, as `workbench view` has
+/// (the tests that register a technique of their own keep the thread: the child's registry is
+/// the built-in one).
+fn worker_under_test() -> Option<softshadow_viewer::WorkerCommand> {
+    let wanted = std::env::var("SOFTSHADOW_VIEWER_TEST_WORKERS");
+    (wanted.as_deref() == Ok("process")).then(worker_process)
+}
+
+/// The viewer on `technique` of `registry` with a render worker process per technique (this
+/// test binary's [`render_worker_child`]), waiting for each technique frame at most `wait`.
+fn process_harness(
+    registry: softshadow_core::Registry,
+    technique: &str,
+    wait: std::time::Duration,
+) -> Result<Harness<'static, ViewerApp>> {
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
     let mut app = ViewerApp::new(
         gpu,
         render_state.renderer.clone(),
@@ -1899,7 +1917,7 @@ fn process_harness(
             registry,
             scene: "atty-square".into(),
             technique: technique.into(),
-            worker: Some(worker),
+            worker: Some(worker_process()),
             ..ViewerOptions::default()
         },
     )?;
