@@ -36,6 +36,9 @@ use super::{
 };
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
 
+/// How long the viewer waits for a worker process to make its first technique.
+const PROCESS_START_LIMIT: Duration = Duration::from_secs(60);
+
 /// Largest debug image edge sent back (as the display draws them).
 const DEBUG_EDGE: u32 = 1024;
 
@@ -269,20 +272,43 @@ impl RenderWorker {
         self.process.as_mut().map(ProcessLink::why_ended)
     }
 
-    /// Waits until the technique exists on the worker; its creation error otherwise.
+    /// Waits until the technique exists on the worker; its creation error otherwise. A worker
+    /// process has [`PROCESS_START_LIMIT`] to answer (a program that is no worker may never).
     pub(super) fn wait_started(&mut self) -> Result<(), StartError> {
         let Some(started) = self.started.take() else {
             return Ok(());
         };
-        match started.recv() {
+        let answer = if self.process.is_some() {
+            started.recv_timeout(PROCESS_START_LIMIT)
+        } else {
+            started
+                .recv()
+                .map_err(|_| mpsc::RecvTimeoutError::Disconnected)
+        };
+        match answer {
             Ok(Ok(device)) => {
                 self.gpu = device;
                 Ok(())
             }
             Ok(Err(e)) => Err(e),
-            Err(_) => Err(StartError::Technique(
-                "the render worker stopped while creating the technique (see the log)".into(),
-            )),
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                // The caller drops this worker, which kills its process.
+                Err(StartError::Device(format!(
+                    "the render worker's process did not start the technique within {} s: \
+                     check that ViewerOptions::worker runs a program that calls \
+                     softshadow_viewer::serve_render_worker",
+                    PROCESS_START_LIMIT.as_secs()
+                )))
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                Err(StartError::Technique(match self.why_stopped() {
+                    Some(how) => {
+                        format!("the render worker stopped while creating the technique: {how}")
+                    }
+                    None => "the render worker stopped while creating the technique (see the log)"
+                        .into(),
+                }))
+            }
         }
     }
 

@@ -343,7 +343,7 @@ pub fn serve(registry: &Registry) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let made = make_worker(registry, &start, &faults, &control);
+    let made = make_worker(registry, &start, &control);
     let reply = FromWorker::Started(made.as_ref().map(|_| ()).map_err(StartError::clone));
     if write_message(&mut output, &reply).is_err() {
         return ExitCode::FAILURE;
@@ -384,6 +384,12 @@ pub fn serve(registry: &Registry) -> ExitCode {
             control.clear_cancel();
         }
         if std::mem::take(&mut first_frame) {
+            // At the first frame, not at the start: the viewer waits for its first technique
+            // to start, and a `hang` there would hold the window before Cancel is shown.
+            if let Err(e) = faults.at_start(start.index, worker.gpu()) {
+                eprintln!("the render worker's first frame failed: {e}");
+                return ExitCode::FAILURE;
+            }
             // `lost`: the device is destroyed before the first frame, which then meets it.
             faults.in_the_middle(start.index, worker.gpu());
         }
@@ -421,13 +427,9 @@ pub fn serve(registry: &Registry) -> ExitCode {
 fn make_worker(
     registry: &Registry,
     start: &Start,
-    faults: &Faults,
     control: &BuildControl,
 ) -> Result<Worker, StartError> {
     let gpu = Gpu::new_headless_with(crate::MEMORY_HINTS)
-        .map_err(|e| StartError::Device(e.to_string()))?;
-    faults
-        .at_start(start.index, &gpu)
         .map_err(|e| StartError::Device(e.to_string()))?;
     let info = match &start.technique {
         TechniqueSource::Registered(id) => registry
