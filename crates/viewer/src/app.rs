@@ -14,9 +14,11 @@
 //! progressive reference and the metrics against it: `ReferenceState`), `timing_panel`
 //! (`TimingState`), `error_panel` (the metrics), `plot_panel` (the error-against-time plot:
 //! `PlotPanel`, drawn by its own `ui` and answering with a `PlotAction`), `files_panel`
-//! (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
-//! `render_worker` (the threads the technique and the reference render on). This file holds the
-//! app, the frame's order and the queries the window and the tests use.
+//! (`FilesState`), `timeline` (a path played over the scene: `TimelineState`),
+//! `render_worker` (the threads the technique and the reference render on) and
+//! `worker_process` (the technique's worker in a child process instead, with
+//! [`ViewerOptions::worker`]: Cancel then stops any frame). This file holds the app, the frame's
+//! order and the queries the window and the tests use.
 
 mod build_panel;
 mod error_panel;

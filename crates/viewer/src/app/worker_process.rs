@@ -322,104 +322,114 @@ fn keep_tail(stderr: Option<impl Read + Send + 'static>, tail: Arc<Mutex<VecDequ
 /// the pipe or kills it (see [`crate::serve_render_worker`]).
 pub fn serve(registry: &Registry) -> ExitCode {
     softshadow_bench::isolate::die_with_parent();
+    match serve_frames(registry) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(why) => {
+            // The viewer shows this line as the worker's last words.
+            eprintln!("{why}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Makes the technique the viewer asks for and answers its frames; `Err`: why the worker
+/// stopped, a sentence beginning with [`OWN_MESSAGE`].
+fn serve_frames(registry: &Registry) -> Result<(), String> {
     let mut input = std::io::stdin().lock();
     let mut output = std::io::stdout().lock();
     let start = match read_message::<ToWorker>(&mut input) {
         Ok(Some(ToWorker::Start(start))) => start,
-        Ok(_) => {
-            eprintln!("the render worker was sent no technique to start: it is started by the viewer, not by hand");
-            return ExitCode::FAILURE;
-        }
-        Err(e) => {
-            eprintln!("the render worker cannot read its start: {e}");
-            return ExitCode::FAILURE;
-        }
+        Ok(_) => return Err(
+            "the render worker was sent no technique to start: the viewer starts it, not a user"
+                .into(),
+        ),
+        Err(e) => return Err(format!("the render worker cannot read its start: {e}")),
     };
+    let faults: Faults = start
+        .faults
+        .parse()
+        .map_err(|e| format!("the render worker cannot inject its faults: {e}"))?;
     let control = BuildControl::default();
-    let faults: Faults = match start.faults.parse() {
-        Ok(faults) => faults,
-        Err(e) => {
-            eprintln!("the render worker cannot inject its faults: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
     let made = make_worker(registry, &start, &control);
     let reply = FromWorker::Started(made.as_ref().map(|_| ()).map_err(StartError::clone));
-    if write_message(&mut output, &reply).is_err() {
-        return ExitCode::FAILURE;
-    }
-    let Ok(mut worker) = made else {
-        return ExitCode::FAILURE;
-    };
+    write_message(&mut output, &reply)
+        .map_err(|e| format!("the render worker cannot answer the viewer: {e}"))?;
+    let mut worker = made.map_err(|e| format!("the render worker could not start: {e}"))?;
     let mut scene: Option<(u64, Arc<Scene>)> = None;
     let mut first_frame = true;
     loop {
-        let (mut request, cancelled) = match read_message::<ToWorker>(&mut input) {
-            Ok(Some(ToWorker::Scene(hash, new))) => {
+        let read = read_message::<ToWorker>(&mut input)
+            .map_err(|e| format!("the render worker cannot read its next request: {e}"))?;
+        let (mut request, cancelled) = match read {
+            Some(ToWorker::Scene(hash, new)) => {
                 scene = Some((hash, Arc::new(new)));
                 continue;
             }
-            Ok(Some(ToWorker::Frame(request, cancelled))) => (request, cancelled),
-            Ok(Some(ToWorker::Start(_))) => {
-                eprintln!("the render worker was sent a second technique");
-                return ExitCode::FAILURE;
+            Some(ToWorker::Frame(request, cancelled)) => (request, cancelled),
+            Some(ToWorker::Start(_)) => {
+                return Err("the render worker was sent a second technique".into())
             }
             // The viewer closed the pipe: it is done with this worker.
-            Ok(None) => return ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("the render worker cannot read its next request: {e}");
-                return ExitCode::FAILURE;
-            }
+            None => return Ok(()),
         };
-        match &scene {
-            Some((hash, scene)) if *hash == request.scene_hash => request.scene = scene.clone(),
+        request.scene = match &scene {
+            Some((hash, scene)) if *hash == request.scene_hash => scene.clone(),
             _ => {
-                eprintln!("the render worker was asked for a frame of a scene it was not sent");
-                return ExitCode::FAILURE;
-            }
-        }
-        if cancelled {
-            control.cancel();
-        } else {
-            control.clear_cancel();
-        }
-        if std::mem::take(&mut first_frame) {
-            // At the first frame, not at the start: the viewer waits for its first technique
-            // to start, and a `hang` there would hold the window before Cancel is shown.
-            if let Err(e) = faults.at_start(start.index, worker.gpu()) {
-                eprintln!("the render worker's first frame failed: {e}");
-                return ExitCode::FAILURE;
-            }
-            // `lost`: the device is destroyed before the first frame, which then meets it.
-            faults.in_the_middle(start.index, worker.gpu());
-        }
-        // wgpu panics on some calls to a lost device (a buffer mapped at creation): the loss
-        // is then what the viewer is told.
-        let answered =
-            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| worker.answer(&request)));
-        let mut done = match answered {
-            Ok(done) => done,
-            Err(_) => {
-                match worker.gpu().lost() {
-                    Some(why) => eprintln!("the render worker's device was lost: {why}"),
-                    None => eprintln!("the render worker panicked (above: where and why)"),
-                }
-                return ExitCode::FAILURE;
+                return Err(
+                    "the render worker was asked for a frame of a scene it was not sent".into(),
+                )
             }
         };
-        done.build = control
-            .progress_with_unit()
-            .map(|p| (p.done, p.total, p.unit.into_owned()));
-        let lost = done.device_lost.clone();
-        if write_message(&mut output, &FromWorker::Frame(Box::new(done))).is_err() {
-            return ExitCode::FAILURE;
+        if std::mem::take(&mut first_frame) {
+            inject_faults(&faults, start.index, worker.gpu())?;
         }
+        let done = answer(&mut worker, &request, &control, cancelled)?;
+        let lost = done.device_lost.clone();
+        write_message(&mut output, &FromWorker::Frame(Box::new(done)))
+            .map_err(|e| format!("the render worker cannot answer the viewer: {e}"))?;
         if let Some(why) = lost {
             // A lost device is of no further use: the viewer starts a new worker.
-            eprintln!("the render worker's device was lost: {why}");
-            return ExitCode::FAILURE;
+            return Err(format!("the render worker's device was lost: {why}"));
         }
     }
+}
+
+/// The faults of worker `index`, before its first frame: at the first frame, not at the
+/// start, because the viewer waits for its first technique to start, and a `hang` there would
+/// hold the window before Cancel is shown. `lost` destroys the device, which the frame then
+/// meets.
+fn inject_faults(faults: &Faults, index: usize, gpu: &Gpu) -> Result<(), String> {
+    faults
+        .at_start(index, gpu)
+        .map_err(|e| format!("the render worker's first frame failed: {e}"))?;
+    faults.in_the_middle(index, gpu);
+    Ok(())
+}
+
+/// Renders `request` with the precompute's cancel flag as the viewer has it (`cancelled`), and
+/// adds the precompute's progress. wgpu panics on some calls to a lost device (a buffer mapped
+/// at creation): the loss is then the error.
+fn answer(
+    worker: &mut Worker,
+    request: &FrameRequest,
+    control: &BuildControl,
+    cancelled: bool,
+) -> Result<FrameDone, String> {
+    if cancelled {
+        control.cancel();
+    } else {
+        control.clear_cancel();
+    }
+    let answered =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| worker.answer(request)));
+    let mut done = answered.map_err(|_| match worker.gpu().lost() {
+        Some(why) => format!("the render worker's device was lost: {why}"),
+        None => "the render worker panicked (above: where and why)".to_string(),
+    })?;
+    done.build = control
+        .progress_with_unit()
+        .map(|p| (p.done, p.total, p.unit.into_owned()));
+    Ok(done)
 }
 
 /// The worker for `start`: a device of its own (the adapter chosen as `Gpu::new_headless`
