@@ -79,7 +79,7 @@ impl Faults {
     }
 
     /// At the start of run `index`: `oom` fails it, `hang` never returns, `crash` aborts.
-    pub(crate) fn at_start(&self, index: usize, gpu: &Gpu) -> Result<(), BenchError> {
+    pub fn at_start(&self, index: usize, gpu: &Gpu) -> Result<(), BenchError> {
         if self.has(FaultKind::Crash, index) {
             eprintln!("{FAULT_ENV}: aborting in run {index}");
             std::process::abort();
@@ -95,7 +95,7 @@ impl Faults {
 
     /// In the middle of run `index` (its technique and scene on the device): `lost` destroys
     /// the device.
-    pub(crate) fn in_the_middle(&self, index: usize, gpu: &Gpu) {
+    pub fn in_the_middle(&self, index: usize, gpu: &Gpu) {
         if self.has(FaultKind::Lost, index) {
             gpu.device.destroy();
         }

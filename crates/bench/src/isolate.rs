@@ -55,7 +55,7 @@ const POLL: Duration = Duration::from_millis(10);
 const STDERR_LINES: usize = 40;
 
 /// The environment variable that tells a child its parent's process id ([`die_with_parent`]).
-const PARENT_ENV: &str = "SOFTSHADOW_BENCH_PARENT";
+pub const PARENT_ENV: &str = "SOFTSHADOW_BENCH_PARENT";
 
 /// Everything a child needs to make one run.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -290,7 +290,7 @@ fn signal_of(status: ExitStatus) -> Option<(i32, String)> {
 
 /// The line of a child's stderr that best says why it ended: a panic's message, else the last
 /// line that is not a hint of Rust's.
-fn last_words(stderr: &[String]) -> Option<String> {
+pub fn last_words(stderr: &[String]) -> Option<String> {
     let panic = stderr
         .iter()
         .rposition(|line| line.contains("panicked at"))

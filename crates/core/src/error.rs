@@ -226,4 +226,7 @@ pub enum RenderError {
     #[error(transparent)]
     /// The technique failed.
     Technique(#[from] TechniqueError),
+    #[error("{0}")]
+    /// A failure in another process (the viewer's render worker), as its message there.
+    Remote(String),
 }

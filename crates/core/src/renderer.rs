@@ -26,7 +26,7 @@ pub const MAX_RESOLUTION: u32 = 8192;
 /// Pass times of one frame, from the source in [`FrameOutput::timing_source`] (timestamp queries,
 /// or the wall time of each pass submitted on its own). Passes with the same name (e.g. one depth
 /// pass per light sample) are summed; `total_ms` is the sum over all passes.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct GpuFrameTiming {
     /// Sum of every pass.
     pub total_ms: f64,
@@ -51,7 +51,7 @@ pub fn is_core_pass(name: &str) -> bool {
 }
 
 /// What [`Renderer::render`] returns about a frame.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct FrameOutput {
     /// Names of the passes that ran, in order (light-space passes kept from an earlier frame are not in it).
     pub passes_run: Vec<String>,

@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use crate::{camera::Camera, light::AreaLight};
 
 /// A triangle mesh in object space.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Mesh {
     /// Human-readable name (procedural primitive or glTF mesh name), used in error messages.
     pub name: String,
@@ -114,7 +114,7 @@ impl Mesh {
 }
 
 /// One placed copy of a mesh.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Instance {
     /// Index into [`Scene::meshes`].
     pub mesh: usize,
@@ -145,7 +145,7 @@ impl Instance {
 }
 
 /// A complete scene: geometry, one rectangular area light and a camera.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Scene {
     /// Scene id (procedural) or file stem.
     pub name: String,

@@ -159,7 +159,7 @@ impl DebugView {
 }
 
 /// How a debug image is shown and what its colours mean: the technique says, the viewer draws.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum DebugLegend {
     /// A depth map (a depth format, or light-space depth in the red channel): texels holding a
     /// caster mapped black (nearest) to white (farthest) over their own range, empty texels

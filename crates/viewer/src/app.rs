@@ -14,9 +14,11 @@
 //! progressive reference and the metrics against it: `ReferenceState`), `timing_panel`
 //! (`TimingState`), `error_panel` (the metrics), `plot_panel` (the error-against-time plot:
 //! `PlotPanel`, drawn by its own `ui` and answering with a `PlotAction`), `files_panel`
-//! (`FilesState`), `timeline` (a path played over the scene: `TimelineState`) and
-//! `render_worker` (the threads the technique and the reference render on). This file holds the
-//! app, the frame's order and the queries the window and the tests use.
+//! (`FilesState`), `timeline` (a path played over the scene: `TimelineState`),
+//! `render_worker` (the threads the technique and the reference render on) and
+//! `worker_process` (the technique's worker in a child process instead, with
+//! [`ViewerOptions::worker`]: Cancel then stops any frame). This file holds the app, the frame's
+//! order and the queries the window and the tests use.
 
 mod build_panel;
 mod error_panel;
@@ -32,6 +34,7 @@ mod technique;
 mod technique_panel;
 mod timeline;
 mod timing_panel;
+mod worker_process;
 
 pub use plot_panel::{format_tick, linear_ticks, log_ticks, series_style};
 pub use technique::{DEFAULT_HISTORY_FRAMES, FRAME_WAIT, SLOW_FRAME};
@@ -40,6 +43,8 @@ pub use timeline::{
     LiveExact, LiveMetrics, PathTimings, ANIMATION_FILE, COARSE_TRACED_SAMPLES, DEFAULT_STEPS,
     LIVE_WINDOW,
 };
+pub(crate) use worker_process::serve as serve_worker;
+pub use worker_process::WorkerCommand;
 
 use std::{
     path::{Path, PathBuf},
@@ -92,6 +97,11 @@ pub struct ViewerOptions {
     pub params: Vec<(String, ParamValue)>,
     /// A saved viewer state to start from (overrides scene, technique and params).
     pub state: Option<PathBuf>,
+    /// The program each technique's render worker runs in, a process per technique
+    /// (`workbench view-worker`; docs/ARCHITECTURE.md, "The viewer's render worker"): a frame
+    /// that never ends is then stopped by Cancel. `None`: the worker is a thread of the viewer,
+    /// which cannot stop such a frame (for a host whose registry no program of its own serves).
+    pub worker: Option<WorkerCommand>,
 }
 
 impl Default for ViewerOptions {
@@ -102,6 +112,7 @@ impl Default for ViewerOptions {
             technique: String::new(),
             params: Vec::new(),
             state: None,
+            worker: None,
         }
     }
 }
@@ -197,7 +208,7 @@ impl ViewerApp {
             registry,
             egui_renderer,
             scene: scene_panel::SceneState::new(scene, camera, light),
-            technique: technique::TechniqueState::new(settings),
+            technique: technique::TechniqueState::new(settings, options.worker.clone()),
             image: image::ImageState::new(
                 DisplayPass::new(&gpu)?,
                 state.as_ref().map_or(ViewMode::Shaded, |s| s.view_mode),

@@ -116,7 +116,7 @@ fn unordered(key: u32) -> f32 {
 }
 
 /// How a debug image was mapped to the screen, for the legend.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum DebugMapping {
     /// A depth map: caster texels black (`lo`, nearest) to white (`hi`); `count` of them hold a
     /// caster, the rest (dark blue) are empty.

@@ -28,11 +28,19 @@ use softshadow_core::{
     shader_file,
 };
 
-pub use app::{ViewerApp, ViewerOptions};
+pub use app::{ViewerApp, ViewerOptions, WorkerCommand};
 pub use display::ViewMode;
 pub use error::ViewerError;
 pub use state::ViewerState;
 pub use window::{run, ViewOptions, ViewSummary};
+
+/// The render worker's side of [`ViewerOptions::worker`]: a program the viewer starts with it
+/// (`workbench view-worker`) calls this with the viewer's registry, which serves one technique's
+/// frames over stdin and stdout until the viewer closes them or kills the process
+/// (docs/ARCHITECTURE.md, "The viewer's render worker"). Returns the process's exit code.
+pub fn serve_render_worker(registry: &softshadow_core::Registry) -> std::process::ExitCode {
+    app::serve_worker(registry)
+}
 
 /// Memory hints of the viewer's device: small sub-allocation blocks, and blocks of their own for
 /// large buffers, so that a dropped scene's buffers are handed back to the driver at once.

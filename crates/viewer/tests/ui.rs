@@ -27,6 +27,7 @@ fn harness(technique: &str) -> Result<Harness<'static, ViewerApp>> {
             registry: softshadow::registry(),
             scene: "atty-square".into(),
             technique: technique.into(),
+            worker: worker_under_test(),
             ..ViewerOptions::default()
         },
     )?;
@@ -616,6 +617,7 @@ fn the_pdsm_builds_off_the_ui_thread_and_cancel_stops_it() -> Result<()> {
                 ("shadow_map_size".into(), ParamValue::Int(256)),
                 ("disk_cache".into(), ParamValue::Bool(false)),
             ],
+            worker: worker_under_test(),
             ..ViewerOptions::default()
         },
     )?;
@@ -1121,6 +1123,7 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
             registry,
             scene: "atty-square".into(),
             technique: id.clone(),
+            worker: worker_under_test(),
             ..ViewerOptions::default()
         },
     )?;
@@ -1848,5 +1851,181 @@ fn nothing_is_cut_at_1280x800_and_1000x700() -> Result<()> {
             }
         }
     }
+    Ok(())
+}
+
+/// Set in the environment of the render worker processes the tests below start: the test
+/// binary run again is then the worker ([`render_worker_child`]).
+const WORKER_CHILD_ENV: &str = "SOFTSHADOW_VIEWER_TEST_WORKER";
+
+/// Not a test of its own: the render worker process of the tests that use one. Run as a test
+/// of this binary (`--exact render_worker_child`) with [`WORKER_CHILD_ENV`] set, it serves the
+/// built-in registry's techniques over stdin and stdout, as `workbench view-worker` does;
+/// otherwise it does nothing.
+#[test]
+fn render_worker_child() {
+    if std::env::var_os(WORKER_CHILD_ENV).is_some() {
+        let code = softshadow_viewer::serve_render_worker(&softshadow::registry());
+        std::process::exit(if code == std::process::ExitCode::SUCCESS {
+            0
+        } else {
+            1
+        });
+    }
+}
+
+/// A render worker process: this test binary run again as [`render_worker_child`].
+fn worker_process() -> softshadow_viewer::WorkerCommand {
+    softshadow_viewer::WorkerCommand {
+        program: std::env::current_exe()
+            .expect("the test binary's path")
+            .into_os_string(),
+        args: [
+            "render_worker_child",
+            "--exact",
+            "--nocapture",
+            "--test-threads=1",
+        ]
+        .map(Into::into)
+        .to_vec(),
+        env: vec![(WORKER_CHILD_ENV.into(), "1".into())],
+    }
+}
+
+/// The render worker of the tests on the built-in techniques: a thread, or with
+/// `SOFTSHADOW_VIEWER_TEST_WORKERS=process` a process per technique, as `workbench view` has
+/// (the tests that register a technique of their own keep the thread: the child's registry is
+/// the built-in one).
+fn worker_under_test() -> Option<softshadow_viewer::WorkerCommand> {
+    let wanted = std::env::var("SOFTSHADOW_VIEWER_TEST_WORKERS");
+    (wanted.as_deref() == Ok("process")).then(worker_process)
+}
+
+/// The viewer on `technique` of `registry` with a render worker process per technique (this
+/// test binary's [`render_worker_child`]), waiting for each technique frame at most `wait`.
+fn process_harness(
+    registry: softshadow_core::Registry,
+    technique: &str,
+    wait: std::time::Duration,
+) -> Result<Harness<'static, ViewerApp>> {
+    let gpu = Gpu::new_headless().context("the viewer UI tests need a GPU adapter")?;
+    let render_state = softshadow_viewer::render_state(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut app = ViewerApp::new(
+        gpu,
+        render_state.renderer.clone(),
+        &ViewerOptions {
+            registry,
+            scene: "atty-square".into(),
+            technique: technique.into(),
+            worker: Some(worker_process()),
+            ..ViewerOptions::default()
+        },
+    )?;
+    app.set_frame_wait(wait);
+    app.set_reference_param("samples_per_axis", ParamValue::Int(4));
+    app.set_reference_param("shadow_map_size", ParamValue::Int(256));
+    Ok(Harness::builder()
+        .with_size(SIZE)
+        .renderer(WgpuTestRenderer::from_render_state(render_state))
+        .build_ui_state(|ui, app: &mut ViewerApp| app.ui(ui), app))
+}
+
+/// Issue 42: a WGSL file whose `visibility` never returns runs in its worker process; the
+/// window keeps answering, Cancel kills the process, and `hard` is then shown and timed. (A
+/// literal `loop {}` is removed by lavapipe's compiler and returns; this loop's exit depends on
+/// a parameter, so it is kept, and never taken.)
+#[test]
+fn a_never_ending_wgsl_file_is_cancelled_and_hard_is_shown_and_timed() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("forever.wgsl");
+    std::fs::write(
+        &path,
+        "// Never returns: the loop's exit needs V < 0.\n\
+         // @param step: f32 = 1.0 in 0.0..=1.0, What V grows by each turn\n\
+         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n\
+         \x20   var v = 0.0;\n\
+         \x20   loop {\n\
+         \x20       v = v + params.step;\n\
+         \x20       if v < 0.0 { break; }\n\
+         \x20   }\n\
+         \x20   return v;\n\
+         }\n",
+    )?;
+    let mut registry = softshadow::registry();
+    let id = softshadow_wgsl::register_file(&mut registry, &path)?;
+    let mut harness = process_harness(registry, &id, softshadow_viewer::app::FRAME_WAIT)?;
+    let started = std::time::Instant::now();
+    while harness.state().slow_frame_seconds().is_none() {
+        harness.step();
+        ensure!(
+            started.elapsed().as_secs() < 120,
+            "the never-ending frame never showed its progress"
+        );
+    }
+    // The window answers while the frame runs: a click changes the view mode.
+    harness.get_by_label("Difference").click();
+    harness.run_steps(2);
+    ensure!(harness.state().view_mode() == ViewMode::Difference);
+    ensure!(harness.state().technique_frame_running());
+    harness.get_by_label("Cancel").click();
+    let cancelled = std::time::Instant::now();
+    harness.run_steps(2);
+    ensure!(harness.state().cancelled_frame().is_some());
+    harness
+        .get_by_role_and_label(Role::ComboBox, "Technique")
+        .click();
+    harness.run_steps(2);
+    harness.get_by_label("hard").click();
+    harness.state_mut().set_frame_wait(std::time::Duration::MAX);
+    let mut steps = 0;
+    while harness.state().first_frame_ms().is_none() || ensure_hard_was_timed(&harness).is_err() {
+        harness.step();
+        steps += 1;
+        ensure!(
+            steps < 200,
+            "hard was never shown and timed after the Cancel"
+        );
+    }
+    eprintln!(
+        "hard shown and timed {:.0} ms after the Cancel (its first frame {:.0} ms after it was picked)",
+        cancelled.elapsed().as_secs_f64() * 1e3,
+        harness.state().first_frame_ms().unwrap_or_default()
+    );
+    ensure!(harness.state().technique_error().is_none());
+    ensure!(harness.state().worker_processes_started() == 2);
+    Ok(())
+}
+
+/// Issue 42: a render worker whose device is lost (`SOFTSHADOW_FAULT=lost:K`'s way) shows the
+/// driver's message, and the viewer starts a new worker, which renders and times the technique.
+#[test]
+fn a_lost_device_shows_its_message_and_a_new_worker_renders() -> Result<()> {
+    let mut harness = process_harness(softshadow::registry(), "hard", std::time::Duration::MAX)?;
+    harness.run_steps(2);
+    ensure_hard_was_timed(&harness)?;
+    // The next worker (the session's second, K = 1) loses its device before its first frame.
+    harness.state_mut().set_faults("lost:1")?;
+    harness.state_mut().select_technique("pcss");
+    let mut steps = 0;
+    while harness.state().first_frame_ms().is_none() {
+        harness.step();
+        steps += 1;
+        ensure!(steps < 50, "no worker rendered pcss after the lost device");
+    }
+    let errors = harness.state().errors().join("\n");
+    ensure!(
+        errors.contains("lost") && errors.contains("a new render worker was started"),
+        "the loss is shown: {errors}"
+    );
+    eprintln!("shown: {errors}");
+    ensure!(harness.state().worker_processes_started() == 3);
+    ensure!(harness.state().technique_id() == "pcss");
+    ensure!(harness.state().technique_error().is_none());
+    harness.run_steps(2);
+    ensure!(harness
+        .state()
+        .timing_rows()
+        .iter()
+        .any(|r| r.name.starts_with("pcss/")));
     Ok(())
 }

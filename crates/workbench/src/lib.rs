@@ -69,6 +69,10 @@ enum Command {
     },
     /// The interactive viewer (the default without a subcommand).
     View(ViewArgs),
+    /// The viewer's render worker: one technique's frames over stdin and stdout (started by
+    /// `view` for every technique it shows).
+    #[command(hide = true)]
+    ViewWorker,
     /// Merge the shards of one sweep (output folders of `bench --shard`) into one folder.
     Merge {
         /// Output folders (or their results.json) of the shards.
@@ -285,6 +289,7 @@ pub fn main_with(extra: Vec<TechniqueInfo>) -> ExitCode {
             bench::bench_run(&registry, &technique_files)
         }
         Some(Command::View(args)) => view(&registry, args),
+        Some(Command::ViewWorker) => Ok(softshadow_viewer::serve_render_worker(&registry)),
         Some(Command::Merge { inputs, out }) => merge(&inputs, &out),
         Some(Command::Docs {
             files,
@@ -636,6 +641,14 @@ fn view(registry: &Registry, args: ViewArgs) -> Result<ExitCode> {
             technique,
             params,
             state: args.state,
+            // Each technique renders in a process of its own, so Cancel stops any frame.
+            worker: Some(softshadow_viewer::WorkerCommand {
+                program: std::env::current_exe()
+                    .context("cannot find this program to run the render worker in")?
+                    .into_os_string(),
+                args: vec!["view-worker".into()],
+                env: Vec::new(),
+            }),
         },
         width,
         height,

@@ -13,6 +13,11 @@
 //! Dropping a [`RenderWorker`] abandons it: its thread finishes the frame it is in (a GPU frame
 //! cannot be interrupted), sees the request channel closed and ends, freeing its device. That is
 //! how Cancel and a switch away from a slow technique are immediate for the user.
+//!
+//! The same [`Worker`] also runs in a child process ([`super::worker_process`]): a frame that
+//! never ends (a WGSL file that loops) stalls every lavapipe device of its process, the UI's
+//! included, and only killing the process stops it. Both kinds look the same to the UI: requests
+//! go into a channel, finished frames come out of one.
 
 use std::{
     sync::{mpsc, Arc},
@@ -25,21 +30,31 @@ use softshadow_core::{
     RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
 };
 
-use super::timeline::{LiveExact, LiveMetrics};
+use super::{
+    timeline::{LiveExact, LiveMetrics},
+    worker_process::ProcessLink,
+};
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
+
+/// How long the viewer waits for a worker process to make its first technique.
+const PROCESS_START_LIMIT: Duration = Duration::from_secs(60);
 
 /// Largest debug image edge sent back (as the display draws them).
 const DEBUG_EDGE: u32 = 1024;
 
 /// One frame the UI asks for: everything it depends on, so the worker keeps no UI state.
+/// (A worker process is sent the scene once per scene, not with every request.)
+#[derive(serde::Serialize, serde::Deserialize)]
 pub(super) struct FrameRequest {
     /// The UI's key of this setting (technique, parameters, scene, light, camera, size).
     pub(super) setting_key: u64,
+    #[serde(skip, default = "no_scene")]
     pub(super) scene: Arc<Scene>,
     pub(super) scene_hash: u64,
     pub(super) camera: Camera,
     pub(super) light: AreaLight,
     pub(super) size: (u32, u32),
+    #[serde(with = "wire_params")]
     pub(super) params: Vec<(String, ParamValue)>,
     /// Drop the technique's caches first (a cost frame, as the benchmark's `timing`).
     pub(super) invalidate: bool,
@@ -50,7 +65,19 @@ pub(super) struct FrameRequest {
     pub(super) exact: Option<u64>,
 }
 
+/// The scene of a request read from a pipe until the worker sets the one it was sent.
+fn no_scene() -> Arc<Scene> {
+    Arc::new(Scene {
+        name: String::new(),
+        meshes: Vec::new(),
+        instances: Vec::new(),
+        light: AreaLight::default(),
+        camera: Camera::default(),
+    })
+}
+
 /// A debug image drawn by the worker, as RGBA8 bytes of the display format.
+#[derive(serde::Serialize, serde::Deserialize)]
 pub(super) struct DebugImage {
     pub(super) width: u32,
     pub(super) height: u32,
@@ -62,7 +89,9 @@ pub(super) struct DebugImage {
 pub(super) type CreateOnWorker =
     Box<dyn FnOnce(&Gpu) -> Result<Box<dyn ShadowTechnique>, String> + Send>;
 
-/// What came of one [`FrameRequest`].
+/// What came of one [`FrameRequest`] (sent over a pipe by a worker process: the render error
+/// travels as its message, [`wire_result`]).
+#[derive(serde::Serialize, serde::Deserialize)]
 pub(super) struct FrameDone {
     pub(super) setting_key: u64,
     pub(super) camera: Camera,
@@ -71,6 +100,7 @@ pub(super) struct FrameDone {
     pub(super) scene_hash: u64,
     pub(super) invalidated: bool,
     /// The frame's passes and times, and its visibility read out (row-major, `size`).
+    #[serde(with = "wire_result")]
     pub(super) result: Result<(softshadow_core::FrameOutput, Vec<f32>), RenderError>,
     /// The technique's debug views after the frame: name and legend.
     pub(super) debug_views: Vec<(String, DebugLegend)>,
@@ -88,18 +118,30 @@ pub(super) struct FrameDone {
     /// it held before the technique was made, less the scene's and the renderer's
     /// (`softshadow_core::memory`); `None` where the device counts none.
     pub(super) technique_memory: Option<MemoryUse>,
+    /// The driver's message when the worker's device was lost (the worker is of no further use:
+    /// the UI starts a new one).
+    pub(super) device_lost: Option<String>,
+    /// A worker process's precompute progress after the frame (done, total, unit), which the UI
+    /// copies into its own [`BuildControl`]; `None` from a thread, which shares the UI's.
+    pub(super) build: Option<(u32, u32, String)>,
 }
 
-/// The technique's thread: requests go in, finished frames come out.
+/// Whether the technique was created on a worker: its device (a thread's, for reuse; `None`
+/// from a process), or why not.
+pub(super) type Started = Result<Option<Gpu>, StartError>;
+
+/// The technique's thread or process: requests go in, finished frames come out.
 pub(super) struct RenderWorker {
     /// `None` once retired: the thread then ends.
     requests: Option<mpsc::Sender<FrameRequest>>,
     /// Whether the technique was created on the worker (its error otherwise); taken once read.
-    started: Option<mpsc::Receiver<Result<Gpu, StartError>>>,
+    started: Option<mpsc::Receiver<Started>>,
     /// The worker's device (a clone), once it exists: reused by the next worker once this one
     /// has ended.
     gpu: Option<Gpu>,
     thread: Option<thread::JoinHandle<()>>,
+    /// The worker's process, when it runs in one (killed when retired).
+    process: Option<ProcessLink>,
     frames: mpsc::Receiver<FrameDone>,
     /// The request being rendered.
     in_flight: Option<InFlight>,
@@ -119,7 +161,7 @@ pub(super) struct InFlight {
 }
 
 /// Why a [`RenderWorker`] could not start.
-#[derive(Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub(super) enum StartError {
     Device(String),
     Technique(String),
@@ -161,7 +203,7 @@ impl RenderWorker {
         let adapter = gpu.adapter.clone();
         let (request_tx, request_rx) = mpsc::channel::<FrameRequest>();
         let (frame_tx, frame_rx) = mpsc::channel::<FrameDone>();
-        let (started_tx, started_rx) = mpsc::channel::<Result<Gpu, StartError>>();
+        let (started_tx, started_rx) = mpsc::channel::<Started>();
         let thread = thread::Builder::new()
             .name(format!("render worker: {name}"))
             .spawn(move || {
@@ -185,7 +227,7 @@ impl RenderWorker {
                 let baseline = device.memory_in_use();
                 let technique = match create(&device) {
                     Ok(technique) => {
-                        let _ = started_tx.send(Ok(device.clone()));
+                        let _ = started_tx.send(Ok(Some(device.clone())));
                         technique
                     }
                     Err(e) => {
@@ -196,31 +238,77 @@ impl RenderWorker {
                 Worker::new(device, technique, baseline).run(&request_rx, &frame_tx);
             })
             .map_err(|e| StartError::Device(format!("cannot start its thread: {e}")))?;
-        Ok(Self {
-            requests: Some(request_tx),
-            started: Some(started_rx),
-            gpu: None,
-            thread: Some(thread),
-            frames: frame_rx,
-            in_flight: None,
-            debug_views: Vec::new(),
-        })
+        let mut worker = Self::from_channels(request_tx, started_rx, frame_rx);
+        worker.thread = Some(thread);
+        Ok(worker)
     }
 
-    /// Waits until the technique exists on the worker; its creation error otherwise.
+    /// A worker behind these channels (its thread or process is set by the caller).
+    pub(super) fn from_channels(
+        requests: mpsc::Sender<FrameRequest>,
+        started: mpsc::Receiver<Started>,
+        frames: mpsc::Receiver<FrameDone>,
+    ) -> Self {
+        Self {
+            requests: Some(requests),
+            started: Some(started),
+            gpu: None,
+            thread: None,
+            process: None,
+            frames,
+            in_flight: None,
+            debug_views: Vec::new(),
+        }
+    }
+
+    /// Ties the worker to its process, which [`Self::retire`] kills.
+    pub(super) fn set_process(&mut self, process: ProcessLink) {
+        self.process = Some(process);
+    }
+
+    /// Why the worker stopped, when it ran in a process: how the process ended and its last
+    /// words (its stderr).
+    pub(super) fn why_stopped(&mut self) -> Option<String> {
+        self.process.as_mut().map(ProcessLink::why_ended)
+    }
+
+    /// Waits until the technique exists on the worker; its creation error otherwise. A worker
+    /// process has [`PROCESS_START_LIMIT`] to answer (a program that is no worker may never).
     pub(super) fn wait_started(&mut self) -> Result<(), StartError> {
         let Some(started) = self.started.take() else {
             return Ok(());
         };
-        match started.recv() {
+        let answer = if self.process.is_some() {
+            started.recv_timeout(PROCESS_START_LIMIT)
+        } else {
+            started
+                .recv()
+                .map_err(|_| mpsc::RecvTimeoutError::Disconnected)
+        };
+        match answer {
             Ok(Ok(device)) => {
-                self.gpu = Some(device);
+                self.gpu = device;
                 Ok(())
             }
             Ok(Err(e)) => Err(e),
-            Err(_) => Err(StartError::Technique(
-                "the render worker stopped while creating the technique (see the log)".into(),
-            )),
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                // The caller drops this worker, which kills its process.
+                Err(StartError::Device(format!(
+                    "the render worker's process did not start the technique within {} s: \
+                     check that ViewerOptions::worker runs a program that calls \
+                     softshadow_viewer::serve_render_worker",
+                    PROCESS_START_LIMIT.as_secs()
+                )))
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                Err(StartError::Technique(match self.why_stopped() {
+                    Some(how) => {
+                        format!("the render worker stopped while creating the technique: {how}")
+                    }
+                    None => "the render worker stopped while creating the technique (see the log)"
+                        .into(),
+                }))
+            }
         }
     }
 
@@ -230,7 +318,7 @@ impl RenderWorker {
         let result = match self.started.as_ref()?.try_recv() {
             Err(mpsc::TryRecvError::Empty) => return None,
             Ok(Ok(device)) => {
-                self.gpu = Some(device);
+                self.gpu = device;
                 Ok(())
             }
             Ok(Err(e)) => Err(e),
@@ -275,6 +363,14 @@ impl RenderWorker {
     /// stopped), taking its device with it.
     pub(super) fn retire(mut self) -> Retired {
         self.requests = None;
+        if let Some(mut process) = self.process.take() {
+            // Killing a process stops any frame at once, even one that never ends.
+            process.kill();
+            return Retired {
+                device: None,
+                running: None,
+            };
+        }
         // A technique created since the last look is idle, not abandoned.
         let _ = self.poll_started();
         let thread = self.thread.take();
@@ -385,8 +481,8 @@ pub(super) fn traced_samples_per_axis(receivers: usize) -> u32 {
 /// A frame measured for the timeline: its path run, visibility, exact answer and receiver mask.
 type MeasuredFrame = (u64, Vec<f32>, Vec<f32>, Vec<bool>);
 
-/// The worker thread's state.
-struct Worker {
+/// The worker's state (on its thread, or in its process).
+pub(super) struct Worker {
     gpu: Gpu,
     technique: Box<dyn ShadowTechnique>,
     scene: Option<(u64, SceneGpu)>,
@@ -405,7 +501,11 @@ struct Worker {
 }
 
 impl Worker {
-    fn new(gpu: Gpu, technique: Box<dyn ShadowTechnique>, memory_baseline: MemoryUse) -> Self {
+    pub(super) fn new(
+        gpu: Gpu,
+        technique: Box<dyn ShadowTechnique>,
+        memory_baseline: MemoryUse,
+    ) -> Self {
         Self {
             gpu,
             technique,
@@ -432,60 +532,69 @@ impl Worker {
         })
     }
 
+    /// The worker's device.
+    pub(super) fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
     fn run(mut self, requests: &mpsc::Receiver<FrameRequest>, frames: &mpsc::Sender<FrameDone>) {
         while let Ok(mut request) = requests.recv() {
             // Only the newest request matters: the UI sends one at a time, but be safe.
             while let Ok(newer) = requests.try_recv() {
                 request = newer;
             }
-            let result = self.frame(&request);
-            let technique_memory = result
-                .as_ref()
-                .ok()
-                .and_then(|(output, _)| self.technique_memory(output.memory_peak));
-            let debug_image = match (&result, request.debug_view) {
-                (Ok(_), Some(index)) => self.debug_image(index),
-                _ => None,
-            };
-            let (live, exact) = match (&result, request.exact) {
-                (Ok((_, visibility)), Some(run)) => {
-                    match self.live_metrics(&request, run, visibility) {
-                        Ok((metrics, exact)) => (Some(Ok(metrics)), Some(exact)),
-                        Err(message) => {
-                            self.previous = None;
-                            (Some(Err(message)), None)
-                        }
-                    }
-                }
-                _ => {
-                    self.previous = None;
-                    (None, None)
-                }
-            };
-            let done = FrameDone {
-                setting_key: request.setting_key,
-                camera: request.camera,
-                light: request.light,
-                size: request.size,
-                scene_hash: request.scene_hash,
-                invalidated: request.invalidate,
-                result,
-                debug_views: self
-                    .technique
-                    .debug_views()
-                    .into_iter()
-                    .map(|v| (v.name, v.legend))
-                    .collect(),
-                debug_image,
-                stats: self.technique.stats(),
-                live,
-                exact,
-                wall_ms: 0.0,
-                technique_memory,
-            };
-            if frames.send(done).is_err() {
+            if frames.send(self.answer(&request)).is_err() {
                 return; // The UI dropped this worker.
             }
+        }
+    }
+
+    /// Renders `request` and everything the UI wants with it.
+    pub(super) fn answer(&mut self, request: &FrameRequest) -> FrameDone {
+        let result = self.frame(request);
+        let technique_memory = result
+            .as_ref()
+            .ok()
+            .and_then(|(output, _)| self.technique_memory(output.memory_peak));
+        let debug_image = match (&result, request.debug_view) {
+            (Ok(_), Some(index)) => self.debug_image(index),
+            _ => None,
+        };
+        let (live, exact) = match (&result, request.exact) {
+            (Ok((_, visibility)), Some(run)) => match self.live_metrics(request, run, visibility) {
+                Ok((metrics, exact)) => (Some(Ok(metrics)), Some(exact)),
+                Err(message) => {
+                    self.previous = None;
+                    (Some(Err(message)), None)
+                }
+            },
+            _ => {
+                self.previous = None;
+                (None, None)
+            }
+        };
+        FrameDone {
+            setting_key: request.setting_key,
+            camera: request.camera,
+            light: request.light,
+            size: request.size,
+            scene_hash: request.scene_hash,
+            invalidated: request.invalidate,
+            result,
+            debug_views: self
+                .technique
+                .debug_views()
+                .into_iter()
+                .map(|v| (v.name, v.legend))
+                .collect(),
+            debug_image,
+            stats: self.technique.stats(),
+            live,
+            exact,
+            wall_ms: 0.0,
+            technique_memory,
+            device_lost: self.gpu.lost(),
+            build: None,
         }
     }
 
@@ -680,6 +789,146 @@ impl Worker {
             mapping,
         })
     }
+}
+
+/// A frame's result as it crosses a pipe: the render error as its message, except the two a
+/// precompute building off the worker's thread reports (the build panel reads their fields).
+mod wire_result {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use softshadow_core::{FrameOutput, RenderError, TechniqueError};
+
+    use super::intern_unit;
+
+    #[derive(Serialize, Deserialize)]
+    enum WireError {
+        Building {
+            technique: String,
+            done: u32,
+            total: u32,
+            unit: String,
+        },
+        Cancelled {
+            technique: String,
+        },
+        Other(String),
+    }
+
+    type Frame = (FrameOutput, Vec<f32>);
+
+    pub(super) fn serialize<S: Serializer>(
+        result: &Result<Frame, RenderError>,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        let wire: Result<&Frame, WireError> = match result {
+            Ok(frame) => Ok(frame),
+            Err(RenderError::Technique(TechniqueError::Building {
+                technique,
+                done,
+                total,
+                unit,
+            })) => Err(WireError::Building {
+                technique: technique.clone(),
+                done: *done,
+                total: *total,
+                unit: unit.to_string(),
+            }),
+            Err(RenderError::Technique(TechniqueError::Cancelled { technique })) => {
+                Err(WireError::Cancelled {
+                    technique: technique.clone(),
+                })
+            }
+            Err(e) => Err(WireError::Other(e.to_string())),
+        };
+        wire.serialize(serializer)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Result<Frame, RenderError>, D::Error> {
+        let wire = Result::<Frame, WireError>::deserialize(deserializer)?;
+        Ok(wire.map_err(|e| match e {
+            WireError::Building {
+                technique,
+                done,
+                total,
+                unit,
+            } => RenderError::Technique(TechniqueError::Building {
+                technique,
+                done,
+                total,
+                unit: intern_unit(&unit),
+            }),
+            WireError::Cancelled { technique } => {
+                RenderError::Technique(TechniqueError::Cancelled { technique })
+            }
+            WireError::Other(message) => RenderError::Remote(message),
+        }))
+    }
+}
+
+/// Parameter values as they cross a pipe: tagged (`ParamValue` is untagged for JSON, which
+/// bincode cannot read back).
+pub(super) mod wire_params {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use softshadow_core::ParamValue;
+
+    #[derive(Serialize, Deserialize)]
+    enum Wire {
+        Bool(bool),
+        Int(i64),
+        Float(f64),
+        Choice(String),
+    }
+
+    pub(in super::super) fn serialize<S: Serializer>(
+        params: &[(String, ParamValue)],
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        let wire: Vec<(&String, Wire)> = params
+            .iter()
+            .map(|(name, value)| {
+                let value = match value {
+                    ParamValue::Bool(b) => Wire::Bool(*b),
+                    ParamValue::Int(i) => Wire::Int(*i),
+                    ParamValue::Float(x) => Wire::Float(*x),
+                    ParamValue::Choice(c) => Wire::Choice(c.clone()),
+                };
+                (name, value)
+            })
+            .collect();
+        wire.serialize(serializer)
+    }
+
+    pub(in super::super) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Vec<(String, ParamValue)>, D::Error> {
+        let wire = Vec::<(String, Wire)>::deserialize(deserializer)?;
+        Ok(wire
+            .into_iter()
+            .map(|(name, value)| {
+                let value = match value {
+                    Wire::Bool(b) => ParamValue::Bool(b),
+                    Wire::Int(i) => ParamValue::Int(i),
+                    Wire::Float(x) => ParamValue::Float(x),
+                    Wire::Choice(c) => ParamValue::Choice(c),
+                };
+                (name, value)
+            })
+            .collect())
+    }
+}
+
+/// A precompute's unit name ("PDSM rows") as the `'static` string [`TechniqueError::Building`]
+/// and [`BuildControl::start`] hold: each name is leaked once, and techniques have a handful.
+pub(super) fn intern_unit(unit: &str) -> &'static str {
+    static UNITS: std::sync::Mutex<Vec<&'static str>> = std::sync::Mutex::new(Vec::new());
+    let mut units = UNITS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(known) = units.iter().find(|u| **u == unit) {
+        return known;
+    }
+    let leaked: &'static str = Box::leak(unit.to_string().into_boxed_str());
+    units.push(leaked);
+    leaked
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@ use super::{
     build_panel::BuildState,
     render_worker::{FrameDone, FrameRequest, RenderWorker},
     timing_panel::SLOW_COST_FRAME_MS,
+    worker_process::{Start, TechniqueSource, WorkerCommand},
     ViewerApp,
 };
 use crate::display::{DisplayTarget, ViewMode};
@@ -25,6 +26,11 @@ pub const FRAME_WAIT: Duration = Duration::from_millis(40);
 
 /// A frame running longer than this shows its progress with a Cancel button.
 pub const SLOW_FRAME: Duration = Duration::from_secs(1);
+
+/// Workers started again in a row, without a frame shown in between, after a lost device or a
+/// worker process that died: past this the technique is left stopped (it would only fail again)
+/// until it is picked again.
+const MAX_RESTARTS: u32 = 2;
 
 /// The active technique, every technique's settings, and its last error.
 pub(super) struct TechniqueState {
@@ -62,6 +68,14 @@ pub(super) struct TechniqueState {
     picked_at: Option<Instant>,
     /// Time from picking the active technique to its first frame shown, ms.
     pub(super) first_frame_ms: Option<f64>,
+    /// The program a worker process runs ([`super::ViewerOptions::worker`]); `None`: threads.
+    worker_command: Option<WorkerCommand>,
+    /// Worker processes started this session: the next one's index (`SOFTSHADOW_FAULT`'s K).
+    processes_started: usize,
+    /// Faults to inject into worker processes (`SOFTSHADOW_FAULT`'s text; empty: none).
+    pub(super) faults: String,
+    /// Workers started again since the last frame shown ([`MAX_RESTARTS`]).
+    restarts: u32,
 }
 
 /// Frames of history a technique that keeps one is settled after when it declares no
@@ -110,7 +124,10 @@ impl HistoryState {
 }
 
 impl TechniqueState {
-    pub(super) fn new(settings: BTreeMap<String, BTreeMap<String, ParamValue>>) -> Self {
+    pub(super) fn new(
+        settings: BTreeMap<String, BTreeMap<String, ParamValue>>,
+        worker_command: Option<WorkerCommand>,
+    ) -> Self {
         Self {
             id: String::new(),
             worker: None,
@@ -128,7 +145,37 @@ impl TechniqueState {
             history: HistoryState::default(),
             picked_at: None,
             first_frame_ms: None,
+            worker_command,
+            processes_started: 0,
+            faults: std::env::var(softshadow_bench::fault::FAULT_ENV).unwrap_or_default(),
+            restarts: 0,
         }
+    }
+
+    /// A worker for `info` with `params`: in a process of its own when the viewer has a worker
+    /// program, else on a thread (reusing the last idle worker's device).
+    fn start_worker(
+        &mut self,
+        gpu: &softshadow_core::Gpu,
+        info: &TechniqueInfo,
+        params: Vec<(String, ParamValue)>,
+        build: softshadow_core::BuildControl,
+    ) -> Result<RenderWorker, super::render_worker::StartError> {
+        let Some(command) = &self.worker_command else {
+            return RenderWorker::for_technique(gpu, self.spare_device.take(), info, params, build);
+        };
+        let technique = match softshadow_wgsl::file_of(info) {
+            Some(path) => TechniqueSource::File(path),
+            None => TechniqueSource::Registered(info.id.to_string()),
+        };
+        let start = Start {
+            technique,
+            params,
+            index: self.processes_started,
+            faults: self.faults.clone(),
+        };
+        self.processes_started += 1;
+        RenderWorker::in_process(command, start, build)
     }
 
     /// Retires the worker; an abandoned one's thread is kept until its frame ends.
@@ -203,6 +250,7 @@ impl ViewerApp {
         self.technique.cancelled_frame = None;
         self.technique.picked_at = Some(Instant::now());
         self.technique.first_frame_ms = None;
+        self.technique.restarts = 0;
         self.release_memory();
         self.technique.error = None;
         self.timing.rolling.clear();
@@ -214,14 +262,10 @@ impl ViewerApp {
             .map_err(|e| e.to_string())
             .and_then(|info| {
                 let params: Vec<(String, ParamValue)> = saved.clone().into_iter().collect();
-                let worker = RenderWorker::for_technique(
-                    &self.gpu,
-                    self.technique.spare_device.take(),
-                    info,
-                    params,
-                    control,
-                )
-                .map_err(|e| e.to_string())?;
+                let worker = self
+                    .technique
+                    .start_worker(&self.gpu, info, params, control)
+                    .map_err(|e| e.to_string())?;
                 Ok((worker, param_set_of(info, &saved)))
             });
         match result {
@@ -283,6 +327,7 @@ impl ViewerApp {
             return;
         };
         let seconds = seconds.map_or(0.0, |d| d.as_secs_f64());
+        // A worker process is killed here: its frame stops at once, whatever it runs.
         self.technique.retire_worker();
         // A precompute running inside the technique stops too.
         self.technique.build.cancel_control();
@@ -360,7 +405,13 @@ impl ViewerApp {
             return;
         }
         match worker.receive(self.technique.frame_wait) {
-            Ok(Some(done)) => self.show_frame(done),
+            Ok(Some(done)) => {
+                let lost = done.device_lost.clone();
+                self.show_frame(done);
+                if let Some(why) = lost {
+                    self.restart_worker(format!("its render worker's device was lost ({why})"));
+                }
+            }
             Ok(None) => {}
             Err(()) => self.worker_stopped(),
         }
@@ -396,20 +447,69 @@ impl ViewerApp {
         }
     }
 
+    /// The worker ended without answering: a thread that panicked, a process that died (a
+    /// crash in the driver, a lost device, killed from outside). A process is started again;
+    /// a thread's panic would only repeat, so the technique waits to be picked again.
     fn worker_stopped(&mut self) {
-        let why = match self
-            .technique
-            .worker
-            .as_mut()
-            .and_then(|w| w.poll_started())
-        {
-            Some(Err(e)) => format!("it failed to start: {e}"),
-            _ => "its render worker stopped (a panic on its thread; the log says why); pick the \
-                  technique again to restart it"
-                .into(),
+        let Some(mut worker) = self.technique.worker.take() else {
+            return;
         };
-        self.technique.worker = None;
-        self.technique.error = Some(format!("{}: {why}", self.technique.id));
+        let id = self.technique.id.clone();
+        if let Some(Err(e)) = worker.poll_started() {
+            self.technique.error = Some(format!("{id}: it failed to start: {e}"));
+            return;
+        }
+        match worker.why_stopped() {
+            Some(how) => {
+                drop(worker);
+                self.restart_worker(format!("its render worker stopped: {how}"));
+            }
+            None => {
+                self.technique.error = Some(format!(
+                    "{id}: its render worker stopped (a panic on its thread; the log says why); \
+                     pick the technique again to restart it"
+                ));
+            }
+        }
+    }
+
+    /// Replaces a worker whose device was lost or whose process ended with a new one (a new
+    /// device, a new process), saying why; after [`MAX_RESTARTS`] in a row without a frame
+    /// shown, leaves the technique stopped.
+    fn restart_worker(&mut self, why: String) {
+        let id = self.technique.id.clone();
+        if let Some(worker) = self.technique.worker.take() {
+            // Its device is not reused.
+            let _ = worker.retire();
+        }
+        self.technique.spare_device = None;
+        let restarts = self.technique.restarts;
+        if restarts >= MAX_RESTARTS {
+            let message = format!(
+                "{id}: {why}; not restarted again after {restarts} new workers failed the same \
+                 way: pick the technique again to retry"
+            );
+            self.technique.error = Some(message.clone());
+            self.report_error(message);
+            return;
+        }
+        self.report_error(format!("{id}: {why}; a new render worker was started"));
+        self.select_technique(&id);
+        self.technique.restarts = restarts + 1;
+    }
+
+    /// Faults to inject into the render worker processes started from now on, as
+    /// `SOFTSHADOW_FAULT` would (`lost:K`: the K-th worker process of the session, counted from
+    /// 0, loses its device before its first frame; `hang`, `oom`, `crash` likewise): for tests.
+    pub fn set_faults(&mut self, faults: &str) -> Result<(), crate::ViewerError> {
+        faults.parse::<softshadow_bench::fault::Faults>()?;
+        self.technique.faults = faults.to_string();
+        Ok(())
+    }
+
+    /// Worker processes started this session (0 with thread workers).
+    pub fn worker_processes_started(&self) -> usize {
+        self.technique.processes_started
     }
 
     /// The history length the active technique settles at when it keeps a history at its
@@ -442,6 +542,7 @@ impl ViewerApp {
         let mut path_timing = None;
         match done.result {
             Ok((output, visibility)) => {
+                self.technique.restarts = 0;
                 path_timing = output.gpu.clone();
                 self.technique.build.note(Ok(()));
                 if let Some(r) = self.image.renderers.as_mut() {

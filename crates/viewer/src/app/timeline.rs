@@ -38,7 +38,7 @@ pub const COARSE_TRACED_SAMPLES: u32 = 8;
 pub const DEFAULT_STEPS: u32 = 60;
 
 /// Error and flicker of one shown frame against its exact answer.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LiveMetrics {
     /// `mae_shadowed` against the frame's exact answer.
     pub mae_shadowed: f64,
@@ -51,7 +51,7 @@ pub struct LiveMetrics {
 }
 
 /// The exact answer a live measurement used.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum LiveExact {
     /// The closed form (rectangles parallel to the light).
     ClosedForm,
