@@ -1349,50 +1349,39 @@ fn the_timeline_plays_a_path_with_live_error_and_flicker_and_records_it() -> Res
         .query_by_label_contains("light moving ms")
         .context("the timing panel shows the path's table")?;
 
-    // light-sweep turns the light away from parallel to the caster: no closed form. With ray
-    // queries the live error is measured against the GPU ray-traced exact answer and the panel
-    // says so; without them it says why there is none.
+    // light-sweep turns the light away from parallel to the caster: no closed form. The live
+    // error is measured against the analytic exact answer (a light with area, a small frame,
+    // with or without ray queries), with the irradiance error beside it, and the panel says so.
     harness.state_mut().open_path(Some("light-sweep"));
     harness.state_mut().set_path_steps(3);
     harness.state_mut().set_playing(true);
     harness.run_steps(5);
     let live = harness.state().live_metrics();
-    let ray_queries = Gpu::headless_adapter_features()?
-        .1
-        .contains(softshadow_core::accel::RAY_QUERY);
-    if ray_queries {
-        ensure!(
-            live.len() >= 2
-                && live
-                    .iter()
-                    .all(|m| m.mae_shadowed.is_finite() && m.mae_shadowed > 0.0),
-            "live metrics along light-sweep: {live:?} ({:?})",
-            harness.state().live_message()
-        );
-        ensure!(
-            live.iter()
-                .any(|m| matches!(m.exact, LiveExact::Traced { .. })),
-            "light-sweep's tilted frames use the ray-traced exact answer: {live:?}"
-        );
-        eprintln!(
-            "live ray-traced exact answers at 96x64: {:?}",
-            live.iter()
-                .map(|m| (m.exact.to_string(), m.exact_ms))
-                .collect::<Vec<_>>()
-        );
-        harness
-            .query_by_label_contains("ray traced on the GPU")
-            .context("the timeline says which exact answer it used")?;
-    } else {
-        ensure!(
-            harness
-                .state()
-                .live_message()
-                .is_some_and(|m| m.contains("no ray queries")),
-            "{:?}",
-            harness.state().live_message()
-        );
-    }
+    ensure!(
+        live.len() >= 2
+            && live
+                .iter()
+                .all(|m| m.mae_shadowed.is_finite() && m.mae_shadowed > 0.0),
+        "live metrics along light-sweep: {live:?} ({:?})",
+        harness.state().live_message()
+    );
+    ensure!(
+        live.iter().any(|m| m.exact == LiveExact::Analytic
+            && m.irradiance_mae_shadowed.is_some_and(f64::is_finite)),
+        "light-sweep's tilted frames use the analytic exact answer: {live:?}"
+    );
+    eprintln!(
+        "live analytic exact answers at 96x64: {:?}",
+        live.iter()
+            .map(|m| (m.exact.to_string(), m.exact_ms))
+            .collect::<Vec<_>>()
+    );
+    harness
+        .query_by_label_contains("analytic (exact")
+        .context("the timeline says which exact answer it used")?;
+    harness
+        .query_by_label_contains("irradiance error")
+        .context("the timeline shows the irradiance error")?;
     // orbit turns only the camera: camera-only steps, never mixed into the light-moving ones.
     harness.state_mut().open_path(Some("orbit"));
     harness.state_mut().set_path_steps(4);

@@ -35,6 +35,7 @@ use super::{
     worker_process::ProcessLink,
 };
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
+use softshadow_reference::ExactIrradiance;
 
 /// How long the viewer waits for a worker process to make its first technique.
 const PROCESS_START_LIMIT: Duration = Duration::from_secs(60);
@@ -469,6 +470,11 @@ impl RenderWorker {
 /// viewer's full size, 11 at 256², the maximum at 128².
 pub(super) const LIVE_TRACED_RAYS: usize = 1 << 23;
 
+/// Receiver pixels up to which a live frame's exact answer is the analytic one (where the light
+/// has area) on an adapter with ray queries: about a second on two CPU cores at 100k caster
+/// triangles (docs/BENCHMARKS.md, "The exact answer"); above it the GPU traces.
+pub(super) const LIVE_ANALYTIC_RECEIVERS: usize = 256 * 256;
+
 /// Light samples per axis of a live ray-traced exact answer over `receivers` receiver pixels:
 /// as many as [`LIVE_TRACED_RAYS`] allows, at least 2 (4 rays a pixel: a coarse answer, its
 /// error up to about `1/N` at a penumbra point; the panel says which N and suggests a smaller
@@ -671,8 +677,10 @@ impl Worker {
 
     /// The frame's error against its exact answer and its flicker against the frame measured
     /// before it; the exact answer with them. The exact answer is the closed form where the
-    /// scene has one, else the GPU ray-traced one on an adapter with ray queries (its sample
-    /// count from [`traced_samples_per_axis`]).
+    /// scene has one; else the analytic answer (with the exact irradiance) where the light has
+    /// area and the frame is small enough ([`LIVE_ANALYTIC_RECEIVERS`]) or the adapter has no
+    /// ray queries; else the GPU ray-traced one (its sample count from
+    /// [`traced_samples_per_axis`]).
     fn live_metrics(
         &mut self,
         request: &FrameRequest,
@@ -681,6 +689,7 @@ impl Worker {
     ) -> Result<(LiveMetrics, Vec<f32>), String> {
         let renderer = self.renderer.as_ref().ok_or("no frame rendered")?;
         let positions = renderer.read_world_positions().map_err(|e| e.to_string())?;
+        let normals = renderer.read_world_normals().map_err(|e| e.to_string())?;
         let mask = renderer.read_receiver_mask().map_err(|e| e.to_string())?;
         let lit_as_shown = Scene {
             camera: request.camera,
@@ -688,36 +697,26 @@ impl Worker {
             ..(*request.scene).clone()
         };
         let started = Instant::now();
-        let (exact, method) =
-            match softshadow_reference::exact::visibility_image(&lit_as_shown, &positions, &mask) {
-                Some(exact) => (exact, LiveExact::ClosedForm),
-                None if self.gpu.has_ray_query() => {
-                    let receivers = mask.iter().filter(|&&m| m).count();
-                    let samples_per_axis = traced_samples_per_axis(receivers);
-                    let exact = softshadow_reference::traced::visibility_image(
-                        &self.gpu,
-                        &lit_as_shown,
-                        &positions,
-                        &mask,
-                        samples_per_axis,
-                    )
-                    .map_err(|e| {
-                        format!("no live error: the ray-traced exact answer failed: {e}")
-                    })?;
-                    (exact, LiveExact::Traced { samples_per_axis })
-                }
-                None => {
-                    return Err(
-                        "no live error: this scene has casters that are not rectangles parallel \
-                         to the light, and this adapter has no ray queries for the ray-traced \
-                         exact answer (run `workbench bench --path` for the CPU ray cast)"
-                            .into(),
-                    )
-                }
-            };
+        let receivers = mask.iter().filter(|&&m| m).count();
+        let (exact, method, irradiance): (Vec<f32>, _, _) =
+            self.live_exact(&lit_as_shown, &positions, &normals, &mask, receivers)?;
         let exact_ms = started.elapsed().as_secs_f64() * 1e3;
         let report =
             softshadow_metrics::compare(visibility, &exact, &mask).map_err(|e| e.to_string())?;
+        let irradiance_mae_shadowed = match &irradiance {
+            Some(e) => Some(
+                softshadow_metrics::compare_irradiance(
+                    visibility,
+                    &exact,
+                    &e.irradiance,
+                    &e.unoccluded,
+                    &mask,
+                )
+                .map_err(|e| e.to_string())?
+                .irradiance_mae_shadowed,
+            ),
+            None => None,
+        };
         let flicker = match &self.previous {
             Some((previous_run, v0, e0, m0))
                 if *previous_run == run && v0.len() == visibility.len() =>
@@ -733,12 +732,71 @@ impl Worker {
         Ok((
             LiveMetrics {
                 mae_shadowed: report.mae_shadowed,
+                irradiance_mae_shadowed,
                 flicker,
                 exact: method,
                 exact_ms,
             },
             exact,
         ))
+    }
+
+    /// The exact answer of one live frame, how it was had and, when analytic, the exact
+    /// irradiance (see [`Self::live_metrics`]).
+    fn live_exact(
+        &self,
+        scene: &Scene,
+        positions: &[Option<softshadow_core::glam::Vec3>],
+        normals: &[softshadow_core::glam::Vec3],
+        mask: &[bool],
+        receivers: usize,
+    ) -> Result<(Vec<f32>, LiveExact, Option<ExactIrradiance>), String> {
+        let closed_form = softshadow_reference::exact::visibility_image(scene, positions, mask);
+        let has_area = scene.light.width > 0.0 && scene.light.height > 0.0;
+        let analytic_fits = receivers <= LIVE_ANALYTIC_RECEIVERS || !self.gpu.has_ray_query();
+        if has_area && (closed_form.is_some() || analytic_fits) {
+            let seen = softshadow_reference::analytic::light_seen_image(
+                scene,
+                positions,
+                Some(normals),
+                mask,
+                None,
+            )
+            .map_err(|e| format!("no live error: the analytic exact answer failed: {e}"))?;
+            let irradiance = ExactIrradiance {
+                irradiance: seen.iter().map(|s| s.irradiance as f32).collect(),
+                unoccluded: seen.iter().map(|s| s.unoccluded as f32).collect(),
+            };
+            // The closed form's visibility where it applies (equal within 1e-9, the fast path).
+            return Ok(match closed_form {
+                Some(exact) => (exact, LiveExact::ClosedForm, Some(irradiance)),
+                None => {
+                    let exact = seen.iter().map(|s| s.visibility as f32).collect();
+                    (exact, LiveExact::Analytic, Some(irradiance))
+                }
+            });
+        }
+        if let Some(exact) = closed_form {
+            return Ok((exact, LiveExact::ClosedForm, None));
+        }
+        if !self.gpu.has_ray_query() {
+            return Err(
+                "no live error: under a point light this scene needs a sampled exact \
+                 answer, and this adapter has no ray queries for the ray-traced one (run \
+                 `workbench bench --path` for the CPU ray cast)"
+                    .into(),
+            );
+        }
+        let samples_per_axis = traced_samples_per_axis(receivers);
+        let exact = softshadow_reference::traced::visibility_image(
+            &self.gpu,
+            scene,
+            positions,
+            mask,
+            samples_per_axis,
+        )
+        .map_err(|e| format!("no live error: the ray-traced exact answer failed: {e}"))?;
+        Ok((exact, LiveExact::Traced { samples_per_axis }, None))
     }
 
     /// Draws debug view `index` (or the first) as the display shows it and reads it out.

@@ -42,6 +42,9 @@ pub const DEFAULT_STEPS: u32 = 60;
 pub struct LiveMetrics {
     /// `mae_shadowed` against the frame's exact answer.
     pub mae_shadowed: f64,
+    /// The irradiance error over shadowed receivers (`irradiance_mae_shadowed`,
+    /// docs/BENCHMARKS.md, "The irradiance error"), where the exact answer was analytic.
+    pub irradiance_mae_shadowed: Option<f64>,
     /// Flicker against the frame before it (`None` for the first frame of a run).
     pub flicker: Option<f64>,
     /// How the frame's exact answer was computed.
@@ -55,6 +58,8 @@ pub struct LiveMetrics {
 pub enum LiveExact {
     /// The closed form (rectangles parallel to the light).
     ClosedForm,
+    /// The analytic answer (`softshadow_reference::analytic`): any mesh under a light with area.
+    Analytic,
     /// The GPU ray-traced answer (`softshadow_reference::traced`) with this many stratified
     /// light samples per axis.
     Traced { samples_per_axis: u32 },
@@ -64,6 +69,7 @@ impl std::fmt::Display for LiveExact {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             LiveExact::ClosedForm => f.write_str("closed form"),
+            LiveExact::Analytic => f.write_str("analytic (exact, computed on the CPU)"),
             LiveExact::Traced {
                 samples_per_axis: n,
             } => {
@@ -646,12 +652,32 @@ impl TimelineState {
                 flickers.iter().sum::<f64>() / flickers.len() as f64
             )
         };
-        ui.label(format!("error {error:.4}, flicker {flicker}"))
+        let irradiance: Vec<f64> = live
+            .iter()
+            .filter_map(|m| m.irradiance_mae_shadowed)
+            .collect();
+        let irradiance = match irradiance.len() {
+            0 => String::new(),
+            n if n == live.len() => {
+                format!(
+                    ", irradiance error {:.4}",
+                    irradiance.iter().sum::<f64>() / n as f64
+                )
+            }
+            n => format!(
+                ", irradiance error {:.4} ({n} of {} frames)",
+                irradiance.iter().sum::<f64>() / n as f64,
+                live.len()
+            ),
+        };
+        ui.label(format!("error {error:.4}, flicker {flicker}{irradiance}"))
             .on_hover_text(format!(
                 "Means over the last {} frames played, against each frame's exact answer: \
                  error = mae_shadowed; flicker = mean over receiver pixels of \
                  |(V_t - V_t-1) - (E_t - E_t-1)|, the change the technique shows that the truth \
-                 does not (docs/BENCHMARKS.md, \"Motion\")",
+                 does not (docs/BENCHMARKS.md, \"Motion\"); irradiance error (with the analytic \
+                 answer) = mean |V E0 - E| over shadowed receivers over their mean E0, the error \
+                 where the shaded image shows it (\"The irradiance error\")",
                 live.len()
             ));
         if let Some(last) = live.back() {
@@ -661,8 +687,10 @@ impl TimelineState {
             ))
             .on_hover_text(
                 "The closed form where every caster is a rectangle parallel to the light; \
-                 elsewhere the GPU ray-traced answer, whose sampling error (O(1/N) at a \
-                 penumbra point for N x N samples) is part of the error and flicker shown",
+                 elsewhere the analytic answer (no sampling error) where the light has area and \
+                 the frame has at most 256 x 256 receiver pixels, else the GPU ray-traced \
+                 answer, whose sampling error (O(1/N) at a penumbra point for N x N samples) is \
+                 part of the error and flicker shown",
             );
             if let LiveExact::Traced { samples_per_axis } = last.exact {
                 if samples_per_axis < COARSE_TRACED_SAMPLES {
