@@ -470,10 +470,16 @@ impl RenderWorker {
 /// viewer's full size, 11 at 256², the maximum at 128².
 pub(super) const LIVE_TRACED_RAYS: usize = 1 << 23;
 
-/// Receiver pixels up to which a live frame's exact answer is the analytic one (where the light
-/// has area) on an adapter with ray queries: about a second on two CPU cores at 100k caster
-/// triangles (docs/BENCHMARKS.md, "The exact answer"); above it the GPU traces.
-pub(super) const LIVE_ANALYTIC_RECEIVERS: usize = 256 * 256;
+/// The longest a live frame's analytic exact answer may be expected to take (on an adapter with
+/// ray queries; above it the GPU traces), seconds.
+pub(super) const LIVE_ANALYTIC_SECONDS: f64 = 2.0;
+
+/// Expected seconds of the analytic exact answer of `receivers` pixels over `caster_triangles`,
+/// from its measured cost (docs/BENCHMARKS.md, "The exact answer", 2 lavapipe cores): about
+/// 1.2 us a pixel at 1k triangles and 18 us at 100k.
+pub(super) fn analytic_seconds(receivers: usize, caster_triangles: usize) -> f64 {
+    receivers as f64 * (1.0 + caster_triangles as f64 / 6000.0) * 1e-6
+}
 
 /// Light samples per axis of a live ray-traced exact answer over `receivers` receiver pixels:
 /// as many as [`LIVE_TRACED_RAYS`] allows, at least 2 (4 rays a pixel: a coarse answer, its
@@ -678,8 +684,8 @@ impl Worker {
     /// The frame's error against its exact answer and its flicker against the frame measured
     /// before it; the exact answer with them. The exact answer is the closed form where the
     /// scene has one; else the analytic answer (with the exact irradiance) where the light has
-    /// area and the frame is small enough ([`LIVE_ANALYTIC_RECEIVERS`]) or the adapter has no
-    /// ray queries; else the GPU ray-traced one (its sample count from
+    /// area and it is expected to take at most [`LIVE_ANALYTIC_SECONDS`] ([`analytic_seconds`])
+    /// or the adapter has no ray queries; else the GPU ray-traced one (its sample count from
     /// [`traced_samples_per_axis`]).
     fn live_metrics(
         &mut self,
@@ -753,7 +759,15 @@ impl Worker {
     ) -> Result<(Vec<f32>, LiveExact, Option<ExactIrradiance>), String> {
         let closed_form = softshadow_reference::exact::visibility_image(scene, positions, mask);
         let has_area = scene.light.width > 0.0 && scene.light.height > 0.0;
-        let analytic_fits = receivers <= LIVE_ANALYTIC_RECEIVERS || !self.gpu.has_ray_query();
+        let caster_triangles: usize = scene
+            .instances
+            .iter()
+            .filter(|i| i.casts_shadow)
+            .filter_map(|i| scene.meshes.get(i.mesh))
+            .map(|m| m.indices.len() / 3)
+            .sum();
+        let analytic_fits = analytic_seconds(receivers, caster_triangles) <= LIVE_ANALYTIC_SECONDS
+            || !self.gpu.has_ray_query();
         if has_area && (closed_form.is_some() || analytic_fits) {
             let seen = softshadow_reference::analytic::light_seen_image(
                 scene,
@@ -992,6 +1006,15 @@ pub(super) fn intern_unit(unit: &str) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The cost model picks the analytic answer for a small scene at a large frame and for a
+    /// large scene at a small one, and the ray-traced answer for 100k triangles at 700 x 533.
+    #[test]
+    fn the_live_analytic_answer_is_used_where_it_is_cheap() {
+        assert!(analytic_seconds(700 * 533, 30) <= LIVE_ANALYTIC_SECONDS);
+        assert!(analytic_seconds(256 * 256, 100_000) <= LIVE_ANALYTIC_SECONDS);
+        assert!(analytic_seconds(700 * 533, 100_000) > LIVE_ANALYTIC_SECONDS);
+    }
 
     #[test]
     fn the_live_traced_samples_follow_the_ray_budget_within_their_bounds() {
