@@ -56,8 +56,8 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 use crate::{
     report::{
         best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms,
-        headline_rows, mae_shadowed, ms, params_text, scenes_of, still_flicker_text, summary_rows,
-        BUDGETS, TARGET_MAE,
+        headline_rows, irradiance_mae_shadowed, mae_shadowed, ms, params_text, scenes_of,
+        still_flicker_text, summary_rows_within, Budgets, Score, BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -85,6 +85,7 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("mae_shadowed", "mae_shadowed"),
     ("darker_shadowed", "of it too dark"),
     ("brighter_umbra", "too bright in umbra"),
+    ("irradiance", "irradiance error"),
     ("flip", "FLIP"),
     ("still_flicker", "still flicker"),
     ("exact", "exact answer"),
@@ -261,13 +262,14 @@ fn table(spec: &str, root: &Path) -> Result<String, String> {
         "settled" => settled_table(&results.runs),
         "stiff-matrix" => stiff_matrix(&results.runs),
         "headline" => headline(&results.runs),
-        "summary" => summary(&results.runs),
+        "summary" => summary(&results.runs, Score::Visibility),
+        "summary-irradiance" => summary(&results.runs, Score::Irradiance),
         "runs" => runs_table(&results.runs, &options)?,
         "motion" => motion_table(&results.runs, &options)?,
         "grid" => grid_table(&results.runs, &options)?,
         other => {
             return Err(format!(
-                "unknown table kind `{other}`: use stiff-matrix, headline, summary, runs, grid, motion, cpu-gpu, rank-moves, timestamps, pass-timestamps, resolution, ms-budgets, memory or settled"
+                "unknown table kind `{other}`: use stiff-matrix, headline, summary, summary-irradiance, runs, grid, motion, cpu-gpu, rank-moves, timestamps, pass-timestamps, resolution, ms-budgets, memory or settled"
             ))
         }
     };
@@ -379,9 +381,10 @@ fn headline(runs: &[Run]) -> String {
     t
 }
 
-fn summary(runs: &[Run]) -> String {
+/// The across-scenes table ranked by `score` (the visibility or the irradiance error).
+fn summary(runs: &[Run], score: Score) -> String {
     let scenes = scenes_of(runs);
-    let rows = summary_rows(runs, &scenes);
+    let rows = summary_rows_within(runs, &scenes, Budgets::FloorMultiples, score);
     let mut t = String::from("| technique | on the Pareto front |");
     for b in BUDGETS {
         let _ = write!(
@@ -501,6 +504,9 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
                 "mae_shadowed" => mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "brighter_umbra" => brighter_umbra(run).map_or("-".into(), |e| format!("{e:.4}")),
+                "irradiance" => {
+                    irradiance_mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}"))
+                }
                 "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
                 "still_flicker" => still_flicker_text(run.still_flicker),
                 "reference_vs_exact" => run

@@ -237,3 +237,23 @@ fn degenerate_cases_match_a_dense_ray_cast() -> Result<()> {
     assert!((a - 0.8).abs() < 1e-6, "{a}");
     Ok(())
 }
+
+/// A cancelled analytic answer stops with `Cancelled`; one left alone counts every receiver
+/// pixel as done and ends its build (the progress bar's source).
+#[test]
+fn the_analytic_answer_counts_its_progress_and_can_be_cancelled() -> Result<()> {
+    use softshadow_core::BuildControl;
+    use softshadow_reference::analytic::{light_seen_image, AnalyticError};
+    let scene = softshadow_scenes::builtin("blob-floating:triangles=2000", &[])?;
+    let points: Vec<Option<Vec3>> = receiver_points(&scene, 300).into_iter().map(Some).collect();
+    let mask = vec![true; points.len()];
+    let control = BuildControl::default();
+    light_seen_image(&scene, &points, None, &mask, Some(&control))?;
+    assert_eq!(control.progress(), None, "the build ended");
+    let done = control.done.load(std::sync::atomic::Ordering::Relaxed) as usize;
+    assert_eq!(done, points.len());
+    control.cancel();
+    let cancelled = light_seen_image(&scene, &points, None, &mask, Some(&control));
+    assert_eq!(cancelled.unwrap_err(), AnalyticError::Cancelled);
+    Ok(())
+}
