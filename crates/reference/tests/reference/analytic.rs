@@ -244,7 +244,7 @@ fn degenerate_cases_match_a_dense_ray_cast() -> Result<()> {
 fn the_analytic_answer_counts_its_progress_and_can_be_cancelled() -> Result<()> {
     use softshadow_core::BuildControl;
     use softshadow_reference::analytic::{light_seen_image, AnalyticError};
-    let scene = softshadow_scenes::builtin("blob-floating:triangles=2000", &[])?;
+    let scene = softshadow_scenes::load("blob-floating:triangles=2000")?.scene;
     let points: Vec<Option<Vec3>> = receiver_points(&scene, 300).into_iter().map(Some).collect();
     let mask = vec![true; points.len()];
     let control = BuildControl::default();
