@@ -64,11 +64,17 @@ impl UniformMirror {
         }
     }
 
+    /// Whether the WGSL struct is declared in a common module, so every shader importing it holds
+    /// the same struct.
+    pub fn from_common_module(&self) -> bool {
+        common_import_path(self.wgsl_file).is_some()
+    }
+
     /// Whether the struct may appear in a shader composed from `path`: its own file, or any
     /// shader when it comes from a common module (which shader imports it is the naga name's
     /// business).
     pub fn may_appear_in(&self, path: &str) -> bool {
-        self.wgsl_file == path || common_import_path(self.wgsl_file).is_some()
+        self.wgsl_file == path || self.from_common_module()
     }
 }
 
