@@ -217,9 +217,16 @@ fn a_uniform_mirror_out_of_step_is_reported_with_the_field() -> Result<()> {
     // A WGSL struct as a shader would declare it, reflected the way the real ones are.
     let spec = ShaderSpec {
         path: "test/params.wgsl",
-        source: "struct Params {\n    scale: f32,\n    count: u32,\n    added: f32,\n    _pad0: u32,\n}\n\
-                 @group(0) @binding(0) var<uniform> params: Params;\n\
-                 @fragment fn fs_main() -> @location(0) vec4<f32> { return vec4<f32>(params.scale); }",
+        source: "struct Params {
+    scale: f32,
+    count: u32,
+    added: f32,
+    _pad0: u32,
+}
+@group(0) @binding(0) var<uniform> params: Params;
+@fragment fn fs_main() -> @location(0) vec4<f32> {
+    return vec4<f32>(params.scale);
+}",
         permutations: &[&[]],
     };
     let wgsl = uniform_layout::wgsl_struct_layout(&spec, &[], "Params")?

@@ -120,7 +120,10 @@ struct GatherUniform {
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
-        GatherUniform { hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, visibility, depth_bands, edge_refine, adaptive_factor, adaptive_pixels, _pad } => "backprojection/gather.wgsl", GatherParams
+        GatherUniform {
+            hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, visibility,
+            depth_bands, edge_refine, adaptive_factor, adaptive_pixels, _pad
+        } => "backprojection/gather.wgsl", GatherParams
     )]
 }
 

@@ -205,7 +205,11 @@ struct GatherUniform {
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
-        GatherUniform { hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, layers, with_area, rows, columns, jittered, edge_refine, depth_bands, adaptive_factor, adaptive_pixels, _pad } => "bitmask/gather.wgsl", GatherParams
+        GatherUniform {
+            hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, layers,
+            with_area, rows, columns, jittered, edge_refine, depth_bands, adaptive_factor,
+            adaptive_pixels, _pad
+        } => "bitmask/gather.wgsl", GatherParams
     )]
 }
 

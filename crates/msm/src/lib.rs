@@ -117,10 +117,16 @@ struct MsmUniform {
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![
         softshadow_core::uniform_mirror!(
-            MsmUniform { depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels, blocker_search_scale, min_filter_texels, filter_taps, levels, _pad } => "msm/moments.wgsl", MsmParams
+            MsmUniform {
+                depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels,
+                blocker_search_scale, min_filter_texels, filter_taps, levels, _pad
+            } => "msm/moments.wgsl", MsmParams
         ),
         softshadow_core::uniform_mirror!(
-            MsmUniform { depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels, blocker_search_scale, min_filter_texels, filter_taps, levels, _pad } => "msm/msm.wgsl", MsmParams
+            MsmUniform {
+                depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels,
+                blocker_search_scale, min_filter_texels, filter_taps, levels, _pad
+            } => "msm/msm.wgsl", MsmParams
         ),
     ]
 }

@@ -121,10 +121,15 @@ struct TemporalUniform {
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![
         softshadow_core::uniform_mirror!(
-            PcssUniform { blocker_samples, filter_samples, frame_index, _pad0, bias_texels, min_filter_texels, _pad1 } => "pcss/pcss.wgsl", PcssParams
+            PcssUniform {
+                blocker_samples, filter_samples, frame_index, _pad0, bias_texels, min_filter_texels,
+                _pad1
+            } => "pcss/pcss.wgsl", PcssParams
         ),
         softshadow_core::uniform_mirror!(
-            TemporalUniform { prev_view_proj, history_valid, max_history, clamp_sigma, _pad } => "pcss/temporal.wgsl", TemporalParams
+            TemporalUniform {
+                prev_view_proj, history_valid, max_history, clamp_sigma, _pad
+            } => "pcss/temporal.wgsl", TemporalParams
         ),
     ]
 }

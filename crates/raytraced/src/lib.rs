@@ -94,10 +94,14 @@ struct DenoiseParams {
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![
         softshadow_core::uniform_mirror!(
-            TraceParams { light_to_world, rays, frame_index, _pad } => "raytraced/trace.wgsl", TraceParams
+            TraceParams {
+                light_to_world, rays, frame_index, _pad
+            } => "raytraced/trace.wgsl", TraceParams
         ),
         softshadow_core::uniform_mirror!(
-            DenoiseParams { prev_view_proj, history_valid, max_history, max_radius, spatial } => "raytraced/denoise.wgsl", DenoiseParams
+            DenoiseParams {
+                prev_view_proj, history_valid, max_history, max_radius, spatial
+            } => "raytraced/denoise.wgsl", DenoiseParams
         ),
     ]
 }

@@ -63,7 +63,9 @@ struct Params {
 /// The ray-traced answer's uniform against its WGSL struct (tests/shaders.rs).
 pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
-        Params { world_to_light, light_to_world, half, samples_per_axis, row, count, seed, _pad } => "reference/trace.wgsl", TraceParams
+        Params {
+            world_to_light, light_to_world, half, samples_per_axis, row, count, seed, _pad
+        } => "reference/trace.wgsl", TraceParams
     )]
 }
 

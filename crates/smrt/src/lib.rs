@@ -86,7 +86,10 @@ struct SmrtUniform {
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
-        SmrtUniform { ray_count, samples_per_ray, _pad0, bias_texels, extrapolate_max_slope, ray_length_scale, texel_dither, max_ray_tan, _pad1 } => "smrt/smrt.wgsl", SmrtParams
+        SmrtUniform {
+            ray_count, samples_per_ray, _pad0, bias_texels, extrapolate_max_slope, ray_length_scale,
+            texel_dither, max_ray_tan, _pad1
+        } => "smrt/smrt.wgsl", SmrtParams
     )]
 }
 

@@ -133,13 +133,19 @@ struct SsmUniform {
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![
         softshadow_core::uniform_mirror!(
-            SsmUniform { occluder_window, occluder_depth, ssm_window, ssm_depth, light } => "ssm/project.wgsl", SsmParams
+            SsmUniform {
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+            } => "ssm/project.wgsl", SsmParams
         ),
         softshadow_core::uniform_mirror!(
-            SsmUniform { occluder_window, occluder_depth, ssm_window, ssm_depth, light } => "ssm/scatter.wgsl", SsmParams
+            SsmUniform {
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+            } => "ssm/scatter.wgsl", SsmParams
         ),
         softshadow_core::uniform_mirror!(
-            SsmUniform { occluder_window, occluder_depth, ssm_window, ssm_depth, light } => "ssm/stats.wgsl", SsmParams
+            SsmUniform {
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+            } => "ssm/stats.wgsl", SsmParams
         ),
     ]
 }

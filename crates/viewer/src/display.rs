@@ -90,7 +90,9 @@ struct DebugParams {
 pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![
         softshadow_core::uniform_mirror!(
-            DisplayParams { mode, reference_ready, split, full_scale } => "viewer/display.wgsl", DisplayParams
+            DisplayParams {
+                mode, reference_ready, split, full_scale
+            } => "viewer/display.wgsl", DisplayParams
         ),
         softshadow_core::uniform_mirror!(
             DebugParams { mode, _pad } => "viewer/debug_view.wgsl", DebugParams

@@ -128,8 +128,9 @@ fn common_import_path(file: &str) -> Option<&'static str> {
     })
 }
 
-/// A struct name from a composed module as a reader knows it: `ShadowView (common/shadow_view.wgsl)`
-/// for one naga_oil decorated with a common module's import path, unchanged otherwise.
+/// A struct name from a composed module as a reader knows it:
+/// `ShadowView (common/shadow_view.wgsl)` for one naga_oil decorated with a common module's import
+/// path, unchanged otherwise.
 pub fn display_name(naga_name: &str) -> String {
     for (file, _) in COMMON_MODULES {
         if let Some(module) = common_import_path(file) {
