@@ -82,7 +82,7 @@ impl UniformMirror {
 /// `uniform_mirror!(HardParams { bias_texels, _pad } => "hard/hard.wgsl", HardParams)`.
 ///
 /// Every field of the Rust struct must be listed, padding included, or the call does not compile
-/// (it destructures the struct without `..`). The struct must be `Zeroable` (every Pod uniform
+/// (it destructures the struct without `..`; rustc then says "pattern requires `..`"). The struct must be `Zeroable` (every Pod uniform
 /// is): a zeroed value gives each field's size.
 #[doc(hidden)]
 #[macro_export]
