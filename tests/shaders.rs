@@ -4,7 +4,22 @@
 
 use std::path::Path;
 
+use std::collections::BTreeSet;
+
 use anyhow::{bail, ensure, Result};
+use softshadow_core::shader::{
+    compose,
+    uniform_layout::{self, FieldLayout, StructLayout, UniformMirror},
+    ShaderSpec,
+};
+
+/// The shaders of the core, of every registered technique and of the viewer.
+fn all_specs() -> Vec<ShaderSpec> {
+    let mut specs = softshadow::registry().all_shaders();
+    // The viewer depends on the bench, so its shaders are added here rather than in the registry.
+    specs.extend_from_slice(softshadow_viewer::SHADERS);
+    specs
+}
 
 fn wgsl_files(dir: &Path, root: &Path, out: &mut Vec<String>) -> Result<()> {
     for entry in std::fs::read_dir(dir)? {
@@ -36,9 +51,7 @@ fn every_shader_and_permutation_validates() -> Result<()> {
         root.display()
     );
 
-    let mut specs = softshadow::registry().all_shaders();
-    // The viewer depends on the bench, so its shaders are added here rather than in the registry.
-    specs.extend_from_slice(softshadow_viewer::SHADERS);
+    let specs = all_specs();
     let validated = softshadow_core::shader::validate_all(&specs)?;
     ensure!(
         validated >= specs.len(),
@@ -78,4 +91,213 @@ fn a_broken_shader_is_reported_with_its_path() {
         .unwrap_err()
         .to_string();
     assert!(error.contains("test/broken.wgsl"), "{error}");
+}
+
+/// Every crate's Rust uniform structs with the WGSL structs they mirror (each crate lists its own
+/// in a hidden `uniform_mirrors()`, where its private structs are visible).
+fn all_mirrors() -> Vec<UniformMirror> {
+    let mut mirrors = softshadow_core::uniform_mirrors();
+    #[cfg(feature = "adaptive")]
+    mirrors.extend(softshadow::adaptive::uniform_mirrors());
+    #[cfg(feature = "backprojection")]
+    mirrors.extend(softshadow::backprojection::uniform_mirrors());
+    #[cfg(feature = "bitmask")]
+    mirrors.extend(softshadow::bitmask::uniform_mirrors());
+    #[cfg(feature = "hard")]
+    mirrors.extend(softshadow::hard::uniform_mirrors());
+    #[cfg(feature = "msm")]
+    mirrors.extend(softshadow::msm::uniform_mirrors());
+    #[cfg(feature = "pcss")]
+    mirrors.extend(softshadow::pcss::uniform_mirrors());
+    #[cfg(feature = "pdsm")]
+    mirrors.extend(softshadow::pdsm::uniform_mirrors());
+    #[cfg(feature = "raytraced")]
+    mirrors.extend(softshadow::raytraced::uniform_mirrors());
+    #[cfg(feature = "reference")]
+    mirrors.extend(softshadow::reference::uniform_mirrors());
+    #[cfg(feature = "smrt")]
+    mirrors.extend(softshadow::smrt::uniform_mirrors());
+    #[cfg(feature = "ssm")]
+    mirrors.extend(softshadow::ssm::uniform_mirrors());
+    mirrors.extend(softshadow_viewer::uniform_mirrors());
+    mirrors
+}
+
+/// Uniform structs with no Rust struct to compare with: their bytes are written by hand. Each
+/// entry is (file declaring the struct, struct name, why).
+const WITHOUT_RUST_MIRROR: &[(&str, &str, &str)] = &[
+    (
+        "core/depth.wgsl",
+        "DepthView",
+        "one mat4x4, written as ShadowViewUniform::light_view_proj into 256-byte slots",
+    ),
+    (
+        "ssm/depth.wgsl",
+        "DepthView",
+        "one mat4x4, written as ShadowViewUniform::light_view_proj",
+    ),
+    (
+        "core/hierarchy.wgsl",
+        "LevelParams",
+        "one u32 level per 256-byte slot, written as bytes in DepthHierarchy::new",
+    ),
+];
+
+/// Every struct held by a `var<uniform>` in any shader, in every permutation, has the size and
+/// field offsets of its Rust mirror; a uniform struct without a mirror, or a mirror whose WGSL
+/// struct no shader uses, fails too.
+#[test]
+fn every_uniform_struct_matches_its_rust_mirror() -> Result<()> {
+    let mirrors = all_mirrors();
+    let mut used = vec![false; mirrors.len()];
+    // A set: a struct from a common module is met again in every shader that imports it.
+    let mut errors = BTreeSet::new();
+    let mut compared = 0;
+    for spec in all_specs() {
+        for permutation in spec.permutations {
+            let module = compose(&spec, permutation)?;
+            for mut wgsl in uniform_layout::uniform_structs(&module)? {
+                let matching: Vec<usize> = (0..mirrors.len())
+                    .filter(|&i| {
+                        mirrors[i].may_appear_in(spec.path) && mirrors[i].naga_name() == wgsl.name
+                    })
+                    .collect();
+                wgsl.name = uniform_layout::display_name(&wgsl.name);
+                if matching.is_empty() {
+                    let exempt = WITHOUT_RUST_MIRROR
+                        .iter()
+                        .any(|(file, name, _)| *file == spec.path && *name == wgsl.name);
+                    if !exempt {
+                        errors.insert(format!(
+                            "{}: uniform struct `{}` has no Rust mirror: list it with \
+                             softshadow_core::uniform_mirror! in its crate's uniform_mirrors()",
+                            spec.path, wgsl.name
+                        ));
+                    }
+                }
+                for i in matching {
+                    used[i] = true;
+                    compared += 1;
+                    // A common module's struct is the same in every shader importing it: name its
+                    // file once rather than every shader and permutation.
+                    let place = if mirrors[i].from_common_module() {
+                        mirrors[i].wgsl_file.to_string()
+                    } else {
+                        format!("{} {permutation:?}", spec.path)
+                    };
+                    for error in uniform_layout::compare(&mirrors[i].rust, &wgsl) {
+                        errors.insert(format!("{place}: {error}"));
+                    }
+                }
+            }
+        }
+    }
+    for (mirror, used) in mirrors.iter().zip(used) {
+        if !used {
+            errors.insert(format!(
+                "Rust `{}` mirrors `{}` in {}, but no shader holds that struct in a uniform",
+                mirror.rust.name, mirror.wgsl_struct, mirror.wgsl_file
+            ));
+        }
+    }
+    ensure!(
+        errors.is_empty(),
+        "{} uniform layout mismatch(es):\n{}",
+        errors.len(),
+        errors.into_iter().collect::<Vec<_>>().join("\n")
+    );
+    ensure!(compared >= mirrors.len(), "compared only {compared} pairs");
+    Ok(())
+}
+
+/// The comparison names the struct and the field when a field is added on one side only, moved,
+/// or resized, and when the sizes differ; padding is skipped by name, not by position.
+#[test]
+fn a_uniform_mirror_out_of_step_is_reported_with_the_field() -> Result<()> {
+    // A WGSL struct as a shader would declare it, reflected the way the real ones are.
+    let spec = ShaderSpec {
+        path: "test/params.wgsl",
+        source: "struct Params {
+    scale: f32,
+    count: u32,
+    added: f32,
+    _pad0: u32,
+}
+@group(0) @binding(0) var<uniform> params: Params;
+@fragment fn fs_main() -> @location(0) vec4<f32> {
+    return vec4<f32>(params.scale);
+}",
+        permutations: &[&[]],
+    };
+    let wgsl = uniform_layout::wgsl_struct_layout(&spec, &[], "Params")?
+        .expect("the struct is in the module");
+    let field = |name: &str, offset, size| FieldLayout {
+        name: name.into(),
+        offset,
+        size,
+    };
+    assert_eq!(wgsl.size, 16);
+    assert_eq!(wgsl.fields[2], field("added", 8, 4));
+
+    // The Rust side as uniform_mirror! lists it, from a deliberately stale struct: `added` is
+    // missing and the padding is spelled differently.
+    #[repr(C)]
+    #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+    struct StaleParams {
+        scale: f32,
+        count: u32,
+        _pad: [u32; 2],
+    }
+    let stale = softshadow_core::uniform_mirror!(
+        StaleParams { scale, count, _pad } => "test/params.wgsl", Params
+    );
+    assert_eq!(
+        uniform_layout::compare(&stale.rust, &wgsl),
+        ["Rust `StaleParams` / WGSL `Params`: field `added` (offset 8, 4 bytes) is in WGSL only"]
+    );
+
+    // Added in Rust only, which also grows the struct.
+    let mut grown = stale.rust.clone();
+    grown.fields.insert(2, field("added", 8, 4));
+    grown.fields.push(field("extra", 16, 4));
+    grown.size = 20;
+    let errors = uniform_layout::compare(&grown, &wgsl);
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.contains("size 20 bytes in Rust, 16 in WGSL")),
+        "{errors:?}"
+    );
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.contains("field `extra` (offset 16, 4 bytes) is in Rust only")),
+        "{errors:?}"
+    );
+
+    // Two fields swapped on one side; and one of another size.
+    let moved = StructLayout {
+        name: "Moved".into(),
+        size: 16,
+        fields: vec![
+            field("count", 0, 4),
+            field("scale", 4, 4),
+            field("added", 8, 8),
+        ],
+    };
+    let errors = uniform_layout::compare(&moved, &wgsl);
+    assert_eq!(
+        errors,
+        [
+            "Rust `Moved` / WGSL `Params`: field `scale` at offset 4 in Rust, 0 in WGSL",
+            "Rust `Moved` / WGSL `Params`: field `count` at offset 0 in Rust, 4 in WGSL",
+            "Rust `Moved` / WGSL `Params`: field `added` is 8 bytes in Rust, 4 in WGSL",
+        ]
+    );
+
+    // And a matching pair has nothing to say.
+    let mut matching = stale.rust;
+    matching.fields.insert(2, field("added", 8, 4));
+    assert!(uniform_layout::compare(&matching, &wgsl).is_empty());
+    Ok(())
 }

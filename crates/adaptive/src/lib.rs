@@ -132,6 +132,23 @@ struct Params {
     counts: [u32; 4],
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![
+        softshadow_core::uniform_mirror!(
+            Params { values, counts } => "adaptive/compare.wgsl", Params
+        ),
+        softshadow_core::uniform_mirror!(
+            Params { values, counts } => "adaptive/evaluate.wgsl", Params
+        ),
+        softshadow_core::uniform_mirror!(
+            Params { values, counts } => "adaptive/resolve.wgsl", Params
+        ),
+    ]
+}
+
 /// Most maps a frame may use: the length of the `views` uniform array in the shaders (512 x 112
 /// bytes fits the 64 KiB uniform binding limit), and the top of the `max_shadow_maps` range.
 const MAX_MAPS: u32 = 512;

@@ -200,6 +200,19 @@ struct GatherUniform {
     _pad: u32,
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![softshadow_core::uniform_mirror!(
+        GatherUniform {
+            hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, layers,
+            with_area, rows, columns, jittered, edge_refine, depth_bands, adaptive_factor,
+            adaptive_pixels, _pad
+        } => "bitmask/gather.wgsl", GatherParams
+    )]
+}
+
 /// Mirrors `Counters` in `gather.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]

@@ -237,6 +237,13 @@ struct SurfaceUniforms {
     mode: [f32; 4],
 }
 
+/// The host surface uniform against its WGSL struct (tests/shaders.rs).
+pub(crate) fn uniform_mirror() -> crate::shader::uniform_layout::UniformMirror {
+    crate::uniform_mirror!(
+        SurfaceUniforms { inverse_view_proj, eye, mode } => "core/host_surface.wgsl", HostSurface
+    )
+}
+
 /// The conversion pass from a host surface to the core's (`host/surface`).
 struct SurfaceConversion {
     layout_world: wgpu::BindGroupLayout,

@@ -65,3 +65,30 @@ pub use visibility::VisibilityBuffer;
 
 // Re-exported so technique crates use the same versions.
 pub use {bytemuck, glam, puffin, wgpu};
+
+/// The core's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs ([`shader::uniform_layout`]).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
+    use frame::FrameUniforms;
+    use shadow_map::ShadowViewUniform;
+    vec![
+        uniform_mirror!(
+            FrameUniforms {
+                view_proj,
+                world_to_light,
+                camera_pos,
+                light_center,
+                light_dir,
+                light_half,
+                screen,
+            } => "common/frame_types.wgsl", FrameUniforms
+        ),
+        uniform_mirror!(
+            ShadowViewUniform { light_view_proj, window, eye_near_far, size }
+                => "common/shadow_view.wgsl", ShadowView
+        ),
+        shading::uniform_mirror(),
+        host::uniform_mirror(),
+    ]
+}

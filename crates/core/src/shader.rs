@@ -11,6 +11,10 @@ use naga_oil::compose::{
 
 use crate::{error::GpuError, Gpu};
 
+// Test support: the layouts of WGSL uniform structs and their Rust mirrors (tests/shaders.rs).
+#[doc(hidden)]
+pub mod uniform_layout;
+
 /// Includes `shaders/<path>` as a `(path, source)` pair, read from the calling crate's own
 /// `shaders/` folder: each crate holds symbolic links to its folders of the workspace's
 /// `shaders/` (`crates/pcss/shaders/pcss -> ../../../shaders/pcss`), so a packaged crate

@@ -30,6 +30,11 @@ struct ShadingParams {
     _pad: [u32; 3],
 }
 
+/// The shading uniform against its WGSL struct (tests/shaders.rs).
+pub(crate) fn uniform_mirror() -> shader::uniform_layout::UniformMirror {
+    crate::uniform_mirror!(ShadingParams { mode, _pad } => "core/shading.wgsl", ShadingParams)
+}
+
 /// The shading pass: albedo * (ambient + V * intensity * cos), or V as grey.
 pub struct ShadingPass {
     pipeline: FullscreenPipeline,

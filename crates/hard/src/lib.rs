@@ -46,6 +46,15 @@ struct HardParams {
     _pad: [f32; 3],
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![softshadow_core::uniform_mirror!(
+        HardParams { bias_texels, _pad } => "hard/hard.wgsl", HardParams
+    )]
+}
+
 /// The `hard` technique: a [`ShadowTechnique`] with its settings.
 pub struct Hard {
     /// Its settings; changes take effect on the next frame.

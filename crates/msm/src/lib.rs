@@ -111,6 +111,26 @@ struct MsmUniform {
     _pad: u32,
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![
+        softshadow_core::uniform_mirror!(
+            MsmUniform {
+                depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels,
+                blocker_search_scale, min_filter_texels, filter_taps, levels, _pad
+            } => "msm/moments.wgsl", MsmParams
+        ),
+        softshadow_core::uniform_mirror!(
+            MsmUniform {
+                depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels,
+                blocker_search_scale, min_filter_texels, filter_taps, levels, _pad
+            } => "msm/msm.wgsl", MsmParams
+        ),
+    ]
+}
+
 /// The moment map with its mip chain.
 struct MomentMap {
     size: u32,

@@ -115,6 +115,25 @@ struct TemporalUniform {
     _pad: u32,
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![
+        softshadow_core::uniform_mirror!(
+            PcssUniform {
+                blocker_samples, filter_samples, frame_index, _pad0, bias_texels, min_filter_texels,
+                _pad1
+            } => "pcss/pcss.wgsl", PcssParams
+        ),
+        softshadow_core::uniform_mirror!(
+            TemporalUniform {
+                prev_view_proj, history_valid, max_history, clamp_sigma, _pad
+            } => "pcss/temporal.wgsl", TemporalParams
+        ),
+    ]
+}
+
 /// What the temporal mode needs from the device: three storage textures in its pass.
 pub fn temporal_requirements() -> Requirements {
     Requirements {

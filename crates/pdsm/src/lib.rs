@@ -116,6 +116,15 @@ struct PdsmParams {
     dynamic_map_texel: [f32; 4],
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![softshadow_core::uniform_mirror!(
+        PdsmParams { window, size_bias, dynamic_map_texel } => "pdsm/evaluate.wgsl", PdsmParams
+    )]
+}
+
 /// A built (or loaded) PDSM on the GPU.
 struct Kept {
     key: u64,

@@ -88,6 +88,24 @@ struct DenoiseParams {
     spatial: u32,
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![
+        softshadow_core::uniform_mirror!(
+            TraceParams {
+                light_to_world, rays, frame_index, _pad
+            } => "raytraced/trace.wgsl", TraceParams
+        ),
+        softshadow_core::uniform_mirror!(
+            DenoiseParams {
+                prev_view_proj, history_valid, max_history, max_radius, spatial
+            } => "raytraced/denoise.wgsl", DenoiseParams
+        ),
+    ]
+}
+
 /// Per-size textures.
 struct Targets {
     width: u32,

@@ -405,6 +405,22 @@ struct ResolveUniform {
     samples: [f32; 4],
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    let mut mirrors = vec![
+        softshadow_core::uniform_mirror!(
+            BatchUniform { count_bias, views } => "reference/accumulate.wgsl", Batch
+        ),
+        softshadow_core::uniform_mirror!(
+            ResolveUniform { samples } => "reference/resolve.wgsl", Resolve
+        ),
+    ];
+    mirrors.extend(traced::uniform_mirrors());
+    mirrors
+}
+
 struct Cached {
     key: u64,
     texture: wgpu::Texture,

@@ -60,6 +60,15 @@ struct Params {
     _pad: [u32; 2],
 }
 
+/// The ray-traced answer's uniform against its WGSL struct (tests/shaders.rs).
+pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![softshadow_core::uniform_mirror!(
+        Params {
+            world_to_light, light_to_world, half, samples_per_axis, row, count, seed, _pad
+        } => "reference/trace.wgsl", TraceParams
+    )]
+}
+
 /// The visible fraction of the light at every point of `positions` (`None` or not a receiver:
 /// 1.0), from `samples_per_axis`² stratified, jittered light samples traced on `gpu` (see the
 /// [module docs](self)).

@@ -81,6 +81,18 @@ struct SmrtUniform {
     _pad1: [f32; 3],
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![softshadow_core::uniform_mirror!(
+        SmrtUniform {
+            ray_count, samples_per_ray, _pad0, bias_texels, extrapolate_max_slope, ray_length_scale,
+            texel_dither, max_ray_tan, _pad1
+        } => "smrt/smrt.wgsl", SmrtParams
+    )]
+}
+
 impl SmrtUniform {
     fn new(s: &SmrtSettings) -> Self {
         // 90 degrees (or more) is no limit; tan would be huge or negative near it.

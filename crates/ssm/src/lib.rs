@@ -127,6 +127,29 @@ struct SsmUniform {
     light: [f32; 4],
 }
 
+/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![
+        softshadow_core::uniform_mirror!(
+            SsmUniform {
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+            } => "ssm/project.wgsl", SsmParams
+        ),
+        softshadow_core::uniform_mirror!(
+            SsmUniform {
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+            } => "ssm/scatter.wgsl", SsmParams
+        ),
+        softshadow_core::uniform_mirror!(
+            SsmUniform {
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+            } => "ssm/stats.wgsl", SsmParams
+        ),
+    ]
+}
+
 /// A texture and its default view.
 struct Target {
     texture: wgpu::Texture,

@@ -86,6 +86,20 @@ struct DebugParams {
     _pad: [u32; 3],
 }
 
+/// The display passes' uniforms against their WGSL structs (tests/shaders.rs).
+pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    vec![
+        softshadow_core::uniform_mirror!(
+            DisplayParams {
+                mode, reference_ready, split, full_scale
+            } => "viewer/display.wgsl", DisplayParams
+        ),
+        softshadow_core::uniform_mirror!(
+            DebugParams { mode, _pad } => "viewer/debug_view.wgsl", DebugParams
+        ),
+    ]
+}
+
 /// Mirrors `Range` in `shaders/viewer/debug_range.wgsl` (order-preserving u32 keys).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]

@@ -71,6 +71,13 @@ pub const SHADERS: &[ShaderSpec] = &[
     },
 ];
 
+/// The viewer's uniform structs with the WGSL structs they mirror, for the layout test in
+/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+#[doc(hidden)]
+pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
+    display::uniform_mirrors()
+}
+
 /// An egui-wgpu render state on an existing [`softshadow_core::Gpu`], drawing to
 /// `target_format`: what egui_kittest's wgpu renderer needs so that the viewer's native textures
 /// and the test's egui live on one device.
