@@ -57,7 +57,7 @@ use crate::{
     report::{
         best_per_budget, brighter_umbra, cold_frame_ms, darker_shadowed, flip, frame_time_ms,
         headline_rows, irradiance_mae_shadowed, mae_shadowed, ms, params_text, scenes_of,
-        still_flicker_text, summary_rows_within, Budgets, Score, BUDGETS, TARGET_MAE,
+        still_flicker_text, summary_rows_within, Budgets, Score, SummaryRow, BUDGETS, TARGET_MAE,
     },
     results::{Results, Run, Status},
     BenchError,
@@ -385,17 +385,30 @@ fn headline(runs: &[Run]) -> String {
 fn summary(runs: &[Run], score: Score) -> String {
     let scenes = scenes_of(runs);
     let rows = summary_rows_within(runs, &scenes, Budgets::FloorMultiples, score);
+    across_scenes_table(&rows, scenes.len(), Budgets::FloorMultiples)
+}
+
+/// The markdown of an across-scenes table: per technique its scenes on the Pareto front, its
+/// median lowest error within each of `budgets` (with the scenes where it is best) and its mean
+/// rank, then which technique wins each budget on the most of the `scenes`.
+pub(super) fn across_scenes_table(rows: &[SummaryRow], scenes: usize, budgets: Budgets) -> String {
     let mut t = String::from("| technique | on the Pareto front |");
-    for b in BUDGETS {
-        let _ = write!(
-            t,
-            " median error <= {b}x `{COST_FLOOR_TECHNIQUE}` (scenes best) |"
-        );
+    for b in budgets.values() {
+        let _ = match budgets {
+            Budgets::FloorMultiples => write!(
+                t,
+                " median error <= {b}x `{COST_FLOOR_TECHNIQUE}` (scenes best) |"
+            ),
+            Budgets::Milliseconds => write!(
+                t,
+                " median error within {b} ms of its own passes (scenes best) |"
+            ),
+        };
     }
     t.push_str(" mean rank |\n|---|---|");
-    t.push_str(&"---|".repeat(BUDGETS.len() + 1));
+    t.push_str(&"---|".repeat(budgets.values().len() + 1));
     t.push('\n');
-    for row in &rows {
+    for row in rows {
         let _ = write!(
             t,
             "| `{}` | {} of {} |",
@@ -416,22 +429,25 @@ fn summary(runs: &[Run], score: Score) -> String {
             row.mean_rank.map_or("-".into(), |r| format!("{r:.1}"))
         );
     }
-    let picks: Vec<String> = best_per_budget(&rows)
+    let picks: Vec<String> = best_per_budget(rows)
         .iter()
-        .zip(BUDGETS)
-        .map(|(pick, b)| match pick {
-            Some((technique, wins)) => format!(
-                "within {b}x: `{technique}` ({wins} of {} scenes)",
-                scenes.len()
-            ),
-            None => format!("within {b}x: none fits"),
+        .zip(budgets.values())
+        .map(|(pick, b)| match (pick, budgets) {
+            (Some((technique, wins)), Budgets::FloorMultiples) => {
+                format!("within {b}x: `{technique}` ({wins} of {scenes} scenes)")
+            }
+            (None, Budgets::FloorMultiples) => format!("within {b}x: none fits"),
+            (Some((technique, wins)), Budgets::Milliseconds) => {
+                format!("within {b} ms `{technique}` ({wins} of {scenes} scenes)")
+            }
+            (None, Budgets::Milliseconds) => format!("within {b} ms nothing fits"),
         })
         .collect();
-    let _ = writeln!(
-        t,
-        "\nLowest error on the most scenes: {}.",
-        picks.join("; ")
-    );
+    let lead = match budgets {
+        Budgets::FloorMultiples => "Lowest error on the most scenes",
+        Budgets::Milliseconds => "Lowest error",
+    };
+    let _ = writeln!(t, "\n{lead}: {}.", picks.join("; "));
     t
 }
 

@@ -8,7 +8,7 @@ use softshadow_core::COST_FLOOR_TECHNIQUE;
 
 use super::varying_params;
 use crate::{
-    report::{best_per_budget, frame_time_ms, mae_shadowed, ms, scenes_of},
+    report::{frame_time_ms, mae_shadowed, ms, scenes_of},
     results::{Run, Status},
 };
 
@@ -127,55 +127,10 @@ pub(super) fn resolution_table(runs: &[Run]) -> String {
 }
 
 pub(super) fn ms_budgets_table(runs: &[Run]) -> String {
-    use crate::report::{ms_budget_scenes, summary_rows_within, Budgets, Score, MS_BUDGETS};
+    use crate::report::{ms_budget_scenes, summary_rows_within, Budgets, Score};
     let scenes = ms_budget_scenes(runs, &scenes_of(runs));
     let rows = summary_rows_within(runs, &scenes, Budgets::Milliseconds, Score::Visibility);
-    let mut t = String::from("| technique | on the Pareto front |");
-    for b in MS_BUDGETS {
-        let _ = write!(
-            t,
-            " median error within {b} ms of its own passes (scenes best) |"
-        );
-    }
-    t.push_str(" mean rank |\n|---|---|");
-    t.push_str(&"---|".repeat(MS_BUDGETS.len() + 1));
-    t.push('\n');
-    for row in &rows {
-        let _ = write!(
-            t,
-            "| `{}` | {} of {} |",
-            row.technique,
-            row.on_front.len(),
-            row.scenes
-        );
-        for (median, wins) in row.median_within.iter().zip(&row.best_within) {
-            let _ = write!(
-                t,
-                " {} |",
-                median.map_or("-".into(), |m| format!("{m:.4} ({wins})"))
-            );
-        }
-        let _ = writeln!(
-            t,
-            " {} |",
-            row.mean_rank.map_or("-".into(), |r| format!("{r:.1}"))
-        );
-    }
-    let picks: Vec<String> = best_per_budget(&rows)
-        .iter()
-        .zip(MS_BUDGETS)
-        .map(|(pick, b)| match pick {
-            Some((technique, wins)) => {
-                format!(
-                    "within {b} ms `{technique}` ({wins} of {} scenes)",
-                    scenes.len()
-                )
-            }
-            None => format!("within {b} ms nothing fits"),
-        })
-        .collect();
-    let _ = writeln!(t, "\nLowest error: {}.", picks.join("; "));
-    t
+    super::across_scenes_table(&rows, scenes.len(), Budgets::Milliseconds)
 }
 
 pub(super) fn memory_table(runs: &[Run]) -> String {
