@@ -13,6 +13,7 @@ use base64::Engine as _;
 use plotters::prelude::*;
 
 use softshadow_core::{Registry, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE};
+use softshadow_metrics::{ErrorReport, IrradianceReport};
 
 use crate::{
     merge::Merged,
@@ -127,14 +128,23 @@ pub fn cold_frame_ms(run: &Run) -> Option<f64> {
     ms.is_finite().then_some(ms)
 }
 
+/// A field of the run's error report against the exact answer when the run has one, else
+/// against the reference; `None` without error metrics or when it is not finite.
+fn error_field(run: &Run, field: fn(&ErrorReport) -> f64) -> Option<f64> {
+    let error = run.error.as_ref()?;
+    let value = field(error.vs_exact.as_ref().unwrap_or(&error.report));
+    value.is_finite().then_some(value)
+}
+
+/// A field of the run's irradiance errors against the exact irradiance, where it has them.
+fn irradiance_field(run: &Run, field: fn(&IrradianceReport) -> f64) -> Option<f64> {
+    let value = field(&run.error.as_ref()?.irradiance.as_ref()?.vs_exact);
+    value.is_finite().then_some(value)
+}
+
 /// mae_shadowed against the exact answer when the run has one, else against the reference.
 pub fn mae_shadowed(run: &Run) -> Option<f64> {
-    let error = run.error.as_ref()?;
-    let mae = error
-        .vs_exact
-        .as_ref()
-        .map_or(error.report.mae_shadowed, |e| e.mae_shadowed);
-    mae.is_finite().then_some(mae)
+    error_field(run, |r| r.mae_shadowed)
 }
 
 /// The error a run is ranked by across scenes: [`mae_shadowed`] of its settled frame for a
@@ -147,33 +157,20 @@ pub fn scored_mae(run: &Run) -> Option<f64> {
     let mae = settled
         .vs_exact
         .as_ref()
-        .map_or(settled.report.mae_shadowed, |e| e.mae_shadowed);
+        .unwrap_or(&settled.report)
+        .mae_shadowed;
     mae.is_finite().then_some(mae)
 }
 
 /// The error in irradiance over shadowed receivers against the exact irradiance
 /// (`IrradianceReport::irradiance_mae_shadowed`), where the run has it.
 pub fn irradiance_mae_shadowed(run: &Run) -> Option<f64> {
-    let e = run
-        .error
-        .as_ref()?
-        .irradiance
-        .as_ref()?
-        .vs_exact
-        .irradiance_mae_shadowed;
-    e.is_finite().then_some(e)
+    irradiance_field(run, |r| r.irradiance_mae_shadowed)
 }
 
 /// The error in irradiance over all receivers (`IrradianceReport::irradiance_mae`).
 pub fn irradiance_mae(run: &Run) -> Option<f64> {
-    let e = run
-        .error
-        .as_ref()?
-        .irradiance
-        .as_ref()?
-        .vs_exact
-        .irradiance_mae;
-    e.is_finite().then_some(e)
+    irradiance_field(run, |r| r.irradiance_mae)
 }
 
 /// What the across-scenes tables rank by (docs/BENCHMARKS.md, "The irradiance error").
@@ -198,23 +195,13 @@ impl Score {
 
 /// The too-dark part of [`mae_shadowed`], against the same answer (`ErrorReport::darker_shadowed`).
 pub fn darker_shadowed(run: &Run) -> Option<f64> {
-    let error = run.error.as_ref()?;
-    let darker = error
-        .vs_exact
-        .as_ref()
-        .map_or(error.report.darker_shadowed, |e| e.darker_shadowed);
-    darker.is_finite().then_some(darker)
+    error_field(run, |r| r.darker_shadowed)
 }
 
 /// Light leaking: how much too bright the run is inside umbrae, against the same answer as
 /// [`mae_shadowed`] (`ErrorReport::brighter_umbra`).
 pub fn brighter_umbra(run: &Run) -> Option<f64> {
-    let error = run.error.as_ref()?;
-    let brighter = error
-        .vs_exact
-        .as_ref()
-        .map_or(error.report.brighter_umbra, |e| e.brighter_umbra);
-    brighter.is_finite().then_some(brighter)
+    error_field(run, |r| r.brighter_umbra)
 }
 
 /// Which answer [`mae_shadowed`] was measured against.
