@@ -561,38 +561,44 @@ fn pyramid_meets_box(p: [f64; 3], half: P2, slab: [f64; 2], node: &Node) -> bool
     })
 }
 
-/// The triangle `v` clipped to the depths `slab[0] <= z <= slab[1]` (Sutherland-Hodgman).
-fn clip_to_slab(v: &[[f64; 3]; 3], slab: [f64; 2]) -> Vec<[f64; 3]> {
-    let mut poly: Vec<[f64; 3]> = v.to_vec();
-    for (bound, keep_above) in [(slab[0], true), (slab[1], false)] {
-        let inside = |o: &[f64; 3]| {
-            if keep_above {
-                o[2] >= bound
-            } else {
-                o[2] <= bound
-            }
-        };
-        let mut out = Vec::with_capacity(poly.len() + 1);
-        for i in 0..poly.len() {
-            let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);
-            if inside(&cur) {
-                out.push(cur);
-            }
-            if inside(&cur) != inside(&next) {
-                let t = (bound - cur[2]) / (next[2] - cur[2]);
-                out.push([
-                    cur[0] + (next[0] - cur[0]) * t,
-                    cur[1] + (next[1] - cur[1]) * t,
-                    bound,
-                ]);
-            }
+/// One Sutherland-Hodgman pass: the closed polygon `poly` clipped to the half-space where
+/// `inside` holds, `crossing(a, b)` giving the point where the edge from `a` (inside) or to `b`
+/// crosses its boundary. Inside a convex clip region every point keeps its winding number.
+fn clip_polygon<P: Copy>(
+    poly: &[P],
+    inside: impl Fn(&P) -> bool,
+    crossing: impl Fn(P, P) -> P,
+) -> Vec<P> {
+    if poly.iter().all(&inside) {
+        return poly.to_vec();
+    }
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for i in 0..poly.len() {
+        let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);
+        if inside(&cur) {
+            out.push(cur);
         }
-        poly = out;
-        if poly.is_empty() {
-            break;
+        if inside(&cur) != inside(&next) {
+            out.push(crossing(cur, next));
         }
     }
-    poly
+    out
+}
+
+/// The triangle `v` clipped to the depths `slab[0] <= z <= slab[1]` (Sutherland-Hodgman).
+fn clip_to_slab(v: &[[f64; 3]; 3], slab: [f64; 2]) -> Vec<[f64; 3]> {
+    let at_depth = |bound: f64| {
+        move |cur: [f64; 3], next: [f64; 3]| {
+            let t = (bound - cur[2]) / (next[2] - cur[2]);
+            [
+                cur[0] + (next[0] - cur[0]) * t,
+                cur[1] + (next[1] - cur[1]) * t,
+                bound,
+            ]
+        }
+    };
+    let poly = clip_polygon(v, |o| o[2] >= slab[0], at_depth(slab[0]));
+    clip_polygon(&poly, |o| o[2] <= slab[1], at_depth(slab[1]))
 }
 
 /// A closed polygon (any winding, self-intersecting or not) clipped to the rectangle
@@ -608,26 +614,16 @@ fn clip_to_rect(poly: &[P2], a: f64, b: f64) -> Vec<P2> {
                 o[axis] >= bound
             }
         };
-        if poly.iter().all(inside) {
-            continue;
-        }
-        let mut out = Vec::with_capacity(poly.len() + 4);
-        for i in 0..poly.len() {
-            let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);
-            if inside(&cur) {
-                out.push(cur);
-            }
-            if inside(&cur) != inside(&next) {
-                let t = (bound - cur[axis]) / (next[axis] - cur[axis]);
-                let mut x = [
-                    cur[0] + (next[0] - cur[0]) * t,
-                    cur[1] + (next[1] - cur[1]) * t,
-                ];
-                x[axis] = bound;
-                out.push(x);
-            }
-        }
-        poly = out;
+        let crossing = |cur: P2, next: P2| {
+            let t = (bound - cur[axis]) / (next[axis] - cur[axis]);
+            let mut x = [
+                cur[0] + (next[0] - cur[0]) * t,
+                cur[1] + (next[1] - cur[1]) * t,
+            ];
+            x[axis] = bound;
+            x
+        };
+        poly = clip_polygon(&poly, inside, crossing);
         if poly.is_empty() {
             break;
         }
@@ -695,24 +691,12 @@ pub fn polygon_form_factor(p: [f64; 3], n: [f64; 3], contour: &[[f64; 2]]) -> f6
 /// number on its inside).
 fn clip_to_horizon(contour: &[P2], p: [f64; 3], n: [f64; 3]) -> Vec<P2> {
     let height = |q: &P2| (q[0] - p[0]) * n[0] + (q[1] - p[1]) * n[1] - p[2] * n[2];
-    let heights: Vec<f64> = contour.iter().map(height).collect();
-    if heights.iter().all(|h| *h > 0.0) {
-        return contour.to_vec();
-    }
-    let mut out = Vec::with_capacity(contour.len() + 1);
-    for i in 0..contour.len() {
-        let j = (i + 1) % contour.len();
-        let (h0, h1) = (heights[i], heights[j]);
-        if h0 > 0.0 {
-            out.push(contour[i]);
-        }
-        if (h0 > 0.0) != (h1 > 0.0) {
-            let t = h0 / (h0 - h1);
-            let (q0, q1) = (contour[i], contour[j]);
-            out.push([q0[0] + (q1[0] - q0[0]) * t, q0[1] + (q1[1] - q0[1]) * t]);
-        }
-    }
-    out
+    let crossing = |q0: P2, q1: P2| {
+        let (h0, h1) = (height(&q0), height(&q1));
+        let t = h0 / (h0 - h1);
+        [q0[0] + (q1[0] - q0[0]) * t, q0[1] + (q1[1] - q0[1]) * t]
+    };
+    clip_polygon(contour, |q| height(q) > 0.0, crossing)
 }
 
 /// Analytic per-pixel visibility of `scene` (row-major, like `positions`), in parallel with
