@@ -255,15 +255,13 @@ pub fn exact_answer(
     method: ExactMethod,
     control: Option<&softshadow_core::BuildControl>,
 ) -> Result<ExactAnswer, analytic::AnalyticError> {
-    let closed_form = exact::visibility_image(scene, positions, receiver);
     if method.analytic {
-        match analytic::light_seen_image(scene, positions, normals, receiver, control) {
-            Ok(seen) => return Ok(analytic_answer(seen, closed_form, normals.is_some())),
+        match analytic_answer(scene, positions, normals, receiver, control) {
             Err(analytic::AnalyticError::NoArea { .. }) => {}
-            Err(e) => return Err(e),
+            answer => return answer,
         }
     }
-    if let Some(visibility) = closed_form {
+    if let Some(visibility) = exact::visibility_image(scene, positions, receiver) {
         let standard_error = vec![0.0; visibility.len()];
         return Ok(ExactAnswer {
             visibility,
@@ -276,31 +274,36 @@ pub fn exact_answer(
     Ok(sampled_answer(gpu, scene, positions, receiver, method))
 }
 
-/// The analytic answer as an [`ExactAnswer`]: the closed form's visibility where it applies
-/// (equal within 1e-9, and the fast path it always was), the irradiance with normals.
-fn analytic_answer(
-    seen: Vec<analytic::LightSeen>,
-    closed_form: Option<Vec<f32>>,
-    with_irradiance: bool,
-) -> ExactAnswer {
-    let irradiance = with_irradiance.then(|| ExactIrradiance {
+/// The analytic answer ([`analytic::light_seen_image`]) as an [`ExactAnswer`]: the closed
+/// form's visibility where it applies (equal within 1e-9, and the fast path it always was), the
+/// exact irradiance where `normals` are given. `Err` when the light has no area or `control`
+/// cancelled it.
+pub fn analytic_answer(
+    scene: &softshadow_core::Scene,
+    positions: &[Option<softshadow_core::glam::Vec3>],
+    normals: Option<&[softshadow_core::glam::Vec3]>,
+    receiver: &[bool],
+    control: Option<&softshadow_core::BuildControl>,
+) -> Result<ExactAnswer, analytic::AnalyticError> {
+    let seen = analytic::light_seen_image(scene, positions, normals, receiver, control)?;
+    let irradiance = normals.is_some().then(|| ExactIrradiance {
         irradiance: seen.iter().map(|s| s.irradiance as f32).collect(),
         unoccluded: seen.iter().map(|s| s.unoccluded as f32).collect(),
     });
-    let (visibility, truth) = match closed_form {
+    let (visibility, truth) = match exact::visibility_image(scene, positions, receiver) {
         Some(v) => (v, GroundTruth::ClosedForm),
         None => (
             seen.iter().map(|s| s.visibility as f32).collect(),
             GroundTruth::Analytic,
         ),
     };
-    ExactAnswer {
+    Ok(ExactAnswer {
         standard_error: vec![0.0; visibility.len()],
         visibility,
         truth,
         fallback: None,
         irradiance,
-    }
+    })
 }
 
 /// The sampled exact answer: ray-traced on a device with ray queries when asked for, else (or

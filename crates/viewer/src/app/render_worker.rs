@@ -35,7 +35,7 @@ use super::{
     worker_process::ProcessLink,
 };
 use crate::display::{DebugMapping, DisplayPass, DisplayTarget};
-use softshadow_reference::ExactIrradiance;
+use softshadow_reference::{ExactIrradiance, GroundTruth};
 
 /// How long the viewer waits for a worker process to make its first technique.
 const PROCESS_START_LIMIT: Duration = Duration::from_secs(60);
@@ -757,7 +757,7 @@ impl Worker {
         mask: &[bool],
         receivers: usize,
     ) -> Result<(Vec<f32>, LiveExact, Option<ExactIrradiance>), String> {
-        let closed_form = softshadow_reference::exact::visibility_image(scene, positions, mask);
+        let has_closed_form = softshadow_reference::exact::parallel_rects(scene).is_some();
         let has_area = scene.light.width > 0.0 && scene.light.height > 0.0;
         let caster_triangles: usize = scene
             .instances
@@ -768,29 +768,17 @@ impl Worker {
             .sum();
         let analytic_fits = analytic_seconds(receivers, caster_triangles) <= LIVE_ANALYTIC_SECONDS
             || !self.gpu.has_ray_query();
-        if has_area && (closed_form.is_some() || analytic_fits) {
-            let seen = softshadow_reference::analytic::light_seen_image(
-                scene,
-                positions,
-                Some(normals),
-                mask,
-                None,
-            )
-            .map_err(|e| format!("no live error: the analytic exact answer failed: {e}"))?;
-            let irradiance = ExactIrradiance {
-                irradiance: seen.iter().map(|s| s.irradiance as f32).collect(),
-                unoccluded: seen.iter().map(|s| s.unoccluded as f32).collect(),
+        if has_area && (has_closed_form || analytic_fits) {
+            let answer =
+                softshadow_reference::analytic_answer(scene, positions, Some(normals), mask, None)
+                    .map_err(|e| format!("no live error: the analytic exact answer failed: {e}"))?;
+            let method = match answer.truth {
+                GroundTruth::ClosedForm => LiveExact::ClosedForm,
+                _ => LiveExact::Analytic,
             };
-            // The closed form's visibility where it applies (equal within 1e-9, the fast path).
-            return Ok(match closed_form {
-                Some(exact) => (exact, LiveExact::ClosedForm, Some(irradiance)),
-                None => {
-                    let exact = seen.iter().map(|s| s.visibility as f32).collect();
-                    (exact, LiveExact::Analytic, Some(irradiance))
-                }
-            });
+            return Ok((answer.visibility, method, answer.irradiance));
         }
-        if let Some(exact) = closed_form {
+        if let Some(exact) = softshadow_reference::exact::visibility_image(scene, positions, mask) {
             return Ok((exact, LiveExact::ClosedForm, None));
         }
         if !self.gpu.has_ray_query() {
