@@ -26,7 +26,7 @@ use std::{
 };
 
 use softshadow_core::{
-    readback, AreaLight, BuildControl, Camera, DebugLegend, Gpu, MemoryUse, ParamValue,
+    readback, AreaLight, BuildControl, Camera, DebugLegend, Gpu, MemoryUse, Mesh, ParamValue,
     RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueInfo, TechniqueStats,
 };
 
@@ -764,7 +764,7 @@ impl Worker {
             .iter()
             .filter(|i| i.casts_shadow)
             .filter_map(|i| scene.meshes.get(i.mesh))
-            .map(|m| m.indices.len() / 3)
+            .map(Mesh::triangle_count)
             .sum();
         let analytic_fits = analytic_seconds(receivers, caster_triangles) <= LIVE_ANALYTIC_SECONDS
             || !self.gpu.has_ray_query();
