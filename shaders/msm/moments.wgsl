@@ -21,7 +21,6 @@ struct MsmParams {
     min_filter_texels: f32,
     filter_taps: u32,
     levels: u32,
-    _pad: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

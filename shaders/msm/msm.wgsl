@@ -31,7 +31,6 @@ struct MsmParams {
     min_filter_texels: f32,
     filter_taps: u32,
     levels: u32,
-    _pad: u32,
 }
 
 const MAX_FILTER_TAPS: u32 = 8u;

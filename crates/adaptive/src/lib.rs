@@ -28,18 +28,19 @@ pub mod refine;
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use refine::{Cell, Layout, SampleKey, Shape};
 use softshadow_core::{
     frame::{texture_entry, uniform_entry},
-    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
-    glam::Vec2,
+    fullscreen::{depth_texture_entry, FullscreenPipeline},
+    glam::{UVec4, Vec2, Vec4},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
+    uniform::{storage_bytes, uniform_bytes, uniform_size, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, GpuError, Requirements, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -124,12 +125,10 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `Params` in `shaders/adaptive/*.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct Params {
-    values: [f32; 4],
-    counts: [u32; 4],
+    values: Vec4,
+    counts: UVec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -333,7 +332,7 @@ impl Adaptive {
                 &resolve_layout,
                 None,
             )?,
-            params: uniform_buffer(gpu, "adaptive/params", &Params::zeroed()),
+            params: zeroed_uniform_buffer::<Params>(gpu, "adaptive/params"),
             layout,
             resolve_layout,
             settings,
@@ -432,7 +431,7 @@ impl Adaptive {
         let max_pairs = 2 * capacity as u64;
         let views = buffer(
             "adaptive/views",
-            MAX_MAPS as u64 * std::mem::size_of::<ShadowViewUniform>() as u64,
+            MAX_MAPS as u64 * uniform_size::<ShadowViewUniform>(),
             uniform,
         );
         let pairs = buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
@@ -495,7 +494,7 @@ impl Adaptive {
             compare_group,
             evaluate_group,
             layers: BTreeMap::new(),
-            layer_uniforms: vec![ShadowViewUniform::zeroed(); capacity as usize],
+            layer_uniforms: vec![ShadowViewUniform::ZERO; capacity as usize],
             kept_layout: None,
         });
         Ok(())
@@ -524,17 +523,17 @@ impl Adaptive {
         let s = &self.settings;
         let relative = matches!(s.threshold_mode, ThresholdMode::Relative);
         let params = Params {
-            values: [
+            values: Vec4::new(
                 s.gamma,
                 if relative { 1.0 } else { 0.0 },
                 s.bias_texels,
                 // PCF is a shader permutation (`evaluate`, `accumulate`).
                 0.0,
-            ],
-            counts: [count, 0, 0, 0],
+            ),
+            counts: UVec4::new(count, 0, 0, 0),
         };
         gpu.queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+            .write_buffer(&self.params, 0, &uniform_bytes(&params));
     }
 }
 
@@ -617,7 +616,7 @@ impl Maps<'_> {
         gpu.queue.write_buffer(
             &self.store.views,
             0,
-            bytemuck::cast_slice(&self.store.layer_uniforms),
+            &storage_bytes(&self.store.layer_uniforms[..]),
         );
         for layer in new {
             depth.record(

@@ -21,8 +21,9 @@ pub fn uniform_bytes<T: ShaderType + WriteInto>(value: &T) -> Vec<u8> {
     buffer.into_inner()
 }
 
-/// The bytes of `value` in a storage buffer (a struct, or a slice of them: `&[T]` as
-/// `array<T>`), padding zeroed.
+/// The bytes of `value` in a storage buffer, padding zeroed: a struct, or a slice of them as
+/// `array<T>`, which is also a uniform `array<T, N>` (the same stride; naga's validation requires
+/// it to be a multiple of 16 there).
 pub fn storage_bytes<T: ?Sized + ShaderType + WriteInto>(value: &T) -> Vec<u8> {
     let mut buffer = StorageBuffer::new(Vec::new());
     buffer

@@ -6,12 +6,13 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::{uniform_buffer, FullscreenPipeline},
+    fullscreen::FullscreenPipeline,
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
     TechniqueStats, VisibilityBuffer,
 };
@@ -39,11 +40,9 @@ softshadow_core::technique_settings! {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct HardParams {
     bias_texels: f32,
-    _pad: [f32; 3],
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -51,7 +50,7 @@ struct HardParams {
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
-        HardParams { bias_texels, _pad } => "hard/hard.wgsl", HardParams
+        HardParams { bias_texels } => "hard/hard.wgsl", HardParams
     )]
 }
 
@@ -73,7 +72,7 @@ impl Hard {
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
             lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
-            params_buffer: uniform_buffer(gpu, "hard/params", &HardParams::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<HardParams>(gpu, "hard/params"),
             layout,
             settings,
             stats: TechniqueStats::new(),
@@ -115,9 +114,8 @@ impl ShadowTechnique for Hard {
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
-            bytemuck::bytes_of(&HardParams {
+            &uniform_bytes(&HardParams {
                 bias_texels: self.settings.bias_texels,
-                _pad: [0.0; 3],
             }),
         );
         let bind_group = self

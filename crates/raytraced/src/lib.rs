@@ -20,15 +20,16 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
     accel::RAY_QUERY,
     frame::{storage_texture_entry, texture_entry, uniform_entry},
-    fullscreen::uniform_buffer,
     gbuffer::create_texture,
     glam::Mat4,
     shader::{self, ShaderSpec},
-    shader_file, wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel,
+    shader_file,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
+    wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel,
     ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
     VisibilityBuffer,
 };
@@ -69,19 +70,16 @@ softshadow_core::technique_settings! {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct TraceParams {
-    light_to_world: [[f32; 4]; 4],
+    light_to_world: Mat4,
     rays: u32,
     frame_index: u32,
-    _pad: [u32; 2],
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct DenoiseParams {
-    prev_view_proj: [[f32; 4]; 4],
+    prev_view_proj: Mat4,
     history_valid: u32,
     max_history: u32,
     max_radius: f32,
@@ -95,7 +93,7 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
     vec![
         softshadow_core::uniform_mirror!(
             TraceParams {
-                light_to_world, rays, frame_index, _pad
+                light_to_world, rays, frame_index
             } => "raytraced/trace.wgsl", TraceParams
         ),
         softshadow_core::uniform_mirror!(
@@ -269,12 +267,8 @@ impl Raytraced {
             trace: pipeline(&SHADERS[0], &trace_layout, "trace")?,
             trace_layout,
             denoise_layout,
-            trace_params: uniform_buffer(gpu, "raytraced/trace params", &TraceParams::zeroed()),
-            denoise_params: uniform_buffer(
-                gpu,
-                "raytraced/denoise params",
-                &DenoiseParams::zeroed(),
-            ),
+            trace_params: zeroed_uniform_buffer::<TraceParams>(gpu, "raytraced/trace params"),
+            denoise_params: zeroed_uniform_buffer::<DenoiseParams>(gpu, "raytraced/denoise params"),
             dummies: Dummies {
                 sampled: dummy(
                     wgpu::TextureFormat::R32Float,
@@ -387,15 +381,10 @@ impl ShadowTechnique for Raytraced {
         gpu.queue.write_buffer(
             &self.trace_params,
             0,
-            bytemuck::bytes_of(&TraceParams {
-                light_to_world: inputs
-                    .uniforms
-                    .world_to_light()
-                    .inverse()
-                    .to_cols_array_2d(),
+            &uniform_bytes(&TraceParams {
+                light_to_world: inputs.uniforms.world_to_light().inverse(),
                 rays,
                 frame_index: self.frame_index,
-                _pad: [0; 2],
             }),
         );
         let tlas = self.accel.tlas().expect("updated above");
@@ -430,8 +419,8 @@ impl ShadowTechnique for Raytraced {
         gpu.queue.write_buffer(
             &self.denoise_params,
             0,
-            bytemuck::bytes_of(&DenoiseParams {
-                prev_view_proj: self.prev_view_proj.to_cols_array_2d(),
+            &uniform_bytes(&DenoiseParams {
+                prev_view_proj: self.prev_view_proj,
                 history_valid: u32::from(temporal && self.history_valid),
                 max_history: if temporal {
                     self.settings.max_history.max(1)

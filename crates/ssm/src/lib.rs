@@ -20,15 +20,16 @@
 
 pub mod math;
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
     frame::{texture_entry, uniform_entry},
-    fullscreen::{uniform_buffer, FullscreenPipeline},
-    glam::Vec3,
+    fullscreen::FullscreenPipeline,
+    glam::{Vec3, Vec4},
     scene_gpu::Vertex,
     shader::{create_module, DefValue, ShaderSpec},
     shader_file,
-    shadow_map::ShadowViewUniform,
+    shadow_map::{DepthView, ShadowViewUniform},
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique,
     SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -113,18 +114,16 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `SsmParams` in `shaders/ssm/*.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+#[derive(Debug, ShaderType)]
 struct SsmUniform {
-    occluder_window: [f32; 4],
+    occluder_window: Vec4,
     /// near, far, N, depth of an empty texel.
-    occluder_depth: [f32; 4],
-    ssm_window: [f32; 4],
+    occluder_depth: Vec4,
+    ssm_window: Vec4,
     /// near, far, R, farthest receiver depth.
-    ssm_depth: [f32; 4],
+    ssm_depth: Vec4,
     /// a, b, bias_texels, two_pass.
-    light: [f32; 4],
+    light: Vec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -147,6 +146,7 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
                 occluder_window, occluder_depth, ssm_window, ssm_depth, light
             } => "ssm/stats.wgsl", SsmParams
         ),
+        softshadow_core::uniform_mirror!(DepthView { light_view_proj } => "ssm/depth.wgsl", DepthView),
     ]
 }
 
@@ -556,7 +556,7 @@ impl Ssm {
             cache: None,
         });
 
-        let view_buffer = |label| uniform_buffer(gpu, label, &[[0f32; 4]; 4]);
+        let view_buffer = |label| zeroed_uniform_buffer::<DepthView>(gpu, label);
         let view_group = |label, buffer: &wgpu::Buffer| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(label),
@@ -574,8 +574,8 @@ impl Ssm {
             receiver_view_group: view_group("ssm/receiver view", &receiver_view),
             occluder_view,
             receiver_view,
-            params_front: uniform_buffer(gpu, "ssm/params", &SsmUniform::zeroed()),
-            params_back: uniform_buffer(gpu, "ssm/params back", &SsmUniform::zeroed()),
+            params_front: zeroed_uniform_buffer::<SsmUniform>(gpu, "ssm/params"),
+            params_back: zeroed_uniform_buffer::<SsmUniform>(gpu, "ssm/params back"),
             counters: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("ssm/counters"),
                 size: 16,
@@ -668,8 +668,8 @@ fn depth_pass(
     );
 }
 
-fn window(f: &SlopeFrustum) -> [f32; 4] {
-    [f.s_min, f.s_max, f.t_min, f.t_max]
+fn window(f: &SlopeFrustum) -> Vec4 {
+    Vec4::new(f.s_min, f.s_max, f.t_min, f.t_max)
 }
 
 impl ShadowTechnique for Ssm {
@@ -756,29 +756,33 @@ impl ShadowTechnique for Ssm {
         gpu.queue.write_buffer(
             &self.occluder_view,
             0,
-            bytemuck::bytes_of(&occluder_view.light_view_proj),
+            &uniform_bytes(&DepthView {
+                light_view_proj: occluder_view.light_view_proj,
+            }),
         );
         gpu.queue.write_buffer(
             &self.receiver_view,
             0,
-            bytemuck::bytes_of(&receiver_view.light_view_proj),
+            &uniform_bytes(&DepthView {
+                light_view_proj: receiver_view.light_view_proj,
+            }),
         );
         let params = |empty_depth: f32| SsmUniform {
             occluder_window: window(&occluder),
-            occluder_depth: [occluder.near, occluder.far, n as f32, empty_depth],
+            occluder_depth: Vec4::new(occluder.near, occluder.far, n as f32, empty_depth),
             ssm_window: window(&ssm),
-            ssm_depth: [ssm.near, ssm.far, r as f32, z_far],
-            light: [
+            ssm_depth: Vec4::new(ssm.near, ssm.far, r as f32, z_far),
+            light: Vec4::new(
                 half.x,
                 half.y,
                 s.bias_texels,
                 if s.two_pass { 1.0 } else { 0.0 },
-            ],
+            ),
         };
         gpu.queue
-            .write_buffer(&self.params_front, 0, bytemuck::bytes_of(&params(1.0)));
+            .write_buffer(&self.params_front, 0, &uniform_bytes(&params(1.0)));
         gpu.queue
-            .write_buffer(&self.params_back, 0, bytemuck::bytes_of(&params(0.0)));
+            .write_buffer(&self.params_back, 0, &uniform_bytes(&params(0.0)));
 
         let mut query = 0u32;
         let texels = n * n;
