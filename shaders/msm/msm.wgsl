@@ -20,7 +20,6 @@
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, texel_slope}
 
-// Mirrors `MsmUniform` in crates/msm/src/lib.rs.
 struct MsmParams {
     depth_range: vec2<f32>,
     exponents: vec2<f32>,

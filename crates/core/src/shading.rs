@@ -103,9 +103,7 @@ impl ShadingPass {
         gpu.queue.write_buffer(
             &self.params,
             0,
-            &uniform_bytes(&ShadingParams {
-                mode: mode as u32,
-            }),
+            &uniform_bytes(&ShadingParams { mode: mode as u32 }),
         );
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("core/shading"),

@@ -39,7 +39,11 @@ pub fn uniform_size<T: ShaderType>() -> u64 {
 
 /// A uniform buffer holding `value`, writable later with `queue.write_buffer` and
 /// [`uniform_bytes`].
-pub fn uniform_buffer<T: ShaderType + WriteInto>(gpu: &Gpu, label: &str, value: &T) -> wgpu::Buffer {
+pub fn uniform_buffer<T: ShaderType + WriteInto>(
+    gpu: &Gpu,
+    label: &str,
+    value: &T,
+) -> wgpu::Buffer {
     gpu.device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),

@@ -29,9 +29,8 @@ use softshadow_core::{
     shader::{self, ShaderSpec},
     shader_file,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel,
-    ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
-    VisibilityBuffer,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;

@@ -7,11 +7,11 @@
 use std::collections::BTreeSet;
 
 use anyhow::{ensure, Context, Result};
+use encase::ShaderType;
 use softshadow_bench::{
     results::{FrameKind, Run},
     Bench, BenchOptions, RunSpec, Status,
 };
-use encase::ShaderType;
 use softshadow_core::{
     fullscreen::FullscreenPipeline,
     shader::ShaderSpec,

@@ -212,7 +212,9 @@ pub fn uniform_structs(module: &Module) -> Result<Vec<StructLayout>, GpuError> {
 
 /// Every struct a `var<storage>` of `module` holds, found as [`uniform_structs`] finds them.
 pub fn storage_structs(module: &Module) -> Result<Vec<StructLayout>, GpuError> {
-    structs_held(module, |space| matches!(space, AddressSpace::Storage { .. }))
+    structs_held(module, |space| {
+        matches!(space, AddressSpace::Storage { .. })
+    })
 }
 
 fn structs_held(
