@@ -9,6 +9,7 @@ mod backprojection;
 mod bitmask;
 mod contract;
 mod gather_scaffold;
+mod image_checksums;
 mod light_space_cache;
 mod memory;
 mod motion;
