@@ -24,6 +24,7 @@ pub mod host;
 pub mod light;
 pub mod memory;
 pub mod params;
+pub mod pass;
 pub mod readback;
 pub mod registry;
 pub mod renderer;

@@ -8,7 +8,8 @@
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    fullscreen::{uniform_buffer, FullscreenPipeline},
+    fullscreen::uniform_buffer,
+    pass::{FullscreenPass, Pass, Slot},
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
@@ -60,8 +61,7 @@ pub struct Hard {
     /// Its settings; changes take effect on the next frame.
     pub settings: HardSettings,
     shadow_map: CentreShadowMap,
-    lookup: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    lookup: FullscreenPass,
     params_buffer: wgpu::Buffer,
     stats: TechniqueStats,
 }
@@ -69,12 +69,17 @@ pub struct Hard {
 impl Hard {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "hard/lookup");
+        // hard.wgsl: the map's ShadowView, the map, HardParams.
+        let lookup = Pass::new(gpu, "hard/lookup", &SHADERS[0])
+            .after_frame_group()
+            .uniform()
+            .texture(Slot::DEPTH)
+            .uniform()
+            .fullscreen(None)?;
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
-            lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
+            lookup,
             params_buffer: uniform_buffer(gpu, "hard/params", &HardParams::zeroed()),
-            layout,
             settings,
             stats: TechniqueStats::new(),
         })
@@ -120,19 +125,14 @@ impl ShadowTechnique for Hard {
                 _pad: [0.0; 3],
             }),
         );
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
-        self.lookup.record(
-            frame,
-            "hard/lookup",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
-            &out.view,
-            Some(1.0),
-        );
+        let map = self.shadow_map.map_view().expect("rendered above");
+        self.lookup
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.shadow_map.view_buffer)
+            .read(map)
+            .read(&self.params_buffer)
+            .draw(&out.view, Some(1.0));
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
             ("shadow_map_texels".into(), (size as f64) * (size as f64)),

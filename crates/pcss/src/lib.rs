@@ -15,11 +15,11 @@
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    frame::{storage_texture_entry, texture_entry, uniform_entry},
-    fullscreen::{uniform_buffer, FullscreenPipeline},
+    fullscreen::uniform_buffer,
     gbuffer::create_texture,
     glam::Mat4,
-    shader::{self, DefValue, ShaderSpec},
+    pass::{ComputePass, FullscreenPass, Pass, Slot},
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
     wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, ShadowInputs,
@@ -153,33 +153,41 @@ struct TemporalTargets {
     raw: wgpu::Texture,
     /// Frames averaged and visibility (`Rg32Float`), ping-pong.
     history: [wgpu::Texture; 2],
+    /// Views of `raw` and `history`.
+    raw_view: wgpu::TextureView,
+    history_views: [wgpu::TextureView; 2],
     /// World point and receiver flag the history saw (`Rgba32Float`), ping-pong.
-    position: [wgpu::Texture; 2],
+    position_views: [wgpu::TextureView; 2],
 }
 
 impl TemporalTargets {
     fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
         let storage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
         let make = |label: &str, format| create_texture(gpu, label, width, height, format, storage);
+        let raw = create_texture(
+            gpu,
+            "pcss/raw",
+            width,
+            height,
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let history = [
+            make("pcss/history 0", wgpu::TextureFormat::Rg32Float),
+            make("pcss/history 1", wgpu::TextureFormat::Rg32Float),
+        ];
+        let position = [
+            make("pcss/position 0", wgpu::TextureFormat::Rgba32Float),
+            make("pcss/position 1", wgpu::TextureFormat::Rgba32Float),
+        ];
         Self {
             width,
             height,
-            raw: create_texture(
-                gpu,
-                "pcss/raw",
-                width,
-                height,
-                wgpu::TextureFormat::R32Float,
-                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            ),
-            history: [
-                make("pcss/history 0", wgpu::TextureFormat::Rg32Float),
-                make("pcss/history 1", wgpu::TextureFormat::Rg32Float),
-            ],
-            position: [
-                make("pcss/position 0", wgpu::TextureFormat::Rgba32Float),
-                make("pcss/position 1", wgpu::TextureFormat::Rgba32Float),
-            ],
+            raw_view: view(&raw),
+            history_views: [view(&history[0]), view(&history[1])],
+            position_views: [view(&position[0]), view(&position[1])],
+            raw,
+            history,
         }
     }
 
@@ -190,10 +198,9 @@ impl TemporalTargets {
 /// The temporal mode's pipelines, history and state, made on its first frame (plain PCSS never
 /// builds them).
 struct Temporal {
-    filter_vogel: FullscreenPipeline,
-    filter_grid: FullscreenPipeline,
-    resolve: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    filter_vogel: FullscreenPass,
+    filter_grid: FullscreenPass,
+    resolve: ComputePass,
     params_buffer: wgpu::Buffer,
     targets: Option<TemporalTargets>,
     /// The history texture written last (`history[current]`).
@@ -208,58 +215,24 @@ struct Temporal {
 }
 
 impl Temporal {
-    fn new(gpu: &Gpu, filter_layout: &wgpu::BindGroupLayout) -> Result<Self, TechniqueError> {
+    fn new(gpu: &Gpu) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &temporal_requirements())?;
-        let device = &gpu.device;
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let float = wgpu::TextureSampleType::Float { filterable: false };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("pcss/temporal"),
-            entries: &[
-                uniform_entry(0, compute, false),
-                texture_entry(1, compute, float),
-                texture_entry(2, compute, float),
-                texture_entry(3, compute, float),
-                storage_texture_entry(4, wgpu::TextureFormat::Rg32Float),
-                storage_texture_entry(5, wgpu::TextureFormat::Rgba32Float),
-                storage_texture_entry(6, wgpu::TextureFormat::R32Float),
-            ],
-        });
-        let module = shader::create_module(gpu, &SHADERS[1], &[])?;
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("pcss/temporal"),
-            bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
-            immediate_size: 0,
-        });
-        let resolve = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("pcss/temporal"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("temporal"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        // temporal.wgsl: TemporalParams; this frame's PCSS, the history and the positions it
+        // saw; then the next history, its positions and the visibility.
+        let resolve = Pass::new(gpu, "pcss/temporal", &SHADERS[1])
+            .after_frame_group()
+            .uniform()
+            .repeat(Slot::FLOAT, 3)
+            .storage_texture(wgpu::TextureFormat::Rg32Float)
+            .storage_texture(wgpu::TextureFormat::Rgba32Float)
+            .storage_texture(wgpu::TextureFormat::R32Float)
+            .compute("temporal")?;
         let temporal = ("TEMPORAL", DefValue::Bool(true));
         let grid = ("KERNEL_GRID", DefValue::Bool(true));
         Ok(Self {
-            filter_vogel: FullscreenPipeline::new(
-                gpu,
-                "pcss/filter temporal",
-                &SHADERS[0],
-                &[temporal],
-                filter_layout,
-                None,
-            )?,
-            filter_grid: FullscreenPipeline::new(
-                gpu,
-                "pcss/filter grid temporal",
-                &SHADERS[0],
-                &[grid, temporal],
-                filter_layout,
-                None,
-            )?,
+            filter_vogel: filter_pass(gpu, "pcss/filter temporal", &[temporal])?,
+            filter_grid: filter_pass(gpu, "pcss/filter grid temporal", &[grid, temporal])?,
             resolve,
-            layout,
             params_buffer: uniform_buffer(gpu, "pcss/temporal params", &TemporalUniform::zeroed()),
             targets: None,
             current: 0,
@@ -269,6 +242,21 @@ impl Temporal {
             prev_view_proj: Mat4::IDENTITY,
         })
     }
+}
+
+/// The PCSS lookup of one permutation (pcss.wgsl: the map's ShadowView, the map, PcssParams).
+fn filter_pass(
+    gpu: &Gpu,
+    label: &str,
+    defs: &[(&str, DefValue)],
+) -> Result<FullscreenPass, TechniqueError> {
+    Ok(Pass::new(gpu, label, &SHADERS[0])
+        .defs(defs)
+        .after_frame_group()
+        .uniform()
+        .texture(Slot::DEPTH)
+        .uniform()
+        .fullscreen(None)?)
 }
 
 fn view(t: &wgpu::Texture) -> wgpu::TextureView {
@@ -282,9 +270,8 @@ pub struct Pcss {
     shadow_map: CentreShadowMap,
     /// The lookup with the Vogel kernel, and with the grid (`KERNEL_GRID`): one pipeline per
     /// kernel (docs/ARCHITECTURE.md, "Lavapipe's branches").
-    filter_vogel: FullscreenPipeline,
-    filter_grid: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    filter_vogel: FullscreenPass,
+    filter_grid: FullscreenPass,
     params_buffer: wgpu::Buffer,
     /// The temporal mode, once it has run.
     temporal: Option<Temporal>,
@@ -294,27 +281,15 @@ pub struct Pcss {
 impl Pcss {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PcssSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "pcss/filter");
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
-            filter_vogel: FullscreenPipeline::new(
-                gpu,
-                "pcss/filter",
-                &SHADERS[0],
-                &[],
-                &layout,
-                None,
-            )?,
-            filter_grid: FullscreenPipeline::new(
+            filter_vogel: filter_pass(gpu, "pcss/filter", &[])?,
+            filter_grid: filter_pass(
                 gpu,
                 "pcss/filter grid",
-                &SHADERS[0],
                 &[("KERNEL_GRID", DefValue::Bool(true))],
-                &layout,
-                None,
             )?,
             params_buffer: uniform_buffer(gpu, "pcss/params", &PcssUniform::zeroed()),
-            layout,
             settings,
             temporal: None,
             stats: TechniqueStats::new(),
@@ -360,7 +335,7 @@ impl ShadowTechnique for Pcss {
             return Ok(());
         }
         if self.settings.temporal && self.temporal.is_none() {
-            self.temporal = Some(Temporal::new(gpu, &self.layout)?);
+            self.temporal = Some(Temporal::new(gpu)?);
         }
         let s = &self.settings;
         // Only the temporal mode's frames move the kernel; plain PCSS draws frame 0's pattern
@@ -377,10 +352,7 @@ impl ShadowTechnique for Pcss {
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
+        let map = self.shadow_map.map_view().expect("rendered above");
         let pixels = inputs.width as f64 * inputs.height as f64;
         let mut stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
@@ -399,15 +371,14 @@ impl ShadowTechnique for Pcss {
                 Kernel::Vogel => &self.filter_vogel,
                 Kernel::Grid => &self.filter_grid,
             };
-            filter.record(
-                frame,
-                "pcss/filter",
-                inputs.frame_bind_group,
-                &bind_group,
-                &[],
-                &out.view,
-                Some(1.0),
-            );
+            filter
+                .run(frame)
+                .named("pcss/filter")
+                .frame_group(inputs.frame_bind_group)
+                .read(&self.shadow_map.view_buffer)
+                .read(map)
+                .read(&self.params_buffer)
+                .draw(&out.view, Some(1.0));
             self.stats = stats;
             return Ok(());
         };
@@ -432,16 +403,14 @@ impl ShadowTechnique for Pcss {
             Kernel::Vogel => &t.filter_vogel,
             Kernel::Grid => &t.filter_grid,
         };
-        let raw = view(&targets.raw);
-        filter.record(
-            frame,
-            "pcss/filter",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
-            &raw,
-            Some(1.0),
-        );
+        filter
+            .run(frame)
+            .named("pcss/filter")
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.shadow_map.view_buffer)
+            .read(map)
+            .read(&self.params_buffer)
+            .draw(&targets.raw_view, Some(1.0));
         gpu.queue.write_buffer(
             &t.params_buffer,
             0,
@@ -454,35 +423,17 @@ impl ShadowTechnique for Pcss {
             }),
         );
         let (prev, cur) = (t.current, 1 - t.current);
-        let views = [
-            &raw,
-            &view(&targets.history[prev]),
-            &view(&targets.position[prev]),
-            &view(&targets.history[cur]),
-            &view(&targets.position[cur]),
-            &out.view,
-        ];
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: t.params_buffer.as_entire_binding(),
-        }];
-        for (k, v) in views.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: k as u32 + 1,
-                resource: wgpu::BindingResource::TextureView(v),
-            });
-        }
-        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pcss/temporal"),
-            layout: &t.layout,
-            entries: &entries,
-        });
-        frame.compute_pass("pcss/temporal", |pass| {
-            pass.set_pipeline(&t.resolve);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &group, &[]);
-            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-        });
+        t.resolve
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&t.params_buffer)
+            .read(&targets.raw_view)
+            .read(&targets.history_views[prev])
+            .read(&targets.position_views[prev])
+            .write(&targets.history_views[cur])
+            .write(&targets.position_views[cur])
+            .write(&out.view)
+            .dispatch([width.div_ceil(8), height.div_ceil(8), 1]);
         t.history_frames = if t.history_valid {
             (t.history_frames + 1).min(s.max_history.max(1))
         } else {
