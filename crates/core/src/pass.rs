@@ -186,7 +186,10 @@ impl Resource<'_> {
         match self {
             Resource::Buffer(_) | Resource::BufferRange(..) => matches!(
                 slot,
-                Slot::Uniform | Slot::DynamicUniform { .. } | Slot::Storage | Slot::StorageReadWrite
+                Slot::Uniform
+                    | Slot::DynamicUniform { .. }
+                    | Slot::Storage
+                    | Slot::StorageReadWrite
             ),
             Resource::View(_) => matches!(slot, Slot::Texture { .. } | Slot::StorageTexture(_)),
             Resource::Sampler(_) => matches!(slot, Slot::Sampler(_)),
@@ -620,7 +623,10 @@ macro_rules! built_pass {
         impl $pass {
             /// Starts a run of the pass in `frame`: then `.read(..)`, `.write(..)` in binding
             /// order, and record it.
-            pub fn run<'f, 'g, 'r>(&'r self, frame: &'f mut Frame<'g>) -> PassRun<'f, 'g, 'r, Self> {
+            pub fn run<'f, 'g, 'r>(
+                &'r self,
+                frame: &'f mut Frame<'g>,
+            ) -> PassRun<'f, 'g, 'r, Self> {
                 PassRun {
                     frame,
                     pass: self,

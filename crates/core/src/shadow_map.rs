@@ -69,9 +69,41 @@ pub fn fit_hard_view(scene: &SceneGpu, light: &AreaLight, eye: Vec2) -> Option<S
 /// Uniform stride for dynamic offsets (the WebGPU minimum alignment).
 const SLOT: u64 = 256;
 
-/// Renders caster depth into any number of `Depth32Float` views in one call.
+/// What a light-space depth pass draws and keeps: every technique's caster rasterisation goes
+/// through [`DepthMapRenderer`] with one of these, so a change to how casters are drawn is made
+/// once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CasterDraw {
+    /// The casters' nearest depth (cleared to 1, `Less`): every shadow map.
+    Nearest,
+    /// The casters' farthest depth (cleared to 0, `Greater`): SSM's back occluder map (Atty et
+    /// al. 2006, section 3.5).
+    Farthest,
+    /// The nearest depth of the receivers that are not casters (cleared to 1, `Less`): SSM's
+    /// receiver map (section 3.1).
+    ReceiversOnly,
+}
+
+impl CasterDraw {
+    fn index(self) -> usize {
+        self as usize
+    }
+
+    fn clear(self) -> f32 {
+        match self {
+            CasterDraw::Farthest => 0.0,
+            CasterDraw::Nearest | CasterDraw::ReceiversOnly => 1.0,
+        }
+    }
+}
+
+/// Renders caster depth into any number of `Depth32Float` views in one call: the one light-space
+/// depth pass of the workspace (`shaders/core/depth.wgsl`), one view matrix per slot.
 pub struct DepthMapRenderer {
-    pipeline: wgpu::RenderPipeline,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    /// One pipeline per [`CasterDraw`], made on first use.
+    pipelines: [std::sync::OnceLock<wgpu::RenderPipeline>; 3],
     layout: wgpu::BindGroupLayout,
     buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -79,7 +111,7 @@ pub struct DepthMapRenderer {
 }
 
 impl DepthMapRenderer {
-    /// Builds the depth pipeline (`shaders/core/depth.wgsl`).
+    /// Builds the depth pass (`shaders/core/depth.wgsl`); its pipelines are made on first use.
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[1], &[])?;
         let layout = gpu
@@ -95,41 +127,66 @@ impl DepthMapRenderer {
                 bind_group_layouts: &[Some(&layout)],
                 immediate_size: 0,
             });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("core/depth"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(Vertex::position_layout())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    // Both faces: zero-thickness occluders must cast from either side.
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: SHADOW_DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: None,
-                multiview_mask: None,
-                cache: None,
-            });
         let (buffer, bind_group) = Self::allocate(gpu, &layout, 16);
         Ok(Self {
-            pipeline,
+            module,
+            pipeline_layout,
+            pipelines: Default::default(),
             layout,
             buffer,
             bind_group,
             capacity: 16,
+        })
+    }
+
+    fn pipeline(&self, device: &wgpu::Device, draw: CasterDraw) -> &wgpu::RenderPipeline {
+        self.pipelines[draw.index()].get_or_init(|| self.make_pipeline(device, draw))
+    }
+
+    fn make_pipeline(&self, device: &wgpu::Device, draw: CasterDraw) -> wgpu::RenderPipeline {
+        let (entry, vertex, compare) = match draw {
+            CasterDraw::Nearest => (
+                "vs_main",
+                Vertex::position_layout(),
+                wgpu::CompareFunction::Less,
+            ),
+            CasterDraw::Farthest => (
+                "vs_main",
+                Vertex::position_layout(),
+                wgpu::CompareFunction::Greater,
+            ),
+            CasterDraw::ReceiversOnly => (
+                "vs_receiver",
+                Vertex::position_and_flags_layout(),
+                wgpu::CompareFunction::Less,
+            ),
+        };
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("core/depth"),
+            layout: Some(&self.pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex)],
+            },
+            primitive: wgpu::PrimitiveState {
+                // Both faces: zero-thickness occluders must cast from either side, and the
+                // nearest / farthest surface is chosen by the depth test alone.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: SHADOW_DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(compare),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
         })
     }
 
@@ -203,33 +260,47 @@ impl DepthMapRenderer {
         slot: u32,
         target: &wgpu::TextureView,
     ) {
-        frame.render_pass(
-            label,
-            wgpu::RenderPassDescriptor {
-                label: None,
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: target,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
+        self.record_draw(frame, label, scene, list, CasterDraw::Nearest, slot, target);
+    }
+
+    /// One depth pass of `draw` over `list` (the casters, or the receivers for
+    /// [`CasterDraw::ReceiversOnly`]) into `target` through view slot `slot`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_draw(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        list: Option<&IndexList>,
+        draw: CasterDraw,
+        slot: u32,
+        target: &wgpu::TextureView,
+    ) {
+        let pipeline = self.pipeline(&frame.gpu.device, draw);
+        let desc = wgpu::RenderPassDescriptor {
+            label: None,
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: target,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(draw.clear()),
+                    store: wgpu::StoreOp::Store,
                 }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            },
-            |pass| {
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
-                if let Some(list) = list {
-                    pass.set_vertex_buffer(0, scene.vertices.slice(..));
-                    pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..list.count, 0, 0..1);
-                }
-            },
-        );
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        };
+        frame.render_pass(label, desc, |pass| {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
+            if let Some(list) = list {
+                pass.set_vertex_buffer(0, scene.vertices.slice(..));
+                pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..list.count, 0, 0..1);
+            }
+        });
     }
 }
 
