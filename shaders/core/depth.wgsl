@@ -2,6 +2,8 @@
 // light-space rasterisation of the workspace (softshadow_core::shadow_map::DepthMapRenderer).
 // One uniform slot per view, selected with a dynamic offset.
 
+#import softshadow::shadow_view::{ShadowView, linear_depth}
+
 struct DepthView {
     light_view_proj: mat4x4<f32>,
 }
@@ -27,4 +29,26 @@ fn vs_receiver(
         return vec4<f32>(2.0, 2.0, 2.0, 1.0);
     }
     return view.light_view_proj * vec4<f32>(position, 1.0);
+}
+
+// Depth peeling (Schwarz & Stamminger 2007, sec. 3.2; bitmask's layers): the pass keeps, per
+// texel, the nearest caster surface behind the previous layer, drawn through the same view.
+@group(1) @binding(0) var<uniform> peel_view: ShadowView;
+@group(1) @binding(1) var previous: texture_depth_2d;
+
+// Relative depth gap below which a fragment counts as the previous layer's surface (the same
+// triangle rasterised again, or a coincident duplicate such as a two-sided quad's other face).
+const PEEL_GAP: f32 = 1.0e-4;
+
+@fragment
+fn fs_peel(@builtin(position) frag: vec4<f32>) {
+    let d_previous = textureLoad(previous, vec2<i32>(frag.xy), 0);
+    if d_previous >= 1.0 {
+        // Nothing in front: nothing behind either.
+        discard;
+    }
+    let z_previous = linear_depth(peel_view, d_previous);
+    if linear_depth(peel_view, frag.z) <= z_previous * (1.0 + PEEL_GAP) {
+        discard;
+    }
 }

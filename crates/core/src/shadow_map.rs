@@ -8,6 +8,7 @@ use glam::{Vec2, Vec3};
 use crate::{
     frame::{uniform_entry, Frame},
     light::{AreaLight, SlopeFrustum},
+    pass::{PassGroup, Slot},
     scene_gpu::{IndexList, SceneGpu, Vertex},
     shader, Gpu, GpuError,
 };
@@ -104,6 +105,9 @@ pub struct DepthMapRenderer {
     pipeline_layout: wgpu::PipelineLayout,
     /// One pipeline per [`CasterDraw`], made on first use.
     pipelines: [std::sync::OnceLock<wgpu::RenderPipeline>; 3],
+    /// The peeling pass: its group (the peeled map's `ShadowView`, the previous layer) and
+    /// pipeline, made on first use.
+    peel: std::sync::OnceLock<(PassGroup, wgpu::RenderPipeline)>,
     layout: wgpu::BindGroupLayout,
     buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -132,6 +136,7 @@ impl DepthMapRenderer {
             module,
             pipeline_layout,
             pipelines: Default::default(),
+            peel: Default::default(),
             layout,
             buffer,
             bind_group,
@@ -144,6 +149,38 @@ impl DepthMapRenderer {
     }
 
     fn make_pipeline(&self, device: &wgpu::Device, draw: CasterDraw) -> wgpu::RenderPipeline {
+        self.depth_pipeline(device, draw, &self.pipeline_layout, None)
+    }
+
+    /// The peeling pipeline: `vs_main` and `fs_peel`, which discards what is not behind the
+    /// previous layer.
+    fn make_peel(&self, gpu: &Gpu) -> (PassGroup, wgpu::RenderPipeline) {
+        let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let group = PassGroup::new(
+            gpu,
+            "core/depth peel",
+            &[Slot::Uniform, Slot::DEPTH],
+            stages,
+        );
+        let layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("core/depth peel"),
+                bind_group_layouts: &[Some(&self.layout), Some(group.layout())],
+                immediate_size: 0,
+            });
+        let pipeline =
+            self.depth_pipeline(&gpu.device, CasterDraw::Nearest, &layout, Some("fs_peel"));
+        (group, pipeline)
+    }
+
+    fn depth_pipeline(
+        &self,
+        device: &wgpu::Device,
+        draw: CasterDraw,
+        layout: &wgpu::PipelineLayout,
+        fragment: Option<&str>,
+    ) -> wgpu::RenderPipeline {
         let (entry, vertex, compare) = match draw {
             CasterDraw::Nearest => (
                 "vs_main",
@@ -163,7 +200,7 @@ impl DepthMapRenderer {
         };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("core/depth"),
-            layout: Some(&self.pipeline_layout),
+            layout: Some(layout),
             vertex: wgpu::VertexState {
                 module: &self.module,
                 entry_point: Some(entry),
@@ -184,7 +221,12 @@ impl DepthMapRenderer {
                 bias: Default::default(),
             }),
             multisample: Default::default(),
-            fragment: None,
+            fragment: fragment.map(|entry| wgpu::FragmentState {
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                targets: &[],
+            }),
             multiview_mask: None,
             cache: None,
         })
@@ -277,13 +319,70 @@ impl DepthMapRenderer {
         target: &wgpu::TextureView,
     ) {
         let pipeline = self.pipeline(&frame.gpu.device, draw);
+        self.record_pass(
+            frame,
+            label,
+            scene,
+            list,
+            pipeline,
+            None,
+            (slot, draw.clear()),
+            target,
+        );
+    }
+
+    /// One depth-peeling pass (Schwarz & Stamminger 2007, section 3.2) of the casters into
+    /// `target` through view slot `slot`: the nearest surface behind `previous`, a map drawn
+    /// through the same view, whose `ShadowView` is `peel_view`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_peel(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        slot: u32,
+        peel_view: &wgpu::Buffer,
+        previous: &wgpu::TextureView,
+        target: &wgpu::TextureView,
+    ) {
+        let (group, pipeline) = self.peel.get_or_init(|| self.make_peel(frame.gpu));
+        let peel_group = group.bind(frame.gpu, &[peel_view.into(), previous.into()]);
+        let casters = scene.casters.as_ref();
+        let clear = CasterDraw::Nearest.clear();
+        let extra = Some(&peel_group);
+        self.record_pass(
+            frame,
+            label,
+            scene,
+            casters,
+            pipeline,
+            extra,
+            (slot, clear),
+            target,
+        );
+    }
+
+    /// Records one depth pass: `list` drawn with `pipeline` into `target` cleared to the
+    /// `(slot, clear)` pair's depth, through view slot `slot`, with `extra` as group 1.
+    #[allow(clippy::too_many_arguments)]
+    fn record_pass(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        list: Option<&IndexList>,
+        pipeline: &wgpu::RenderPipeline,
+        extra: Option<&wgpu::BindGroup>,
+        (slot, clear): (u32, f32),
+        target: &wgpu::TextureView,
+    ) {
         let desc = wgpu::RenderPassDescriptor {
             label: None,
             color_attachments: &[],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: target,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(draw.clear()),
+                    load: wgpu::LoadOp::Clear(clear),
                     store: wgpu::StoreOp::Store,
                 }),
                 stencil_ops: None,
@@ -295,6 +394,9 @@ impl DepthMapRenderer {
         frame.render_pass(label, desc, |pass| {
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
+            if let Some(extra) = extra {
+                pass.set_bind_group(1, extra, &[]);
+            }
             if let Some(list) = list {
                 pass.set_vertex_buffer(0, scene.vertices.slice(..));
                 pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
@@ -412,6 +514,20 @@ impl CentreShadowMap {
         let (_, _, map_view) = self.map.as_ref().expect("created above");
         self.depth.record(frame, label, inputs.scene, 0, map_view);
         Some(frustum)
+    }
+
+    /// Peels the next caster layer behind `previous` (a map drawn through this map's view:
+    /// itself, or the last layer peeled) into `target` (Schwarz & Stamminger 2007, section 3.2).
+    pub fn record_peel(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        previous: &wgpu::TextureView,
+        target: &wgpu::TextureView,
+    ) {
+        let view = &self.view_buffer;
+        (self.depth).record_peel(frame, label, scene, 0, view, previous, target);
     }
 
     /// The last [`CentreShadowMap::render`] drew the map (it did not keep an earlier one).
