@@ -28,6 +28,7 @@ pub mod pass;
 pub mod readback;
 pub mod registry;
 pub mod renderer;
+pub mod reprojection;
 pub mod scene;
 pub mod scene_gpu;
 pub mod shader;

@@ -16,6 +16,7 @@
 //! [`PassBuilder::after_frame_group`] that group is group 1 and group 0 is the core frame group
 //! (`shaders/common/frame.wgsl`), as for every per-pixel pass; without it, group 0.
 
+use std::hash::{Hash, Hasher};
 use std::sync::Mutex;
 
 use crate::{shader, shader::DefValue, shader::ShaderSpec, Frame, Gpu, GpuError};
@@ -45,6 +46,8 @@ pub enum Slot {
     StorageTexture(wgpu::TextureFormat),
     /// A sampler.
     Sampler(wgpu::SamplerBindingType),
+    /// A ray-query `acceleration_structure`.
+    AccelerationStructure,
 }
 
 impl Slot {
@@ -102,6 +105,9 @@ impl Slot {
                 view_dimension: wgpu::TextureViewDimension::D2,
             },
             Slot::Sampler(kind) => wgpu::BindingType::Sampler(kind),
+            Slot::AccelerationStructure => wgpu::BindingType::AccelerationStructure {
+                vertex_return: false,
+            },
         }
     }
 
@@ -146,6 +152,8 @@ pub enum Resource<'a> {
     View(&'a wgpu::TextureView),
     /// A sampler.
     Sampler(&'a wgpu::Sampler),
+    /// A top-level acceleration structure.
+    Tlas(&'a wgpu::Tlas),
 }
 
 impl<'a> From<&'a wgpu::Buffer> for Resource<'a> {
@@ -157,6 +165,12 @@ impl<'a> From<&'a wgpu::Buffer> for Resource<'a> {
 impl<'a> From<&'a wgpu::TextureView> for Resource<'a> {
     fn from(view: &'a wgpu::TextureView) -> Self {
         Resource::View(view)
+    }
+}
+
+impl<'a> From<&'a wgpu::Tlas> for Resource<'a> {
+    fn from(tlas: &'a wgpu::Tlas) -> Self {
+        Resource::Tlas(tlas)
     }
 }
 
@@ -179,6 +193,7 @@ impl Resource<'_> {
             }
             Resource::View(view) => wgpu::BindingResource::TextureView(view),
             Resource::Sampler(sampler) => wgpu::BindingResource::Sampler(sampler),
+            Resource::Tlas(tlas) => tlas.as_binding(),
         }
     }
 
@@ -193,26 +208,22 @@ impl Resource<'_> {
             ),
             Resource::View(_) => matches!(slot, Slot::Texture { .. } | Slot::StorageTexture(_)),
             Resource::Sampler(_) => matches!(slot, Slot::Sampler(_)),
+            Resource::Tlas(_) => slot == Slot::AccelerationStructure,
         }
     }
 
-    /// The resource itself, owned: a cache key that also keeps it alive, so a freed buffer's
-    /// identity cannot be reused under a cached bind group.
-    fn key(&self) -> ResourceKey {
+    /// Hashes what is bound: wgpu's handles hash by identity (an id with an epoch, never
+    /// reused), and a cached bind group holds its resources, so equal hashes mean equal groups.
+    fn hash_into(&self, hasher: &mut impl Hasher) {
+        std::mem::discriminant(self).hash(hasher);
         match *self {
-            Resource::Buffer(b) => ResourceKey::Buffer(b.clone(), 0, 0),
-            Resource::BufferRange(b, offset, size) => ResourceKey::Buffer(b.clone(), offset, size),
-            Resource::View(v) => ResourceKey::View(v.clone()),
-            Resource::Sampler(s) => ResourceKey::Sampler(s.clone()),
+            Resource::Buffer(b) => b.hash(hasher),
+            Resource::BufferRange(b, offset, size) => (b, offset, size).hash(hasher),
+            Resource::View(v) => v.hash(hasher),
+            Resource::Sampler(s) => s.hash(hasher),
+            Resource::Tlas(t) => t.hash(hasher),
         }
     }
-}
-
-#[derive(Clone, Debug, PartialEq, Eq)]
-enum ResourceKey {
-    Buffer(wgpu::Buffer, u64, u64),
-    View(wgpu::TextureView),
-    Sampler(wgpu::Sampler),
 }
 
 /// How many bind groups a pass keeps (ping-pong passes alternate between a few).
@@ -223,7 +234,7 @@ pub struct PassGroup {
     label: String,
     slots: Vec<Slot>,
     layout: wgpu::BindGroupLayout,
-    cache: Mutex<Vec<(Vec<ResourceKey>, wgpu::BindGroup)>>,
+    cache: Mutex<Vec<(u64, wgpu::BindGroup)>>,
 }
 
 impl PassGroup {
@@ -248,7 +259,9 @@ impl PassGroup {
     /// When the resources do not match the declared slots: a mistake in the technique's code.
     pub fn bind(&self, gpu: &Gpu, resources: &[Resource<'_>]) -> wgpu::BindGroup {
         self.check(resources);
-        let key: Vec<ResourceKey> = resources.iter().map(Resource::key).collect();
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        resources.iter().for_each(|r| r.hash_into(&mut hasher));
+        let key = hasher.finish();
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if let Some((_, group)) = cache.iter().find(|(k, _)| *k == key) {
             return group.clone();

@@ -17,8 +17,8 @@ use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     fullscreen::uniform_buffer,
     gbuffer::create_texture,
-    glam::Mat4,
     pass::{ComputePass, FullscreenPass, Pass, Slot},
+    reprojection::History,
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
@@ -147,23 +147,15 @@ pub fn temporal_requirements() -> Requirements {
 
 /// Per-size textures of the temporal mode.
 struct TemporalTargets {
-    width: u32,
-    height: u32,
     /// This frame's rotated PCSS (`R32Float`, drawn by `pcss/filter`).
     raw: wgpu::Texture,
-    /// Frames averaged and visibility (`Rg32Float`), ping-pong.
-    history: [wgpu::Texture; 2],
-    /// Views of `raw` and `history`.
     raw_view: wgpu::TextureView,
-    history_views: [wgpu::TextureView; 2],
-    /// World point and receiver flag the history saw (`Rgba32Float`), ping-pong.
-    position_views: [wgpu::TextureView; 2],
+    /// (frames averaged, visibility) and the world point each saw.
+    history: History,
 }
 
 impl TemporalTargets {
     fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
-        let storage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
-        let make = |label: &str, format| create_texture(gpu, label, width, height, format, storage);
         let raw = create_texture(
             gpu,
             "pcss/raw",
@@ -172,27 +164,15 @@ impl TemporalTargets {
             wgpu::TextureFormat::R32Float,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
-        let history = [
-            make("pcss/history 0", wgpu::TextureFormat::Rg32Float),
-            make("pcss/history 1", wgpu::TextureFormat::Rg32Float),
-        ];
-        let position = [
-            make("pcss/position 0", wgpu::TextureFormat::Rgba32Float),
-            make("pcss/position 1", wgpu::TextureFormat::Rgba32Float),
-        ];
         Self {
-            width,
-            height,
             raw_view: view(&raw),
-            history_views: [view(&history[0]), view(&history[1])],
-            position_views: [view(&position[0]), view(&position[1])],
             raw,
-            history,
+            history: History::new(gpu, "pcss", width, height),
         }
     }
 
-    /// Bytes of the textures per pixel: raw 4, history 2 x 8, position 2 x 16.
-    const BYTES_PER_PIXEL: u64 = 4 + 16 + 32;
+    /// Bytes of the textures per pixel: raw 4 and the history.
+    const BYTES_PER_PIXEL: u64 = 4 + History::BYTES_PER_PIXEL;
 }
 
 /// The temporal mode's pipelines, history and state, made on its first frame (plain PCSS never
@@ -203,15 +183,8 @@ struct Temporal {
     resolve: ComputePass,
     params_buffer: wgpu::Buffer,
     targets: Option<TemporalTargets>,
-    /// The history texture written last (`history[current]`).
-    current: usize,
-    /// The history holds a frame usable by the next one.
-    history_valid: bool,
-    /// Frames averaged since the history was last dropped, capped at `max_history`.
-    history_frames: u32,
     /// Rotates the kernel: goes on every temporal frame.
     frame_index: u32,
-    prev_view_proj: Mat4,
 }
 
 impl Temporal {
@@ -235,12 +208,72 @@ impl Temporal {
             resolve,
             params_buffer: uniform_buffer(gpu, "pcss/temporal params", &TemporalUniform::zeroed()),
             targets: None,
-            current: 0,
-            history_valid: false,
-            history_frames: 0,
             frame_index: 0,
-            prev_view_proj: Mat4::IDENTITY,
         })
+    }
+
+    /// Drops the history: the next temporal frame starts over.
+    fn invalidate(&mut self) {
+        if let Some(targets) = &mut self.targets {
+            targets.history.invalidate();
+        }
+    }
+
+    /// This frame's rotated PCSS into `raw` (with `filter`, the map and PCSS's uniform given by
+    /// the caller), blended into the history and written to `out`. The history is a mean over
+    /// one size and one setting: a change of either drops it. A moved light or caster keeps it
+    /// (as a TAA history is kept): the neighbourhood clip is what rejects the stale part, and
+    /// what it lets through is the lag the motion runs measure. A moved camera keeps it too
+    /// (reprojection follows).
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        s: &PcssSettings,
+        filter: impl FnOnce(&mut Frame<'_>, &FullscreenPass, &wgpu::TextureView),
+    ) -> u32 {
+        let (width, height) = (inputs.width, inputs.height);
+        if (self.targets.as_ref()).is_none_or(|x| !x.history.fits(width, height)) {
+            self.targets = Some(TemporalTargets::new(frame.gpu, width, height));
+        }
+        if inputs.changes.size || inputs.changes.params {
+            self.invalidate();
+        }
+        let targets = self.targets.as_mut().expect("made above");
+        let pass = match s.kernel {
+            Kernel::Vogel => &self.filter_vogel,
+            Kernel::Grid => &self.filter_grid,
+        };
+        filter(frame, pass, &targets.raw_view);
+        let history = &targets.history;
+        frame.gpu.queue.write_buffer(
+            &self.params_buffer,
+            0,
+            bytemuck::bytes_of(&TemporalUniform {
+                prev_view_proj: history.prev_view_proj().to_cols_array_2d(),
+                history_valid: u32::from(history.is_valid()),
+                max_history: s.max_history.max(1),
+                clamp_sigma: s.clamp_sigma,
+                _pad: 0,
+            }),
+        );
+        let (previous, next) = (history.previous(), history.next());
+        self.resolve
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.params_buffer)
+            .read(&targets.raw_view)
+            .read(previous.0)
+            .read(previous.1)
+            .write(next.0)
+            .write(next.1)
+            .write(&out.view)
+            .dispatch([width.div_ceil(8), height.div_ceil(8), 1]);
+        let view_proj = inputs.uniforms.view_proj();
+        targets.history.advance(view_proj, s.max_history, true);
+        self.frame_index = self.frame_index.wrapping_add(1);
+        targets.history.frames()
     }
 }
 
@@ -329,7 +362,7 @@ impl ShadowTechnique for Pcss {
         {
             out.write_unshadowed(frame, inputs.frame_bind_group, "pcss/no_casters")?;
             if let Some(t) = &mut self.temporal {
-                t.history_valid = false;
+                t.invalidate();
             }
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
@@ -362,88 +395,32 @@ impl ShadowTechnique for Pcss {
             ),
             ("pixels".into(), pixels),
         ]);
+        let params = &self.params_buffer;
+        let shadow_view = &self.shadow_map.view_buffer;
+        let filter = |frame: &mut Frame<'_>, pass: &FullscreenPass, target: &wgpu::TextureView| {
+            pass.run(frame)
+                .named("pcss/filter")
+                .frame_group(inputs.frame_bind_group)
+                .read(shadow_view)
+                .read(map)
+                .read(params)
+                .draw(target, Some(1.0));
+        };
         let Some(t) = temporal else {
             // A history made before `temporal` was switched off is stale when it is switched on.
             if let Some(t) = &mut self.temporal {
-                t.history_valid = false;
+                t.invalidate();
             }
-            let filter = match s.kernel {
+            let pass = match s.kernel {
                 Kernel::Vogel => &self.filter_vogel,
                 Kernel::Grid => &self.filter_grid,
             };
-            filter
-                .run(frame)
-                .named("pcss/filter")
-                .frame_group(inputs.frame_bind_group)
-                .read(&self.shadow_map.view_buffer)
-                .read(map)
-                .read(&self.params_buffer)
-                .draw(&out.view, Some(1.0));
+            filter(frame, pass, &out.view);
             self.stats = stats;
             return Ok(());
         };
-
-        // The temporal mode. The history is a mean over one size and one setting: a change of
-        // either drops it. A moved light or caster keeps it (as a TAA history is kept): the
-        // neighbourhood clip is what rejects the stale part, and what it lets through is the
-        // lag the motion runs measure. A moved camera keeps it too (reprojection follows).
-        let (width, height) = (inputs.width, inputs.height);
-        if t.targets
-            .as_ref()
-            .is_none_or(|x| x.width != width || x.height != height)
-        {
-            t.targets = Some(TemporalTargets::new(gpu, width, height));
-            t.history_valid = false;
-        }
-        if inputs.changes.size || inputs.changes.params {
-            t.history_valid = false;
-        }
-        let targets = t.targets.as_ref().expect("made above");
-        let filter = match s.kernel {
-            Kernel::Vogel => &t.filter_vogel,
-            Kernel::Grid => &t.filter_grid,
-        };
-        filter
-            .run(frame)
-            .named("pcss/filter")
-            .frame_group(inputs.frame_bind_group)
-            .read(&self.shadow_map.view_buffer)
-            .read(map)
-            .read(&self.params_buffer)
-            .draw(&targets.raw_view, Some(1.0));
-        gpu.queue.write_buffer(
-            &t.params_buffer,
-            0,
-            bytemuck::bytes_of(&TemporalUniform {
-                prev_view_proj: t.prev_view_proj.to_cols_array_2d(),
-                history_valid: u32::from(t.history_valid),
-                max_history: s.max_history.max(1),
-                clamp_sigma: s.clamp_sigma,
-                _pad: 0,
-            }),
-        );
-        let (prev, cur) = (t.current, 1 - t.current);
-        t.resolve
-            .run(frame)
-            .frame_group(inputs.frame_bind_group)
-            .read(&t.params_buffer)
-            .read(&targets.raw_view)
-            .read(&targets.history_views[prev])
-            .read(&targets.position_views[prev])
-            .write(&targets.history_views[cur])
-            .write(&targets.position_views[cur])
-            .write(&out.view)
-            .dispatch([width.div_ceil(8), height.div_ceil(8), 1]);
-        t.history_frames = if t.history_valid {
-            (t.history_frames + 1).min(s.max_history.max(1))
-        } else {
-            1
-        };
-        t.history_valid = true;
-        t.current = cur;
-        t.prev_view_proj = inputs.uniforms.view_proj();
-        t.frame_index = t.frame_index.wrapping_add(1);
-        stats.insert("history_frames".into(), f64::from(t.history_frames));
+        let frames = t.render(frame, inputs, out, s, filter);
+        stats.insert("history_frames".into(), f64::from(frames));
         stats.insert(
             "texture_bytes".into(),
             pixels * TemporalTargets::BYTES_PER_PIXEL as f64,
@@ -455,7 +432,7 @@ impl ShadowTechnique for Pcss {
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
         if let Some(t) = &mut self.temporal {
-            t.history_valid = false;
+            t.invalidate();
         }
     }
 
@@ -469,12 +446,12 @@ impl ShadowTechnique for Pcss {
             .temporal
             .as_ref()
             .filter(|_| self.settings.temporal)
-            .and_then(|t| t.targets.as_ref().map(|x| (x, t.current)))
+            .and_then(|t| t.targets.as_ref())
         {
-            let (x, current) = targets;
+            let x = targets;
             views.push(DebugView::new(
                 "history frames",
-                &x.history[current],
+                x.history.latest(),
                 DebugLegend::Value {
                     meaning: "frames averaged at this pixel".into(),
                     notes: vec![
