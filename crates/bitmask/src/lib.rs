@@ -834,7 +834,7 @@ mod tests {
 
     #[test]
     fn shaders_validate_in_every_permutation() {
-        if let Err(e) = shader::validate_all(SHADERS) {
+        if let Err(e) = softshadow_core::shader::validate_all(SHADERS) {
             panic!("{e}");
         }
     }

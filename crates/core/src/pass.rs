@@ -310,10 +310,18 @@ impl PassGroup {
 pub struct PassBuilder<'a> {
     gpu: &'a Gpu,
     label: String,
-    spec: &'a ShaderSpec,
+    source: PassSource<'a>,
     defs: Vec<(&'a str, DefValue)>,
     slots: Vec<Slot>,
     after_frame_group: bool,
+}
+
+/// Where a pass's shader comes from.
+enum PassSource<'a> {
+    /// A WGSL entry file of the workspace, composed with its defs.
+    Spec(&'a ShaderSpec),
+    /// A module already composed (a WGSL-file technique).
+    Module(Box<naga::Module>),
 }
 
 /// Starts declaring a pass named `label` (the name its timings carry) from `spec`.
@@ -326,7 +334,19 @@ impl Pass {
         PassBuilder {
             gpu,
             label: label.to_string(),
-            spec,
+            source: PassSource::Spec(spec),
+            defs: Vec::new(),
+            slots: Vec::new(),
+            after_frame_group: false,
+        }
+    }
+
+    /// A new pass declaration over a module already composed (defs do not apply).
+    pub fn from_module<'a>(gpu: &'a Gpu, label: &str, module: naga::Module) -> PassBuilder<'a> {
+        PassBuilder {
+            gpu,
+            label: label.to_string(),
+            source: PassSource::Module(Box::new(module)),
             defs: Vec::new(),
             slots: Vec::new(),
             after_frame_group: false,
@@ -384,6 +404,23 @@ impl<'a> PassBuilder<'a> {
         self
     }
 
+    fn module(&self) -> Result<wgpu::ShaderModule, GpuError> {
+        match &self.source {
+            PassSource::Spec(spec) => shader::create_module(self.gpu, spec, &self.defs),
+            PassSource::Module(module) => {
+                Ok(self
+                    .gpu
+                    .device
+                    .create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(&self.label),
+                        source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(
+                            (**module).clone(),
+                        )),
+                    }))
+            }
+        }
+    }
+
     fn pipeline_layout(&self, group: &PassGroup) -> wgpu::PipelineLayout {
         let frame = Some(&self.gpu.layouts.frame);
         let own = Some(group.layout());
@@ -409,7 +446,7 @@ impl<'a> PassBuilder<'a> {
             &self.slots,
             wgpu::ShaderStages::COMPUTE,
         );
-        let module = shader::create_module(self.gpu, self.spec, &self.defs)?;
+        let module = self.module()?;
         let pipeline = self
             .gpu
             .device
@@ -448,7 +485,7 @@ impl<'a> PassBuilder<'a> {
         };
         let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
         let group = PassGroup::new(self.gpu, &self.label, &self.slots, stages);
-        let module = shader::create_module(self.gpu, self.spec, &self.defs)?;
+        let module = self.module()?;
         let pipeline = crate::fullscreen::render_pipeline(
             self.gpu,
             &self.label,
@@ -491,6 +528,7 @@ pub struct PassRun<'f, 'g, 'r, P> {
     writes: Vec<bool>,
     dynamic_offsets: Vec<u32>,
     label: Option<&'r str>,
+    instances: std::ops::Range<u32>,
 }
 
 impl<'f, 'g, 'r, P: HasGroup> PassRun<'f, 'g, 'r, P> {
@@ -517,6 +555,12 @@ impl<'f, 'g, 'r, P: HasGroup> PassRun<'f, 'g, 'r, P> {
     /// Times and names this run `label` instead of the pass's own name.
     pub fn named(mut self, label: &'r str) -> Self {
         self.label = Some(label);
+        self
+    }
+
+    /// Draws these instances of the fullscreen triangle (the shader reads `instance_index`).
+    pub fn instances(mut self, instances: std::ops::Range<u32>) -> Self {
+        self.instances = instances;
         self
     }
 
@@ -609,7 +653,7 @@ impl PassRun<'_, '_, '_, FullscreenPass> {
                 index = 1;
             }
             rpass.set_bind_group(index, &own, &self.dynamic_offsets);
-            rpass.draw(0..3, 0..1);
+            rpass.draw(0..3, self.instances.clone());
         });
     }
 }
@@ -648,6 +692,7 @@ macro_rules! built_pass {
                     writes: Vec::new(),
                     dynamic_offsets: Vec::new(),
                     label: None,
+                    instances: 0..1,
                 }
             }
 

@@ -8,9 +8,11 @@ use glam::{Vec2, Vec3};
 use crate::{
     frame::{uniform_entry, Frame},
     light::{AreaLight, SlopeFrustum},
-    pass::{PassGroup, Slot},
+    pass::{FullscreenPass, Pass, PassBuilder, PassGroup, Slot},
     scene_gpu::{IndexList, SceneGpu, Vertex},
-    shader, Gpu, GpuError,
+    shader,
+    shader::ShaderSpec,
+    Gpu, GpuError,
 };
 
 /// Format of every shadow map.
@@ -540,49 +542,41 @@ impl CentreShadowMap {
         self.kept = None;
     }
 
-    /// Layout of the usual group 1 of a pass that reads this map: binding 0 = `ShadowView`
-    /// uniform, 1 = `texture_depth_2d`, 2 = the technique's own parameter uniform
-    /// (`hard.wgsl`, `pcss.wgsl`).
-    pub fn lookup_layout(gpu: &Gpu, label: &str) -> wgpu::BindGroupLayout {
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        gpu.device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(label),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    crate::fullscreen::depth_texture_entry(1, false),
-                    uniform_entry(2, stage, false),
-                ],
-            })
+    /// Declares the usual pass that reads this map (`hard.wgsl`, `pcss.wgsl`, ...): group 1 is
+    /// binding 0 = its `ShadowView` uniform, 1 = the `texture_depth_2d`, 2 = the technique's own
+    /// parameter uniform. Run it with [`CentreShadowMap::draw_lookup`].
+    pub fn lookup_pass<'a>(gpu: &'a Gpu, label: &str, spec: &'a ShaderSpec) -> PassBuilder<'a> {
+        Pass::new(gpu, label, spec)
+            .after_frame_group()
+            .uniform()
+            .texture(Slot::DEPTH)
+            .uniform()
     }
 
-    /// Bind group for [`CentreShadowMap::lookup_layout`] over the last rendered map, or `None`
-    /// before the first map.
-    pub fn lookup_bind_group(
+    /// Draws `pass` (from [`CentreShadowMap::lookup_pass`]) over the last rendered map with
+    /// `params` into `target`, timed as `label`; `clear` as [`crate::pass::PassRun::draw`].
+    /// Draws nothing before the first map.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_lookup(
         &self,
-        gpu: &Gpu,
-        layout: &wgpu::BindGroupLayout,
+        frame: &mut Frame<'_>,
+        pass: &FullscreenPass,
+        label: &str,
+        frame_group: &wgpu::BindGroup,
         params: &wgpu::Buffer,
-    ) -> Option<wgpu::BindGroup> {
-        let map_view = self.map_view()?;
-        Some(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("centre shadow map lookup"),
-            layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(map_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: params.as_entire_binding(),
-                },
-            ],
-        }))
+        target: &wgpu::TextureView,
+        clear: Option<f64>,
+    ) {
+        let Some(map) = self.map_view() else {
+            return;
+        };
+        pass.run(frame)
+            .named(label)
+            .frame_group(frame_group)
+            .read(&self.view_buffer)
+            .read(map)
+            .read(params)
+            .draw(target, clear);
     }
 
     /// The depth view of the last rendered map.

@@ -8,13 +8,9 @@
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    fullscreen::uniform_buffer,
-    pass::{FullscreenPass, Pass, Slot},
-    shader::ShaderSpec,
-    shader_file,
-    shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
-    TechniqueStats, VisibilityBuffer,
+    fullscreen::uniform_buffer, pass::FullscreenPass, shader::ShaderSpec, shader_file,
+    shadow_map::CentreShadowMap, wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique,
+    TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
@@ -70,12 +66,8 @@ impl Hard {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
         // hard.wgsl: the map's ShadowView, the map, HardParams.
-        let lookup = Pass::new(gpu, "hard/lookup", &SHADERS[0])
-            .after_frame_group()
-            .uniform()
-            .texture(Slot::DEPTH)
-            .uniform()
-            .fullscreen(None)?;
+        let lookup =
+            CentreShadowMap::lookup_pass(gpu, "hard/lookup", &SHADERS[0]).fullscreen(None)?;
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
             lookup,
@@ -125,14 +117,16 @@ impl ShadowTechnique for Hard {
                 _pad: [0.0; 3],
             }),
         );
-        let map = self.shadow_map.map_view().expect("rendered above");
-        self.lookup
-            .run(frame)
-            .frame_group(inputs.frame_bind_group)
-            .read(&self.shadow_map.view_buffer)
-            .read(map)
-            .read(&self.params_buffer)
-            .draw(&out.view, Some(1.0));
+        let (lookup, params, group) = (&self.lookup, &self.params_buffer, inputs.frame_bind_group);
+        (self.shadow_map).draw_lookup(
+            frame,
+            lookup,
+            "hard/lookup",
+            group,
+            params,
+            &out.view,
+            Some(1.0),
+        );
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
             ("shadow_map_texels".into(), (size as f64) * (size as f64)),

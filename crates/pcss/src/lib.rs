@@ -283,12 +283,8 @@ fn filter_pass(
     label: &str,
     defs: &[(&str, DefValue)],
 ) -> Result<FullscreenPass, TechniqueError> {
-    Ok(Pass::new(gpu, label, &SHADERS[0])
+    Ok(CentreShadowMap::lookup_pass(gpu, label, &SHADERS[0])
         .defs(defs)
-        .after_frame_group()
-        .uniform()
-        .texture(Slot::DEPTH)
-        .uniform()
         .fullscreen(None)?)
 }
 
@@ -385,7 +381,6 @@ impl ShadowTechnique for Pcss {
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
-        let map = self.shadow_map.map_view().expect("rendered above");
         let pixels = inputs.width as f64 * inputs.height as f64;
         let mut stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
@@ -395,16 +390,13 @@ impl ShadowTechnique for Pcss {
             ),
             ("pixels".into(), pixels),
         ]);
-        let params = &self.params_buffer;
-        let shadow_view = &self.shadow_map.view_buffer;
+        let (map, params, group) = (
+            &self.shadow_map,
+            &self.params_buffer,
+            inputs.frame_bind_group,
+        );
         let filter = |frame: &mut Frame<'_>, pass: &FullscreenPass, target: &wgpu::TextureView| {
-            pass.run(frame)
-                .named("pcss/filter")
-                .frame_group(inputs.frame_bind_group)
-                .read(shadow_view)
-                .read(map)
-                .read(params)
-                .draw(target, Some(1.0));
+            map.draw_lookup(frame, pass, "pcss/filter", group, params, target, Some(1.0));
         };
         let Some(t) = temporal else {
             // A history made before `temporal` was switched off is stale when it is switched on.

@@ -28,9 +28,9 @@ pub mod traced;
 
 use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
-    frame::{texture_entry, uniform_entry},
-    fullscreen::{depth_texture_entry, uniform_buffer, FullscreenPipeline},
+    fullscreen::uniform_buffer,
     glam::Vec2,
+    pass::{FullscreenPass, Pass, Resource, Slot},
     scene::Fnv1a,
     shader::ShaderSpec,
     shader_file,
@@ -67,6 +67,8 @@ pub const SHADERS: &[ShaderSpec] = &[
 const BATCH: u32 = 16;
 /// Bytes per batch slot in the uniform buffer (dynamic offsets need 256-byte alignment).
 const BATCH_SLOT: u64 = 2048;
+/// Bytes of one batch's uniform (`BatchUniform`), the view the accumulation binds per slot.
+const BATCH_UNIFORM_BYTES: u64 = std::mem::size_of::<BatchUniform>() as u64;
 
 softshadow_core::technique_settings! {
     /// Settings of the accumulated reference.
@@ -434,10 +436,8 @@ pub struct Reference {
     /// Its settings; changes take effect on the next frame.
     pub settings: ReferenceSettings,
     depth: DepthMapRenderer,
-    accumulate: FullscreenPipeline,
-    resolve: FullscreenPipeline,
-    accumulate_layout: wgpu::BindGroupLayout,
-    resolve_layout: wgpu::BindGroupLayout,
+    accumulate: FullscreenPass,
+    resolve: FullscreenPass,
     batches: wgpu::Buffer,
     batch_capacity: u32,
     resolve_buffer: wgpu::Buffer,
@@ -489,26 +489,6 @@ struct InProgress {
 impl Reference {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: ReferenceSettings) -> Result<Self, TechniqueError> {
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        let accumulate_layout =
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("reference/accumulate"),
-                    entries: &[uniform_entry(0, stage, true), depth_texture_entry(1, true)],
-                });
-        let resolve_layout =
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("reference/resolve"),
-                    entries: &[
-                        uniform_entry(0, stage, false),
-                        texture_entry(
-                            1,
-                            stage,
-                            wgpu::TextureSampleType::Float { filterable: false },
-                        ),
-                    ],
-                });
         let add = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -522,27 +502,23 @@ impl Reference {
         softshadow_core::technique::check_requirements(gpu, ID, &requirements)?;
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
-            accumulate: FullscreenPipeline::new(
-                gpu,
-                "reference/accumulate",
-                &SHADERS[0],
-                &[],
-                &accumulate_layout,
-                Some(blend),
-            )?,
-            resolve: FullscreenPipeline::new(
-                gpu,
-                "reference/resolve",
-                &SHADERS[1],
-                &[],
-                &resolve_layout,
-                None,
-            )?,
+            // accumulate.wgsl: one batch's views (a slot of `batches`), its depth maps.
+            accumulate: Pass::new(gpu, "reference/accumulate", &SHADERS[0])
+                .after_frame_group()
+                .slot(Slot::DynamicUniform {
+                    size: BATCH_UNIFORM_BYTES,
+                })
+                .texture(Slot::DEPTH_ARRAY)
+                .fullscreen(Some(blend))?,
+            // resolve.wgsl: the sample count, the summed counts.
+            resolve: Pass::new(gpu, "reference/resolve", &SHADERS[1])
+                .after_frame_group()
+                .uniform()
+                .texture(Slot::FLOAT)
+                .fullscreen(None)?,
             batches: Self::batch_buffer(gpu, 4),
             batch_capacity: 4,
             resolve_buffer: uniform_buffer(gpu, "reference/resolve", &ResolveUniform::zeroed()),
-            accumulate_layout,
-            resolve_layout,
             settings,
             maps: None,
             cache: None,
@@ -808,24 +784,6 @@ impl Reference {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        let accumulate_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("reference/accumulate"),
-            layout: &self.accumulate_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &self.batches,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<BatchUniform>() as u64),
-                    }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&array_view),
-                },
-            ],
-        });
         for b in 0..batch_count {
             let first = b * BATCH;
             let count = (views.len() as u32 - first).min(BATCH);
@@ -838,15 +796,14 @@ impl Reference {
                     &layer_views[layer as usize],
                 );
             }
-            self.accumulate.record(
-                frame,
-                "reference/accumulate",
-                inputs.frame_bind_group,
-                &accumulate_group,
-                &[(b as u64 * BATCH_SLOT) as u32],
-                &counts.view,
-                if b == 0 && clear { Some(0.0) } else { None },
-            );
+            let batch = Resource::BufferRange(&self.batches, 0, BATCH_UNIFORM_BYTES);
+            self.accumulate
+                .run(frame)
+                .frame_group(inputs.frame_bind_group)
+                .read(batch)
+                .read(&array_view)
+                .offsets(&[(b as u64 * BATCH_SLOT) as u32])
+                .draw(&counts.view, if b == 0 && clear { Some(0.0) } else { None });
         }
     }
 
@@ -867,29 +824,12 @@ impl Reference {
                 samples: [samples as f32, 0.0, 0.0, 0.0],
             }),
         );
-        let resolve_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("reference/resolve"),
-            layout: &self.resolve_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.resolve_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&counts.view),
-                },
-            ],
-        });
-        self.resolve.record(
-            frame,
-            "reference/resolve",
-            inputs.frame_bind_group,
-            &resolve_group,
-            &[],
-            &result.view,
-            Some(1.0),
-        );
+        self.resolve
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.resolve_buffer)
+            .read(&counts.view)
+            .draw(&result.view, Some(1.0));
     }
 }
 

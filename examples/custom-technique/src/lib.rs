@@ -13,7 +13,8 @@ use bytemuck::{Pod, Zeroable};
 use softshadow_core::{
     cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*},
-    fullscreen::{uniform_buffer, FullscreenPipeline},
+    fullscreen::uniform_buffer,
+    pass::FullscreenPass,
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
@@ -138,8 +139,7 @@ pub struct FixedPcf {
     /// Its settings; changes take effect on the next frame.
     pub settings: FixedPcfSettings,
     shadow_map: CentreShadowMap,
-    lookup: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    lookup: FullscreenPass,
     params_buffer: wgpu::Buffer,
     stats: TechniqueStats,
 }
@@ -147,20 +147,13 @@ pub struct FixedPcf {
 impl FixedPcf {
     /// Builds the technique's pipeline on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: FixedPcfSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "fixed-pcf/lookup");
         Ok(Self {
             // The map `hard` uses, so that radius 0 is exactly the hard shadow.
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
-            lookup: FullscreenPipeline::new(
-                gpu,
-                "fixed-pcf/lookup",
-                &SHADERS[0],
-                &[],
-                &layout,
-                None,
-            )?,
+            // fixed_pcf.wgsl: the map's ShadowView, the map, FixedPcfParams.
+            lookup: CentreShadowMap::lookup_pass(gpu, "fixed-pcf/lookup", &SHADERS[0])
+                .fullscreen(None)?,
             params_buffer: uniform_buffer(gpu, "fixed-pcf/params", &FixedPcfUniform::zeroed()),
-            layout,
             settings,
             stats: TechniqueStats::new(),
         })
@@ -206,16 +199,14 @@ impl ShadowTechnique for FixedPcf {
                 _pad: [0.0; 2],
             }),
         );
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
-        self.lookup.record(
+        let (map, params) = (&self.shadow_map, &self.params_buffer);
+        let (lookup, group) = (&self.lookup, inputs.frame_bind_group);
+        map.draw_lookup(
             frame,
+            lookup,
             "fixed-pcf/lookup",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
+            group,
+            params,
             &out.view,
             Some(1.0),
         );
