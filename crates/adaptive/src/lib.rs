@@ -220,7 +220,7 @@ pub struct Adaptive {
     resolve_layout: wgpu::BindGroupLayout,
     compare: FullscreenPipeline,
     /// The evaluation and the accumulation, each without and with PCF (`[off, on]`): a
-    /// permutation per setting (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// permutation per setting (docs/DEVICES.md, "Lavapipe's branches").
     evaluate: [FullscreenPipeline; 2],
     accumulate: [FullscreenPipeline; 2],
     resolve: FullscreenPipeline,

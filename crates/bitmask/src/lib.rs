@@ -673,7 +673,7 @@ impl ShadowTechnique for Bitmask {
         // The settings are range-checked by set_param; a library user may set any value.
         let layers = s.layers.clamp(1, MAX_LAYERS);
         // A bitmask block costs two iterations of the loop budget, so a layer counts as two
-        // passes (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+        // passes (docs/DEVICES.md, "Lavapipe's loop budget").
         let full_search = full_search_patches(2 * layers);
         let max_patches = match s.hierarchy {
             HierarchyKind::None => full_search,

@@ -232,7 +232,7 @@ pub struct Msm {
     moments_msm: FullscreenPipeline,
     moments_evsm: FullscreenPipeline,
     downsample: FullscreenPipeline,
-    /// The filter per variant: one pipeline each (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// The filter per variant: one pipeline each (docs/DEVICES.md, "Lavapipe's branches").
     filter_msm4: FullscreenPipeline,
     filter_evsm2: FullscreenPipeline,
     filter_evsm4: FullscreenPipeline,

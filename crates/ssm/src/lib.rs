@@ -286,7 +286,7 @@ pub struct Ssm {
     scatter_fp32: wgpu::RenderPipeline,
     scatter_fp16: wgpu::RenderPipeline,
     /// The projection with one soft shadow map and with two (`TWO_PASS`, section 3.5): one
-    /// pipeline each (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// pipeline each (docs/DEVICES.md, "Lavapipe's branches").
     project: [FullscreenPipeline; 2],
     project_layout: wgpu::BindGroupLayout,
     batch_add: FullscreenPipeline,
