@@ -218,7 +218,7 @@ pub struct Adaptive {
     depth: DepthMapRenderer,
     compare: FullscreenPass,
     /// The evaluation and the accumulation, each without and with PCF (`[off, on]`): a
-    /// permutation per setting (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// permutation per setting (docs/DEVICES.md, "Lavapipe's branches").
     evaluate: [FullscreenPass; 2],
     accumulate: [FullscreenPass; 2],
     resolve: FullscreenPass,

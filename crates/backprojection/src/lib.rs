@@ -41,7 +41,7 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
 }];
 
 /// Micro-patches per axis a full search (`hierarchy = none`) gathers before it must use coarser
-/// blocks: [`softshadow_core::hierarchy::full_search_patches`] of one pass (docs/ARCHITECTURE.md,
+/// blocks: [`softshadow_core::hierarchy::full_search_patches`] of one pass (docs/DEVICES.md,
 /// "Lavapipe's loop budget"; `FULL_SEARCH_PATCHES` in `gather.wgsl`, the same number).
 pub const FULL_SEARCH_PATCHES: u32 = 240;
 

@@ -474,7 +474,7 @@ impl Plan {
     fn of(s: &BitmaskSettings, gpu: &Gpu) -> Self {
         let layers = s.layers.clamp(1, MAX_LAYERS);
         // A bitmask block costs two iterations of the loop budget, so a layer counts as two
-        // passes (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+        // passes (docs/DEVICES.md, "Lavapipe's loop budget").
         let full_search = full_search_patches(2 * layers);
         Self {
             layers,

@@ -188,7 +188,7 @@ pub struct Msm {
     moments_msm: FullscreenPass,
     moments_evsm: FullscreenPass,
     downsample: FullscreenPass,
-    /// The filter per variant: one pipeline each (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// The filter per variant: one pipeline each (docs/DEVICES.md, "Lavapipe's branches").
     filter_msm4: FullscreenPass,
     filter_evsm2: FullscreenPass,
     filter_evsm4: FullscreenPass,

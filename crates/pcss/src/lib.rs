@@ -298,7 +298,7 @@ pub struct Pcss {
     pub settings: PcssSettings,
     shadow_map: CentreShadowMap,
     /// The lookup with the Vogel kernel, and with the grid (`KERNEL_GRID`): one pipeline per
-    /// kernel (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// kernel (docs/DEVICES.md, "Lavapipe's branches").
     filter_vogel: FullscreenPass,
     filter_grid: FullscreenPass,
     params_buffer: wgpu::Buffer,

@@ -196,7 +196,7 @@ pub struct Pdsm {
     depth: DepthMapRenderer,
     dynamic_depth: DepthMapRenderer,
     /// The evaluation without dynamic casters, and with them (`DYNAMIC`: the PCF lookup of the
-    /// dynamic map): a permutation, not a uniform flag (docs/ARCHITECTURE.md, "Lavapipe's
+    /// dynamic map): a permutation, not a uniform flag (docs/DEVICES.md, "Lavapipe's
     /// branches").
     evaluate: Evaluation,
     evaluate_dynamic: Evaluation,
@@ -413,7 +413,7 @@ pub fn texel_ends(data: &PdsmData) -> Vec<[f32; 4]> {
 }
 
 /// Section 4's evaluation as two draws into one pass, so the four texels' searches run only
-/// inside penumbrae (docs/ARCHITECTURE.md, "Lavapipe's branches"). The first draw (`ENDS_PASS`)
+/// inside penumbrae (docs/DEVICES.md, "Lavapipe's branches"). The first draw (`ENDS_PASS`)
 /// answers every pixel whose four texels are constant at its depth from the ends texture and
 /// marks it in the stencil; the rest it discards. The second draw, the whole evaluation, runs
 /// where the stencil is still clear.

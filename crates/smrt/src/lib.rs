@@ -130,7 +130,7 @@ pub struct Smrt {
     shadow_map: CentreShadowMap,
     trace: FullscreenPass,
     /// The trace writing the marched steps, and the extrapolated fraction: permutations, so the
-    /// visibility pass carries no debug code (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// visibility pass carries no debug code (docs/DEVICES.md, "Lavapipe's branches").
     debug_steps: FullscreenPass,
     debug_extrapolated: FullscreenPass,
     params_buffer: wgpu::Buffer,

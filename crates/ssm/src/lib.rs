@@ -278,7 +278,7 @@ pub struct Ssm {
     depth: DepthMapRenderer,
     scatter: Scatter,
     /// The projection with one soft shadow map and with two (`TWO_PASS`, section 3.5): one
-    /// pipeline each (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    /// pipeline each (docs/DEVICES.md, "Lavapipe's branches").
     project: [FullscreenPass; 2],
     batch_add: FullscreenPass,
     count: ComputePass,
