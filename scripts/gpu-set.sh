@@ -19,7 +19,7 @@
 # costs about half a second, a minute and a half on the overview, and the stage's own limit
 # already ends a hang. Exit 0 when every stage ran (runs that failed are recorded in their
 # results), 1 when a stage could not start. Copy DIR/*.json to docs/results/gpu/ and run
-# `workbench docs` to regenerate the tables (docs/BENCHMARKS.md says which).
+# `workbench docs` to regenerate the tables (docs/DEVICES.md, "The H200's figures").
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
@@ -82,7 +82,8 @@ stage() {
 }
 
 # The GPU's clocks and power state once a second (NVIDIA): short frames with waits between them
-# may leave it at idle clocks, which the timings would then include (docs/BENCHMARKS.md).
+# may leave it at idle clocks, which the timings would then include (docs/DEVICES.md, "The
+# H200's clocks").
 if command -v nvidia-smi > /dev/null; then
   nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,pstate,power.draw,utilization.gpu \
     --format=csv -lms 1000 > "$out/clocks.csv" 2>&1 &

@@ -11,7 +11,7 @@ export DEBIAN_FRONTEND=noninteractive
 
 # Mesa's lavapipe, a Vulkan device on the CPU (no machine here has a GPU), 24.1 or newer:
 # Mesa 22.3 (Debian 12's own) leaks about 1 MiB per presented frame and has no ray queries
-# (docs/STABILITY.md). On Debian 12 it comes from bookworm-backports.
+# (docs/DEVICES.md). On Debian 12 it comes from bookworm-backports.
 lavapipe() {
   local version
   version=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)

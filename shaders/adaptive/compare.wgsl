@@ -16,7 +16,7 @@ struct Params {
 
 @group(1) @binding(0) var<uniform> params: Params;
 // The view of every map, indexed by its layer in `depth_maps`.
-// A uniform array, not a storage buffer (docs/ARCHITECTURE.md, "Lavapipe's branches").
+// A uniform array, not a storage buffer (docs/DEVICES.md, "Lavapipe's branches").
 @group(1) @binding(1) var<uniform> views: array<ShadowView, 512>;
 // Compared pairs: (layer a, layer b, -, -).
 @group(1) @binding(2) var<uniform> items: array<vec4<u32>, 1024>;

@@ -3,7 +3,7 @@
 // ACCUMULATE: one instance (one pass) per map, each adding its lit fraction to an accumulation
 // buffer by additive blending; `resolve.wgsl` divides by the number of maps (section 3.4.1, equal
 // weights, as the paper's deferred variant must). With PCF: the bilinear mix of the four nearest
-// texels' tests (section 3.4.3), a permutation rather than a uniform flag (docs/ARCHITECTURE.md,
+// texels' tests (section 3.4.3), a permutation rather than a uniform flag (docs/DEVICES.md,
 // "Lavapipe's branches").
 #import softshadow::frame::{load_surface, light_cosine}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
@@ -16,7 +16,7 @@ struct Params {
 }
 
 @group(1) @binding(0) var<uniform> params: Params;
-// A uniform array, not a storage buffer (docs/ARCHITECTURE.md, "Lavapipe's branches").
+// A uniform array, not a storage buffer (docs/DEVICES.md, "Lavapipe's branches").
 @group(1) @binding(1) var<uniform> views: array<ShadowView, 512>;
 // Evaluated maps: (layer, weight as f32 bits, -, -).
 @group(1) @binding(2) var<uniform> items: array<vec4<u32>, 1024>;

@@ -18,7 +18,7 @@
 }
 
 // `hierarchy = none` gathers level-0 texels over the unrefined area, up to this many per axis:
-// softshadow_core::hierarchy::full_search_patches(1) (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+// softshadow_core::hierarchy::full_search_patches(1) (docs/DEVICES.md, "Lavapipe's loop budget").
 const FULL_SEARCH_PATCHES: i32 = 240;
 
 // Classification written to the debug view and counted.

@@ -165,7 +165,7 @@ fn word_bits(tiled: u32, first: u32, last: u32, w: u32) -> u32 {
 
 // ORs the light samples inside the light-space rectangle [lo, hi] into the mask (sec. 3: scale,
 // bias and integer conversion map the extent to bit ranges); adds its clipped area when asked.
-// Loop free on purpose: the gather spends the loop budget (docs/ARCHITECTURE.md, "Lavapipe's
+// Loop free on purpose: the gather spends the loop budget (docs/DEVICES.md, "Lavapipe's
 // loop budget").
 fn cover_rect(g: Gather, lo: vec2<f32>, hi: vec2<f32>) -> f32 {
     // The area goes straight into the accumulator (in the order the rectangles come): the scaffold's

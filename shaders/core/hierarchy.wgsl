@@ -71,7 +71,7 @@ fn mssm_level(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 // One texel read of `src` into a 1 x 1 target: wgpu puts a barrier before it, so the build
-// timestamps around it measure the levels (docs/ARCHITECTURE.md, "Lavapipe's timestamps").
+// timestamps around it measure the levels (docs/DEVICES.md, "Lavapipe's timestamps").
 @compute @workgroup_size(1)
 fn fence() {
     textureStore(dst, vec2<i32>(0), vec4<f32>(textureLoad(src, vec2<i32>(0), 0).xy, 0.0, 0.0));

@@ -6,7 +6,7 @@
 //      in slopes, i.e. w_p = (z_r - d_b) w_light / d_b on the receiver.
 //   3. Percentage-closer filtering over that extent (at least `min_filter_texels`).
 // Both kernels are rotated (Vogel) or jittered (grid) per pixel by interleaved gradient noise.
-// The grid is the KERNEL_GRID permutation, not a uniform flag (docs/ARCHITECTURE.md, "Lavapipe's
+// The grid is the KERNEL_GRID permutation, not a uniform flag (docs/DEVICES.md, "Lavapipe's
 // branches"). The TEMPORAL permutation (setting `temporal`) moves the noise every frame as Bevy's
 // temporal shadow filtering does (the pixel offset by 5.588238 per frame, a cycle of 64 frames),
 // so successive frames sample other points of the kernel and `pcss/temporal` averages them

@@ -14,7 +14,8 @@
 //   3. Blend: the running mean over up to max_history frames (the current frame's weight is
 //      1 / frames, at least 1 / max_history).
 // Every pixel writes the visibility; pixels without usable history write `raw` unchanged.
-#import softshadow::frame::{frame, load_surface}
+#import softshadow::frame::load_surface
+#import softshadow::reprojection::{in_frame, previous_pixel, saw_same_point}
 
 struct TemporalParams {
     // The camera's view-projection of the previous frame.
@@ -38,26 +39,6 @@ struct TemporalParams {
 @group(1) @binding(5) var position_out: texture_storage_2d<rgba32float, write>;
 @group(1) @binding(6) var visibility: texture_storage_2d<r32float, write>;
 
-fn in_frame(p: vec2<i32>) -> bool {
-    return all(p >= vec2<i32>(0)) && all(p < vec2<i32>(frame.screen.xy));
-}
-
-// World size of one pixel at the surface seen at `pixel`: the distance to the nearer of its
-// horizontal neighbours on a receiver (no camera model needed).
-fn pixel_footprint(pixel: vec2<i32>, world: vec3<f32>) -> f32 {
-    var best = 1e30;
-    for (var dx = -1; dx <= 1; dx += 2) {
-        let q = pixel + vec2<i32>(dx, 0);
-        if in_frame(q) {
-            let s = load_surface(q);
-            if s.is_receiver {
-                best = min(best, length(s.world - world));
-            }
-        }
-    }
-    return select(best, 0.0, best >= 1e30);
-}
-
 @compute @workgroup_size(8, 8)
 fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = vec2<i32>(id.xy);
@@ -70,47 +51,40 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     var v = current;
     var frames = 1.0;
     if shaded && params.history_valid == 1u {
-        let clip = params.prev_view_proj * vec4<f32>(s.world, 1.0);
-        if clip.w > 0.0 {
-            let ndc = clip.xy / clip.w;
-            let uv = vec2<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y);
-            let prev = vec2<i32>(floor(uv * frame.screen.xy));
-            if in_frame(prev) {
-                let prior = textureLoad(position_in, prev, 0);
-                let footprint = max(pixel_footprint(pixel, s.world), 1e-6);
-                let same_point = length(prior.xyz - s.world) <= 2.0 * footprint;
-                let history = textureLoad(history_in, prev, 0);
-                if prior.w > 0.5 && same_point && history.x >= 1.0 {
-                    // 2. The neighbourhood of this frame (receivers in front of the light).
-                    var sum = 0.0;
-                    var sum2 = 0.0;
-                    var count = 0.0;
-                    for (var dy = -1; dy <= 1; dy++) {
-                        for (var dx = -1; dx <= 1; dx++) {
-                            let q = pixel + vec2<i32>(dx, dy);
-                            if in_frame(q) {
-                                let n = load_surface(q);
-                                if n.is_receiver && n.light.z > 0.0 {
-                                    let x = textureLoad(raw, q, 0).x;
-                                    sum += x;
-                                    sum2 += x * x;
-                                    count += 1.0;
-                                }
+        let prev = previous_pixel(params.prev_view_proj, s.world);
+        if in_frame(prev) {
+            let prior = textureLoad(position_in, prev, 0);
+            let history = textureLoad(history_in, prev, 0);
+            if saw_same_point(pixel, s.world, prior) && history.x >= 1.0 {
+                // 2. The neighbourhood of this frame (receivers in front of the light).
+                var sum = 0.0;
+                var sum2 = 0.0;
+                var count = 0.0;
+                for (var dy = -1; dy <= 1; dy++) {
+                    for (var dx = -1; dx <= 1; dx++) {
+                        let q = pixel + vec2<i32>(dx, dy);
+                        if in_frame(q) {
+                            let n = load_surface(q);
+                            if n.is_receiver && n.light.z > 0.0 {
+                                let x = textureLoad(raw, q, 0).x;
+                                sum += x;
+                                sum2 += x * x;
+                                count += 1.0;
                             }
                         }
                     }
-                    // count >= 1: the pixel itself is a receiver in front of the light.
-                    let mean = sum / count;
-                    let sigma = sqrt(max(sum2 / count - mean * mean, 0.0));
-                    let h = clamp(
-                        history.y,
-                        mean - params.clamp_sigma * sigma,
-                        mean + params.clamp_sigma * sigma,
-                    );
-                    // 3. The running mean.
-                    frames = min(history.x + 1.0, f32(params.max_history));
-                    v = clamp(mix(h, current, 1.0 / frames), 0.0, 1.0);
                 }
+                // count >= 1: the pixel itself is a receiver in front of the light.
+                let mean = sum / count;
+                let sigma = sqrt(max(sum2 / count - mean * mean, 0.0));
+                let h = clamp(
+                    history.y,
+                    mean - params.clamp_sigma * sigma,
+                    mean + params.clamp_sigma * sigma,
+                );
+                // 3. The running mean.
+                frames = min(history.x + 1.0, f32(params.max_history));
+                v = clamp(mix(h, current, 1.0 / frames), 0.0, 1.0);
             }
         }
     }

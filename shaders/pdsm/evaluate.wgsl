@@ -11,7 +11,7 @@
 //
 // Two draws of this file (`Evaluation` in lib.rs): with ENDS_PASS, a pixel whose four texels the
 // ends answer is written and marked in the stencil, the others are discarded; without it, the
-// whole evaluation runs where the stencil is still clear (docs/ARCHITECTURE.md, "Lavapipe's
+// whole evaluation runs where the stencil is still clear (docs/DEVICES.md, "Lavapipe's
 // branches").
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
@@ -57,7 +57,7 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
     let e = textureLoad(ends, vec2<i32>(2 * c.x, c.y), 0);
     let g = textureLoad(ends, vec2<i32>(2 * c.x + 1, c.y), 0);
     // Chosen with `select`, in the order the cases take precedence, not by early returns
-    // (docs/ARCHITECTURE.md, "Lavapipe's branches").
+    // (docs/DEVICES.md, "Lavapipe's branches").
     // Inside the longest segment: the search's own result (it brackets such a depth by the
     // segment's two vertices). A receiver's point usually lies in the gap before its own events.
     let in_segment = depth >= g.x && depth < g.z;
@@ -96,7 +96,7 @@ fn texel_visibility(texel: vec2<i32>, depth: f32) -> f32 {
 }
 
 #ifdef DYNAMIC
-// Only in the DYNAMIC permutation, drawn when there are dynamic casters (docs/ARCHITECTURE.md,
+// Only in the DYNAMIC permutation, drawn when there are dynamic casters (docs/DEVICES.md,
 // "Lavapipe's branches").
 fn dynamic_visibility(light_pos: vec3<f32>, cosine: f32) -> f32 {
     let uv = view_uv(dynamic_view, light_pos);

@@ -4,6 +4,7 @@
 // light size, and a spatial filter sized by it and guided by depth and normal. One entry point
 // per pass; every pass reads group 0 (the receiver surface) and its own group 1.
 #import softshadow::frame::{frame, load_surface}
+#import softshadow::reprojection::{in_frame, pixel_footprint, previous_pixel, saw_same_point}
 
 struct DenoiseParams {
     // The camera's view-projection of the previous frame (reprojection).
@@ -28,26 +29,6 @@ struct DenoiseParams {
 @group(1) @binding(5) var output_b: texture_storage_2d<rgba32float, write>;
 @group(1) @binding(6) var output_v: texture_storage_2d<r32float, write>;
 
-fn in_frame(p: vec2<i32>) -> bool {
-    return all(p >= vec2<i32>(0)) && all(p < vec2<i32>(frame.screen.xy));
-}
-
-// World size of one pixel at the surface seen at `pixel`: the distance to the nearer of its
-// horizontal neighbours on the same surface (no camera model needed).
-fn pixel_footprint(pixel: vec2<i32>, world: vec3<f32>) -> f32 {
-    var best = 1e30;
-    for (var dx = -1; dx <= 1; dx += 2) {
-        let q = pixel + vec2<i32>(dx, 0);
-        if in_frame(q) {
-            let s = load_surface(q);
-            if s.is_receiver {
-                best = min(best, length(s.world - world));
-            }
-        }
-    }
-    return select(best, 0.0, best >= 1e30);
-}
-
 // Temporal accumulation (FidelityFX shadow denoiser, "temporal reprojection"; SIGMA's temporal
 // stabilisation): the pixel's world point is projected with the previous camera; the history
 // there is kept when it saw the same surface (its stored world point within two pixel footprints
@@ -64,20 +45,13 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     var visible = raw;
     var frames = 1.0;
     if s.is_receiver && params.history_valid == 1u {
-        let clip = params.prev_view_proj * vec4<f32>(s.world, 1.0);
-        if clip.w > 0.0 {
-            let ndc = clip.xy / clip.w;
-            let uv = vec2<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y);
-            let prev = vec2<i32>(floor(uv * frame.screen.xy));
-            if in_frame(prev) {
-                let prior = textureLoad(input_c, prev, 0);
-                let footprint = max(pixel_footprint(pixel, s.world), 1e-6);
-                let same_point = length(prior.xyz - s.world) <= 2.0 * footprint;
-                let history = textureLoad(input_b, prev, 0);
-                if prior.w > 0.5 && same_point && history.y >= 1.0 {
-                    frames = min(history.y + 1.0, f32(params.max_history));
-                    visible = mix(history.x, raw, 1.0 / frames);
-                }
+        let prev = previous_pixel(params.prev_view_proj, s.world);
+        if in_frame(prev) {
+            let prior = textureLoad(input_c, prev, 0);
+            let history = textureLoad(input_b, prev, 0);
+            if saw_same_point(pixel, s.world, prior) && history.y >= 1.0 {
+                frames = min(history.y + 1.0, f32(params.max_history));
+                visible = mix(history.x, raw, 1.0 / frames);
             }
         }
     }

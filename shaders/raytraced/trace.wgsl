@@ -56,7 +56,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     var hit_sum = 0.0;
     var hits = 0u;
     // Declared once, outside the loop: a `ray_query` declared inside a loop body makes lavapipe
-    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/ARCHITECTURE.md, "Ray queries").
+    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/DEVICES.md, "Lavapipe's ray queries").
     var rq: ray_query;
     for (var i = 0u; i < params.rays; i++) {
         // Frame k continues the sequence where frame k - 1 ended.

@@ -60,7 +60,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     var pairs_apart = 0u;
     var even_lit = false;
     // Declared once, outside the loop: a `ray_query` declared inside a loop body makes lavapipe
-    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/ARCHITECTURE.md, "Ray queries").
+    // (Mesa 25.0.7) fail the pipeline and lose the device (docs/DEVICES.md, "Lavapipe's ray queries").
     var rq: ray_query;
     for (var i = 0u; i < n; i++) {
         let u = (vec2<f32>(f32(i), f32(params.row)) + jitter(k, i, params.row)) / f32(n);

@@ -28,7 +28,7 @@
 #import softshadow::sampling::interleaved_gradient_noise
 
 // Mirrors the settings' ranges (src/lib.rs): at most 64 x 64 = 4096 steps per pixel, far under
-// lavapipe 22.3's loop budget (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+// lavapipe 22.3's loop budget (docs/DEVICES.md, "Lavapipe's loop budget").
 const MAX_RAYS: u32 = 64u;
 const MAX_SAMPLES: u32 = 64u;
 // Depth of "no caster on this centre ray".

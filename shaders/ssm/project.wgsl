@@ -45,7 +45,7 @@ fn in_map(uv: vec2<f32>) -> bool {
 }
 
 // With TWO_PASS (section 3.5) the larger of the two maps' occlusion. A permutation, not the
-// uniform `light.w` (docs/ARCHITECTURE.md, "Lavapipe's branches").
+// uniform `light.w` (docs/DEVICES.md, "Lavapipe's branches").
 fn occlusion_at(texel: vec2<i32>) -> f32 {
     let front = textureLoad(ssm_front, texel, 0).r;
 #ifdef TWO_PASS

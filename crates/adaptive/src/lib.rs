@@ -31,9 +31,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use encase::ShaderType;
 use refine::{Cell, Layout, SampleKey, Shape};
 use softshadow_core::{
-    frame::{texture_entry, uniform_entry},
-    fullscreen::{depth_texture_entry, FullscreenPipeline},
     glam::{UVec4, Vec2, Vec4},
+    pass::{FullscreenPass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{
@@ -201,8 +200,8 @@ struct Store {
     /// Differing pixels per compared pair (`atomic<u32>` each), cleared before every level.
     counts: wgpu::Buffer,
     readback: wgpu::Buffer,
-    compare_group: wgpu::BindGroup,
-    evaluate_group: wgpu::BindGroup,
+    /// Every layer, as the passes read them.
+    array_view: wgpu::TextureView,
     /// Layer of every kept map, by sample key (valid while `kept_layout` matches).
     layers: BTreeMap<SampleKey, u32>,
     /// View uniform of every layer (index = layer).
@@ -215,14 +214,12 @@ pub struct Adaptive {
     /// Its settings; changes take effect on the next frame.
     pub settings: AdaptiveSettings,
     depth: DepthMapRenderer,
-    layout: wgpu::BindGroupLayout,
-    resolve_layout: wgpu::BindGroupLayout,
-    compare: FullscreenPipeline,
+    compare: FullscreenPass,
     /// The evaluation and the accumulation, each without and with PCF (`[off, on]`): a
-    /// permutation per setting (docs/ARCHITECTURE.md, "Lavapipe's branches").
-    evaluate: [FullscreenPipeline; 2],
-    accumulate: [FullscreenPipeline; 2],
-    resolve: FullscreenPipeline,
+    /// permutation per setting (docs/DEVICES.md, "Lavapipe's branches").
+    evaluate: [FullscreenPass; 2],
+    accumulate: [FullscreenPass; 2],
+    resolve: FullscreenPass,
     params: wgpu::Buffer,
     store: Option<Store>,
     /// Per pixel, how many pairs differed at the last level compared (debug view and tests).
@@ -239,42 +236,6 @@ impl Adaptive {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: AdaptiveSettings) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("adaptive/maps"),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    uniform_entry(1, stage, false),
-                    uniform_entry(2, stage, false),
-                    depth_texture_entry(3, true),
-                    // The compare pass's differing-pixel counters (unused by the evaluation).
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 4,
-                        visibility: stage,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: false },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                ],
-            });
-        let resolve_layout =
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("adaptive/resolve"),
-                    entries: &[
-                        uniform_entry(0, stage, false),
-                        texture_entry(
-                            1,
-                            stage,
-                            wgpu::TextureSampleType::Float { filterable: false },
-                        ),
-                    ],
-                });
         let add = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -284,57 +245,41 @@ impl Adaptive {
             color: add,
             alpha: add,
         });
+        // compare.wgsl and evaluate.wgsl: Params, every map's ShadowView, the pairs or terms,
+        // the maps, the compare pass's differing-pixel counters (unused by the evaluation).
+        let maps_pass = |label, spec, defs, blend| {
+            Pass::new(gpu, label, spec)
+                .defs(defs)
+                .after_frame_group()
+                .repeat(Slot::Uniform, 3)
+                .texture(Slot::DEPTH_ARRAY)
+                .storage_rw()
+                .fullscreen(blend)
+        };
         let evaluate = &SHADERS[1];
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
-            compare: FullscreenPipeline::new(
-                gpu,
-                "adaptive/compare",
-                &SHADERS[0],
-                &[],
-                &layout,
-                additive,
-            )?,
+            compare: maps_pass("adaptive/compare", &SHADERS[0], &[], additive)?,
             evaluate: [
-                FullscreenPipeline::new(gpu, "adaptive/evaluate", evaluate, &[], &layout, None)?,
-                FullscreenPipeline::new(
-                    gpu,
-                    "adaptive/evaluate pcf",
-                    evaluate,
-                    &[PCF],
-                    &layout,
-                    None,
-                )?,
+                maps_pass("adaptive/evaluate", evaluate, &[], None)?,
+                maps_pass("adaptive/evaluate pcf", evaluate, &[PCF], None)?,
             ],
             accumulate: [
-                FullscreenPipeline::new(
-                    gpu,
-                    "adaptive/accumulate",
-                    evaluate,
-                    &[ACCUMULATE],
-                    &layout,
-                    additive,
-                )?,
-                FullscreenPipeline::new(
-                    gpu,
+                maps_pass("adaptive/accumulate", evaluate, &[ACCUMULATE], additive)?,
+                maps_pass(
                     "adaptive/accumulate pcf",
                     evaluate,
                     &[ACCUMULATE, PCF],
-                    &layout,
                     additive,
                 )?,
             ],
-            resolve: FullscreenPipeline::new(
-                gpu,
-                "adaptive/resolve",
-                &SHADERS[2],
-                &[],
-                &resolve_layout,
-                None,
-            )?,
+            // resolve.wgsl: Params, the accumulated visibility.
+            resolve: Pass::new(gpu, "adaptive/resolve", &SHADERS[2])
+                .after_frame_group()
+                .uniform()
+                .texture(Slot::FLOAT)
+                .fullscreen(None)?,
             params: zeroed_uniform_buffer::<Params>(gpu, "adaptive/params"),
-            layout,
-            resolve_layout,
             settings,
             store: None,
             differing: None,
@@ -385,118 +330,8 @@ impl Adaptive {
         {
             return Ok(());
         }
-        let limit = gpu.device.limits().max_texture_array_layers;
-        if capacity > limit {
-            return Err(TechniqueError::Other {
-                technique: ID.into(),
-                message: format!(
-                    "max_shadow_maps = {capacity} exceeds the adapter's {limit} texture array layers: lower it"
-                ),
-            });
-        }
         self.store = None;
-        // The array holds max_shadow_maps maps whatever a frame uses; at the top of the ranges
-        // (512 maps of 2048²: 8 GiB) a device runs out of memory. Caught here, that is a clear
-        // error for these settings instead of an uncaptured device error (found by the stress).
-        let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let maps = create_depth_maps(gpu, "adaptive/shadow_maps", size, capacity);
-        if let Some(error) = pollster::block_on(scope.pop()) {
-            let gib = capacity as f64 * size as f64 * size as f64 * 4.0 / (1u64 << 30) as f64;
-            return Err(TechniqueError::Other {
-                technique: ID.into(),
-                message: format!(
-                    "the device could not allocate max_shadow_maps = {capacity} maps of {size}² \
-                     ({gib:.1} GiB: {}): lower max_shadow_maps or shadow_map_size",
-                    error
-                        .to_string()
-                        .lines()
-                        .next()
-                        .unwrap_or("out of memory")
-                        .trim()
-                ),
-            });
-        }
-        let layer_views = (0..capacity).map(|l| layer_view(&maps, l)).collect();
-        let buffer = |label, size: u64, usage| {
-            gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        // Fixed-size uniform arrays (`MAX_MAPS` views, `2 * MAX_MAPS` items in the shaders).
-        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
-        // A level compares at most 2 pairs per leaf cell; leaves <= maps.
-        let max_pairs = 2 * capacity as u64;
-        let views = buffer(
-            "adaptive/views",
-            MAX_MAPS as u64 * uniform_size::<ShadowViewUniform>(),
-            uniform,
-        );
-        let pairs = buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
-        let terms = buffer("adaptive/terms", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform);
-        let counts = buffer(
-            "adaptive/differing pixels",
-            4 * max_pairs,
-            wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-        );
-        let array_view = maps.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let group = |label, items: &wgpu::Buffer| {
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.params.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: views.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: items.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::TextureView(&array_view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: counts.as_entire_binding(),
-                    },
-                ],
-            })
-        };
-        let compare_group = group("adaptive/compare", &pairs);
-        let evaluate_group = group("adaptive/evaluate", &terms);
-        self.store = Some(Store {
-            size,
-            capacity,
-            layer_views,
-            counts,
-            readback: buffer(
-                "adaptive/differing pixels readback",
-                4 * max_pairs,
-                wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            ),
-            _maps: maps,
-            views,
-            pairs,
-            terms,
-            compare_group,
-            evaluate_group,
-            layers: BTreeMap::new(),
-            layer_uniforms: vec![ShadowViewUniform::ZERO; capacity as usize],
-            kept_layout: None,
-        });
+        self.store = Some(Store::new(gpu, size, capacity)?);
         Ok(())
     }
 
@@ -535,6 +370,85 @@ impl Adaptive {
         gpu.queue
             .write_buffer(&self.params, 0, &uniform_bytes(&params));
     }
+}
+
+impl Store {
+    /// The maps and buffers for `capacity` maps of `size`²; fails with what to lower when the
+    /// device cannot hold them.
+    fn new(gpu: &Gpu, size: u32, capacity: u32) -> Result<Self, TechniqueError> {
+        let maps = allocate_maps(gpu, size, capacity)?;
+        let layer_views = (0..capacity).map(|l| layer_view(&maps, l)).collect();
+        let buffer = |label, size: u64, usage| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        // Fixed-size uniform arrays (`MAX_MAPS` views, `2 * MAX_MAPS` items in the shaders).
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        // A level compares at most 2 pairs per leaf cell; leaves <= maps.
+        let max_pairs = 2 * capacity as u64;
+        let view_bytes = uniform_size::<ShadowViewUniform>();
+        let counts_usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let readback_usage = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ;
+        Ok(Store {
+            size,
+            capacity,
+            layer_views,
+            counts: buffer("adaptive/differing pixels", 4 * max_pairs, counts_usage),
+            readback: buffer(
+                "adaptive/differing pixels readback",
+                4 * max_pairs,
+                readback_usage,
+            ),
+            array_view: maps.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            }),
+            _maps: maps,
+            views: buffer("adaptive/views", MAX_MAPS as u64 * view_bytes, uniform),
+            pairs: buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform),
+            terms: buffer("adaptive/terms", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform),
+            layers: BTreeMap::new(),
+            layer_uniforms: vec![ShadowViewUniform::ZERO; capacity as usize],
+            kept_layout: None,
+        })
+    }
+}
+
+/// The array of `capacity` maps of `size`². It holds max_shadow_maps maps whatever a frame uses;
+/// at the top of the ranges (512 maps of 2048²: 8 GiB) a device runs out of memory. Caught here,
+/// that is a clear error for these settings instead of an uncaptured device error (found by the
+/// stress).
+fn allocate_maps(gpu: &Gpu, size: u32, capacity: u32) -> Result<wgpu::Texture, TechniqueError> {
+    let limit = gpu.device.limits().max_texture_array_layers;
+    if capacity > limit {
+        return Err(TechniqueError::Other {
+            technique: ID.into(),
+            message: format!(
+                "max_shadow_maps = {capacity} exceeds the adapter's {limit} texture array layers: lower it"
+            ),
+        });
+    }
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let maps = create_depth_maps(gpu, "adaptive/shadow_maps", size, capacity);
+    if let Some(error) = pollster::block_on(scope.pop()) {
+        let gib = capacity as f64 * size as f64 * size as f64 * 4.0 / (1u64 << 30) as f64;
+        let cause = error.to_string();
+        let cause = cause.lines().next().unwrap_or("out of memory").trim();
+        return Err(TechniqueError::Other {
+            technique: ID.into(),
+            message: format!(
+                "the device could not allocate max_shadow_maps = {capacity} maps of {size}² \
+                 ({gib:.1} GiB: {cause}): lower max_shadow_maps or shadow_map_size"
+            ),
+        });
+    }
+    Ok(maps)
 }
 
 /// The hard-map window from light-space `eye` (as the reference fits each of its samples):
@@ -759,6 +673,14 @@ impl ShadowTechnique for Adaptive {
     }
 }
 
+/// One refinement level's comparisons: the cells compared and, per cell in order, its pairs'
+/// differing-pixel counts, with the texels of one map.
+struct Level<'a> {
+    active: &'a [Cell],
+    counts: &'a [u64],
+    map_texels: f64,
+}
+
 impl Adaptive {
     /// Steps 1-3: initial maps, then compare / read back / split per level. Returns the leaves.
     fn refine(
@@ -769,15 +691,51 @@ impl Adaptive {
         store: &mut Store,
         map_texels: f64,
     ) -> Result<BTreeSet<Cell>, TechniqueError> {
-        let gpu = frame.gpu;
-        let s = self.settings.clone();
-        let budget = s.max_shadow_maps as usize;
+        let max_depth = self.settings.max_depth;
         let mut maps = Maps {
             store,
             used: BTreeSet::new(),
             rendered: 0,
         };
-        // Step 1: the uniform subdivision to `min_depth` (the paper: depth 0, the 4 corners).
+        let mut leaves = self.initial_maps(frame, inputs, layout, &mut maps)?;
+        // Cells at max_depth cannot split: comparing them would cost a round trip for nothing.
+        let splittable = |cells: Vec<Cell>| -> Vec<Cell> {
+            cells.into_iter().filter(|c| c.depth < max_depth).collect()
+        };
+        let mut active = splittable(leaves.iter().copied().collect());
+        self.write_params(frame.gpu, 0);
+        while !active.is_empty() {
+            let (pairs, counts) = self.compare_level(frame, inputs, layout, &maps, &active)?;
+            let level = Level {
+                active: &active,
+                counts: &counts,
+                map_texels,
+            };
+            let next = self.split_level(frame, inputs, layout, &mut maps, level, &mut leaves)?;
+            self.report.levels.push(LevelReport {
+                cells: active.len() as u32,
+                queries: pairs,
+                differing_pixels: counts.iter().sum(),
+                splits: (next.len() / layout.children(Cell::ROOT).len()) as u32,
+            });
+            active = splittable(next);
+        }
+        self.report.maps_generated = maps.used.len() as u32;
+        self.report.maps_rendered = maps.rendered;
+        self.report.depth_reached = leaves.iter().map(|c| c.depth).max().unwrap_or(0);
+        Ok(leaves)
+    }
+
+    /// Step 1: the uniform subdivision to `min_depth` (the paper: depth 0, the 4 corners) and
+    /// its maps. Returns its cells.
+    fn initial_maps(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        layout: &Layout,
+        maps: &mut Maps<'_>,
+    ) -> Result<BTreeSet<Cell>, TechniqueError> {
+        let s = &self.settings;
         let mut leaves = BTreeSet::from([Cell::ROOT]);
         // min_depth above max_depth subdivides only to max_depth; the error names the depth used.
         let start_depth = s.min_depth.min(s.max_depth);
@@ -790,133 +748,119 @@ impl Adaptive {
             .collect::<BTreeSet<_>>()
             .into_iter()
             .collect();
+        let budget = s.max_shadow_maps as usize;
         if initial.len() > budget {
+            let depth = if start_depth == s.min_depth {
+                format!("min_depth = {}", s.min_depth)
+            } else {
+                format!(
+                    "min_depth = {} (limited to max_depth = {})",
+                    s.min_depth, s.max_depth
+                )
+            };
             return Err(TechniqueError::Other {
                 technique: ID.into(),
                 message: format!(
-                    "{} starts with {} shadow maps, more than max_shadow_maps = {}: lower min_depth or raise max_shadow_maps",
-                    if start_depth == s.min_depth {
-                        format!("min_depth = {}", s.min_depth)
-                    } else {
-                        format!(
-                            "min_depth = {} (limited to max_depth = {})",
-                            s.min_depth, s.max_depth
-                        )
-                    },
+                    "{depth} starts with {} shadow maps, more than max_shadow_maps = {budget}: lower min_depth or raise max_shadow_maps",
                     initial.len(),
-                    budget
                 ),
             });
         }
         maps.acquire(frame, inputs, &mut self.depth, layout, &initial)?;
-        // Cells at max_depth cannot split: comparing them would cost a round trip for nothing.
-        let splittable = |cells: Vec<Cell>| -> Vec<Cell> {
-            cells
-                .into_iter()
-                .filter(|c| c.depth < s.max_depth)
-                .collect()
-        };
-        let mut active = splittable(leaves.iter().copied().collect());
-        self.write_params(gpu, 0);
-        let differing = self.differing.as_ref().expect("made in render");
-        while !active.is_empty() {
-            // Step 2: all comparisons of this level in one pass, one counter per pair.
-            let mut pairs: Vec<[u32; 4]> = Vec::new();
-            for cell in &active {
-                for (a, b) in layout.pairs(*cell) {
-                    pairs.push([maps.layer(a), maps.layer(b), 0, 0]);
-                }
-            }
-            let count = pairs.len() as u32;
-            gpu.queue
-                .write_buffer(&maps.store.pairs, 0, bytemuck::cast_slice(&pairs));
-            let store = &*maps.store;
-            frame
-                .encoder
-                .clear_buffer(&store.counts, 0, Some(4 * count as u64));
-            frame.render_pass(
-                "adaptive/compare",
-                wgpu::RenderPassDescriptor {
-                    label: None,
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &differing.view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                },
-                |pass| {
-                    pass.set_pipeline(&self.compare.pipeline);
-                    pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-                    pass.set_bind_group(1, &store.compare_group, &[]);
-                    pass.draw(0..3, 0..count);
-                },
-            );
-            frame.encoder.copy_buffer_to_buffer(
-                &store.counts,
-                0,
-                &store.readback,
-                0,
-                4 * count as u64,
-            );
-            frame.submit_and_wait()?;
-            self.report.round_trips += 1;
-            let counts = read_counts(gpu, &store.readback, count)?;
-
-            // Step 3: split where a pair differs on at least epsilon of the map's texels (eq. 4),
-            // most differing first while the map budget lasts.
-            let per_cell = pairs.len() / active.len();
-            let mut candidates: Vec<(u64, Cell)> = active
-                .iter()
-                .enumerate()
-                .map(|(c, cell)| {
-                    let p = counts[c * per_cell..(c + 1) * per_cell]
-                        .iter()
-                        .copied()
-                        .max()
-                        .unwrap_or(0);
-                    (p, *cell)
-                })
-                .filter(|(p, _)| *p as f64 / map_texels >= s.epsilon as f64)
-                .collect();
-            candidates.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
-            let mut next = Vec::new();
-            for (_, cell) in candidates {
-                let children = layout.children(cell);
-                let keys: Vec<SampleKey> = children
-                    .iter()
-                    .flat_map(|c| layout.samples(*c))
-                    .collect::<BTreeSet<_>>()
-                    .into_iter()
-                    .filter(|k| !maps.used.contains(k))
-                    .collect();
-                if maps.used.len() + keys.len() > budget {
-                    continue;
-                }
-                maps.acquire(frame, inputs, &mut self.depth, layout, &keys)?;
-                leaves.remove(&cell);
-                leaves.extend(children.iter().copied());
-                next.extend(children);
-            }
-            self.report.levels.push(LevelReport {
-                cells: active.len() as u32,
-                queries: count,
-                differing_pixels: counts.iter().sum(),
-                splits: (next.len() / layout.children(Cell::ROOT).len()) as u32,
-            });
-            active = splittable(next);
-        }
-        self.report.maps_generated = maps.used.len() as u32;
-        self.report.maps_rendered = maps.rendered;
-        self.report.depth_reached = leaves.iter().map(|c| c.depth).max().unwrap_or(0);
         Ok(leaves)
+    }
+
+    /// Step 2: all comparisons of this level's `active` cells in one pass, one counter per
+    /// pair, read back. Returns the pairs compared and their differing-pixel counts.
+    fn compare_level(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        layout: &Layout,
+        maps: &Maps<'_>,
+        active: &[Cell],
+    ) -> Result<(u32, Vec<u64>), TechniqueError> {
+        let gpu = frame.gpu;
+        let mut pairs: Vec<[u32; 4]> = Vec::new();
+        for cell in active {
+            for (a, b) in layout.pairs(*cell) {
+                pairs.push([maps.layer(a), maps.layer(b), 0, 0]);
+            }
+        }
+        let count = pairs.len() as u32;
+        let store = &*maps.store;
+        gpu.queue
+            .write_buffer(&store.pairs, 0, bytemuck::cast_slice(&pairs));
+        frame
+            .encoder
+            .clear_buffer(&store.counts, 0, Some(4 * count as u64));
+        let differing = self.differing.as_ref().expect("made in render");
+        self.compare
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.params)
+            .read(&store.views)
+            .read(&store.pairs)
+            .read(&store.array_view)
+            .write(&store.counts)
+            .instances(0..count)
+            .draw(&differing.view, Some(0.0));
+        frame
+            .encoder
+            .copy_buffer_to_buffer(&store.counts, 0, &store.readback, 0, 4 * count as u64);
+        frame.submit_and_wait()?;
+        self.report.round_trips += 1;
+        Ok((count, read_counts(gpu, &store.readback, count)?))
+    }
+
+    /// Step 3: split where a pair differs on at least epsilon of the map's texels (eq. 4), most
+    /// differing first while the map budget lasts, rendering the new maps; the cells split are
+    /// replaced by their children in `leaves`. Returns the children.
+    fn split_level(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        layout: &Layout,
+        maps: &mut Maps<'_>,
+        Level {
+            active,
+            counts,
+            map_texels,
+        }: Level<'_>,
+        leaves: &mut BTreeSet<Cell>,
+    ) -> Result<Vec<Cell>, TechniqueError> {
+        let epsilon = self.settings.epsilon as f64;
+        let budget = self.settings.max_shadow_maps as usize;
+        let per_cell = counts.len() / active.len();
+        let mut candidates: Vec<(u64, Cell)> = active
+            .iter()
+            .enumerate()
+            .map(|(c, cell)| {
+                let cell_counts = &counts[c * per_cell..(c + 1) * per_cell];
+                (cell_counts.iter().copied().max().unwrap_or(0), *cell)
+            })
+            .filter(|(p, _)| *p as f64 / map_texels >= epsilon)
+            .collect();
+        candidates.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut next = Vec::new();
+        for (_, cell) in candidates {
+            let children = layout.children(cell);
+            let keys: Vec<SampleKey> = children
+                .iter()
+                .flat_map(|c| layout.samples(*c))
+                .collect::<BTreeSet<_>>()
+                .into_iter()
+                .filter(|k| !maps.used.contains(k))
+                .collect();
+            if maps.used.len() + keys.len() > budget {
+                continue;
+            }
+            maps.acquire(frame, inputs, &mut self.depth, layout, &keys)?;
+            leaves.remove(&cell);
+            leaves.extend(children.iter().copied());
+            next.extend(children);
+        }
+        Ok(next)
     }
 
     /// Step 4: visibility from the leaves' maps.
@@ -945,78 +889,39 @@ impl Adaptive {
         gpu.queue
             .write_buffer(&store.terms, 0, bytemuck::cast_slice(&terms));
         self.write_params(gpu, count);
+        let pcf = usize::from(self.settings.pcf);
+        let draw_maps = |frame: &mut Frame<'_>,
+                         pass: &FullscreenPass,
+                         instances,
+                         target: &wgpu::TextureView,
+                         clear| {
+            pass.run(frame)
+                .frame_group(inputs.frame_bind_group)
+                .read(&self.params)
+                .read(&store.views)
+                .read(&store.terms)
+                .read(&store.array_view)
+                .write(&store.counts)
+                .instances(instances)
+                .draw(target, clear)
+        };
         match self.settings.evaluation {
-            Evaluation::Array => {
-                self.evaluate[usize::from(self.settings.pcf)].record(
-                    frame,
-                    "adaptive/evaluate",
-                    inputs.frame_bind_group,
-                    &store.evaluate_group,
-                    &[],
-                    &out.view,
-                    Some(1.0),
-                );
-            }
+            Evaluation::Array => draw_maps(frame, &self.evaluate[pcf], 0..1, &out.view, Some(1.0)),
             Evaluation::Accumulate => {
                 Self::screen_buffer(&mut self.accumulation, gpu, "adaptive/accumulation", inputs);
                 let accumulation = self.accumulation.as_ref().expect("made above");
                 // One render pass per map, as the paper's deferred variant (section 3.4.1).
                 for k in 0..count {
-                    frame.render_pass(
-                        "adaptive/accumulate",
-                        wgpu::RenderPassDescriptor {
-                            label: None,
-                            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                                view: &accumulation.view,
-                                depth_slice: None,
-                                resolve_target: None,
-                                ops: wgpu::Operations {
-                                    load: if k == 0 {
-                                        wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)
-                                    } else {
-                                        wgpu::LoadOp::Load
-                                    },
-                                    store: wgpu::StoreOp::Store,
-                                },
-                            })],
-                            depth_stencil_attachment: None,
-                            timestamp_writes: None,
-                            occlusion_query_set: None,
-                            multiview_mask: None,
-                        },
-                        |pass| {
-                            pass.set_pipeline(
-                                &self.accumulate[usize::from(self.settings.pcf)].pipeline,
-                            );
-                            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-                            pass.set_bind_group(1, &store.evaluate_group, &[]);
-                            pass.draw(0..3, k..k + 1);
-                        },
-                    );
+                    let clear = (k == 0).then_some(0.0);
+                    let target = &accumulation.view;
+                    draw_maps(frame, &self.accumulate[pcf], k..k + 1, target, clear);
                 }
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("adaptive/resolve"),
-                    layout: &self.resolve_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: self.params.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(&accumulation.view),
-                        },
-                    ],
-                });
-                self.resolve.record(
-                    frame,
-                    "adaptive/resolve",
-                    inputs.frame_bind_group,
-                    &group,
-                    &[],
-                    &out.view,
-                    Some(1.0),
-                );
+                self.resolve
+                    .run(frame)
+                    .frame_group(inputs.frame_bind_group)
+                    .read(&self.params)
+                    .read(&accumulation.view)
+                    .draw(&out.view, Some(1.0));
             }
         }
         Ok(())

@@ -15,14 +15,11 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    frame::uniform_entry,
-    gather::{
-        float_texture_entry, storage_texture_entry, AdaptivePass, AdaptiveResolution,
-        AdaptiveTargets, GatherCounters,
-    },
+    gather::{AdaptivePass, AdaptiveResolution, AdaptiveTargets, GatherCounters},
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
-    shader::{self, ShaderSpec},
+    pass::{ComputePass, Pass, Slot},
+    shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
@@ -44,7 +41,7 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
 }];
 
 /// Micro-patches per axis a full search (`hierarchy = none`) gathers before it must use coarser
-/// blocks: [`softshadow_core::hierarchy::full_search_patches`] of one pass (docs/ARCHITECTURE.md,
+/// blocks: [`softshadow_core::hierarchy::full_search_patches`] of one pass (docs/DEVICES.md,
 /// "Lavapipe's loop budget"; `FULL_SEARCH_PATCHES` in `gather.wgsl`, the same number).
 pub const FULL_SEARCH_PATCHES: u32 = 240;
 
@@ -159,12 +156,10 @@ pub struct Backprojection {
     gpu: Gpu,
     shadow_map: CentreShadowMap,
     hierarchy: DepthHierarchy,
-    pipeline: wgpu::ComputePipeline,
+    gather: ComputePass,
     /// The coarse pass of adaptive screen resolution (entry `gather_coarse`), compiled when first
     /// used (llvmpipe compiles a pipeline when it is created: not for every technique made).
-    coarse_pipeline: Option<wgpu::ComputePipeline>,
-    pipeline_layout: wgpu::PipelineLayout,
-    layout: wgpu::BindGroupLayout,
+    coarse: Option<ComputePass>,
     params_buffer: wgpu::Buffer,
     counters: GatherCounters<Counters>,
     adaptive: AdaptiveTargets,
@@ -180,41 +175,13 @@ pub struct Backprojection {
 impl Backprojection {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: BackprojectionSettings) -> Result<Self, TechniqueError> {
-        let stage = wgpu::ShaderStages::COMPUTE;
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("backprojection/gather"),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    float_texture_entry(1, wgpu::TextureViewDimension::D2),
-                    float_texture_entry(2, wgpu::TextureViewDimension::D2Array),
-                    uniform_entry(3, stage, false),
-                    storage_texture_entry(4, wgpu::TextureFormat::R32Float),
-                    storage_texture_entry(5, wgpu::TextureFormat::Rgba8Unorm),
-                    storage_texture_entry(6, wgpu::TextureFormat::R32Float),
-                    GatherCounters::<Counters>::layout_entry(7),
-                    AdaptiveTargets::layout_entries(8)[0],
-                    AdaptiveTargets::layout_entries(8)[1],
-                ],
-            });
-        let pipeline_layout = gpu
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("backprojection/gather"),
-                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = gather_pipeline(gpu, &pipeline_layout, "gather")?;
         Ok(Self {
             settings,
             gpu: gpu.clone(),
             shadow_map: CentreShadowMap::new(gpu)?,
             hierarchy: DepthHierarchy::new(gpu)?,
-            pipeline,
-            coarse_pipeline: None,
-            pipeline_layout,
-            layout,
+            gather: gather_pass(gpu, "gather")?,
+            coarse: None,
             params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "backprojection/params"),
             counters: GatherCounters::new(gpu, "backprojection/counters"),
             adaptive: AdaptiveTargets::new(gpu, "backprojection"),
@@ -258,23 +225,134 @@ impl Backprojection {
     }
 }
 
-/// The gather pipeline of `gather.wgsl`'s entry `entry_point` over `layout`.
-fn gather_pipeline(
-    gpu: &Gpu,
-    layout: &wgpu::PipelineLayout,
-    entry_point: &str,
-) -> Result<wgpu::ComputePipeline, TechniqueError> {
-    let module = shader::create_module(gpu, &SHADERS[0], &[])?;
-    Ok(gpu
-        .device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("backprojection/gather"),
-            layout: Some(layout),
-            module: &module,
-            entry_point: Some(entry_point),
-            compilation_options: Default::default(),
-            cache: None,
-        }))
+/// The pass of `gather.wgsl`'s entry `entry`: the map's `ShadowView`, the HSM, the MSSM,
+/// `GatherParams`, the visibility, the classification and level images, the counters, the coarse
+/// adaptive result read and written.
+fn gather_pass(gpu: &Gpu, entry: &str) -> Result<ComputePass, TechniqueError> {
+    let label = if entry == "gather" {
+        "backprojection/gather"
+    } else {
+        "backprojection/gather_coarse"
+    };
+    let r32 = wgpu::TextureFormat::R32Float;
+    Ok(Pass::new(gpu, label, &SHADERS[0])
+        .after_frame_group()
+        .uniform()
+        .texture(Slot::FLOAT)
+        .texture(Slot::Texture {
+            sample: wgpu::TextureSampleType::Float { filterable: false },
+            dimension: wgpu::TextureViewDimension::D2Array,
+        })
+        .uniform()
+        .storage_texture(r32)
+        .storage_texture(wgpu::TextureFormat::Rgba8Unorm)
+        .storage_texture(r32)
+        .storage_rw()
+        .slot(AdaptiveTargets::SLOTS[0])
+        .slot(AdaptiveTargets::SLOTS[1])
+        .compute(entry)?)
+}
+
+/// The gather's uniform for `levels` hierarchy levels.
+fn gather_uniform(s: &BackprojectionSettings, levels: u32) -> GatherUniform {
+    GatherUniform {
+        hierarchy: s.hierarchy.shader_value(),
+        primitive: match s.primitive {
+            Primitive::Micropatch => 0,
+            Primitive::Microquad => 1,
+        },
+        gap_filling: u32::from(s.gap_filling),
+        max_patches: s.max_patches.clamp(4, 32),
+        bias_texels: s.bias_texels.max(0.0),
+        max_level: levels as i32,
+        visibility: s.visibility.shader_value(),
+        depth_bands: s.depth_bands.clamp(1, 8),
+        edge_refine: s.edge_refine.min(3),
+        adaptive_factor: adaptive_factor(s),
+        adaptive_pixels: if s.adaptive_pixels.is_finite() {
+            s.adaptive_pixels.max(0.0)
+        } else {
+            8.0
+        },
+    }
+}
+
+/// The adaptive resolution's factor (1: off). Not with the full search: it stays the yardstick,
+/// and its unrefined area says nothing about the penumbra.
+fn adaptive_factor(s: &BackprojectionSettings) -> u32 {
+    match s.hierarchy {
+        HierarchyKind::None => 1,
+        _ => s.adaptive_resolution.factor(),
+    }
+}
+
+impl Backprojection {
+    /// The hierarchy over the centre map, rebuilt only with the map (it is light-space too), of
+    /// the levels this light and map can need (core::hierarchy::needed_levels). Returns the
+    /// levels and the largest search area in texels.
+    fn build_hierarchy(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        frustum: &softshadow_core::SlopeFrustum,
+        map_size: u32,
+    ) -> (u32, f32) {
+        let s = &self.settings;
+        let extent = frustum.s_max - frustum.s_min;
+        let half = inputs.light.half_extent();
+        let search = max_search_texels(half, frustum.near, extent, map_size);
+        let levels = match s.hierarchy {
+            HierarchyKind::None => needed_levels(map_size, search, FULL_SEARCH_PATCHES, false),
+            _ => needed_levels(map_size, search, s.max_patches.clamp(4, 32), true),
+        };
+        self.hierarchy_built = self.shadow_map.rebuilt();
+        if self.hierarchy_built {
+            let depth = self.shadow_map.map_view().expect("rendered above");
+            self.hierarchy.build(
+                frame,
+                depth,
+                &self.shadow_map.view_buffer,
+                map_size,
+                s.hierarchy,
+                levels,
+                "backprojection/hierarchy",
+            );
+        }
+        (levels, search)
+    }
+
+    /// The gather (and first its coarse pass with adaptive resolution) into `out`.
+    fn gather(
+        &self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        coarse_size: Option<(u32, u32)>,
+    ) {
+        let debug = self.debug.as_ref().expect("allocated above");
+        let hsm = self.hierarchy.hsm_view().expect("built above");
+        let run = |frame: &mut Frame<'_>, pass: &ComputePass, adaptive, (w, h): (u32, u32)| {
+            let (coarse_read, coarse_write) = self.adaptive.views(adaptive);
+            pass.run(frame)
+                .frame_group(inputs.frame_bind_group)
+                .read(&self.shadow_map.view_buffer)
+                .read(hsm)
+                .read(self.hierarchy.mssm_view())
+                .read(&self.params_buffer)
+                .write(&out.view)
+                .write(&debug.classification_view)
+                .write(&debug.level_view)
+                .write(self.counters.buffer())
+                .read(coarse_read)
+                .write(coarse_write)
+                .dispatch([w.div_ceil(8), h.div_ceil(8), 1]);
+        };
+        if let (Some(size), Some(coarse)) = (coarse_size, &self.coarse) {
+            run(frame, coarse, AdaptivePass::Coarse, size);
+        }
+        let size = (inputs.width, inputs.height);
+        run(frame, &self.gather, AdaptivePass::Full, size);
+    }
 }
 
 impl ShadowTechnique for Backprojection {
@@ -301,149 +379,28 @@ impl ShadowTechnique for Backprojection {
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
-        let s = self.settings.clone();
         // The settings are range-checked by set_param; a library user may set any value.
-        let max_patches = s.max_patches.clamp(4, 32);
-        let map_size = s
-            .shadow_map_size
-            .clamp(1, gpu.device.limits().max_texture_dimension_2d);
+        let map_size =
+            (self.settings.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d);
         self.gathered = false;
-        let Some(frustum) =
-            self.shadow_map
-                .render(frame, inputs, map_size, "backprojection/shadow_map")
-        else {
+        let label = "backprojection/shadow_map";
+        let Some(frustum) = self.shadow_map.render(frame, inputs, map_size, label) else {
             out.write_unshadowed(frame, inputs.frame_bind_group, "backprojection/no_casters")?;
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         };
-
-        // Only the levels this light and map can need (core::hierarchy::needed_levels).
-        let search = max_search_texels(
-            inputs.light.half_extent(),
-            frustum.near,
-            frustum.s_max - frustum.s_min,
-            map_size,
-        );
-        let levels = match s.hierarchy {
-            HierarchyKind::None => needed_levels(map_size, search, FULL_SEARCH_PATCHES, false),
-            _ => needed_levels(map_size, search, max_patches, true),
-        };
-        // The hierarchy is light-space too: rebuilt only with the map it is built over.
-        self.hierarchy_built = self.shadow_map.rebuilt();
-        if self.hierarchy_built {
-            let depth = self.shadow_map.map_view().expect("rendered above");
-            self.hierarchy.build(
-                frame,
-                depth,
-                &self.shadow_map.view_buffer,
-                map_size,
-                s.hierarchy,
-                levels,
-                "backprojection/hierarchy",
-            );
-        }
-
-        // Not with the full search: it stays the yardstick, and its unrefined area says nothing
-        // about the penumbra.
-        let adaptive_factor = match s.hierarchy {
-            HierarchyKind::None => 1,
-            _ => s.adaptive_resolution.factor(),
-        };
-        let uniform = GatherUniform {
-            hierarchy: s.hierarchy.shader_value(),
-            primitive: match s.primitive {
-                Primitive::Micropatch => 0,
-                Primitive::Microquad => 1,
-            },
-            gap_filling: u32::from(s.gap_filling),
-            max_patches,
-            bias_texels: s.bias_texels.max(0.0),
-            max_level: levels as i32,
-            visibility: s.visibility.shader_value(),
-            depth_bands: s.depth_bands.clamp(1, 8),
-            edge_refine: s.edge_refine.min(3),
-            adaptive_factor,
-            adaptive_pixels: if s.adaptive_pixels.is_finite() {
-                s.adaptive_pixels.max(0.0)
-            } else {
-                8.0
-            },
-        };
+        let (levels, search) = self.build_hierarchy(frame, inputs, &frustum, map_size);
+        let uniform = gather_uniform(&self.settings, levels);
         gpu.queue
             .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         self.counters.clear(gpu);
-        let coarse_size = self
-            .adaptive
-            .prepare(gpu, inputs.width, inputs.height, adaptive_factor);
-        if coarse_size.is_some() && self.coarse_pipeline.is_none() {
-            self.coarse_pipeline = Some(gather_pipeline(
-                gpu,
-                &self.pipeline_layout,
-                "gather_coarse",
-            )?);
+        let factor = adaptive_factor(&self.settings);
+        let coarse_size = (self.adaptive).prepare(gpu, inputs.width, inputs.height, factor);
+        if coarse_size.is_some() && self.coarse.is_none() {
+            self.coarse = Some(gather_pass(gpu, "gather_coarse")?);
         }
         self.ensure_debug_targets(inputs.width, inputs.height);
-        let debug = self.debug.as_ref().expect("allocated above");
-        let hsm = self.hierarchy.hsm_view().expect("built above");
-        let bind_group = |pass| {
-            let [adaptive_read, adaptive_write] = self.adaptive.entries(8, pass);
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("backprojection/gather"),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.shadow_map.view_buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(hsm),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(self.hierarchy.mssm_view()),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: self.params_buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: wgpu::BindingResource::TextureView(&out.view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: wgpu::BindingResource::TextureView(&debug.classification_view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 6,
-                        resource: wgpu::BindingResource::TextureView(&debug.level_view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 7,
-                        resource: self.counters.binding(),
-                    },
-                    adaptive_read,
-                    adaptive_write,
-                ],
-            })
-        };
-        if let (Some((w, h)), Some(coarse_pipeline)) = (coarse_size, &self.coarse_pipeline) {
-            let coarse = bind_group(AdaptivePass::Coarse);
-            frame.compute_pass("backprojection/gather_coarse", |pass| {
-                pass.set_pipeline(coarse_pipeline);
-                pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-                pass.set_bind_group(1, &coarse, &[]);
-                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-            });
-        }
-        let full = bind_group(AdaptivePass::Full);
-        frame.compute_pass("backprojection/gather", |pass| {
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &full, &[]);
-            pass.dispatch_workgroups(inputs.width.div_ceil(8), inputs.height.div_ceil(8), 1);
-        });
+        self.gather(frame, inputs, out, coarse_size);
         self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([

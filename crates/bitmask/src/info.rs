@@ -24,7 +24,7 @@ pub fn info() -> TechniqueInfo {
         &["shadow_map_size", "layers", "max_patches", "filter_passes"],
         |q| {
             // The hierarchies pad each layer to a power of two; the gather is bounded by
-            // lavapipe's loop budget per pixel (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
+            // lavapipe's loop budget per pixel (docs/DEVICES.md, "Lavapipe's loop budget").
             let side = q.number("shadow_map_size").max(1.0).log2().ceil().exp2();
             let levels = side.max(2.0).log2().ceil();
             let layers = q.number("layers");

@@ -18,20 +18,15 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    frame::uniform_entry,
-    fullscreen::depth_texture_entry,
-    gather::{
-        float_texture_entry, storage_texture_entry, AdaptivePass, AdaptiveResolution,
-        AdaptiveTargets, GatherCounters,
-    },
+    gather::{AdaptivePass, AdaptiveResolution, AdaptiveTargets, GatherCounters},
     gbuffer::create_texture,
     hierarchy::{
         full_search_patches, max_search_texels, needed_levels, DepthHierarchy, HierarchyKind,
     },
-    scene_gpu::Vertex,
-    shader::{self, DefValue, ShaderSpec},
+    pass::{ComputePass, Pass, Slot},
+    shader::{DefValue, ShaderSpec},
     shader_file,
-    shadow_map::{create_depth_maps, CentreShadowMap, SHADOW_DEPTH_FORMAT},
+    shadow_map::{create_depth_maps, CentreShadowMap},
     uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
@@ -254,85 +249,18 @@ struct LightSpaceKey {
     levels: u32,
 }
 
-/// Depth peeling: layer k keeps the nearest caster surface behind layer k - 1.
-struct Peeler {
-    pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
-    /// Layers 1.. (layer 0 is the centre shadow map), of `map_size`.
+/// Layers 1.. of the depth peeling (layer 0 is the centre shadow map): layer k keeps the
+/// nearest caster surface behind layer k - 1, drawn by core's depth pass
+/// ([`CentreShadowMap::record_peel`]).
+#[derive(Default)]
+struct PeelMaps {
+    /// Of `map_size`.
     maps: Vec<(wgpu::Texture, wgpu::TextureView)>,
     map_size: u32,
 }
 
-impl Peeler {
-    fn new(gpu: &Gpu) -> Result<Self, TechniqueError> {
-        let module = shader::create_module(gpu, &SHADERS[2], &[])?;
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("bitmask/peel"),
-                entries: &[
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 0,
-                        visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                    depth_texture_entry(1, false),
-                ],
-            });
-        let pipeline_layout = gpu
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("bitmask/peel"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("bitmask/peel"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(Vertex::position_layout())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    // Both faces, as the centre map: back faces are what the second layer finds.
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: SHADOW_DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
-        Ok(Self {
-            pipeline,
-            layout,
-            maps: Vec::new(),
-            map_size: 0,
-        })
-    }
-
-    fn ensure_maps(&mut self, gpu: &Gpu, size: u32, count: usize) {
+impl PeelMaps {
+    fn ensure(&mut self, gpu: &Gpu, size: u32, count: usize) {
         if self.map_size != size {
             self.maps.clear();
             self.map_size = size;
@@ -343,57 +271,6 @@ impl Peeler {
             self.maps.push((texture, view));
         }
     }
-
-    /// Records the pass that peels layer `index + 1` behind `previous` into `self.maps[index]`.
-    fn record(
-        &self,
-        frame: &mut Frame<'_>,
-        inputs: &ShadowInputs<'_>,
-        shadow_view: &wgpu::Buffer,
-        previous: &wgpu::TextureView,
-        index: usize,
-    ) {
-        let bind_group = frame
-            .gpu
-            .device
-            .create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("bitmask/peel"),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: shadow_view.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(previous),
-                    },
-                ],
-            });
-        frame.render_pass(
-            "bitmask/peel",
-            wgpu::RenderPassDescriptor {
-                label: None,
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.maps[index].1,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            },
-            |pass| {
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                inputs.scene.draw_casters(pass);
-            },
-        );
-    }
 }
 
 /// The `bitmask` technique: a [`ShadowTechnique`] with its settings.
@@ -402,17 +279,14 @@ pub struct Bitmask {
     pub settings: BitmaskSettings,
     gpu: Gpu,
     shadow_map: CentreShadowMap,
-    peeler: Peeler,
+    peel: PeelMaps,
     /// One hierarchy per layer, created when a layer is first needed.
     hierarchies: Vec<DepthHierarchy>,
-    gather_layout: wgpu::BindGroupLayout,
-    gather_pipeline_layout: wgpu::PipelineLayout,
     /// Per entry of `MASK_WORD_COUNTS`, compiled when first used: the gather and the coarse pass
     /// of adaptive screen resolution (entry `gather_coarse`, compiled only when asked for:
     /// llvmpipe compiles a pipeline when it is created).
-    gather_pipelines: [Option<(wgpu::ComputePipeline, Option<wgpu::ComputePipeline>)>; 3],
-    filter_layout: wgpu::BindGroupLayout,
-    filter_pipeline: wgpu::ComputePipeline,
+    gather_passes: [Option<(ComputePass, Option<ComputePass>)>; 3],
+    filter: ComputePass,
     params_buffer: wgpu::Buffer,
     counters: GatherCounters<Counters>,
     adaptive: AdaptiveTargets,
@@ -428,96 +302,53 @@ pub struct Bitmask {
     filtered: bool,
 }
 
-fn compute_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-    let stage = wgpu::ShaderStages::COMPUTE;
-    let mut entries = vec![
-        uniform_entry(0, stage, false),
-        uniform_entry(1, stage, false),
-    ];
-    for k in 0..MAX_LAYERS {
-        entries.push(float_texture_entry(2 + k, wgpu::TextureViewDimension::D2));
-        entries.push(float_texture_entry(
-            6 + k,
-            wgpu::TextureViewDimension::D2Array,
-        ));
-    }
-    for binding in 10..13 {
-        entries.push(storage_texture_entry(
-            binding,
-            wgpu::TextureFormat::R32Float,
-        ));
-    }
-    entries.push(GatherCounters::<Counters>::layout_entry(13));
-    entries.extend(AdaptiveTargets::layout_entries(14));
-    entries
+/// The gather pass of `gather.wgsl` with `words` mask words, entry `entry`: the centre map's
+/// `ShadowView`, `GatherParams`, each layer's HSM and MSSM, the bitmask result B, the area
+/// estimate A and the level image, the counters, the coarse adaptive result read and written.
+fn gather_pass(gpu: &Gpu, words: u32, entry: &str) -> Result<ComputePass, TechniqueError> {
+    let label = if entry == "gather" {
+        "bitmask/gather"
+    } else {
+        "bitmask/gather_coarse"
+    };
+    let r32 = wgpu::TextureFormat::R32Float;
+    Ok(Pass::new(gpu, label, &SHADERS[0])
+        .defs(&[("MASK_WORDS", DefValue::UInt(words))])
+        .after_frame_group()
+        .uniform()
+        .uniform()
+        .repeat(Slot::FLOAT, MAX_LAYERS as usize)
+        .repeat(FLOAT_ARRAY, MAX_LAYERS as usize)
+        .repeat(Slot::StorageTexture(r32), 3)
+        .storage_rw()
+        .slot(AdaptiveTargets::SLOTS[0])
+        .slot(AdaptiveTargets::SLOTS[1])
+        .compute(entry)?)
 }
+
+/// A `texture_2d_array<f32>` read with `textureLoad` (the MSSM levels).
+const FLOAT_ARRAY: Slot = Slot::Texture {
+    sample: wgpu::TextureSampleType::Float { filterable: false },
+    dimension: wgpu::TextureViewDimension::D2Array,
+};
 
 impl Bitmask {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: BitmaskSettings) -> Result<Self, TechniqueError> {
-        let device = &gpu.device;
-        let gather_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("bitmask/gather"),
-            entries: &compute_layout_entries(),
-        });
-        let gather_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("bitmask/gather"),
-                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&gather_layout)],
-                immediate_size: 0,
-            });
-        let stage = wgpu::ShaderStages::COMPUTE;
-        let filter_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("bitmask/filter"),
-            entries: &[
-                softshadow_core::frame::texture_entry(
-                    0,
-                    stage,
-                    wgpu::TextureSampleType::Float { filterable: false },
-                ),
-                softshadow_core::frame::texture_entry(
-                    1,
-                    stage,
-                    wgpu::TextureSampleType::Float { filterable: false },
-                ),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: stage,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: wgpu::TextureFormat::R32Float,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let filter_module = shader::create_module(gpu, &SHADERS[1], &[])?;
-        let filter_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("bitmask/filter"),
-                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&filter_layout)],
-                immediate_size: 0,
-            });
-        let filter_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("bitmask/filter"),
-            layout: Some(&filter_pipeline_layout),
-            module: &filter_module,
-            entry_point: Some("filter_pass"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        // filter.wgsl (paper section 3.1): the area estimate, the source, the destination.
+        let filter = Pass::new(gpu, "bitmask/filter", &SHADERS[1])
+            .after_frame_group()
+            .repeat(Slot::FLOAT, 2)
+            .storage_texture(wgpu::TextureFormat::R32Float)
+            .compute("filter_pass")?;
         Ok(Self {
             settings,
             gpu: gpu.clone(),
             shadow_map: CentreShadowMap::new(gpu)?,
-            peeler: Peeler::new(gpu)?,
+            peel: PeelMaps::default(),
             hierarchies: Vec::new(),
-            gather_layout,
-            gather_pipeline_layout,
-            gather_pipelines: [None, None, None],
-            filter_layout,
-            filter_pipeline,
+            gather_passes: [None, None, None],
+            filter,
             params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "bitmask/params"),
             counters: GatherCounters::new(gpu, "bitmask/counters"),
             adaptive: AdaptiveTargets::new(gpu, "bitmask"),
@@ -530,48 +361,26 @@ impl Bitmask {
         })
     }
 
-    /// The gather pipeline for a mask of `words` 32-bit words (compiled on first use).
-    fn gather_pipeline(
+    /// The gather passes for a mask of `words` 32-bit words (compiled on first use; the coarse
+    /// one when `coarse` asks for it).
+    fn gather_passes(
         &mut self,
         words: u32,
         coarse: bool,
-    ) -> Result<&(wgpu::ComputePipeline, Option<wgpu::ComputePipeline>), TechniqueError> {
+    ) -> Result<&(ComputePass, Option<ComputePass>), TechniqueError> {
         let index = MASK_WORD_COUNTS
             .iter()
             .position(|&w| w == words)
             .expect("every pattern has 2, 8 or 32 words");
-        let missing = match &self.gather_pipelines[index] {
-            None => true,
-            Some((_, c)) => coarse && c.is_none(),
+        let (gather, kept_coarse) = match self.gather_passes[index].take() {
+            Some(passes) => passes,
+            None => (gather_pass(&self.gpu, words, "gather")?, None),
         };
-        if missing {
-            let module = shader::create_module(
-                &self.gpu,
-                &SHADERS[0],
-                &[("MASK_WORDS", DefValue::UInt(words))],
-            )?;
-            let pipeline = |entry_point| {
-                self.gpu
-                    .device
-                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some("bitmask/gather"),
-                        layout: Some(&self.gather_pipeline_layout),
-                        module: &module,
-                        entry_point: Some(entry_point),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-            };
-            let gather = match self.gather_pipelines[index].take() {
-                Some((gather, _)) => gather,
-                None => pipeline("gather"),
-            };
-            let coarse = coarse.then(|| pipeline("gather_coarse"));
-            self.gather_pipelines[index] = Some((gather, coarse));
-        }
-        Ok(self.gather_pipelines[index]
-            .as_ref()
-            .expect("compiled above"))
+        let coarse = match kept_coarse {
+            None if coarse => Some(gather_pass(&self.gpu, words, "gather_coarse")?),
+            kept => kept,
+        };
+        Ok(self.gather_passes[index].insert((gather, coarse)))
     }
 
     fn ensure_targets(&mut self, width: u32, height: u32) {
@@ -617,23 +426,24 @@ impl Bitmask {
                 Err(_) => break,
             }
         }
-        self.peeler
-            .ensure_maps(frame.gpu, key.map_size, layers.saturating_sub(1));
+        self.peel
+            .ensure(frame.gpu, key.map_size, layers.saturating_sub(1));
         let centre = self.shadow_map.map_view().expect("rendered by the caller");
         for k in 1..layers {
             let previous = if k == 1 {
                 centre
             } else {
-                &self.peeler.maps[k - 2].1
+                &self.peel.maps[k - 2].1
             };
-            self.peeler
-                .record(frame, inputs, &self.shadow_map.view_buffer, previous, k - 1);
+            let target = &self.peel.maps[k - 1].1;
+            self.shadow_map
+                .record_peel(frame, "bitmask/peel", inputs.scene, previous, target);
         }
         for (k, hierarchy) in self.hierarchies.iter_mut().enumerate().take(layers) {
             let (depth, label) = if k == 0 {
                 (centre, "bitmask/hierarchy")
             } else {
-                (&self.peeler.maps[k - 1].1, "bitmask/peel_hierarchy")
+                (&self.peel.maps[k - 1].1, "bitmask/peel_hierarchy")
             };
             hierarchy.build(
                 frame,
@@ -646,6 +456,210 @@ impl Bitmask {
             );
         }
         self.rebuilt_layers = layers.min(self.hierarchies.len());
+    }
+}
+
+/// What one frame gathers with: the settings range-checked (a library user may set any value)
+/// and what follows from them.
+struct Plan {
+    layers: u32,
+    /// The micro-patches per axis of a full search over `layers` layers.
+    full_search: u32,
+    max_patches: u32,
+    filter_passes: u32,
+    map_size: u32,
+    pattern: PatternLayout,
+    /// The adaptive resolution's factor (1: off).
+    adaptive: u32,
+}
+
+impl Plan {
+    fn of(s: &BitmaskSettings, gpu: &Gpu) -> Self {
+        let layers = s.layers.clamp(1, MAX_LAYERS);
+        // A bitmask block costs two iterations of the loop budget, so a layer counts as two
+        // passes (docs/DEVICES.md, "Lavapipe's loop budget").
+        let full_search = full_search_patches(2 * layers);
+        Self {
+            layers,
+            full_search,
+            max_patches: match s.hierarchy {
+                HierarchyKind::None => full_search,
+                _ => s.max_patches.clamp(4, 32),
+            },
+            filter_passes: s.filter_passes.min(8),
+            map_size: (s.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d),
+            pattern: s.pattern.layout(),
+            // Not with the full search: it stays the yardstick, and its unrefined area says
+            // nothing about the penumbra.
+            adaptive: match s.hierarchy {
+                HierarchyKind::None => 1,
+                _ => s.adaptive_resolution.factor(),
+            },
+        }
+    }
+}
+
+/// The gather's uniform for a frame of `plan` over `layers` built layers of `levels` levels.
+fn gather_uniform(s: &BitmaskSettings, plan: &Plan, levels: u32, layers: usize) -> GatherUniform {
+    let finite_or = |value: f32, default: f32| {
+        if value.is_finite() {
+            value.max(0.0)
+        } else {
+            default
+        }
+    };
+    GatherUniform {
+        hierarchy: s.hierarchy.shader_value(),
+        primitive: match s.primitive {
+            Primitive::Micropatch => 0,
+            Primitive::Microquad => 1,
+        },
+        gap_filling: u32::from(s.gap_filling),
+        max_patches: plan.max_patches,
+        bias_texels: finite_or(s.bias_texels, 1.5),
+        max_level: levels as i32,
+        layers: layers as u32,
+        with_area: u32::from(plan.filter_passes > 0),
+        rows: plan.pattern.rows,
+        columns: plan.pattern.columns,
+        jittered: u32::from(plan.pattern.jittered),
+        edge_refine: s.edge_refine.min(3),
+        depth_bands: s.depth_bands.clamp(1, 8),
+        adaptive_factor: plan.adaptive,
+        adaptive_pixels: finite_or(s.adaptive_pixels, 8.0),
+    }
+}
+
+impl Bitmask {
+    /// The centre map and, when it was redrawn or the settings changed under it, the peeled
+    /// layers and every layer's hierarchy. `None` when no caster is in front of the light; else
+    /// the kept work's key and the largest search area in texels.
+    fn light_space(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        plan: &Plan,
+    ) -> Option<(LightSpaceKey, f32)> {
+        let s = &self.settings;
+        let map_size = plan.map_size;
+        let frustum = (self.shadow_map).render(frame, inputs, map_size, "bitmask/shadow_map")?;
+        // Only the levels this light and map can need (core::hierarchy::needed_levels).
+        let extent = frustum.s_max - frustum.s_min;
+        let half = inputs.light.half_extent();
+        let search = max_search_texels(half, frustum.near, extent, map_size);
+        let levels = match s.hierarchy {
+            HierarchyKind::None => needed_levels(map_size, search, plan.full_search, false),
+            _ => needed_levels(map_size, search, plan.max_patches, true),
+        };
+        let key = LightSpaceKey {
+            map_size,
+            layers: plan.layers,
+            hierarchy: s.hierarchy,
+            levels,
+        };
+        let mut rebuild = self.shadow_map.rebuilt();
+        if !rebuild && self.kept != Some(key) {
+            // Settings changed under a kept map (a library user editing fields): redo it all.
+            self.shadow_map.invalidate();
+            (self.shadow_map).render(frame, inputs, map_size, "bitmask/shadow_map");
+            rebuild = true;
+        }
+        if rebuild {
+            self.build_light_space(frame, inputs, key);
+            self.kept = Some(key);
+        }
+        Some((key, search))
+    }
+
+    /// The gather (and first its coarse pass with adaptive resolution) into B, or straight
+    /// into `out` without a filter.
+    fn gather(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        plan: &Plan,
+        built_layers: usize,
+        coarse_size: Option<(u32, u32)>,
+    ) -> Result<(), TechniqueError> {
+        self.gather_passes(plan.pattern.words(), coarse_size.is_some())?;
+        let index = MASK_WORD_COUNTS
+            .iter()
+            .position(|&w| w == plan.pattern.words())
+            .expect("compiled above");
+        let (gather, coarse) = self.gather_passes[index].as_ref().expect("compiled above");
+        let targets = self.targets.as_ref().expect("allocated above");
+        let layer = |k: usize| &self.hierarchies[k.min(built_layers - 1)];
+        let hsm = |k: usize| layer(k).hsm_view().expect("built with the map");
+        // Without filtering the bitmask result is the output; with it, B goes to its own image.
+        let b_view = if plan.filter_passes > 0 {
+            &targets.bitmask.1
+        } else {
+            &out.view
+        };
+        let run = |frame: &mut Frame<'_>, pass: &ComputePass, adaptive, (w, h): (u32, u32)| {
+            let (coarse_read, coarse_write) = self.adaptive.views(adaptive);
+            let mut run = pass
+                .run(frame)
+                .frame_group(inputs.frame_bind_group)
+                .read(&self.shadow_map.view_buffer)
+                .read(&self.params_buffer);
+            for k in 0..MAX_LAYERS as usize {
+                run = run.read(hsm(k));
+            }
+            for k in 0..MAX_LAYERS as usize {
+                run = run.read(layer(k).mssm_view());
+            }
+            run.write(b_view)
+                .write(&targets.area.1)
+                .write(&targets.level.1)
+                .write(self.counters.buffer())
+                .read(coarse_read)
+                .write(coarse_write)
+                .dispatch([w.div_ceil(8), h.div_ceil(8), 1]);
+        };
+        if let (Some(size), Some(coarse)) = (coarse_size, coarse) {
+            run(frame, coarse, AdaptivePass::Coarse, size);
+        }
+        run(
+            frame,
+            gather,
+            AdaptivePass::Full,
+            (inputs.width, inputs.height),
+        );
+        Ok(())
+    }
+
+    /// The post filter (paper section 3.1): B -> ping -> pong -> ... -> out.
+    fn filter(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        passes: u32,
+    ) {
+        let targets = self.targets.as_ref().expect("allocated above");
+        let passes = passes as usize;
+        for pass_index in 0..passes {
+            let src = if pass_index == 0 {
+                &targets.bitmask.1
+            } else {
+                &targets.ping[(pass_index - 1) % 2].1
+            };
+            let dst = if pass_index + 1 == passes {
+                &out.view
+            } else {
+                &targets.ping[pass_index % 2].1
+            };
+            self.filter
+                .run(frame)
+                .frame_group(inputs.frame_bind_group)
+                .read(&targets.area.1)
+                .read(src)
+                .write(dst)
+                .dispatch([inputs.width.div_ceil(8), inputs.height.div_ceil(8), 1]);
+        }
+        self.filtered = passes > 0;
     }
 }
 
@@ -673,242 +687,37 @@ impl ShadowTechnique for Bitmask {
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
-        let s = self.settings.clone();
-        // The settings are range-checked by set_param; a library user may set any value.
-        let layers = s.layers.clamp(1, MAX_LAYERS);
-        // A bitmask block costs two iterations of the loop budget, so a layer counts as two
-        // passes (docs/ARCHITECTURE.md, "Lavapipe's loop budget").
-        let full_search = full_search_patches(2 * layers);
-        let max_patches = match s.hierarchy {
-            HierarchyKind::None => full_search,
-            _ => s.max_patches.clamp(4, 32),
-        };
-        let filter_passes = s.filter_passes.min(8);
-        let map_size = s
-            .shadow_map_size
-            .clamp(1, gpu.device.limits().max_texture_dimension_2d);
+        let plan = Plan::of(&self.settings, gpu);
         self.gathered = false;
         self.rebuilt_layers = 0;
         self.filtered = false;
-
-        // Kept light-space work must match what these settings would build.
-        let mut key = LightSpaceKey {
-            map_size,
-            layers,
-            hierarchy: s.hierarchy,
-            levels: 0,
-        };
-        let Some(frustum) = self
-            .shadow_map
-            .render(frame, inputs, map_size, "bitmask/shadow_map")
-        else {
+        let Some((key, search)) = self.light_space(frame, inputs, &plan) else {
             out.write_unshadowed(frame, inputs.frame_bind_group, "bitmask/no_casters")?;
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         };
-        // Only the levels this light and map can need (core::hierarchy::needed_levels).
-        let search = max_search_texels(
-            inputs.light.half_extent(),
-            frustum.near,
-            frustum.s_max - frustum.s_min,
-            map_size,
-        );
-        key.levels = match s.hierarchy {
-            HierarchyKind::None => needed_levels(map_size, search, full_search, false),
-            _ => needed_levels(map_size, search, max_patches, true),
-        };
-        let mut rebuild = self.shadow_map.rebuilt();
-        if !rebuild && self.kept != Some(key) {
-            // Settings changed under a kept map (a library user editing fields): redo it all.
-            self.shadow_map.invalidate();
-            self.shadow_map
-                .render(frame, inputs, map_size, "bitmask/shadow_map");
-            rebuild = true;
-        }
-        if rebuild {
-            self.build_light_space(frame, inputs, key);
-            self.kept = Some(key);
-        }
-        let built_layers = self.hierarchies.len().min(layers as usize);
+        let built_layers = self.hierarchies.len().min(plan.layers as usize);
         if built_layers == 0 {
             return Err(TechniqueError::Other {
                 technique: ID.into(),
                 message: "the depth hierarchy could not be created: check the GPU adapter".into(),
             });
         }
-
-        let pattern = s.pattern.layout();
-        // Not with the full search: it stays the yardstick, and its unrefined area says nothing
-        // about the penumbra.
-        let adaptive_factor = match s.hierarchy {
-            HierarchyKind::None => 1,
-            _ => s.adaptive_resolution.factor(),
-        };
-        let uniform = GatherUniform {
-            hierarchy: s.hierarchy.shader_value(),
-            primitive: match s.primitive {
-                Primitive::Micropatch => 0,
-                Primitive::Microquad => 1,
-            },
-            gap_filling: u32::from(s.gap_filling),
-            max_patches,
-            bias_texels: if s.bias_texels.is_finite() {
-                s.bias_texels.max(0.0)
-            } else {
-                1.5
-            },
-            max_level: key.levels as i32,
-            layers: built_layers as u32,
-            with_area: u32::from(filter_passes > 0),
-            rows: pattern.rows,
-            columns: pattern.columns,
-            jittered: u32::from(pattern.jittered),
-            edge_refine: s.edge_refine.min(3),
-            depth_bands: s.depth_bands.clamp(1, 8),
-            adaptive_factor,
-            adaptive_pixels: if s.adaptive_pixels.is_finite() {
-                s.adaptive_pixels.max(0.0)
-            } else {
-                8.0
-            },
-        };
+        let uniform = gather_uniform(&self.settings, &plan, key.levels, built_layers);
         gpu.queue
             .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         self.counters.clear(gpu);
-        let coarse_size = self
-            .adaptive
-            .prepare(gpu, inputs.width, inputs.height, adaptive_factor);
+        let coarse_size = (self.adaptive).prepare(gpu, inputs.width, inputs.height, plan.adaptive);
         self.ensure_targets(inputs.width, inputs.height);
-        self.gather_pipeline(pattern.words(), coarse_size.is_some())?;
-        let pipeline_index = MASK_WORD_COUNTS
-            .iter()
-            .position(|&w| w == pattern.words())
-            .expect("compiled above");
-        let pipeline = self.gather_pipelines[pipeline_index]
-            .as_ref()
-            .expect("compiled above");
-        let targets = self.targets.as_ref().expect("allocated above");
-
-        let layer = |k: usize| &self.hierarchies[k.min(built_layers - 1)];
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: self.shadow_map.view_buffer.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: self.params_buffer.as_entire_binding(),
-            },
-        ];
-        for k in 0..MAX_LAYERS as usize {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 2 + k as u32,
-                resource: wgpu::BindingResource::TextureView(
-                    layer(k).hsm_view().expect("built with the map"),
-                ),
-            });
-            entries.push(wgpu::BindGroupEntry {
-                binding: 6 + k as u32,
-                resource: wgpu::BindingResource::TextureView(layer(k).mssm_view()),
-            });
-        }
-        // Without filtering the bitmask result is the output; with it, B goes to its own image.
-        let b_view = if filter_passes > 0 {
-            &targets.bitmask.1
-        } else {
-            &out.view
-        };
-        entries.extend([
-            wgpu::BindGroupEntry {
-                binding: 10,
-                resource: wgpu::BindingResource::TextureView(b_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 11,
-                resource: wgpu::BindingResource::TextureView(&targets.area.1),
-            },
-            wgpu::BindGroupEntry {
-                binding: 12,
-                resource: wgpu::BindingResource::TextureView(&targets.level.1),
-            },
-            wgpu::BindGroupEntry {
-                binding: 13,
-                resource: self.counters.binding(),
-            },
-        ]);
-        let bind_group = |pass| {
-            let mut entries = entries.clone();
-            entries.extend(self.adaptive.entries(14, pass));
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("bitmask/gather"),
-                layout: &self.gather_layout,
-                entries: &entries,
-            })
-        };
-        if let (Some((w, h)), Some(coarse_pipeline)) = (coarse_size, &pipeline.1) {
-            let coarse = bind_group(AdaptivePass::Coarse);
-            frame.compute_pass("bitmask/gather_coarse", |pass| {
-                pass.set_pipeline(coarse_pipeline);
-                pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-                pass.set_bind_group(1, &coarse, &[]);
-                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-            });
-        }
-        let bind_group = bind_group(AdaptivePass::Full);
-        let groups = (inputs.width.div_ceil(8), inputs.height.div_ceil(8));
-        frame.compute_pass("bitmask/gather", |pass| {
-            pass.set_pipeline(&pipeline.0);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &bind_group, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-        });
-
-        // Post filter (paper section 3.1): B -> ping -> pong -> ... -> out.
-        for pass_index in 0..filter_passes as usize {
-            let src = if pass_index == 0 {
-                &targets.bitmask.1
-            } else {
-                &targets.ping[(pass_index - 1) % 2].1
-            };
-            let dst = if pass_index + 1 == filter_passes as usize {
-                &out.view
-            } else {
-                &targets.ping[pass_index % 2].1
-            };
-            let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("bitmask/filter"),
-                layout: &self.filter_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(&targets.area.1),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(src),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(dst),
-                    },
-                ],
-            });
-            frame.compute_pass("bitmask/filter", |pass| {
-                pass.set_pipeline(&self.filter_pipeline);
-                pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-                pass.set_bind_group(1, &bind_group, &[]);
-                pass.dispatch_workgroups(groups.0, groups.1, 1);
-            });
-        }
-        self.filtered = filter_passes > 0;
-
+        self.gather(frame, inputs, out, &plan, built_layers, coarse_size)?;
+        self.filter(frame, inputs, out, plan.filter_passes);
         self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), built_layers as f64),
             ("hierarchy_levels".into(), key.levels as f64),
             ("max_search_texels".into(), search.min(1e9) as f64),
-            ("light_samples".into(), pattern.samples() as f64),
+            ("light_samples".into(), plan.pattern.samples() as f64),
         ]);
         Ok(())
     }
@@ -978,7 +787,7 @@ impl ShadowTechnique for Bitmask {
     fn debug_views(&self) -> Vec<DebugView> {
         let mut views = self.shadow_map.debug_views();
         let layers = self.kept.map_or(1, |k| k.layers as usize);
-        for (k, (texture, _)) in self.peeler.maps.iter().enumerate().take(layers - 1) {
+        for (k, (texture, _)) in self.peel.maps.iter().enumerate().take(layers - 1) {
             views.push(DebugView::new(
                 format!("peel_layer_{}", k + 1),
                 texture,
@@ -1027,7 +836,7 @@ mod tests {
 
     #[test]
     fn shaders_validate_in_every_permutation() {
-        if let Err(e) = shader::validate_all(SHADERS) {
+        if let Err(e) = softshadow_core::shader::validate_all(SHADERS) {
             panic!("{e}");
         }
     }

@@ -298,7 +298,7 @@ pub struct ShadowInputs<'a> {
 pub enum TimingSource {
     /// GPU timestamp queries around each pass, all passes in one submission. Cheap and exact on
     /// a GPU; on lavapipe before Mesa 24.1 a timestamp does not wait for earlier compute
-    /// dispatches, so compute passes read almost nothing (docs/ARCHITECTURE.md, "Lavapipe's
+    /// dispatches, so compute passes read almost nothing (docs/DEVICES.md, "Lavapipe's
     /// timestamps").
     Timestamps,
     /// Each pass recorded into its own submission and waited for: the pass time is the wall

@@ -6,6 +6,7 @@
 
 pub use crate::frame::storage_texture_entry;
 use crate::gbuffer::create_texture;
+use crate::pass::Slot;
 use crate::{uniform::storage_bytes, wgpu, Frame, Gpu};
 use encase::{
     internal::{CreateFrom, WriteInto},
@@ -102,7 +103,12 @@ impl<T: ShaderSize + WriteInto + CreateFrom + Default> GatherCounters<T> {
         }
     }
 
-    /// The counters as a binding resource.
+    /// The counters' buffer (a `var<storage, read_write>` of the gather).
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
+
+    /// The counters' binding resource.
     pub fn binding(&self) -> wgpu::BindingResource<'_> {
         self.buffer.as_entire_binding()
     }
@@ -218,14 +224,22 @@ impl AdaptiveTargets {
         size
     }
 
-    /// The bind-group entries `first` and `first + 1` for `pass`.
-    pub fn entries(&self, first: u32, pass: AdaptivePass) -> [wgpu::BindGroupEntry<'_>; 2] {
+    /// The pass builder's slots of the two bindings: the coarse result read, and written.
+    pub const SLOTS: [Slot; 2] = [Slot::FLOAT, Slot::StorageTexture(Self::FORMAT)];
+
+    /// The views bound at [`AdaptiveTargets::SLOTS`] for `pass`: (read, written).
+    pub fn views(&self, pass: AdaptivePass) -> (&wgpu::TextureView, &wgpu::TextureView) {
         let coarse = self.coarse.as_ref().map(|c| &c.1);
-        let (read, write) = match (pass, coarse) {
+        match (pass, coarse) {
             (AdaptivePass::Coarse, Some(c)) => (&self.stand_in_read, c),
             (AdaptivePass::Full, Some(c)) => (c, &self.stand_in_write),
             (_, None) => (&self.stand_in_read, &self.stand_in_write),
-        };
+        }
+    }
+
+    /// The bind-group entries `first` and `first + 1` for `pass`.
+    pub fn entries(&self, first: u32, pass: AdaptivePass) -> [wgpu::BindGroupEntry<'_>; 2] {
+        let (read, write) = self.views(pass);
         [
             wgpu::BindGroupEntry {
                 binding: first,

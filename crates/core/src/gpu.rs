@@ -61,7 +61,7 @@ impl AdapterSummary {
 
     /// Mesa's (major, minor) version when the driver is Mesa's (lavapipe reads
     /// `llvmpipe Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)`), else `None`. Lavapipe before 24.1 has
-    /// limits that later versions lifted (docs/ARCHITECTURE.md, "Lavapipe").
+    /// limits that later versions lifted (docs/DEVICES.md, "The devices").
     pub fn mesa_version(&self) -> Option<(u32, u32)> {
         let version = self.driver.split("Mesa ").nth(1)?;
         let mut parts = version.split(|c: char| !c.is_ascii_digit());

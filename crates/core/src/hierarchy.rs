@@ -56,7 +56,7 @@ impl HierarchyKind {
 
 crate::param_choice! {
     /// How a gather technique turns the occluding texels of a search area into occluded light
-    /// area (docs/TECHNIQUES.md, `backprojection`, "Contour-based visibility").
+    /// area (docs/TECHNIQUES.md, `backprojection`, "Large penumbrae").
     pub enum Visibility {
         /// Every occluding block is a micro-primitive of its own, backprojected and summed (or
         /// OR-ed) (Guennebaud et al. 2006).
@@ -110,7 +110,7 @@ pub fn max_search_texels(
 /// Loop iterations one shader invocation may run on lavapipe before Mesa 24.1 (measured on
 /// 22.3.6; none on 25.0.7): its loops end silently once their iterations together reach 65535
 /// (`LP_MAX_TGSI_LOOP_ITERATIONS` in Mesa's gallivm, one counter shared by every loop of the
-/// invocation; docs/ARCHITECTURE.md, "Lavapipe's loop budget"). A full search (`hierarchy = none`) must
+/// invocation; docs/DEVICES.md, "Lavapipe's loop budget"). A full search (`hierarchy = none`) must
 /// keep its gather under this, or the blocks after the budget are dropped without an error; the
 /// rest (about 5,000) is left for the shader's other loops.
 pub const LOOP_BUDGET: u32 = 60_000;
@@ -459,7 +459,7 @@ impl DepthHierarchy {
                 }
             }
         }
-        // Timestamps after a dependent dispatch (docs/ARCHITECTURE.md, "Lavapipe's timestamps").
+        // Timestamps after a dependent dispatch (docs/DEVICES.md, "Lavapipe's timestamps").
         // With serial timing the level pass is submitted and waited for on its own, so its wall
         // time is the build time and timestamps in two submissions would add the round trips.
         let serial = frame.is_timed_serially();

@@ -48,6 +48,17 @@ impl Vertex {
             attributes: &Self::ATTRIBUTES[..1],
         }
     }
+
+    /// Position and flags (locations 0 and 2): the receiver-only depth pass drops casters.
+    pub fn position_and_flags_layout() -> wgpu::VertexBufferLayout<'static> {
+        const POSITION_AND_FLAGS: [wgpu::VertexAttribute; 2] =
+            [Vertex::ATTRIBUTES[0], Vertex::ATTRIBUTES[2]];
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &POSITION_AND_FLAGS,
+        }
+    }
 }
 
 /// An index list in [`SceneGpu`]; `None` when empty.

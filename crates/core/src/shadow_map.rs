@@ -8,8 +8,10 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use crate::{
     frame::{uniform_entry, Frame},
     light::{AreaLight, SlopeFrustum},
+    pass::{FullscreenPass, Pass, PassBuilder, PassGroup, Slot},
     scene_gpu::{IndexList, SceneGpu, Vertex},
     shader,
+    shader::ShaderSpec,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
     Gpu, GpuError,
 };
@@ -31,8 +33,8 @@ pub struct ShadowViewUniform {
     pub size: Vec4,
 }
 
-/// The uniform of one depth pass (`DepthView` in `shaders/core/depth.wgsl` and
-/// `shaders/ssm/depth.wgsl`), one per 256-byte slot of [`DepthMapRenderer`].
+/// The uniform of one depth pass (`DepthView` in `shaders/core/depth.wgsl`), one per 256-byte
+/// slot of [`DepthMapRenderer`].
 #[derive(Clone, Copy, Debug, ShaderType)]
 pub struct DepthView {
     /// World to the map's clip space ([`ShadowViewUniform::light_view_proj`]).
@@ -87,9 +89,44 @@ pub fn fit_hard_view(scene: &SceneGpu, light: &AreaLight, eye: Vec2) -> Option<S
 /// Uniform stride for dynamic offsets (the WebGPU minimum alignment).
 const SLOT: u64 = 256;
 
-/// Renders caster depth into any number of `Depth32Float` views in one call.
+/// What a light-space depth pass draws and keeps: every technique's caster rasterisation goes
+/// through [`DepthMapRenderer`] with one of these, so a change to how casters are drawn is made
+/// once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CasterDraw {
+    /// The casters' nearest depth (cleared to 1, `Less`): every shadow map.
+    Nearest,
+    /// The casters' farthest depth (cleared to 0, `Greater`): SSM's back occluder map (Atty et
+    /// al. 2006, section 3.5).
+    Farthest,
+    /// The nearest depth of the receivers that are not casters (cleared to 1, `Less`): SSM's
+    /// receiver map (section 3.1).
+    ReceiversOnly,
+}
+
+impl CasterDraw {
+    fn index(self) -> usize {
+        self as usize
+    }
+
+    fn clear(self) -> f32 {
+        match self {
+            CasterDraw::Farthest => 0.0,
+            CasterDraw::Nearest | CasterDraw::ReceiversOnly => 1.0,
+        }
+    }
+}
+
+/// Renders caster depth into any number of `Depth32Float` views in one call: the one light-space
+/// depth pass of the workspace (`shaders/core/depth.wgsl`), one view matrix per slot.
 pub struct DepthMapRenderer {
-    pipeline: wgpu::RenderPipeline,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    /// One pipeline per [`CasterDraw`], made on first use.
+    pipelines: [std::sync::OnceLock<wgpu::RenderPipeline>; 3],
+    /// The peeling pass: its group (the peeled map's `ShadowView`, the previous layer) and
+    /// pipeline, made on first use.
+    peel: std::sync::OnceLock<(PassGroup, wgpu::RenderPipeline)>,
     layout: wgpu::BindGroupLayout,
     buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -97,7 +134,7 @@ pub struct DepthMapRenderer {
 }
 
 impl DepthMapRenderer {
-    /// Builds the depth pipeline (`shaders/core/depth.wgsl`).
+    /// Builds the depth pass (`shaders/core/depth.wgsl`); its pipelines are made on first use.
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let module = shader::create_module(gpu, &shader::CORE_SHADERS[1], &[])?;
         let layout = gpu
@@ -113,41 +150,104 @@ impl DepthMapRenderer {
                 bind_group_layouts: &[Some(&layout)],
                 immediate_size: 0,
             });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("core/depth"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(Vertex::position_layout())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    // Both faces: zero-thickness occluders must cast from either side.
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: SHADOW_DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: None,
-                multiview_mask: None,
-                cache: None,
-            });
         let (buffer, bind_group) = Self::allocate(gpu, &layout, 16);
         Ok(Self {
-            pipeline,
+            module,
+            pipeline_layout,
+            pipelines: Default::default(),
+            peel: Default::default(),
             layout,
             buffer,
             bind_group,
             capacity: 16,
+        })
+    }
+
+    fn pipeline(&self, device: &wgpu::Device, draw: CasterDraw) -> &wgpu::RenderPipeline {
+        self.pipelines[draw.index()].get_or_init(|| self.make_pipeline(device, draw))
+    }
+
+    fn make_pipeline(&self, device: &wgpu::Device, draw: CasterDraw) -> wgpu::RenderPipeline {
+        self.depth_pipeline(device, draw, &self.pipeline_layout, None)
+    }
+
+    /// The peeling pipeline: `vs_main` and `fs_peel`, which discards what is not behind the
+    /// previous layer.
+    fn make_peel(&self, gpu: &Gpu) -> (PassGroup, wgpu::RenderPipeline) {
+        let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let group = PassGroup::new(
+            gpu,
+            "core/depth peel",
+            &[Slot::Uniform, Slot::DEPTH],
+            stages,
+        );
+        let layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("core/depth peel"),
+                bind_group_layouts: &[Some(&self.layout), Some(group.layout())],
+                immediate_size: 0,
+            });
+        let pipeline =
+            self.depth_pipeline(&gpu.device, CasterDraw::Nearest, &layout, Some("fs_peel"));
+        (group, pipeline)
+    }
+
+    fn depth_pipeline(
+        &self,
+        device: &wgpu::Device,
+        draw: CasterDraw,
+        layout: &wgpu::PipelineLayout,
+        fragment: Option<&str>,
+    ) -> wgpu::RenderPipeline {
+        let (entry, vertex, compare) = match draw {
+            CasterDraw::Nearest => (
+                "vs_main",
+                Vertex::position_layout(),
+                wgpu::CompareFunction::Less,
+            ),
+            CasterDraw::Farthest => (
+                "vs_main",
+                Vertex::position_layout(),
+                wgpu::CompareFunction::Greater,
+            ),
+            CasterDraw::ReceiversOnly => (
+                "vs_receiver",
+                Vertex::position_and_flags_layout(),
+                wgpu::CompareFunction::Less,
+            ),
+        };
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("core/depth"),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex)],
+            },
+            primitive: wgpu::PrimitiveState {
+                // Both faces: zero-thickness occluders must cast from either side, and the
+                // nearest / farthest surface is chosen by the depth test alone.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: SHADOW_DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(compare),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: fragment.map(|entry| wgpu::FragmentState {
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                targets: &[],
+            }),
+            multiview_mask: None,
+            cache: None,
         })
     }
 
@@ -224,33 +324,107 @@ impl DepthMapRenderer {
         slot: u32,
         target: &wgpu::TextureView,
     ) {
-        frame.render_pass(
+        self.record_draw(frame, label, scene, list, CasterDraw::Nearest, slot, target);
+    }
+
+    /// One depth pass of `draw` over `list` (the casters, or the receivers for
+    /// [`CasterDraw::ReceiversOnly`]) into `target` through view slot `slot`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_draw(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        list: Option<&IndexList>,
+        draw: CasterDraw,
+        slot: u32,
+        target: &wgpu::TextureView,
+    ) {
+        let pipeline = self.pipeline(&frame.gpu.device, draw);
+        self.record_pass(
+            frame,
             label,
-            wgpu::RenderPassDescriptor {
-                label: None,
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: target,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            },
-            |pass| {
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
-                if let Some(list) = list {
-                    pass.set_vertex_buffer(0, scene.vertices.slice(..));
-                    pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..list.count, 0, 0..1);
-                }
-            },
+            scene,
+            list,
+            pipeline,
+            None,
+            (slot, draw.clear()),
+            target,
         );
+    }
+
+    /// One depth-peeling pass (Schwarz & Stamminger 2007, section 3.2) of the casters into
+    /// `target` through view slot `slot`: the nearest surface behind `previous`, a map drawn
+    /// through the same view, whose `ShadowView` is `peel_view`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_peel(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        slot: u32,
+        peel_view: &wgpu::Buffer,
+        previous: &wgpu::TextureView,
+        target: &wgpu::TextureView,
+    ) {
+        let (group, pipeline) = self.peel.get_or_init(|| self.make_peel(frame.gpu));
+        let peel_group = group.bind(frame.gpu, &[peel_view.into(), previous.into()]);
+        let casters = scene.casters.as_ref();
+        let clear = CasterDraw::Nearest.clear();
+        let extra = Some(&peel_group);
+        self.record_pass(
+            frame,
+            label,
+            scene,
+            casters,
+            pipeline,
+            extra,
+            (slot, clear),
+            target,
+        );
+    }
+
+    /// Records one depth pass: `list` drawn with `pipeline` into `target` cleared to the
+    /// `(slot, clear)` pair's depth, through view slot `slot`, with `extra` as group 1.
+    #[allow(clippy::too_many_arguments)]
+    fn record_pass(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        list: Option<&IndexList>,
+        pipeline: &wgpu::RenderPipeline,
+        extra: Option<&wgpu::BindGroup>,
+        (slot, clear): (u32, f32),
+        target: &wgpu::TextureView,
+    ) {
+        let desc = wgpu::RenderPassDescriptor {
+            label: None,
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: target,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        };
+        frame.render_pass(label, desc, |pass| {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
+            if let Some(extra) = extra {
+                pass.set_bind_group(1, extra, &[]);
+            }
+            if let Some(list) = list {
+                pass.set_vertex_buffer(0, scene.vertices.slice(..));
+                pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..list.count, 0, 0..1);
+            }
+        });
     }
 }
 
@@ -360,6 +534,20 @@ impl CentreShadowMap {
         Some(frustum)
     }
 
+    /// Peels the next caster layer behind `previous` (a map drawn through this map's view:
+    /// itself, or the last layer peeled) into `target` (Schwarz & Stamminger 2007, section 3.2).
+    pub fn record_peel(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        scene: &SceneGpu,
+        previous: &wgpu::TextureView,
+        target: &wgpu::TextureView,
+    ) {
+        let view = &self.view_buffer;
+        (self.depth).record_peel(frame, label, scene, 0, view, previous, target);
+    }
+
     /// The last [`CentreShadowMap::render`] drew the map (it did not keep an earlier one).
     pub fn rebuilt(&self) -> bool {
         self.rebuilt
@@ -370,49 +558,41 @@ impl CentreShadowMap {
         self.kept = None;
     }
 
-    /// Layout of the usual group 1 of a pass that reads this map: binding 0 = `ShadowView`
-    /// uniform, 1 = `texture_depth_2d`, 2 = the technique's own parameter uniform
-    /// (`hard.wgsl`, `pcss.wgsl`).
-    pub fn lookup_layout(gpu: &Gpu, label: &str) -> wgpu::BindGroupLayout {
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        gpu.device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(label),
-                entries: &[
-                    uniform_entry(0, stage, false),
-                    crate::fullscreen::depth_texture_entry(1, false),
-                    uniform_entry(2, stage, false),
-                ],
-            })
+    /// Declares the usual pass that reads this map (`hard.wgsl`, `pcss.wgsl`, ...): group 1 is
+    /// binding 0 = its `ShadowView` uniform, 1 = the `texture_depth_2d`, 2 = the technique's own
+    /// parameter uniform. Run it with [`CentreShadowMap::draw_lookup`].
+    pub fn lookup_pass<'a>(gpu: &'a Gpu, label: &str, spec: &'a ShaderSpec) -> PassBuilder<'a> {
+        Pass::new(gpu, label, spec)
+            .after_frame_group()
+            .uniform()
+            .texture(Slot::DEPTH)
+            .uniform()
     }
 
-    /// Bind group for [`CentreShadowMap::lookup_layout`] over the last rendered map, or `None`
-    /// before the first map.
-    pub fn lookup_bind_group(
+    /// Draws `pass` (from [`CentreShadowMap::lookup_pass`]) over the last rendered map with
+    /// `params` into `target`, timed as `label`; `clear` as [`crate::pass::PassRun::draw`].
+    /// Draws nothing before the first map.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_lookup(
         &self,
-        gpu: &Gpu,
-        layout: &wgpu::BindGroupLayout,
+        frame: &mut Frame<'_>,
+        pass: &FullscreenPass,
+        label: &str,
+        frame_group: &wgpu::BindGroup,
         params: &wgpu::Buffer,
-    ) -> Option<wgpu::BindGroup> {
-        let map_view = self.map_view()?;
-        Some(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("centre shadow map lookup"),
-            layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(map_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: params.as_entire_binding(),
-                },
-            ],
-        }))
+        target: &wgpu::TextureView,
+        clear: Option<f64>,
+    ) {
+        let Some(map) = self.map_view() else {
+            return;
+        };
+        pass.run(frame)
+            .named(label)
+            .frame_group(frame_group)
+            .read(&self.view_buffer)
+            .read(map)
+            .read(params)
+            .draw(target, clear);
     }
 
     /// The depth view of the last rendered map.

@@ -1,4 +1,4 @@
-//! Probes of the device limits that docs/ARCHITECTURE.md's lavapipe sections work around, so a
+//! Probes of the device limits that docs/DEVICES.md's lavapipe sections work around, so a
 //! driver change shows up as a test result rather than as a silently wrong image.
 //!
 //! - `loops_end_at_the_budget_only_on_lavapipe_before_24_1`: llvmpipe's 65535-iteration loop
@@ -119,7 +119,7 @@ fn mesa_versions_are_read_from_the_driver_string() {
 
 /// Lavapipe before Mesa 24.1 ends the loops of a block of invocations once their iterations
 /// together reach about 65535, silently (measured on 22.3.6; 25.0.7 runs every iteration):
-/// docs/ARCHITECTURE.md, "Lavapipe's loop budget". Any other adapter runs every iteration.
+/// docs/DEVICES.md, "Lavapipe's loop budget". Any other adapter runs every iteration.
 #[test]
 fn loops_end_at_the_budget_only_on_lavapipe_before_24_1() -> Result<()> {
     let gpu = gpu()?;
@@ -150,7 +150,7 @@ fn loops_end_at_the_budget_only_on_lavapipe_before_24_1() -> Result<()> {
                 ensure!(
                     [n, m] == asked,
                     "{}: lane {lane} of ({a}, {b}) ran {n} + {m} iterations instead of {asked:?}: \
-                     cut loops; see docs/ARCHITECTURE.md, \"Lavapipe's loop budget\"",
+                     cut loops; see docs/DEVICES.md, \"Lavapipe's loop budget\"",
                     adapter.driver
                 );
             }
@@ -159,7 +159,7 @@ fn loops_end_at_the_budget_only_on_lavapipe_before_24_1() -> Result<()> {
     eprintln!("{}: {}", adapter.driver, report.join("; "));
     ensure!(
         !budget_applies || cut,
-        "{}: no loop was cut at 65535 iterations; docs/ARCHITECTURE.md (\"Lavapipe's loop \
+        "{}: no loop was cut at 65535 iterations; docs/DEVICES.md (\"Lavapipe's loop \
          budget\") says this driver cuts them: {report:?}",
         adapter.driver
     );
@@ -292,7 +292,7 @@ fn time_draw(gpu: &Gpu, body: &str, flag: u32) -> Result<f64> {
 /// What a 512² fullscreen draw costs with 256 statements of arithmetic: absent, behind a branch
 /// no pixel takes (a uniform flag of 0), after a `discard` that every pixel takes, and taken.
 #[test]
-#[ignore = "a measurement: prints the costs quoted in docs/ARCHITECTURE.md"]
+#[ignore = "a measurement: prints the costs quoted in docs/DEVICES.md"]
 fn branch_costs() -> Result<()> {
     let gpu = gpu()?;
     let work = expensive(256);

@@ -8,7 +8,7 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::FullscreenPipeline,
+    pass::FullscreenPass,
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
@@ -59,8 +59,7 @@ pub struct Hard {
     /// Its settings; changes take effect on the next frame.
     pub settings: HardSettings,
     shadow_map: CentreShadowMap,
-    lookup: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    lookup: FullscreenPass,
     params_buffer: wgpu::Buffer,
     stats: TechniqueStats,
 }
@@ -68,12 +67,13 @@ pub struct Hard {
 impl Hard {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: HardSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "hard/lookup");
+        // hard.wgsl: the map's ShadowView, the map, HardParams.
+        let lookup =
+            CentreShadowMap::lookup_pass(gpu, "hard/lookup", &SHADERS[0]).fullscreen(None)?;
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
-            lookup: FullscreenPipeline::new(gpu, "hard/lookup", &SHADERS[0], &[], &layout, None)?,
+            lookup,
             params_buffer: zeroed_uniform_buffer::<HardParams>(gpu, "hard/params"),
-            layout,
             settings,
             stats: TechniqueStats::new(),
         })
@@ -118,16 +118,13 @@ impl ShadowTechnique for Hard {
                 bias_texels: self.settings.bias_texels,
             }),
         );
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
-        self.lookup.record(
+        let (lookup, params, group) = (&self.lookup, &self.params_buffer, inputs.frame_bind_group);
+        (self.shadow_map).draw_lookup(
             frame,
+            lookup,
             "hard/lookup",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
+            group,
+            params,
             &out.view,
             Some(1.0),
         );

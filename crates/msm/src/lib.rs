@@ -15,9 +15,8 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    frame::{texture_entry, uniform_entry},
-    fullscreen::FullscreenPipeline,
     glam::Vec2,
+    pass::{FullscreenPass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
@@ -137,23 +136,12 @@ struct MomentMap {
     texture: wgpu::Texture,
     /// One view per level (render targets, and the downsampling's sources).
     levels: Vec<wgpu::TextureView>,
-    /// The downsampling's source bind group per level from 1 (reads the level above).
-    mip_sources: Vec<wgpu::BindGroup>,
-    /// The filter's group 1 over this map (made once: per-frame bind groups are CPU time
-    /// outside every pass).
-    filter_bind_group: wgpu::BindGroup,
+    /// Every level, as the filter reads them.
+    all_levels: wgpu::TextureView,
 }
 
 impl MomentMap {
-    fn new(
-        gpu: &Gpu,
-        size: u32,
-        evsm: bool,
-        layouts: (&wgpu::BindGroupLayout, &wgpu::BindGroupLayout),
-        uniforms: (&wgpu::Buffer, &wgpu::Buffer),
-    ) -> Self {
-        let (downsample_layout, filter_layout) = layouts;
-        let (view_buffer, params_buffer) = uniforms;
+    fn new(gpu: &Gpu, size: u32, evsm: bool) -> Self {
         let level_count = size.ilog2() + 1;
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("msm/moment_map"),
@@ -179,45 +167,12 @@ impl MomentMap {
                 })
             })
             .collect();
-        let mip_sources = levels[..levels.len() - 1]
-            .iter()
-            .map(|source| {
-                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("msm/mips source"),
-                    layout: downsample_layout,
-                    entries: &[wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(source),
-                    }],
-                })
-            })
-            .collect();
-        let all_levels = texture.create_view(&Default::default());
-        let filter_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("msm/filter"),
-            layout: filter_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&all_levels),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: params_buffer.as_entire_binding(),
-                },
-            ],
-        });
         Self {
             size,
             evsm,
+            all_levels: texture.create_view(&Default::default()),
             texture,
             levels,
-            mip_sources,
-            filter_bind_group,
         }
     }
 }
@@ -228,16 +183,13 @@ pub struct Msm {
     pub settings: MsmSettings,
     shadow_map: CentreShadowMap,
     /// The moment map pass: four moments, and EVSM's warped moments (`EVSM`).
-    moments_msm: FullscreenPipeline,
-    moments_evsm: FullscreenPipeline,
-    downsample: FullscreenPipeline,
-    /// The filter per variant: one pipeline each (docs/ARCHITECTURE.md, "Lavapipe's branches").
-    filter_msm4: FullscreenPipeline,
-    filter_evsm2: FullscreenPipeline,
-    filter_evsm4: FullscreenPipeline,
-    moments_layout: wgpu::BindGroupLayout,
-    downsample_layout: wgpu::BindGroupLayout,
-    filter_layout: wgpu::BindGroupLayout,
+    moments_msm: FullscreenPass,
+    moments_evsm: FullscreenPass,
+    downsample: FullscreenPass,
+    /// The filter per variant: one pipeline each (docs/DEVICES.md, "Lavapipe's branches").
+    filter_msm4: FullscreenPass,
+    filter_evsm2: FullscreenPass,
+    filter_evsm4: FullscreenPass,
     params_buffer: wgpu::Buffer,
     moment_map: Option<MomentMap>,
     stats: TechniqueStats,
@@ -246,59 +198,34 @@ pub struct Msm {
 impl Msm {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: MsmSettings) -> Result<Self, TechniqueError> {
-        let fragment = wgpu::ShaderStages::FRAGMENT;
-        let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
-        let moments_layout = CentreShadowMap::lookup_layout(gpu, "msm/moments");
-        let downsample_layout =
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("msm/mips"),
-                    entries: &[texture_entry(0, fragment, unfilterable)],
-                });
-        let filter_layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("msm/filter"),
-                entries: &[
-                    uniform_entry(0, fragment, false),
-                    texture_entry(1, fragment, unfilterable),
-                    uniform_entry(2, fragment, false),
-                ],
-            });
         let moments = |label, defs: &[(&str, DefValue)]| {
-            FullscreenPipeline::with_format(
-                gpu,
-                label,
-                &SHADERS[0],
-                defs,
-                &moments_layout,
-                MOMENT_FORMAT,
-                None,
-            )
+            CentreShadowMap::lookup_pass(gpu, label, &SHADERS[0])
+                .defs(defs)
+                .fullscreen_into(MOMENT_FORMAT, None)
         };
+        // msm.wgsl: the map's ShadowView, the moment map's levels, MsmParams.
         let filter = |label, defs: &[(&str, DefValue)]| {
-            FullscreenPipeline::new(gpu, label, &SHADERS[2], defs, &filter_layout, None)
+            Pass::new(gpu, label, &SHADERS[2])
+                .defs(defs)
+                .after_frame_group()
+                .uniform()
+                .texture(Slot::FLOAT)
+                .uniform()
+                .fullscreen(None)
         };
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
             moments_msm: moments("msm/moments", &[])?,
             moments_evsm: moments("msm/moments evsm", &[EVSM])?,
-            downsample: FullscreenPipeline::with_format(
-                gpu,
-                "msm/mips",
-                &SHADERS[1],
-                &[],
-                &downsample_layout,
-                MOMENT_FORMAT,
-                None,
-            )?,
+            // downsample.wgsl: the level above.
+            downsample: Pass::new(gpu, "msm/mips", &SHADERS[1])
+                .after_frame_group()
+                .texture(Slot::FLOAT)
+                .fullscreen_into(MOMENT_FORMAT, None)?,
             filter_msm4: filter("msm/filter", &[])?,
             filter_evsm2: filter("msm/filter evsm2", &[EVSM])?,
             filter_evsm4: filter("msm/filter evsm4", &[EVSM, EVSM4])?,
             params_buffer: zeroed_uniform_buffer::<MsmUniform>(gpu, "msm/params"),
-            moments_layout,
-            downsample_layout,
-            filter_layout,
             moment_map: None,
             settings,
             stats: TechniqueStats::new(),
@@ -315,43 +242,23 @@ impl Msm {
             .as_ref()
             .is_none_or(|m| m.size != size || m.evsm != evsm)
         {
-            self.moment_map = Some(MomentMap::new(
-                gpu,
-                size,
-                evsm,
-                (&self.downsample_layout, &self.filter_layout),
-                (&self.shadow_map.view_buffer, &self.params_buffer),
-            ));
+            self.moment_map = Some(MomentMap::new(gpu, size, evsm));
         }
         let map = self.moment_map.as_ref().expect("created above");
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.moments_layout, &self.params_buffer)
-            .expect("the shadow map was rendered");
-        let pipeline = if evsm {
+        let pass = if evsm {
             &self.moments_evsm
         } else {
             &self.moments_msm
         };
-        pipeline.record(
-            frame,
-            "msm/moments",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
-            &map.levels[0],
-            Some(0.0),
-        );
-        for (source, target) in map.mip_sources.iter().zip(&map.levels[1..]) {
-            self.downsample.record(
-                frame,
-                "msm/mips",
-                inputs.frame_bind_group,
-                source,
-                &[],
-                target,
-                Some(0.0),
-            );
+        let (group, params) = (inputs.frame_bind_group, &self.params_buffer);
+        let target = &map.levels[0];
+        (self.shadow_map).draw_lookup(frame, pass, "msm/moments", group, params, target, Some(0.0));
+        for (source, target) in map.levels.iter().zip(&map.levels[1..]) {
+            self.downsample
+                .run(frame)
+                .frame_group(group)
+                .read(source)
+                .draw(target, Some(0.0));
         }
     }
 }
@@ -422,15 +329,14 @@ impl ShadowTechnique for Msm {
             Variant::Evsm2 => &self.filter_evsm2,
             Variant::Evsm4 => &self.filter_evsm4,
         };
-        filter.record(
-            frame,
-            "msm/filter",
-            inputs.frame_bind_group,
-            &map.filter_bind_group,
-            &[],
-            &out.view,
-            Some(1.0),
-        );
+        filter
+            .run(frame)
+            .named("msm/filter")
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.shadow_map.view_buffer)
+            .read(&map.all_levels)
+            .read(&self.params_buffer)
+            .draw(&out.view, Some(1.0));
         let taps = s.filter_taps.clamp(1, 8) as f64;
         let pixels = inputs.width as f64 * inputs.height as f64;
         self.stats = TechniqueStats::from([

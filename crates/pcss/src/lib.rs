@@ -15,11 +15,11 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    frame::{storage_texture_entry, texture_entry, uniform_entry},
-    fullscreen::FullscreenPipeline,
     gbuffer::create_texture,
     glam::Mat4,
-    shader::{self, DefValue, ShaderSpec},
+    pass::{ComputePass, FullscreenPass, Pass, Slot},
+    reprojection::History,
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
@@ -140,128 +140,144 @@ pub fn temporal_requirements() -> Requirements {
 
 /// Per-size textures of the temporal mode.
 struct TemporalTargets {
-    width: u32,
-    height: u32,
     /// This frame's rotated PCSS (`R32Float`, drawn by `pcss/filter`).
     raw: wgpu::Texture,
-    /// Frames averaged and visibility (`Rg32Float`), ping-pong.
-    history: [wgpu::Texture; 2],
-    /// World point and receiver flag the history saw (`Rgba32Float`), ping-pong.
-    position: [wgpu::Texture; 2],
+    raw_view: wgpu::TextureView,
+    /// (frames averaged, visibility) and the world point each saw.
+    history: History,
 }
 
 impl TemporalTargets {
     fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
-        let storage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
-        let make = |label: &str, format| create_texture(gpu, label, width, height, format, storage);
-        Self {
+        let raw = create_texture(
+            gpu,
+            "pcss/raw",
             width,
             height,
-            raw: create_texture(
-                gpu,
-                "pcss/raw",
-                width,
-                height,
-                wgpu::TextureFormat::R32Float,
-                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            ),
-            history: [
-                make("pcss/history 0", wgpu::TextureFormat::Rg32Float),
-                make("pcss/history 1", wgpu::TextureFormat::Rg32Float),
-            ],
-            position: [
-                make("pcss/position 0", wgpu::TextureFormat::Rgba32Float),
-                make("pcss/position 1", wgpu::TextureFormat::Rgba32Float),
-            ],
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        Self {
+            raw_view: view(&raw),
+            raw,
+            history: History::new(gpu, "pcss", width, height),
         }
     }
 
-    /// Bytes of the textures per pixel: raw 4, history 2 x 8, position 2 x 16.
-    const BYTES_PER_PIXEL: u64 = 4 + 16 + 32;
+    /// Bytes of the textures per pixel: raw 4 and the history.
+    const BYTES_PER_PIXEL: u64 = 4 + History::BYTES_PER_PIXEL;
 }
 
 /// The temporal mode's pipelines, history and state, made on its first frame (plain PCSS never
 /// builds them).
 struct Temporal {
-    filter_vogel: FullscreenPipeline,
-    filter_grid: FullscreenPipeline,
-    resolve: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    filter_vogel: FullscreenPass,
+    filter_grid: FullscreenPass,
+    resolve: ComputePass,
     params_buffer: wgpu::Buffer,
     targets: Option<TemporalTargets>,
-    /// The history texture written last (`history[current]`).
-    current: usize,
-    /// The history holds a frame usable by the next one.
-    history_valid: bool,
-    /// Frames averaged since the history was last dropped, capped at `max_history`.
-    history_frames: u32,
     /// Rotates the kernel: goes on every temporal frame.
     frame_index: u32,
-    prev_view_proj: Mat4,
 }
 
 impl Temporal {
-    fn new(gpu: &Gpu, filter_layout: &wgpu::BindGroupLayout) -> Result<Self, TechniqueError> {
+    fn new(gpu: &Gpu) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &temporal_requirements())?;
-        let device = &gpu.device;
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let float = wgpu::TextureSampleType::Float { filterable: false };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("pcss/temporal"),
-            entries: &[
-                uniform_entry(0, compute, false),
-                texture_entry(1, compute, float),
-                texture_entry(2, compute, float),
-                texture_entry(3, compute, float),
-                storage_texture_entry(4, wgpu::TextureFormat::Rg32Float),
-                storage_texture_entry(5, wgpu::TextureFormat::Rgba32Float),
-                storage_texture_entry(6, wgpu::TextureFormat::R32Float),
-            ],
-        });
-        let module = shader::create_module(gpu, &SHADERS[1], &[])?;
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("pcss/temporal"),
-            bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
-            immediate_size: 0,
-        });
-        let resolve = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("pcss/temporal"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("temporal"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        // temporal.wgsl: TemporalParams; this frame's PCSS, the history and the positions it
+        // saw; then the next history, its positions and the visibility.
+        let resolve = Pass::new(gpu, "pcss/temporal", &SHADERS[1])
+            .after_frame_group()
+            .uniform()
+            .repeat(Slot::FLOAT, 3)
+            .storage_texture(wgpu::TextureFormat::Rg32Float)
+            .storage_texture(wgpu::TextureFormat::Rgba32Float)
+            .storage_texture(wgpu::TextureFormat::R32Float)
+            .compute("temporal")?;
         let temporal = ("TEMPORAL", DefValue::Bool(true));
         let grid = ("KERNEL_GRID", DefValue::Bool(true));
         Ok(Self {
-            filter_vogel: FullscreenPipeline::new(
-                gpu,
-                "pcss/filter temporal",
-                &SHADERS[0],
-                &[temporal],
-                filter_layout,
-                None,
-            )?,
-            filter_grid: FullscreenPipeline::new(
-                gpu,
-                "pcss/filter grid temporal",
-                &SHADERS[0],
-                &[grid, temporal],
-                filter_layout,
-                None,
-            )?,
+            filter_vogel: filter_pass(gpu, "pcss/filter temporal", &[temporal])?,
+            filter_grid: filter_pass(gpu, "pcss/filter grid temporal", &[grid, temporal])?,
             resolve,
-            layout,
             params_buffer: zeroed_uniform_buffer::<TemporalUniform>(gpu, "pcss/temporal params"),
             targets: None,
-            current: 0,
-            history_valid: false,
-            history_frames: 0,
             frame_index: 0,
-            prev_view_proj: Mat4::IDENTITY,
         })
     }
+
+    /// Drops the history: the next temporal frame starts over.
+    fn invalidate(&mut self) {
+        if let Some(targets) = &mut self.targets {
+            targets.history.invalidate();
+        }
+    }
+
+    /// This frame's rotated PCSS into `raw` (with `filter`, the map and PCSS's uniform given by
+    /// the caller), blended into the history and written to `out`. The history is a mean over
+    /// one size and one setting: a change of either drops it. A moved light or caster keeps it
+    /// (as a TAA history is kept): the neighbourhood clip is what rejects the stale part, and
+    /// what it lets through is the lag the motion runs measure. A moved camera keeps it too
+    /// (reprojection follows).
+    fn render(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        s: &PcssSettings,
+        filter: impl FnOnce(&mut Frame<'_>, &FullscreenPass, &wgpu::TextureView),
+    ) -> u32 {
+        let (width, height) = (inputs.width, inputs.height);
+        if (self.targets.as_ref()).is_none_or(|x| !x.history.fits(width, height)) {
+            self.targets = Some(TemporalTargets::new(frame.gpu, width, height));
+        }
+        if inputs.changes.size || inputs.changes.params {
+            self.invalidate();
+        }
+        let targets = self.targets.as_mut().expect("made above");
+        let pass = match s.kernel {
+            Kernel::Vogel => &self.filter_vogel,
+            Kernel::Grid => &self.filter_grid,
+        };
+        filter(frame, pass, &targets.raw_view);
+        let history = &targets.history;
+        frame.gpu.queue.write_buffer(
+            &self.params_buffer,
+            0,
+            &uniform_bytes(&TemporalUniform {
+                prev_view_proj: history.prev_view_proj(),
+                history_valid: u32::from(history.is_valid()),
+                max_history: s.max_history.max(1),
+                clamp_sigma: s.clamp_sigma,
+            }),
+        );
+        let (previous, next) = (history.previous(), history.next());
+        self.resolve
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.params_buffer)
+            .read(&targets.raw_view)
+            .read(previous.0)
+            .read(previous.1)
+            .write(next.0)
+            .write(next.1)
+            .write(&out.view)
+            .dispatch([width.div_ceil(8), height.div_ceil(8), 1]);
+        let view_proj = inputs.uniforms.view_proj();
+        targets.history.advance(view_proj, s.max_history, true);
+        self.frame_index = self.frame_index.wrapping_add(1);
+        targets.history.frames()
+    }
+}
+
+/// The PCSS lookup of one permutation (pcss.wgsl: the map's ShadowView, the map, PcssParams).
+fn filter_pass(
+    gpu: &Gpu,
+    label: &str,
+    defs: &[(&str, DefValue)],
+) -> Result<FullscreenPass, TechniqueError> {
+    Ok(CentreShadowMap::lookup_pass(gpu, label, &SHADERS[0])
+        .defs(defs)
+        .fullscreen(None)?)
 }
 
 fn view(t: &wgpu::Texture) -> wgpu::TextureView {
@@ -274,10 +290,9 @@ pub struct Pcss {
     pub settings: PcssSettings,
     shadow_map: CentreShadowMap,
     /// The lookup with the Vogel kernel, and with the grid (`KERNEL_GRID`): one pipeline per
-    /// kernel (docs/ARCHITECTURE.md, "Lavapipe's branches").
-    filter_vogel: FullscreenPipeline,
-    filter_grid: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    /// kernel (docs/DEVICES.md, "Lavapipe's branches").
+    filter_vogel: FullscreenPass,
+    filter_grid: FullscreenPass,
     params_buffer: wgpu::Buffer,
     /// The temporal mode, once it has run.
     temporal: Option<Temporal>,
@@ -287,27 +302,15 @@ pub struct Pcss {
 impl Pcss {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PcssSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "pcss/filter");
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
-            filter_vogel: FullscreenPipeline::new(
-                gpu,
-                "pcss/filter",
-                &SHADERS[0],
-                &[],
-                &layout,
-                None,
-            )?,
-            filter_grid: FullscreenPipeline::new(
+            filter_vogel: filter_pass(gpu, "pcss/filter", &[])?,
+            filter_grid: filter_pass(
                 gpu,
                 "pcss/filter grid",
-                &SHADERS[0],
                 &[("KERNEL_GRID", DefValue::Bool(true))],
-                &layout,
-                None,
             )?,
             params_buffer: zeroed_uniform_buffer::<PcssUniform>(gpu, "pcss/params"),
-            layout,
             settings,
             temporal: None,
             stats: TechniqueStats::new(),
@@ -347,13 +350,13 @@ impl ShadowTechnique for Pcss {
         {
             out.write_unshadowed(frame, inputs.frame_bind_group, "pcss/no_casters")?;
             if let Some(t) = &mut self.temporal {
-                t.history_valid = false;
+                t.invalidate();
             }
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         }
         if self.settings.temporal && self.temporal.is_none() {
-            self.temporal = Some(Temporal::new(gpu, &self.layout)?);
+            self.temporal = Some(Temporal::new(gpu)?);
         }
         let s = &self.settings;
         // Only the temporal mode's frames move the kernel; plain PCSS draws frame 0's pattern
@@ -368,10 +371,6 @@ impl ShadowTechnique for Pcss {
         };
         gpu.queue
             .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
         let pixels = inputs.width as f64 * inputs.height as f64;
         let mut stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
@@ -381,108 +380,29 @@ impl ShadowTechnique for Pcss {
             ),
             ("pixels".into(), pixels),
         ]);
+        let (map, params, group) = (
+            &self.shadow_map,
+            &self.params_buffer,
+            inputs.frame_bind_group,
+        );
+        let filter = |frame: &mut Frame<'_>, pass: &FullscreenPass, target: &wgpu::TextureView| {
+            map.draw_lookup(frame, pass, "pcss/filter", group, params, target, Some(1.0));
+        };
         let Some(t) = temporal else {
             // A history made before `temporal` was switched off is stale when it is switched on.
             if let Some(t) = &mut self.temporal {
-                t.history_valid = false;
+                t.invalidate();
             }
-            let filter = match s.kernel {
+            let pass = match s.kernel {
                 Kernel::Vogel => &self.filter_vogel,
                 Kernel::Grid => &self.filter_grid,
             };
-            filter.record(
-                frame,
-                "pcss/filter",
-                inputs.frame_bind_group,
-                &bind_group,
-                &[],
-                &out.view,
-                Some(1.0),
-            );
+            filter(frame, pass, &out.view);
             self.stats = stats;
             return Ok(());
         };
-
-        // The temporal mode. The history is a mean over one size and one setting: a change of
-        // either drops it. A moved light or caster keeps it (as a TAA history is kept): the
-        // neighbourhood clip is what rejects the stale part, and what it lets through is the
-        // lag the motion runs measure. A moved camera keeps it too (reprojection follows).
-        let (width, height) = (inputs.width, inputs.height);
-        if t.targets
-            .as_ref()
-            .is_none_or(|x| x.width != width || x.height != height)
-        {
-            t.targets = Some(TemporalTargets::new(gpu, width, height));
-            t.history_valid = false;
-        }
-        if inputs.changes.size || inputs.changes.params {
-            t.history_valid = false;
-        }
-        let targets = t.targets.as_ref().expect("made above");
-        let filter = match s.kernel {
-            Kernel::Vogel => &t.filter_vogel,
-            Kernel::Grid => &t.filter_grid,
-        };
-        let raw = view(&targets.raw);
-        filter.record(
-            frame,
-            "pcss/filter",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
-            &raw,
-            Some(1.0),
-        );
-        gpu.queue.write_buffer(
-            &t.params_buffer,
-            0,
-            &uniform_bytes(&TemporalUniform {
-                prev_view_proj: t.prev_view_proj,
-                history_valid: u32::from(t.history_valid),
-                max_history: s.max_history.max(1),
-                clamp_sigma: s.clamp_sigma,
-            }),
-        );
-        let (prev, cur) = (t.current, 1 - t.current);
-        let views = [
-            &raw,
-            &view(&targets.history[prev]),
-            &view(&targets.position[prev]),
-            &view(&targets.history[cur]),
-            &view(&targets.position[cur]),
-            &out.view,
-        ];
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: t.params_buffer.as_entire_binding(),
-        }];
-        for (k, v) in views.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: k as u32 + 1,
-                resource: wgpu::BindingResource::TextureView(v),
-            });
-        }
-        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pcss/temporal"),
-            layout: &t.layout,
-            entries: &entries,
-        });
-        frame.compute_pass("pcss/temporal", |pass| {
-            pass.set_pipeline(&t.resolve);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &group, &[]);
-            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-        });
-        t.history_frames = if t.history_valid {
-            (t.history_frames + 1).min(s.max_history.max(1))
-        } else {
-            1
-        };
-        t.history_valid = true;
-        t.current = cur;
-        t.prev_view_proj = inputs.uniforms.view_proj();
-        t.frame_index = t.frame_index.wrapping_add(1);
-        stats.insert("history_frames".into(), f64::from(t.history_frames));
+        let frames = t.render(frame, inputs, out, s, filter);
+        stats.insert("history_frames".into(), f64::from(frames));
         stats.insert(
             "texture_bytes".into(),
             pixels * TemporalTargets::BYTES_PER_PIXEL as f64,
@@ -494,7 +414,7 @@ impl ShadowTechnique for Pcss {
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
         if let Some(t) = &mut self.temporal {
-            t.history_valid = false;
+            t.invalidate();
         }
     }
 
@@ -508,12 +428,12 @@ impl ShadowTechnique for Pcss {
             .temporal
             .as_ref()
             .filter(|_| self.settings.temporal)
-            .and_then(|t| t.targets.as_ref().map(|x| (x, t.current)))
+            .and_then(|t| t.targets.as_ref())
         {
-            let (x, current) = targets;
+            let x = targets;
             views.push(DebugView::new(
                 "history frames",
-                &x.history[current],
+                x.history.latest(),
                 DebugLegend::Value {
                     meaning: "frames averaged at this pixel".into(),
                     notes: vec![

@@ -34,8 +34,9 @@ use std::{
 use encase::ShaderType;
 use softshadow_core::{
     background::BackgroundJob,
-    fullscreen::{depth_texture_entry, FullscreenPipeline, STENCIL_FORMAT},
+    fullscreen::{FullscreenPipeline, STENCIL_FORMAT},
     glam::{Vec2, Vec3, Vec4},
+    pass::{PassGroup, Slot},
     scene::{Aabb, Fnv1a},
     shader::{DefValue, ShaderSpec},
     shader_file,
@@ -195,7 +196,7 @@ pub struct Pdsm {
     depth: DepthMapRenderer,
     dynamic_depth: DepthMapRenderer,
     /// The evaluation without dynamic casters, and with them (`DYNAMIC`: the PCF lookup of the
-    /// dynamic map): a permutation, not a uniform flag (docs/ARCHITECTURE.md, "Lavapipe's
+    /// dynamic map): a permutation, not a uniform flag (docs/DEVICES.md, "Lavapipe's
     /// branches").
     evaluate: Evaluation,
     evaluate_dynamic: Evaluation,
@@ -204,7 +205,9 @@ pub struct Pdsm {
     /// Draw the ends first and search only where they do not answer ([`Evaluation`]); off, the
     /// whole evaluation runs at every pixel ([`Self::set_two_draw_evaluation`]).
     two_draw: bool,
-    layout: wgpu::BindGroupLayout,
+    /// The evaluation's group 1: params, the texel offsets and vertices, the dynamic map's view
+    /// and map, the ends texture.
+    group: PassGroup,
     params_buffer: wgpu::Buffer,
     dynamic_view_buffer: wgpu::Buffer,
     /// Bound when there is no dynamic map (never read: the permutation without `DYNAMIC` runs).
@@ -410,7 +413,7 @@ pub fn texel_ends(data: &PdsmData) -> Vec<[f32; 4]> {
 }
 
 /// Section 4's evaluation as two draws into one pass, so the four texels' searches run only
-/// inside penumbrae (docs/ARCHITECTURE.md, "Lavapipe's branches"). The first draw (`ENDS_PASS`)
+/// inside penumbrae (docs/DEVICES.md, "Lavapipe's branches"). The first draw (`ENDS_PASS`)
 /// answers every pixel whose four texels are constant at its depth from the ends texture and
 /// marks it in the stencil; the rest it discards. The second draw, the whole evaluation, runs
 /// where the stencil is still clear.
@@ -515,39 +518,20 @@ impl Evaluation {
 impl Pdsm {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: PdsmSettings) -> Result<Self, TechniqueError> {
-        let fragment = wgpu::ShaderStages::FRAGMENT;
-        let storage = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: fragment,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("pdsm/evaluate"),
-                entries: &[
-                    softshadow_core::frame::uniform_entry(0, fragment, false),
-                    storage(1),
-                    storage(2),
-                    softshadow_core::frame::uniform_entry(3, fragment, false),
-                    depth_texture_entry(4, false),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 5,
-                        visibility: fragment,
-                        ty: wgpu::BindingType::Texture {
-                            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                            view_dimension: wgpu::TextureViewDimension::D2,
-                            multisampled: false,
-                        },
-                        count: None,
-                    },
-                ],
-            });
+        let group = PassGroup::new(
+            gpu,
+            "pdsm/evaluate",
+            &[
+                Slot::Uniform,
+                Slot::Storage,
+                Slot::Storage,
+                Slot::Uniform,
+                Slot::DEPTH,
+                Slot::FLOAT,
+            ],
+            wgpu::ShaderStages::FRAGMENT,
+        );
+        let layout = group.layout();
         let placeholder = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("pdsm/no dynamic map"),
             size: wgpu::Extent3d {
@@ -567,16 +551,16 @@ impl Pdsm {
             cache_dir: None,
             depth: DepthMapRenderer::new(gpu)?,
             dynamic_depth: DepthMapRenderer::new(gpu)?,
-            evaluate: Evaluation::new(gpu, "pdsm/evaluate", &[], &layout)?,
+            evaluate: Evaluation::new(gpu, "pdsm/evaluate", &[], layout)?,
             evaluate_dynamic: Evaluation::new(
                 gpu,
                 "pdsm/evaluate dynamic",
                 &[("DYNAMIC", DefValue::Bool(true))],
-                &layout,
+                layout,
             )?,
             stencil: None,
             two_draw: true,
-            layout,
+            group,
             params_buffer: zeroed_uniform_buffer::<PdsmParams>(gpu, "pdsm/params"),
             dynamic_view_buffer: zeroed_uniform_buffer::<ShadowViewUniform>(
                 gpu,
@@ -1276,6 +1260,139 @@ impl Pdsm {
     }
 }
 
+impl Pdsm {
+    /// The evaluation's parameters for the kept PDSM, with or without a dynamic map.
+    fn write_params(&self, gpu: &Gpu, has_dynamic: bool) {
+        let kept = self.kept.as_ref().expect("prepared by render");
+        let f = &kept.data.frustum;
+        gpu.queue.write_buffer(
+            &self.params_buffer,
+            0,
+            &uniform_bytes(&PdsmParams {
+                window: Vec4::new(f.s_min, f.s_max, f.t_min, f.t_max),
+                size_bias: Vec4::new(
+                    kept.data.size as f32,
+                    self.settings.bias_texels,
+                    // How far a tap's tangent-plane depth may reach along its ray.
+                    (f.s_max - f.s_min) / kept.data.size as f32,
+                    self.settings.pcf_radius as f32,
+                ),
+                dynamic_map_texel: Vec4::new(
+                    f32::from(u8::from(has_dynamic)),
+                    // Each sample map's window is fitted to the casters, inside the PDSM's
+                    // window (fitted to all they shadow): this bounds a map texel's extent.
+                    (f.s_max - f.s_min) / self.settings.shadow_map_size as f32,
+                    0.0,
+                    0.0,
+                ),
+            }),
+        );
+    }
+
+    /// Section 4's evaluation into `out` (see [`Evaluation`]).
+    fn evaluate(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+        has_dynamic: bool,
+    ) {
+        self.ensure_stencil(frame.gpu, out.width, out.height);
+        let kept = self.kept.as_ref().expect("prepared by render");
+        let dynamic_view = match (&self.dynamic, has_dynamic) {
+            (Some(d), true) => &d.view,
+            _ => &self.placeholder_map,
+        };
+        let bind_group = self.group.bind(
+            frame.gpu,
+            &[
+                (&self.params_buffer).into(),
+                (&kept.offsets).into(),
+                (&kept.vertices).into(),
+                (&self.dynamic_view_buffer).into(),
+                dynamic_view.into(),
+                (&kept.ends).into(),
+            ],
+        );
+        let evaluation = if has_dynamic {
+            &self.evaluate_dynamic
+        } else {
+            &self.evaluate
+        };
+        let (_, _, stencil) = self.stencil.as_ref().expect("created above");
+        let group = inputs.frame_bind_group;
+        evaluation.record(frame, group, &bind_group, &out.view, stencil, self.two_draw);
+    }
+
+    /// The evaluation's stencil, of `width` x `height`.
+    fn ensure_stencil(&mut self, gpu: &Gpu, width: u32, height: u32) {
+        if matches!(&self.stencil, Some((w, h, _)) if (*w, *h) == (width, height)) {
+            return;
+        }
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("pdsm/penumbra stencil"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: STENCIL_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        self.stencil = Some((width, height, view));
+    }
+
+    /// The stats of a frame of the kept PDSM.
+    fn frame_stats(
+        &self,
+        rebuilt: bool,
+        has_dynamic: bool,
+        centre_map_drawn: bool,
+    ) -> TechniqueStats {
+        let kept = self.kept.as_ref().expect("prepared by render");
+        let s = &kept.data.stats;
+        let ends_bytes = kept.data.size as u64 * kept.data.size as u64 * 32;
+        let gpu_bytes = kept.offsets.size() + kept.vertices.size() + ends_bytes;
+        let dynamic_bytes = self
+            .dynamic
+            .as_ref()
+            .map(|d| d.size as u64 * d.size as u64 * 4)
+            .unwrap_or(0);
+        let (maps_estimate, pdsm_estimate) = estimate_bytes(&self.settings);
+        TechniqueStats::from([
+            ("construction_ms".into(), kept.construction_ms),
+            ("from_cache".into(), f64::from(u8::from(kept.from_cache))),
+            ("rebuilt_this_frame".into(), f64::from(u8::from(rebuilt))),
+            ("samples".into(), self.settings.samples as f64),
+            ("events_per_texel_mean".into(), s.events_mean),
+            ("events_per_texel_max".into(), s.events_max as f64),
+            ("vertices_per_texel_mean".into(), s.vertices_mean),
+            ("vertices_per_texel_max".into(), s.vertices_max as f64),
+            (
+                "compression_max_error".into(),
+                s.max_compression_error as f64,
+            ),
+            ("gpu_bytes".into(), (gpu_bytes + dynamic_bytes) as f64),
+            ("pdsm_gpu_bytes".into(), gpu_bytes as f64),
+            (
+                "estimated_build_bytes".into(),
+                (maps_estimate + pdsm_estimate) as f64,
+            ),
+            ("pcf_map_passes".into(), f64::from(u8::from(has_dynamic))),
+            // 1 when `pdsm/centre_map` ran: only while the `shadow_map` debug view is shown.
+            (
+                "centre_map_passes".into(),
+                f64::from(u8::from(centre_map_drawn)),
+            ),
+        ])
+    }
+}
+
 impl ShadowTechnique for Pdsm {
     fn id(&self) -> &str {
         ID
@@ -1305,133 +1422,10 @@ impl ShadowTechnique for Pdsm {
         let rebuilt = self.kept.as_ref().map(|k| k.key) != had;
         let centre_map_drawn = self.update_centre_map(frame, inputs, rebuilt);
         let has_dynamic = self.render_dynamic_map(frame, inputs);
+        self.write_params(frame.gpu, has_dynamic);
+        self.evaluate(frame, inputs, out, has_dynamic);
+        self.stats = self.frame_stats(rebuilt, has_dynamic, centre_map_drawn);
         let gpu = frame.gpu;
-        let kept = self.kept.as_ref().expect("prepared above");
-        let f = &kept.data.frustum;
-        gpu.queue.write_buffer(
-            &self.params_buffer,
-            0,
-            &uniform_bytes(&PdsmParams {
-                window: Vec4::new(f.s_min, f.s_max, f.t_min, f.t_max),
-                size_bias: Vec4::new(
-                    kept.data.size as f32,
-                    self.settings.bias_texels,
-                    // How far a tap's tangent-plane depth may reach along its ray.
-                    (f.s_max - f.s_min) / kept.data.size as f32,
-                    self.settings.pcf_radius as f32,
-                ),
-                dynamic_map_texel: Vec4::new(
-                    f32::from(u8::from(has_dynamic)),
-                    // Each sample map's window is fitted to the casters, inside the PDSM's
-                    // window (fitted to all they shadow): this bounds a map texel's extent.
-                    (f.s_max - f.s_min) / self.settings.shadow_map_size as f32,
-                    0.0,
-                    0.0,
-                ),
-            }),
-        );
-        let dynamic_view = match (&self.dynamic, has_dynamic) {
-            (Some(d), true) => &d.view,
-            _ => &self.placeholder_map,
-        };
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pdsm/evaluate"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.params_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: kept.offsets.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: kept.vertices.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: self.dynamic_view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::TextureView(dynamic_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: wgpu::BindingResource::TextureView(&kept.ends),
-                },
-            ],
-        });
-        let evaluation = if has_dynamic {
-            &self.evaluate_dynamic
-        } else {
-            &self.evaluate
-        };
-        if !matches!(&self.stencil, Some((w, h, _)) if (*w, *h) == (out.width, out.height)) {
-            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("pdsm/penumbra stencil"),
-                size: wgpu::Extent3d {
-                    width: out.width,
-                    height: out.height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: STENCIL_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
-            self.stencil = Some((out.width, out.height, view));
-        }
-        let (_, _, stencil) = self.stencil.as_ref().expect("created above");
-        evaluation.record(
-            frame,
-            inputs.frame_bind_group,
-            &bind_group,
-            &out.view,
-            stencil,
-            self.two_draw,
-        );
-        let kept = self.kept.as_ref().expect("prepared above");
-        let s = &kept.data.stats;
-        let ends_bytes = kept.data.size as u64 * kept.data.size as u64 * 32;
-        let gpu_bytes = kept.offsets.size() + kept.vertices.size() + ends_bytes;
-        let dynamic_bytes = self
-            .dynamic
-            .as_ref()
-            .map(|d| d.size as u64 * d.size as u64 * 4)
-            .unwrap_or(0);
-        let (maps_estimate, pdsm_estimate) = estimate_bytes(&self.settings);
-        self.stats = TechniqueStats::from([
-            ("construction_ms".into(), kept.construction_ms),
-            ("from_cache".into(), f64::from(u8::from(kept.from_cache))),
-            ("rebuilt_this_frame".into(), f64::from(u8::from(rebuilt))),
-            ("samples".into(), self.settings.samples as f64),
-            ("events_per_texel_mean".into(), s.events_mean),
-            ("events_per_texel_max".into(), s.events_max as f64),
-            ("vertices_per_texel_mean".into(), s.vertices_mean),
-            ("vertices_per_texel_max".into(), s.vertices_max as f64),
-            (
-                "compression_max_error".into(),
-                s.max_compression_error as f64,
-            ),
-            ("gpu_bytes".into(), (gpu_bytes + dynamic_bytes) as f64),
-            ("pdsm_gpu_bytes".into(), gpu_bytes as f64),
-            (
-                "estimated_build_bytes".into(),
-                (maps_estimate + pdsm_estimate) as f64,
-            ),
-            ("pcf_map_passes".into(), f64::from(u8::from(has_dynamic))),
-            // 1 when `pdsm/centre_map` ran: only while the `shadow_map` debug view is shown.
-            (
-                "centre_map_passes".into(),
-                f64::from(u8::from(centre_map_drawn)),
-            ),
-        ]);
         if rebuilt || inputs.changes.params || self.debug.is_empty() {
             // CPU work of this frame (every texel evaluated at debug_depth): timed like a pass.
             let clock = frame.begin_cpu_pass();

@@ -9,7 +9,7 @@ use softshadow_core::{
 
 use crate::{Raytraced, RaytracedSettings, Targets, ID, SHADERS};
 
-/// Seconds per shadow ray on lavapipe (about 0.5-1 M rays/s on 2 cores, docs/BENCHMARKS.md).
+/// Seconds per shadow ray on lavapipe (about 0.5-1 M rays/s on 2 cores, docs/TECHNIQUES.md, `raytraced`).
 const RAY: f64 = 2e-6;
 
 /// The registry entry.

@@ -23,10 +23,11 @@
 use encase::ShaderType;
 use softshadow_core::{
     accel::RAY_QUERY,
-    frame::{storage_texture_entry, texture_entry, uniform_entry},
     gbuffer::create_texture,
     glam::Mat4,
-    shader::{self, ShaderSpec},
+    pass::{ComputePass, Pass, Slot},
+    reprojection::History,
+    shader::ShaderSpec,
     shader_file,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel, ShadowInputs,
@@ -105,40 +106,33 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
 
 /// Per-size textures.
 struct Targets {
-    width: u32,
-    height: u32,
     /// Raw visible fraction and mean hit distance (`Rg32Float`).
     raw: wgpu::Texture,
-    /// Accumulated visibility and frames (`Rg32Float`), ping-pong.
-    history: [wgpu::Texture; 2],
-    /// World point and receiver flag the history saw (`Rgba32Float`), ping-pong.
-    position: [wgpu::Texture; 2],
+    raw_view: wgpu::TextureView,
+    /// (accumulated visibility, frames) and the world point each saw.
+    history: History,
     /// Penumbra filter radius in pixels (`R32Float`).
     radius: wgpu::Texture,
+    radius_view: wgpu::TextureView,
 }
 
 impl Targets {
     fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
         let usage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
         let make = |label: &str, format| create_texture(gpu, label, width, height, format, usage);
+        let raw = make("raytraced/raw", wgpu::TextureFormat::Rg32Float);
+        let radius = make("raytraced/radius", wgpu::TextureFormat::R32Float);
         Self {
-            width,
-            height,
-            raw: make("raytraced/raw", wgpu::TextureFormat::Rg32Float),
-            history: [
-                make("raytraced/history 0", wgpu::TextureFormat::Rg32Float),
-                make("raytraced/history 1", wgpu::TextureFormat::Rg32Float),
-            ],
-            position: [
-                make("raytraced/position 0", wgpu::TextureFormat::Rgba32Float),
-                make("raytraced/position 1", wgpu::TextureFormat::Rgba32Float),
-            ],
-            radius: make("raytraced/radius", wgpu::TextureFormat::R32Float),
+            raw_view: view(&raw),
+            raw,
+            history: History::new(gpu, "raytraced", width, height),
+            radius_view: view(&radius),
+            radius,
         }
     }
 
-    /// Bytes of the textures per pixel: raw 8, history 2 x 8, position 2 x 16, radius 4.
-    const BYTES_PER_PIXEL: u64 = 8 + 16 + 32 + 4;
+    /// Bytes of the textures per pixel: raw 8, the history, radius 4.
+    const BYTES_PER_PIXEL: u64 = 8 + History::BYTES_PER_PIXEL + 4;
 }
 
 /// 1 x 1 textures bound where a pass leaves a slot of the shared layout unused.
@@ -154,25 +148,16 @@ pub struct Raytraced {
     /// Its settings; changes take effect on the next frame.
     pub settings: RaytracedSettings,
     accel: SceneAccel,
-    trace_layout: wgpu::BindGroupLayout,
-    trace: wgpu::ComputePipeline,
-    denoise_layout: wgpu::BindGroupLayout,
-    temporal: wgpu::ComputePipeline,
-    penumbra: wgpu::ComputePipeline,
-    filter: wgpu::ComputePipeline,
+    trace: ComputePass,
+    temporal: ComputePass,
+    penumbra: ComputePass,
+    filter: ComputePass,
     trace_params: wgpu::Buffer,
     denoise_params: wgpu::Buffer,
     dummies: Dummies,
     targets: Option<Targets>,
     /// Frames traced (the sequence index).
     frame_index: u32,
-    /// The ping-pong slot written last.
-    current: usize,
-    /// The history holds frames usable by the next one.
-    history_valid: bool,
-    /// Frames averaged in the history since it was last reset (the lag after a change).
-    history_frames: u32,
-    prev_view_proj: Mat4,
     stats: TechniqueStats,
 }
 
@@ -198,56 +183,24 @@ impl Raytraced {
     /// what to install on a device without ray queries.
     pub fn new(gpu: &Gpu, settings: RaytracedSettings) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
-        let device = &gpu.device;
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let float = wgpu::TextureSampleType::Float { filterable: false };
-        let trace_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("raytraced/trace"),
-            entries: &[
-                uniform_entry(0, compute, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: compute,
-                    ty: wgpu::BindingType::AccelerationStructure {
-                        vertex_return: false,
-                    },
-                    count: None,
-                },
-                storage_texture_entry(2, wgpu::TextureFormat::Rg32Float),
-            ],
-        });
-        let denoise_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("raytraced/denoise"),
-            entries: &[
-                uniform_entry(0, compute, false),
-                texture_entry(1, compute, float),
-                texture_entry(2, compute, float),
-                texture_entry(3, compute, float),
-                storage_texture_entry(4, wgpu::TextureFormat::Rg32Float),
-                storage_texture_entry(5, wgpu::TextureFormat::Rgba32Float),
-                storage_texture_entry(6, wgpu::TextureFormat::R32Float),
-            ],
-        });
-        let pipeline = |spec: &ShaderSpec,
-                        layout: &wgpu::BindGroupLayout,
-                        entry: &str|
-         -> Result<wgpu::ComputePipeline, TechniqueError> {
-            let module = shader::create_module(gpu, spec, &[])?;
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(entry),
-                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(layout)],
-                immediate_size: 0,
-            });
-            Ok(
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: Some(&pipeline_layout),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                }),
-            )
+        // trace.wgsl: TraceParams, the scene, the raw result.
+        let trace = Pass::new(gpu, "raytraced/trace", &SHADERS[0])
+            .after_frame_group()
+            .uniform()
+            .slot(Slot::AccelerationStructure)
+            .storage_texture(wgpu::TextureFormat::Rg32Float)
+            .compute("trace")?;
+        // denoise.wgsl, one layout for its three entries: DenoiseParams, three inputs, then
+        // three outputs (Rg32, Rgba32, R32).
+        let denoise = |label, entry| {
+            Pass::new(gpu, label, &SHADERS[1])
+                .after_frame_group()
+                .uniform()
+                .repeat(Slot::FLOAT, 3)
+                .storage_texture(wgpu::TextureFormat::Rg32Float)
+                .storage_texture(wgpu::TextureFormat::Rgba32Float)
+                .storage_texture(wgpu::TextureFormat::R32Float)
+                .compute(entry)
         };
         let dummy = |format, usage| {
             view(&create_texture(
@@ -260,12 +213,10 @@ impl Raytraced {
             ))
         };
         Ok(Self {
-            temporal: pipeline(&SHADERS[1], &denoise_layout, "temporal")?,
-            penumbra: pipeline(&SHADERS[1], &denoise_layout, "penumbra")?,
-            filter: pipeline(&SHADERS[1], &denoise_layout, "spatial_filter")?,
-            trace: pipeline(&SHADERS[0], &trace_layout, "trace")?,
-            trace_layout,
-            denoise_layout,
+            temporal: denoise("raytraced/temporal", "temporal")?,
+            penumbra: denoise("raytraced/penumbra", "penumbra")?,
+            filter: denoise("raytraced/filter", "spatial_filter")?,
+            trace,
             trace_params: zeroed_uniform_buffer::<TraceParams>(gpu, "raytraced/trace params"),
             denoise_params: zeroed_uniform_buffer::<DenoiseParams>(gpu, "raytraced/denoise params"),
             dummies: Dummies {
@@ -290,37 +241,101 @@ impl Raytraced {
             settings,
             targets: None,
             frame_index: 0,
-            current: 0,
-            history_valid: false,
-            history_frames: 0,
-            prev_view_proj: Mat4::IDENTITY,
             stats: TechniqueStats::new(),
         })
     }
 
-    /// A bind group of the denoise layout over `views` (inputs 1-3, outputs 4-6).
-    fn denoise_group(
-        &self,
-        gpu: &Gpu,
-        label: &str,
-        views: [&wgpu::TextureView; 6],
-    ) -> wgpu::BindGroup {
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: self.denoise_params.as_entire_binding(),
-        }];
-        for (k, v) in views.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: k as u32 + 1,
-                resource: wgpu::BindingResource::TextureView(v),
-            });
-        }
-        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout: &self.denoise_layout,
-            entries: &entries,
-        })
+    /// The trace pass: this frame's rays into the raw target.
+    fn trace(&self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>, rays: u32) {
+        let targets = self.targets.as_ref().expect("made by render");
+        frame.gpu.queue.write_buffer(
+            &self.trace_params,
+            0,
+            &uniform_bytes(&TraceParams {
+                light_to_world: inputs.uniforms.world_to_light().inverse(),
+                rays,
+                frame_index: self.frame_index,
+            }),
+        );
+        let tlas = self.accel.tlas().expect("updated by render");
+        self.trace
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.trace_params)
+            .read(tlas)
+            .write(&targets.raw_view)
+            .dispatch(workgroups(inputs));
     }
+
+    /// The denoiser: the temporal pass (reprojected history, or a copy without `temporal`),
+    /// the penumbra estimate (with `spatial`) and the spatial filter into `out`.
+    fn denoise(&self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>, out: &VisibilityBuffer) {
+        let temporal = self.settings.temporal;
+        let targets = self.targets.as_ref().expect("made by render");
+        let history = &targets.history;
+        frame.gpu.queue.write_buffer(
+            &self.denoise_params,
+            0,
+            &uniform_bytes(&DenoiseParams {
+                prev_view_proj: history.prev_view_proj(),
+                history_valid: u32::from(temporal && history.is_valid()),
+                max_history: if temporal {
+                    self.settings.max_history.max(1)
+                } else {
+                    1
+                },
+                max_radius: self.settings.max_radius,
+                spatial: u32::from(self.settings.spatial),
+            }),
+        );
+        let d = &self.dummies;
+        let (raw, radius) = (&targets.raw_view, &targets.radius_view);
+        let groups = workgroups(inputs);
+        let label = if temporal {
+            "raytraced/temporal"
+        } else {
+            "raytraced/copy"
+        };
+        let pass = |frame: &mut Frame<'_>,
+                    pass: &ComputePass,
+                    label,
+                    [a, b, c, x, y, z]: [&wgpu::TextureView; 6]| {
+            pass.run(frame)
+                .named(label)
+                .frame_group(inputs.frame_bind_group)
+                .read(&self.denoise_params)
+                .read(a)
+                .read(b)
+                .read(c)
+                .write(x)
+                .write(y)
+                .write(z)
+                .dispatch(groups);
+        };
+        let (previous, next) = (history.previous(), history.next());
+        let temporal_views = [raw, previous.0, previous.1, next.0, next.1, &d.r];
+        pass(frame, &self.temporal, label, temporal_views);
+        if self.settings.spatial {
+            let views = [raw, &d.sampled, &d.sampled, &d.rg, &d.rgba, radius];
+            pass(frame, &self.penumbra, "raytraced/penumbra", views);
+        }
+        let views = [next.0, radius, &d.sampled, &d.rg, &d.rgba, &out.view];
+        pass(frame, &self.filter, "raytraced/filter", views);
+    }
+}
+
+impl Raytraced {
+    /// Drops the denoiser's history: the next frame starts over.
+    fn invalidate_history(&mut self) {
+        if let Some(targets) = &mut self.targets {
+            targets.history.invalidate();
+        }
+    }
+}
+
+/// 8 x 8 workgroups over the frame.
+fn workgroups(inputs: &ShadowInputs<'_>) -> [u32; 3] {
+    [inputs.width.div_ceil(8), inputs.height.div_ceil(8), 1]
 }
 
 impl ShadowTechnique for Raytraced {
@@ -350,7 +365,7 @@ impl ShadowTechnique for Raytraced {
         let (width, height) = (inputs.width, inputs.height);
         if !inputs.scene.has_casters() {
             out.write_unshadowed(frame, inputs.frame_bind_group, "raytraced/no_casters")?;
-            self.history_valid = false;
+            self.invalidate_history();
             self.stats = TechniqueStats::from([("rays_per_pixel".into(), 0.0)]);
             return Ok(());
         }
@@ -361,138 +376,23 @@ impl ShadowTechnique for Raytraced {
                 scene: inputs.scene.name.clone(),
                 reason: e.to_string(),
             })?;
-        if self
-            .targets
-            .as_ref()
-            .is_none_or(|t| t.width != width || t.height != height)
-        {
+        if (self.targets.as_ref()).is_none_or(|t| !t.history.fits(width, height)) {
             self.targets = Some(Targets::new(gpu, width, height));
-            self.history_valid = false;
         }
         // The history is a mean over one light, one set of casters and one setting: any change
         // of those drops it (the camera may move: reprojection follows it).
         let changes = inputs.changes;
         if changes.light_space() || changes.size || !self.settings.temporal {
-            self.history_valid = false;
+            self.invalidate_history();
         }
-        let targets = self.targets.as_ref().expect("made above");
         let rays = self.settings.rays_per_pixel.clamp(1, 16);
-        gpu.queue.write_buffer(
-            &self.trace_params,
-            0,
-            &uniform_bytes(&TraceParams {
-                light_to_world: inputs.uniforms.world_to_light().inverse(),
-                rays,
-                frame_index: self.frame_index,
-            }),
-        );
-        let tlas = self.accel.tlas().expect("updated above");
-        let trace_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("raytraced/trace"),
-            layout: &self.trace_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.trace_params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: tlas.as_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&view(&targets.raw)),
-                },
-            ],
-        });
-        let groups = (width.div_ceil(8), height.div_ceil(8));
-        frame.compute_pass("raytraced/trace", |pass| {
-            pass.set_pipeline(&self.trace);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &trace_group, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-        });
-
-        let (prev, cur) = (self.current, 1 - self.current);
+        self.trace(frame, inputs, rays);
+        self.denoise(frame, inputs, out);
         let temporal = self.settings.temporal;
-        gpu.queue.write_buffer(
-            &self.denoise_params,
-            0,
-            &uniform_bytes(&DenoiseParams {
-                prev_view_proj: self.prev_view_proj,
-                history_valid: u32::from(temporal && self.history_valid),
-                max_history: if temporal {
-                    self.settings.max_history.max(1)
-                } else {
-                    1
-                },
-                max_radius: self.settings.max_radius,
-                spatial: u32::from(self.settings.spatial),
-            }),
-        );
-        let d = &self.dummies;
-        let raw = view(&targets.raw);
-        let (history_prev, history_cur) =
-            (view(&targets.history[prev]), view(&targets.history[cur]));
-        let (position_prev, position_cur) =
-            (view(&targets.position[prev]), view(&targets.position[cur]));
-        let radius = view(&targets.radius);
-        let temporal_group = self.denoise_group(
-            gpu,
-            "raytraced/temporal",
-            [
-                &raw,
-                &history_prev,
-                &position_prev,
-                &history_cur,
-                &position_cur,
-                &d.r,
-            ],
-        );
-        let label = if temporal {
-            "raytraced/temporal"
-        } else {
-            "raytraced/copy"
-        };
-        frame.compute_pass(label, |pass| {
-            pass.set_pipeline(&self.temporal);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &temporal_group, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-        });
-        if self.settings.spatial {
-            let penumbra_group = self.denoise_group(
-                gpu,
-                "raytraced/penumbra",
-                [&raw, &d.sampled, &d.sampled, &d.rg, &d.rgba, &radius],
-            );
-            frame.compute_pass("raytraced/penumbra", |pass| {
-                pass.set_pipeline(&self.penumbra);
-                pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-                pass.set_bind_group(1, &penumbra_group, &[]);
-                pass.dispatch_workgroups(groups.0, groups.1, 1);
-            });
-        }
-        let filter_group = self.denoise_group(
-            gpu,
-            "raytraced/filter",
-            [&history_cur, &radius, &d.sampled, &d.rg, &d.rgba, &out.view],
-        );
-        frame.compute_pass("raytraced/filter", |pass| {
-            pass.set_pipeline(&self.filter);
-            pass.set_bind_group(0, inputs.frame_bind_group, &[]);
-            pass.set_bind_group(1, &filter_group, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-        });
-
-        self.history_frames = if temporal && self.history_valid {
-            (self.history_frames + 1).min(self.settings.max_history.max(1))
-        } else {
-            1
-        };
-        self.history_valid = temporal;
-        self.current = cur;
-        self.prev_view_proj = inputs.uniforms.view_proj();
+        let history = &mut self.targets.as_mut().expect("made above").history;
+        let max_history = self.settings.max_history;
+        history.advance(inputs.uniforms.view_proj(), max_history, temporal);
+        let history_frames = history.frames();
         // The sequence goes on only while frames are averaged: without accumulation a new
         // pattern each frame would only flicker, and a still frame stays the same image.
         if temporal {
@@ -503,7 +403,7 @@ impl ShadowTechnique for Raytraced {
             ("rays_per_pixel".into(), f64::from(rays)),
             // An upper bound: pixels that see no receiver, or one behind the light, cast none.
             ("rays_cast_at_most".into(), pixels * f64::from(rays)),
-            ("history_frames".into(), f64::from(self.history_frames)),
+            ("history_frames".into(), f64::from(history_frames)),
             ("accel_triangles".into(), self.accel.triangles() as f64),
             (
                 "accel_bytes_estimate".into(),
@@ -523,7 +423,7 @@ impl ShadowTechnique for Raytraced {
 
     fn invalidate_cache(&mut self) {
         self.accel.invalidate();
-        self.history_valid = false;
+        self.invalidate_history();
     }
 
     fn stats(&self) -> TechniqueStats {
@@ -550,7 +450,7 @@ impl ShadowTechnique for Raytraced {
             ),
             DebugView::new(
                 "history",
-                &t.history[self.current],
+                t.history.latest(),
                 DebugLegend::Value {
                     meaning: "visibility accumulated over frames".into(),
                     notes: vec!["frames averaged: stats `history_frames`".into()],

@@ -26,11 +26,10 @@ pub mod exact;
 pub mod raycast;
 pub mod traced;
 
-use encase::ShaderType;
+use encase::{ShaderSize, ShaderType};
 use softshadow_core::{
-    frame::{texture_entry, uniform_entry},
-    fullscreen::{depth_texture_entry, FullscreenPipeline},
     glam::{Vec2, Vec4},
+    pass::{FullscreenPass, Pass, Resource, Slot},
     scene::Fnv1a,
     shader::ShaderSpec,
     shader_file,
@@ -38,7 +37,7 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
-    uniform::{uniform_bytes, uniform_size, zeroed_uniform_buffer},
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -68,6 +67,8 @@ pub const SHADERS: &[ShaderSpec] = &[
 const BATCH: u32 = 16;
 /// Bytes per batch slot in the uniform buffer (dynamic offsets need 256-byte alignment).
 const BATCH_SLOT: u64 = 2048;
+/// Bytes of one batch's uniform (`BatchUniform`), the view the accumulation binds per slot.
+const BATCH_UNIFORM_BYTES: u64 = BatchUniform::SHADER_SIZE.get();
 
 softshadow_core::technique_settings! {
     /// Settings of the accumulated reference.
@@ -433,10 +434,8 @@ pub struct Reference {
     /// Its settings; changes take effect on the next frame.
     pub settings: ReferenceSettings,
     depth: DepthMapRenderer,
-    accumulate: FullscreenPipeline,
-    resolve: FullscreenPipeline,
-    accumulate_layout: wgpu::BindGroupLayout,
-    resolve_layout: wgpu::BindGroupLayout,
+    accumulate: FullscreenPass,
+    resolve: FullscreenPass,
     batches: wgpu::Buffer,
     batch_capacity: u32,
     resolve_buffer: wgpu::Buffer,
@@ -488,26 +487,6 @@ struct InProgress {
 impl Reference {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: ReferenceSettings) -> Result<Self, TechniqueError> {
-        let stage = wgpu::ShaderStages::FRAGMENT;
-        let accumulate_layout =
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("reference/accumulate"),
-                    entries: &[uniform_entry(0, stage, true), depth_texture_entry(1, true)],
-                });
-        let resolve_layout =
-            gpu.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("reference/resolve"),
-                    entries: &[
-                        uniform_entry(0, stage, false),
-                        texture_entry(
-                            1,
-                            stage,
-                            wgpu::TextureSampleType::Float { filterable: false },
-                        ),
-                    ],
-                });
         let add = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -521,27 +500,23 @@ impl Reference {
         softshadow_core::technique::check_requirements(gpu, ID, &requirements)?;
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
-            accumulate: FullscreenPipeline::new(
-                gpu,
-                "reference/accumulate",
-                &SHADERS[0],
-                &[],
-                &accumulate_layout,
-                Some(blend),
-            )?,
-            resolve: FullscreenPipeline::new(
-                gpu,
-                "reference/resolve",
-                &SHADERS[1],
-                &[],
-                &resolve_layout,
-                None,
-            )?,
+            // accumulate.wgsl: one batch's views (a slot of `batches`), its depth maps.
+            accumulate: Pass::new(gpu, "reference/accumulate", &SHADERS[0])
+                .after_frame_group()
+                .slot(Slot::DynamicUniform {
+                    size: BATCH_UNIFORM_BYTES,
+                })
+                .texture(Slot::DEPTH_ARRAY)
+                .fullscreen(Some(blend))?,
+            // resolve.wgsl: the sample count, the summed counts.
+            resolve: Pass::new(gpu, "reference/resolve", &SHADERS[1])
+                .after_frame_group()
+                .uniform()
+                .texture(Slot::FLOAT)
+                .fullscreen(None)?,
             batches: Self::batch_buffer(gpu, 4),
             batch_capacity: 4,
             resolve_buffer: zeroed_uniform_buffer::<ResolveUniform>(gpu, "reference/resolve"),
-            accumulate_layout,
-            resolve_layout,
             settings,
             maps: None,
             cache: None,
@@ -809,24 +784,6 @@ impl Reference {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        let accumulate_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("reference/accumulate"),
-            layout: &self.accumulate_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &self.batches,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(uniform_size::<BatchUniform>()),
-                    }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&array_view),
-                },
-            ],
-        });
         for b in 0..batch_count {
             let first = b * BATCH;
             let count = (views.len() as u32 - first).min(BATCH);
@@ -839,15 +796,14 @@ impl Reference {
                     &layer_views[layer as usize],
                 );
             }
-            self.accumulate.record(
-                frame,
-                "reference/accumulate",
-                inputs.frame_bind_group,
-                &accumulate_group,
-                &[(b as u64 * BATCH_SLOT) as u32],
-                &counts.view,
-                if b == 0 && clear { Some(0.0) } else { None },
-            );
+            let batch = Resource::BufferRange(&self.batches, 0, BATCH_UNIFORM_BYTES);
+            self.accumulate
+                .run(frame)
+                .frame_group(inputs.frame_bind_group)
+                .read(batch)
+                .read(&array_view)
+                .offsets(&[(b as u64 * BATCH_SLOT) as u32])
+                .draw(&counts.view, if b == 0 && clear { Some(0.0) } else { None });
         }
     }
 
@@ -868,29 +824,12 @@ impl Reference {
                 samples: Vec4::new(samples as f32, 0.0, 0.0, 0.0),
             }),
         );
-        let resolve_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("reference/resolve"),
-            layout: &self.resolve_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.resolve_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&counts.view),
-                },
-            ],
-        });
-        self.resolve.record(
-            frame,
-            "reference/resolve",
-            inputs.frame_bind_group,
-            &resolve_group,
-            &[],
-            &result.view,
-            Some(1.0),
-        );
+        self.resolve
+            .run(frame)
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.resolve_buffer)
+            .read(&counts.view)
+            .draw(&result.view, Some(1.0));
     }
 }
 

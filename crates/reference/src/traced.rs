@@ -10,7 +10,7 @@
 //!
 //! **Cost.** One dispatch per row of light samples (`N` dispatches of `N` rays per point), each
 //! a segment test with terminate-on-first-hit; lavapipe traces about 0.5-1 M rays/s on 2 cores
-//! (docs/BENCHMARKS.md, "Ray queries"), so `64²` points at `32 x 32` samples take a few seconds.
+//! (docs/TECHNIQUES.md, `raytraced`), so `64²` points at `32 x 32` samples take a few seconds.
 
 use encase::ShaderType;
 use softshadow_core::{

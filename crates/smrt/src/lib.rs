@@ -13,7 +13,7 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::FullscreenPipeline,
+    pass::FullscreenPass,
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
@@ -122,16 +122,12 @@ pub struct Smrt {
     /// Its settings; changes take effect on the next frame.
     pub settings: SmrtSettings,
     shadow_map: CentreShadowMap,
-    trace: FullscreenPipeline,
+    trace: FullscreenPass,
     /// The trace writing the marched steps, and the extrapolated fraction: permutations, so the
-    /// visibility pass carries no debug code (docs/ARCHITECTURE.md, "Lavapipe's branches").
-    debug_steps: FullscreenPipeline,
-    debug_extrapolated: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    /// visibility pass carries no debug code (docs/DEVICES.md, "Lavapipe's branches").
+    debug_steps: FullscreenPass,
+    debug_extrapolated: FullscreenPass,
     params_buffer: wgpu::Buffer,
-    /// The lookup bind group, made when the map is (re)created (per-frame bind groups are CPU
-    /// time outside every pass).
-    bind_group: Option<wgpu::BindGroup>,
     debug: Option<DebugImage>,
     /// The debug view the viewer shows, if one of ours.
     shown: Option<&'static str>,
@@ -141,9 +137,10 @@ pub struct Smrt {
 impl Smrt {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: SmrtSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "smrt/trace");
         let pipeline = |label, defs: &[(&str, DefValue)]| {
-            FullscreenPipeline::new(gpu, label, &SHADERS[0], defs, &layout, None)
+            CentreShadowMap::lookup_pass(gpu, label, &SHADERS[0])
+                .defs(defs)
+                .fullscreen(None)
         };
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?,
@@ -151,8 +148,6 @@ impl Smrt {
             debug_steps: pipeline("smrt/debug steps", &[DEBUG_STEPS])?,
             debug_extrapolated: pipeline("smrt/debug extrapolated", &[DEBUG_EXTRAPOLATED])?,
             params_buffer: zeroed_uniform_buffer::<SmrtUniform>(gpu, "smrt/params"),
-            layout,
-            bind_group: None,
             debug: None,
             shown: None,
             settings,
@@ -228,21 +223,14 @@ impl ShadowTechnique for Smrt {
             0,
             &uniform_bytes(&SmrtUniform::new(&s)),
         );
-        if self.shadow_map.rebuilt() || self.bind_group.is_none() {
-            // The map texture may be new (another size): the bind group follows it.
-            self.bind_group = Some(
-                self.shadow_map
-                    .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-                    .expect("rendered above"),
-            );
-        }
-        let bind_group = self.bind_group.clone().expect("made above");
-        self.trace.record(
+        let (map, params) = (&self.shadow_map, &self.params_buffer);
+        let group = inputs.frame_bind_group;
+        map.draw_lookup(
             frame,
+            &self.trace,
             "smrt/trace",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
+            group,
+            params,
             &out.view,
             Some(1.0),
         );
@@ -256,12 +244,13 @@ impl ShadowTechnique for Smrt {
                 &self.debug_extrapolated
             };
             let target = &self.debug.as_ref().expect("made above").view;
-            pipeline.record(
+            let (map, params) = (&self.shadow_map, &self.params_buffer);
+            map.draw_lookup(
                 frame,
+                pipeline,
                 "smrt/debug",
-                inputs.frame_bind_group,
-                &bind_group,
-                &[],
+                group,
+                params,
                 target,
                 Some(0.0),
             );

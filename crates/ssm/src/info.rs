@@ -52,7 +52,9 @@ pub fn info() -> TechniqueInfo {
             + passes * sums * 4.0 * r * r
             // The occlusion queries' resolve and readback buffers (8 bytes per query each,
             // the readback after 256 bytes of counters).
-            + 16.0 * queries + 256.0;
+            + 16.0 * queries + 256.0
+            // The depth pass's view slots (core::shadow_map::DepthMapRenderer: 16 x 256).
+            + 4096.0;
         Cost::seconds(
             passes * batched * pairs * SCATTER_PAIR,
             "occluder_map_size² x ssm_size²",

@@ -22,13 +22,11 @@ pub mod math;
 
 use encase::ShaderType;
 use softshadow_core::{
-    frame::{texture_entry, uniform_entry},
-    fullscreen::FullscreenPipeline,
     glam::{Vec3, Vec4},
-    scene_gpu::Vertex,
+    pass::{ComputePass, FullscreenPass, Pass, PassGroup, Slot},
     shader::{create_module, DefValue, ShaderSpec},
     shader_file,
-    shadow_map::{DepthView, ShadowViewUniform},
+    shadow_map::{CasterDraw, DepthMapRenderer, ShadowViewUniform},
     uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique,
     SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
@@ -42,11 +40,6 @@ pub const ID: &str = "ssm";
 
 /// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
-    ShaderSpec {
-        path: "ssm/depth.wgsl",
-        source: shader_file!("ssm/depth.wgsl").1,
-        permutations: &[&[]],
-    },
     ShaderSpec {
         path: "ssm/scatter.wgsl",
         source: shader_file!("ssm/scatter.wgsl").1,
@@ -146,7 +139,6 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
                 occluder_window, occluder_depth, ssm_window, ssm_depth, light
             } => "ssm/stats.wgsl", SsmParams
         ),
-        softshadow_core::uniform_mirror!(DepthView { light_view_proj } => "ssm/depth.wgsl", DepthView),
     ]
 }
 
@@ -279,24 +271,15 @@ pub struct Ssm {
     /// Its settings; changes take effect on the next frame.
     pub settings: SsmSettings,
     gpu: Gpu,
-    occluder_front_pipeline: wgpu::RenderPipeline,
-    occluder_back_pipeline: wgpu::RenderPipeline,
-    receiver_pipeline: wgpu::RenderPipeline,
-    scatter_layout: wgpu::BindGroupLayout,
-    scatter_fp32: wgpu::RenderPipeline,
-    scatter_fp16: wgpu::RenderPipeline,
+    /// The occluder and receiver maps (core's light-space depth pass; view slots
+    /// [`OCCLUDER_SLOT`] and [`RECEIVER_SLOT`]).
+    depth: DepthMapRenderer,
+    scatter: Scatter,
     /// The projection with one soft shadow map and with two (`TWO_PASS`, section 3.5): one
-    /// pipeline each (docs/ARCHITECTURE.md, "Lavapipe's branches").
-    project: [FullscreenPipeline; 2],
-    project_layout: wgpu::BindGroupLayout,
-    batch_add: FullscreenPipeline,
-    batch_layout: wgpu::BindGroupLayout,
-    stats_pipeline: wgpu::ComputePipeline,
-    stats_layout: wgpu::BindGroupLayout,
-    occluder_view: wgpu::Buffer,
-    occluder_view_group: wgpu::BindGroup,
-    receiver_view: wgpu::Buffer,
-    receiver_view_group: wgpu::BindGroup,
+    /// pipeline each (docs/DEVICES.md, "Lavapipe's branches").
+    project: [FullscreenPass; 2],
+    batch_add: FullscreenPass,
+    count: ComputePass,
     params_front: wgpu::Buffer,
     params_back: wgpu::Buffer,
     counters: wgpu::Buffer,
@@ -305,6 +288,82 @@ pub struct Ssm {
     /// The light-space maps in `resources` are complete and match the last frame's light,
     /// casters and settings.
     light_space_ready: bool,
+}
+
+/// View slots of the depth pass.
+const OCCLUDER_SLOT: u32 = 0;
+const RECEIVER_SLOT: u32 = 1;
+
+/// The scatter pass (section 3.3-3.4): instanced quads blended additively, one pipeline per
+/// blend format; its group is the params, the occluder map and the receiver map.
+struct Scatter {
+    group: PassGroup,
+    fp32: wgpu::RenderPipeline,
+    fp16: wgpu::RenderPipeline,
+}
+
+impl Scatter {
+    fn new(gpu: &Gpu) -> Result<Self, TechniqueError> {
+        let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let group = PassGroup::new(
+            gpu,
+            "ssm/scatter",
+            &[Slot::Uniform, Slot::DEPTH, Slot::DEPTH],
+            stages,
+        );
+        let module = create_module(gpu, &SHADERS[0], &[])?;
+        let layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("ssm/scatter"),
+                bind_group_layouts: &[Some(group.layout())],
+                immediate_size: 0,
+            });
+        let pipeline = |format| scatter_pipeline(gpu, &layout, &module, format);
+        Ok(Self {
+            fp32: pipeline(wgpu::TextureFormat::R32Float),
+            fp16: pipeline(wgpu::TextureFormat::R16Float),
+            group,
+        })
+    }
+}
+
+fn scatter_pipeline(
+    gpu: &Gpu,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("ssm/scatter"),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleStrip,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: Some(additive_blend()),
+                    write_mask: wgpu::ColorWrites::RED,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
 }
 
 /// What SSM needs at `precision`: FP32 blending for `fp32` and for the FP32 totals of
@@ -333,250 +392,41 @@ fn additive_blend() -> wgpu::BlendState {
     }
 }
 
-fn depth_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    texture_entry(binding, visibility, wgpu::TextureSampleType::Depth)
-}
-
-fn float_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    texture_entry(
-        binding,
-        visibility,
-        wgpu::TextureSampleType::Float { filterable: false },
-    )
-}
-
-fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: wgpu::BindingResource::TextureView(view),
-    }
-}
-
-fn layout(gpu: &Gpu, label: &str, entries: &[wgpu::BindGroupLayoutEntry]) -> wgpu::BindGroupLayout {
-    gpu.device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(label),
-            entries,
-        })
-}
-
-/// Position and flags: the receiver-map vertex stage drops caster triangles.
-const RECEIVER_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
-    [Vertex::ATTRIBUTES[0], Vertex::ATTRIBUTES[2]];
-
 impl Ssm {
     /// Builds the technique's pipelines on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: SsmSettings) -> Result<Self, TechniqueError> {
-        let device = &gpu.device;
-        let depth_module = create_module(gpu, &SHADERS[0], &[])?;
-        let view_layout = layout(
-            gpu,
-            "ssm/depth view",
-            &[uniform_entry(0, wgpu::ShaderStages::VERTEX, false)],
-        );
-        let depth_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("ssm/depth"),
-                bind_group_layouts: &[Some(&view_layout)],
-                immediate_size: 0,
-            });
-        let receiver_layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<Vertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &RECEIVER_ATTRIBUTES,
+        // project.wgsl: params, the receiver map, the occluder map, the soft shadow maps.
+        let project = |label, defs| {
+            Pass::new(gpu, label, &SHADERS[1])
+                .defs(defs)
+                .after_frame_group()
+                .uniform()
+                .repeat(Slot::DEPTH, 2)
+                .repeat(Slot::FLOAT, 2)
+                .fullscreen(None)
         };
-        let depth_pipeline = |label: &str,
-                              entry: &str,
-                              buffers: wgpu::VertexBufferLayout<'_>,
-                              compare: wgpu::CompareFunction| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&depth_pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &depth_module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(buffers)],
-                },
-                primitive: wgpu::PrimitiveState {
-                    // Both faces: zero-thickness occluders cast from either side, and the
-                    // nearest / farthest surface is chosen by the depth test alone.
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(compare),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: None,
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let less = wgpu::CompareFunction::Less;
-        let occluder_front_pipeline = depth_pipeline(
-            "ssm/occluder_map",
-            "vs_occluder",
-            Vertex::position_layout(),
-            less,
-        );
-        let occluder_back_pipeline = depth_pipeline(
-            "ssm/occluder_map_back",
-            "vs_occluder",
-            Vertex::position_layout(),
-            wgpu::CompareFunction::Greater,
-        );
-        let receiver_pipeline =
-            depth_pipeline("ssm/receiver_map", "vs_receiver", receiver_layout, less);
-
-        let vertex_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let scatter_layout = layout(
-            gpu,
-            "ssm/scatter",
-            &[
-                uniform_entry(0, vertex_fragment, false),
-                depth_entry(1, wgpu::ShaderStages::VERTEX),
-                depth_entry(2, wgpu::ShaderStages::FRAGMENT),
-            ],
-        );
-        let scatter_module = create_module(gpu, &SHADERS[1], &[])?;
-        let scatter_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("ssm/scatter"),
-                bind_group_layouts: &[Some(&scatter_layout)],
-                immediate_size: 0,
-            });
-        let scatter_pipeline = |format: wgpu::TextureFormat| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("ssm/scatter"),
-                layout: Some(&scatter_pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &scatter_module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleStrip,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: None,
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &scatter_module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: Some(additive_blend()),
-                        write_mask: wgpu::ColorWrites::RED,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let scatter_fp32 = scatter_pipeline(wgpu::TextureFormat::R32Float);
-        let scatter_fp16 = scatter_pipeline(wgpu::TextureFormat::R16Float);
-
-        let fragment = wgpu::ShaderStages::FRAGMENT;
-        let project_layout = layout(
-            gpu,
-            "ssm/project",
-            &[
-                uniform_entry(0, fragment, false),
-                depth_entry(1, fragment),
-                depth_entry(2, fragment),
-                float_entry(3, fragment),
-                float_entry(4, fragment),
-            ],
-        );
-        let project = [
-            FullscreenPipeline::new(gpu, "ssm/project", &SHADERS[2], &[], &project_layout, None)?,
-            FullscreenPipeline::new(
-                gpu,
-                "ssm/project two_pass",
-                &SHADERS[2],
-                &[("TWO_PASS", DefValue::Bool(true))],
-                &project_layout,
-                None,
-            )?,
-        ];
-        let batch_layout = layout(gpu, "ssm/batch_add", &[float_entry(0, fragment)]);
-        let batch_add = FullscreenPipeline::with_format(
-            gpu,
-            "ssm/batch_add",
-            &SHADERS[3],
-            &[],
-            &batch_layout,
-            wgpu::TextureFormat::R32Float,
-            Some(additive_blend()),
-        )?;
-
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let stats_layout = layout(
-            gpu,
-            "ssm/stats",
-            &[
-                uniform_entry(0, compute, false),
-                depth_entry(1, compute),
-                depth_entry(2, compute),
-                float_entry(3, compute),
-                float_entry(4, compute),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 5,
-                    visibility: compute,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: false },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        );
-        let stats_module = create_module(gpu, &SHADERS[4], &[])?;
-        let stats_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("ssm/stats"),
-            layout: Some(
-                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("ssm/stats"),
-                    bind_group_layouts: &[Some(&stats_layout)],
-                    immediate_size: 0,
-                }),
-            ),
-            module: &stats_module,
-            entry_point: Some("count"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-
-        let view_buffer = |label| zeroed_uniform_buffer::<DepthView>(gpu, label);
-        let view_group = |label, buffer: &wgpu::Buffer| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: &view_layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buffer.as_entire_binding(),
-                }],
-            })
-        };
-        let occluder_view = view_buffer("ssm/occluder view");
-        let receiver_view = view_buffer("ssm/receiver view");
+        let two_pass = [("TWO_PASS", DefValue::Bool(true))];
         Ok(Self {
-            occluder_view_group: view_group("ssm/occluder view", &occluder_view),
-            receiver_view_group: view_group("ssm/receiver view", &receiver_view),
-            occluder_view,
-            receiver_view,
+            depth: DepthMapRenderer::new(gpu)?,
+            scatter: Scatter::new(gpu)?,
+            project: [
+                project("ssm/project", &[])?,
+                project("ssm/project two_pass", &two_pass)?,
+            ],
+            batch_add: Pass::new(gpu, "ssm/batch_add", &SHADERS[2])
+                .after_frame_group()
+                .texture(Slot::FLOAT)
+                .fullscreen_into(wgpu::TextureFormat::R32Float, Some(additive_blend()))?,
+            // stats.wgsl: params, both occluder maps, both soft shadow maps, the counters.
+            count: Pass::new(gpu, "ssm/stats", &SHADERS[3])
+                .uniform()
+                .repeat(Slot::DEPTH, 2)
+                .repeat(Slot::FLOAT, 2)
+                .storage_rw()
+                .compute("count")?,
             params_front: zeroed_uniform_buffer::<SsmUniform>(gpu, "ssm/params"),
             params_back: zeroed_uniform_buffer::<SsmUniform>(gpu, "ssm/params back"),
-            counters: device.create_buffer(&wgpu::BufferDescriptor {
+            counters: gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("ssm/counters"),
                 size: 16,
                 usage: wgpu::BufferUsages::STORAGE
@@ -585,18 +435,6 @@ impl Ssm {
                 mapped_at_creation: false,
             }),
             gpu: gpu.clone(),
-            occluder_front_pipeline,
-            occluder_back_pipeline,
-            receiver_pipeline,
-            scatter_layout,
-            scatter_fp32,
-            scatter_fp16,
-            project,
-            project_layout,
-            batch_add,
-            batch_layout,
-            stats_pipeline,
-            stats_layout,
             resources: None,
             last: LastFrame::default(),
             light_space_ready: false,
@@ -633,39 +471,283 @@ impl Ssm {
     }
 }
 
-/// One depth pass into `target`, cleared to `clear`.
-fn depth_pass(
-    frame: &mut Frame<'_>,
-    label: &str,
-    pipeline: &wgpu::RenderPipeline,
-    view_group: &wgpu::BindGroup,
-    target: &wgpu::TextureView,
-    clear: f32,
-    draw: impl FnOnce(&mut wgpu::RenderPass<'_>),
-) {
-    frame.render_pass(
-        label,
-        wgpu::RenderPassDescriptor {
+/// The settings as used: sizes and bias clamped to their documented ranges (a library user may
+/// fill the struct directly).
+fn clamped(settings: &SsmSettings) -> SsmSettings {
+    let s = settings.clone();
+    SsmSettings {
+        occluder_map_size: s.occluder_map_size.clamp(64, 1024),
+        ssm_size: s.ssm_size.clamp(32, 1024),
+        bias_texels: if s.bias_texels.is_finite() {
+            s.bias_texels.clamp(0.0, 16.0)
+        } else {
+            1.5
+        },
+        ..s
+    }
+}
+
+/// The windows of one frame: the occluder map's over the casters (section 3.2) and the soft
+/// shadow map's over the receivers, with the farthest receiver depth.
+struct Windows {
+    occluder: SlopeFrustum,
+    ssm: SlopeFrustum,
+    z_far: f32,
+}
+
+impl Windows {
+    /// `None` when no caster is in front of the light.
+    fn fit(inputs: &ShadowInputs<'_>) -> Option<Self> {
+        let half = inputs.light.half_extent();
+        let bounds = inputs.scene.light_bounds(inputs.light);
+        let receiver_corners: Vec<Vec3> = bounds
+            .receivers
+            .map(|r| r.corners().to_vec())
+            .unwrap_or_default();
+        let occluder = math::occluder_frustum(
+            &bounds.casters?.corners(),
+            bounds.casters_cross_light_plane,
+            &receiver_corners,
+            math::light_aspect(half),
+        )?;
+        let (ssm, z_far) = math::ssm_frustum(&occluder, &receiver_corners, half);
+        Some(Self {
+            occluder,
+            ssm,
+            z_far,
+        })
+    }
+}
+
+/// The stats of a frame that drew the light-space maps with `queries` scatter passes.
+fn light_space_stats(s: &SsmSettings, queries: u32) -> TechniqueStats {
+    let maps = if s.two_pass { 2.0 } else { 1.0 };
+    let (n, r) = (s.occluder_map_size as f64, s.ssm_size as f64);
+    TechniqueStats::from([
+        ("occluder_maps".into(), maps),
+        ("occluder_map_texels".into(), maps * n * n),
+        ("ssm_texels".into(), r * r),
+        ("scatter_passes".into(), queries as f64),
+    ])
+}
+
+impl Ssm {
+    /// The depth pass's views and both params uniforms (front and back occluder map).
+    fn write_uniforms(
+        &mut self,
+        gpu: &Gpu,
+        inputs: &ShadowInputs<'_>,
+        w: &Windows,
+        s: &SsmSettings,
+    ) {
+        let (n, r) = (s.occluder_map_size, s.ssm_size);
+        let occluder_view = ShadowViewUniform::new(inputs.light, &w.occluder, n);
+        let receiver_view = ShadowViewUniform::new(inputs.light, &w.ssm, r);
+        self.depth.set_views(gpu, &[occluder_view, receiver_view]);
+        let half = inputs.light.half_extent();
+        let params = |empty_depth: f32| SsmUniform {
+            occluder_window: window(&w.occluder),
+            occluder_depth: Vec4::new(w.occluder.near, w.occluder.far, n as f32, empty_depth),
+            ssm_window: window(&w.ssm),
+            ssm_depth: Vec4::new(w.ssm.near, w.ssm.far, r as f32, w.z_far),
+            light: Vec4::new(
+                half.x,
+                half.y,
+                s.bias_texels,
+                if s.two_pass { 1.0 } else { 0.0 },
+            ),
+        };
+        gpu.queue
+            .write_buffer(&self.params_front, 0, &uniform_bytes(&params(1.0)));
+        gpu.queue
+            .write_buffer(&self.params_back, 0, &uniform_bytes(&params(0.0)));
+    }
+
+    /// 1. The occluder map(s): nearest surfaces and, for two passes, the farthest (section 3.5).
+    /// 2. The receiver map over the soft shadow map's window.
+    fn draw_depth_maps(&self, frame: &mut Frame<'_>, inputs: &ShadowInputs<'_>, res: &Resources) {
+        let scene = inputs.scene;
+        let casters = scene.casters.as_ref();
+        let front = &res.occluder_front.view;
+        let draw = |frame: &mut Frame<'_>, label, list, draw, slot, target| {
+            self.depth
+                .record_draw(frame, label, scene, list, draw, slot, target)
+        };
+        draw(
+            frame,
+            "ssm/occluder_map",
+            casters,
+            CasterDraw::Nearest,
+            OCCLUDER_SLOT,
+            front,
+        );
+        if let Some(back) = &res.occluder_back {
+            let (label, farthest) = ("ssm/occluder_map_back", CasterDraw::Farthest);
+            draw(frame, label, casters, farthest, OCCLUDER_SLOT, &back.view);
+        }
+        let receivers = scene.receivers.as_ref();
+        let receiver = &res.receiver.view;
+        let only = CasterDraw::ReceiversOnly;
+        draw(
+            frame,
+            "ssm/receiver_map",
+            receivers,
+            only,
+            RECEIVER_SLOT,
+            receiver,
+        );
+    }
+
+    /// 3. The scatter, per occluder map; returns the scatter passes drawn (one occlusion query
+    ///    each).
+    fn scatter(
+        &self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        res: &Resources,
+        s: &SsmSettings,
+    ) -> u32 {
+        let mut maps = vec![(
+            &res.occluder_front,
+            &res.ssm_front,
+            res.sum_front.as_ref(),
+            &self.params_front,
+            "",
+        )];
+        if let (Some(occluder_back), Some(ssm_back)) = (&res.occluder_back, &res.ssm_back) {
+            let sum = res.sum_back.as_ref();
+            maps.push((occluder_back, ssm_back, sum, &self.params_back, "_back"));
+        }
+        let mut query = 0u32;
+        for (occluder_map, target, sum, params, suffix) in maps {
+            let group = self.scatter.group.bind(
+                frame.gpu,
+                &[
+                    params.into(),
+                    (&occluder_map.view).into(),
+                    (&res.receiver.view).into(),
+                ],
+            );
+            let n = s.occluder_map_size;
+            // Appendix A: N batches of one occluder-map row (floor(sqrt(N²)) = N), or one draw.
+            let batches: Vec<std::ops::Range<u32>> = if sum.is_some() {
+                (0..n).map(|row| row * n..(row + 1) * n).collect()
+            } else {
+                std::iter::once(0..n * n).collect()
+            };
+            let add_label = format!("ssm/batch_add{suffix}");
+            for (b, instances) in batches.into_iter().enumerate() {
+                let label = format!("ssm/scatter{suffix}");
+                self.scatter_batch(frame, &label, res, s, &group, target, instances, query);
+                query += 1;
+                if let Some(sum) = sum {
+                    self.batch_add
+                        .run(frame)
+                        .named(&add_label)
+                        .frame_group(inputs.frame_bind_group)
+                        .read(&target.view)
+                        .draw(&sum.view, (b == 0).then_some(0.0));
+                }
+            }
+        }
+        query
+    }
+
+    /// One scatter draw of `instances` micro-patches into `target`, counted by occlusion query
+    /// `query`.
+    #[allow(clippy::too_many_arguments)]
+    fn scatter_batch(
+        &self,
+        frame: &mut Frame<'_>,
+        label: &str,
+        res: &Resources,
+        s: &SsmSettings,
+        group: &wgpu::BindGroup,
+        target: &Target,
+        instances: std::ops::Range<u32>,
+        query: u32,
+    ) {
+        let pipeline = match s.precision {
+            Precision::Fp32 => &self.scatter.fp32,
+            Precision::Fp16 | Precision::Fp16Batched => &self.scatter.fp16,
+        };
+        let desc = wgpu::RenderPassDescriptor {
             label: None,
-            color_attachments: &[],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: target,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(clear),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
                     store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
+                },
+            })],
+            depth_stencil_attachment: None,
             timestamp_writes: None,
-            occlusion_query_set: None,
+            occlusion_query_set: Some(&res.queries),
             multiview_mask: None,
-        },
-        |pass| {
+        };
+        frame.render_pass(label, desc, |pass| {
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, view_group, &[]);
-            draw(pass);
-        },
-    );
+            pass.set_bind_group(0, group, &[]);
+            pass.begin_occlusion_query(query);
+            pass.draw(0..4, instances);
+            pass.end_occlusion_query();
+        });
+    }
+
+    /// 4. The projection onto the receivers.
+    fn project(
+        &self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        res: &Resources,
+        out: &VisibilityBuffer,
+    ) {
+        let (final_front, final_back) = res.final_maps();
+        self.project[usize::from(self.settings.two_pass)]
+            .run(frame)
+            .named("ssm/project")
+            .frame_group(inputs.frame_bind_group)
+            .read(&self.params_front)
+            .read(&res.receiver.view)
+            .read(&res.occluder_front.view)
+            .read(&final_front.view)
+            .read(&final_back.view)
+            .draw(&out.view, Some(1.0));
+    }
+
+    /// 5. The counters: micro-patches and texels with occlusion (compute), fragments blended
+    ///    (the occlusion queries of the `queries` scatter passes), copied for readback.
+    fn count(&self, frame: &mut Frame<'_>, res: &Resources, s: &SsmSettings, queries: u32) {
+        let (final_front, final_back) = res.final_maps();
+        let back = res.occluder_back.as_ref().unwrap_or(&res.occluder_front);
+        frame.encoder.clear_buffer(&self.counters, 0, None);
+        let groups = s.occluder_map_size.max(s.ssm_size).div_ceil(8);
+        self.count
+            .run(frame)
+            .read(&self.params_front)
+            .read(&res.occluder_front.view)
+            .read(&back.view)
+            .read(&final_front.view)
+            .read(&final_back.view)
+            .write(&self.counters)
+            .dispatch([groups, groups, 1]);
+        frame
+            .encoder
+            .copy_buffer_to_buffer(&self.counters, 0, &res.readback, 0, 8);
+        debug_assert!(queries <= res.query_capacity);
+        frame
+            .encoder
+            .resolve_query_set(&res.queries, 0..queries, &res.resolve, 0);
+        frame.encoder.copy_buffer_to_buffer(
+            &res.resolve,
+            0,
+            &res.readback,
+            QUERY_OFFSET,
+            8 * queries as u64,
+        );
+    }
 }
 
 fn window(f: &SlopeFrustum) -> Vec4 {
@@ -696,36 +778,8 @@ impl ShadowTechnique for Ssm {
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
-        let s = self.settings.clone();
-        // Sizes come from a `Settings` struct a library user may fill directly: clamp them to the
-        // documented ranges rather than trusting them.
-        let n = s.occluder_map_size.clamp(64, 1024);
-        let r = s.ssm_size.clamp(32, 1024);
-        let s = SsmSettings {
-            occluder_map_size: n,
-            ssm_size: r,
-            bias_texels: if s.bias_texels.is_finite() {
-                s.bias_texels.clamp(0.0, 16.0)
-            } else {
-                1.5
-            },
-            ..s
-        };
-        let half = inputs.light.half_extent();
-        let bounds = inputs.scene.light_bounds(inputs.light);
-        let receiver_corners: Vec<Vec3> = bounds
-            .receivers
-            .map(|r| r.corners().to_vec())
-            .unwrap_or_default();
-        let occluder = bounds.casters.and_then(|c| {
-            math::occluder_frustum(
-                &c.corners(),
-                bounds.casters_cross_light_plane,
-                &receiver_corners,
-                math::light_aspect(half),
-            )
-        });
-        let Some(occluder) = occluder else {
+        let s = clamped(&self.settings);
+        let Some(windows) = Windows::fit(inputs) else {
             // No caster in front of the light: receivers in front of it are lit.
             out.write_unshadowed(frame, inputs.frame_bind_group, "ssm/no_casters")?;
             self.last = LastFrame {
@@ -737,9 +791,7 @@ impl ShadowTechnique for Ssm {
             };
             return Ok(());
         };
-        let (ssm, z_far) = math::ssm_frustum(&occluder, &receiver_corners, half);
-
-        let key = (n, r, s.two_pass, s.precision);
+        let key = (s.occluder_map_size, s.ssm_size, s.two_pass, s.precision);
         if self.resources.as_ref().map(|res| res.key) != Some(key) {
             self.resources = Some(Resources::new(gpu, &s));
             self.light_space_ready = false;
@@ -748,255 +800,19 @@ impl ShadowTechnique for Ssm {
         // maps, counters): kept while light, casters and settings stand still.
         let rebuild = inputs.changes.light_space() || !self.light_space_ready;
         self.light_space_ready = false;
+        self.write_uniforms(gpu, inputs, &windows, &s);
         let res = self.resources.as_ref().expect("created above");
-
-        // Uniforms.
-        let occluder_view = ShadowViewUniform::new(inputs.light, &occluder, n);
-        let receiver_view = ShadowViewUniform::new(inputs.light, &ssm, r);
-        gpu.queue.write_buffer(
-            &self.occluder_view,
-            0,
-            &uniform_bytes(&DepthView {
-                light_view_proj: occluder_view.light_view_proj,
-            }),
-        );
-        gpu.queue.write_buffer(
-            &self.receiver_view,
-            0,
-            &uniform_bytes(&DepthView {
-                light_view_proj: receiver_view.light_view_proj,
-            }),
-        );
-        let params = |empty_depth: f32| SsmUniform {
-            occluder_window: window(&occluder),
-            occluder_depth: Vec4::new(occluder.near, occluder.far, n as f32, empty_depth),
-            ssm_window: window(&ssm),
-            ssm_depth: Vec4::new(ssm.near, ssm.far, r as f32, z_far),
-            light: Vec4::new(
-                half.x,
-                half.y,
-                s.bias_texels,
-                if s.two_pass { 1.0 } else { 0.0 },
-            ),
-        };
-        gpu.queue
-            .write_buffer(&self.params_front, 0, &uniform_bytes(&params(1.0)));
-        gpu.queue
-            .write_buffer(&self.params_back, 0, &uniform_bytes(&params(0.0)));
-
-        let mut query = 0u32;
-        let texels = n * n;
+        let mut queries = 0;
         if rebuild {
-            // 1. Occluder map(s): nearest surfaces (cleared to 1, Less) and, for two passes, the
-            //    farthest (cleared to 0, Greater), section 3.5.
-            let scene = inputs.scene;
-            depth_pass(
-                frame,
-                "ssm/occluder_map",
-                &self.occluder_front_pipeline,
-                &self.occluder_view_group,
-                &res.occluder_front.view,
-                1.0,
-                |pass| scene.draw_casters(pass),
-            );
-            if let Some(back) = &res.occluder_back {
-                depth_pass(
-                    frame,
-                    "ssm/occluder_map_back",
-                    &self.occluder_back_pipeline,
-                    &self.occluder_view_group,
-                    &back.view,
-                    0.0,
-                    |pass| scene.draw_casters(pass),
-                );
-            }
-            // 2. Receiver map over the soft shadow map's window.
-            depth_pass(
-                frame,
-                "ssm/receiver_map",
-                &self.receiver_pipeline,
-                &self.receiver_view_group,
-                &res.receiver.view,
-                1.0,
-                |pass| scene.draw_receivers(pass),
-            );
-
-            // 3. Scatter, per occluder map.
-            let scatter_pipeline = match s.precision {
-                Precision::Fp32 => &self.scatter_fp32,
-                Precision::Fp16 | Precision::Fp16Batched => &self.scatter_fp16,
-            };
-            let mut maps: Vec<(&Target, &Target, Option<&Target>, &wgpu::Buffer, &str)> = vec![(
-                &res.occluder_front,
-                &res.ssm_front,
-                res.sum_front.as_ref(),
-                &self.params_front,
-                "",
-            )];
-            if let (Some(occluder_back), Some(ssm_back)) = (&res.occluder_back, &res.ssm_back) {
-                maps.push((
-                    occluder_back,
-                    ssm_back,
-                    res.sum_back.as_ref(),
-                    &self.params_back,
-                    "_back",
-                ));
-            }
-            for (occluder_map, scatter_target, sum, params_buffer, suffix) in maps {
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("ssm/scatter"),
-                    layout: &self.scatter_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: params_buffer.as_entire_binding(),
-                        },
-                        view_entry(1, &occluder_map.view),
-                        view_entry(2, &res.receiver.view),
-                    ],
-                });
-                let batch_group = sum.map(|_| {
-                    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("ssm/batch_add"),
-                        layout: &self.batch_layout,
-                        entries: &[view_entry(0, &scatter_target.view)],
-                    })
-                });
-                // Appendix A: N batches of one occluder-map row (floor(sqrt(N²)) = N), or one draw.
-                let batches: Vec<std::ops::Range<u32>> = if sum.is_some() {
-                    (0..n).map(|row| row * n..(row + 1) * n).collect()
-                } else {
-                    std::iter::once(0..texels).collect()
-                };
-                let scatter_label = format!("ssm/scatter{suffix}");
-                let add_label = format!("ssm/batch_add{suffix}");
-                for (b, instances) in batches.into_iter().enumerate() {
-                    frame.render_pass(
-                        &scatter_label,
-                        wgpu::RenderPassDescriptor {
-                            label: None,
-                            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                                view: &scatter_target.view,
-                                depth_slice: None,
-                                resolve_target: None,
-                                ops: wgpu::Operations {
-                                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                                    store: wgpu::StoreOp::Store,
-                                },
-                            })],
-                            depth_stencil_attachment: None,
-                            timestamp_writes: None,
-                            occlusion_query_set: Some(&res.queries),
-                            multiview_mask: None,
-                        },
-                        |pass| {
-                            pass.set_pipeline(scatter_pipeline);
-                            pass.set_bind_group(0, &group, &[]);
-                            pass.begin_occlusion_query(query);
-                            pass.draw(0..4, instances);
-                            pass.end_occlusion_query();
-                        },
-                    );
-                    query += 1;
-                    if let (Some(sum), Some(batch_group)) = (sum, &batch_group) {
-                        self.batch_add.record(
-                            frame,
-                            &add_label,
-                            inputs.frame_bind_group,
-                            batch_group,
-                            &[],
-                            &sum.view,
-                            (b == 0).then_some(0.0),
-                        );
-                    }
-                }
-            }
+            self.draw_depth_maps(frame, inputs, res);
+            queries = self.scatter(frame, inputs, res, &s);
         }
-
-        // 4. Projection onto the receivers.
-        let (final_front, final_back) = res.final_maps();
-        let project_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("ssm/project"),
-            layout: &self.project_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.params_front.as_entire_binding(),
-                },
-                view_entry(1, &res.receiver.view),
-                view_entry(2, &res.occluder_front.view),
-                view_entry(3, &final_front.view),
-                view_entry(4, &final_back.view),
-            ],
-        });
-        self.project[usize::from(self.settings.two_pass)].record(
-            frame,
-            "ssm/project",
-            inputs.frame_bind_group,
-            &project_group,
-            &[],
-            &out.view,
-            Some(1.0),
-        );
-
+        self.project(frame, inputs, res, out);
         if rebuild {
-            // 5. Counters: micro-patches and texels with occlusion (compute), fragments blended
-            //    (occlusion queries over the scatter passes).
-            let stats_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("ssm/stats"),
-                layout: &self.stats_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.params_front.as_entire_binding(),
-                    },
-                    view_entry(1, &res.occluder_front.view),
-                    view_entry(
-                        2,
-                        &res.occluder_back
-                            .as_ref()
-                            .unwrap_or(&res.occluder_front)
-                            .view,
-                    ),
-                    view_entry(3, &final_front.view),
-                    view_entry(4, &final_back.view),
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: self.counters.as_entire_binding(),
-                    },
-                ],
-            });
-            frame.encoder.clear_buffer(&self.counters, 0, None);
-            let groups = n.max(r).div_ceil(8);
-            frame.compute_pass("ssm/stats", |pass| {
-                pass.set_pipeline(&self.stats_pipeline);
-                pass.set_bind_group(0, &stats_group, &[]);
-                pass.dispatch_workgroups(groups, groups, 1);
-            });
-            frame
-                .encoder
-                .copy_buffer_to_buffer(&self.counters, 0, &res.readback, 0, 8);
-            debug_assert!(query <= res.query_capacity);
-            frame
-                .encoder
-                .resolve_query_set(&res.queries, 0..query, &res.resolve, 0);
-            frame.encoder.copy_buffer_to_buffer(
-                &res.resolve,
-                0,
-                &res.readback,
-                QUERY_OFFSET,
-                8 * query as u64,
-            );
-
-            let maps = if s.two_pass { 2.0 } else { 1.0 };
+            self.count(frame, res, &s, queries);
             self.last = LastFrame {
-                stats: TechniqueStats::from([
-                    ("occluder_maps".into(), maps),
-                    ("occluder_map_texels".into(), maps * texels as f64),
-                    ("ssm_texels".into(), (r as f64) * (r as f64)),
-                    ("scatter_passes".into(), query as f64),
-                ]),
-                queries: Some(query),
+                stats: light_space_stats(&s, queries),
+                queries: Some(queries),
             };
         }
         self.light_space_ready = true;

@@ -46,7 +46,7 @@ pub fn serve_render_worker(registry: &softshadow_core::Registry) -> std::process
 /// large buffers, so that a dropped scene's buffers are handed back to the driver at once.
 /// wgpu's default (`Performance`) kept the last 64-128 MiB block of lavapipe's one memory type
 /// reserved after `polycount-1m` was left, with the pages the scene had touched still resident
-/// (docs/BENCHMARKS.md, "Viewer resident memory").
+/// (docs/DEVICES.md, "Lavapipe's one memory type").
 pub const MEMORY_HINTS: softshadow_core::wgpu::MemoryHints =
     softshadow_core::wgpu::MemoryHints::MemoryUsage;
 

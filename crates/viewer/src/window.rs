@@ -487,14 +487,14 @@ fn save_screenshot(
 
 /// A warning for drivers known to leak memory per frame whatever the viewer does: lavapipe from
 /// Mesa 22.x (measured on 22.3.6: about 1 MiB per frame inside the driver, none on Mesa 25.0.7;
-/// docs/STABILITY.md, "Viewer memory over 10 minutes").
+/// docs/DEVICES.md, "Mesa 22.3's leak per presented frame").
 fn known_driver_leak(info: &wgpu::AdapterInfo) -> Option<String> {
     let lavapipe = info.device_type == wgpu::DeviceType::Cpu && info.name.contains("llvmpipe");
     (lavapipe && info.driver_info.contains("Mesa 22.")).then(|| {
         format!(
             "{} ({}) leaks about 1 MiB of memory per frame inside the driver, so long viewer sessions grow; \
              Mesa 25 does not: on Debian 12 `apt-get install -t bookworm-backports mesa-vulkan-drivers` \
-             (docs/STABILITY.md)",
+             (docs/DEVICES.md)",
             info.name, info.driver_info
         )
     })

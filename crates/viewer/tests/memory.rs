@@ -17,12 +17,13 @@ use softshadow_viewer::{ViewerApp, ViewerOptions};
 /// Growth per switch, over the returns to the baseline's scene and technique, that fails the test.
 const MAX_MIB_PER_SWITCH: f64 = 0.5;
 
-/// The driver whose own per-frame leak the slope bound is not asserted on (docs/STABILITY.md).
+/// The driver whose own per-frame leak the slope bound is not asserted on (docs/DEVICES.md,
+/// "Mesa 22.3's leak per presented frame").
 const KNOWN_LEAKY_DRIVER: &str = "Mesa 22.3";
 
 /// That driver's leak per switch in this test, rounded up: 1.83-1.85 MiB measured (the per-switch
 /// slope over the returns; docs/STABILITY.md, "Viewer memory over 10 minutes"); 2.60 in one run
-/// under load (docs/STABILITY.md, "Mesa 25 and Mesa 22.3"), which the 64 MiB of the end bound
+/// under load (docs/DEVICES.md, "Mesa 25 and Mesa 22.3"), which the 64 MiB of the end bound
 /// absorbs.
 const KNOWN_LEAK_MIB_PER_SWITCH: f64 = 2.0;
 
@@ -197,12 +198,12 @@ fn resident_memory_returns_near_its_baseline_across_20_switches() -> Result<()> 
          MiB plus {driver_leak:.0} MiB for the known leak of {driver})"
     );
     // No growth per switch (issue 15). Mesa 22.3's lavapipe leaks about 1 MiB per frame inside
-    // the driver, 1.85 MiB per switch here (docs/STABILITY.md, "Viewer memory over 10
-    // minutes"); flat on Mesa 25 (about 0 per switch). 0.5 MiB per switch catches that leak.
+    // the driver, 1.85 MiB per switch here (docs/DEVICES.md, "Mesa 22.3's leak per presented
+    // frame"); flat on Mesa 25 (about 0 per switch). 0.5 MiB per switch catches that leak.
     if per_switch >= MAX_MIB_PER_SWITCH && leaky_driver {
         println!(
             "growth {per_switch:.2} MiB per switch on {driver}: the known lavapipe 22.3 leak, not \
-             asserted; install mesa-vulkan-drivers from bookworm-backports (docs/STABILITY.md)"
+             asserted; install mesa-vulkan-drivers from bookworm-backports (docs/DEVICES.md)"
         );
     } else {
         ensure!(

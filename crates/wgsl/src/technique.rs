@@ -4,10 +4,9 @@
 use std::borrow::Cow;
 
 use softshadow_core::{
-    fullscreen::{render_pipeline, FullscreenPipeline},
     params::find_spec,
+    pass::{FullscreenPass, Pass, Slot},
     shadow_map::CentreShadowMap,
-    visibility::VISIBILITY_FORMAT,
     wgpu, DebugView, Frame, Gpu, ParamError, ParamKind, ParamSet, ParamSpec, ParamValue,
     ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
     VisibilityBuffer,
@@ -117,8 +116,7 @@ pub struct FileTechnique {
     id: String,
     settings: FileSettings,
     shadow_map: CentreShadowMap,
-    pass: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    pass: FullscreenPass,
     params_buffer: wgpu::Buffer,
     shadow_map_label: String,
     pass_label: String,
@@ -135,27 +133,13 @@ impl FileTechnique {
         compiled: &CompiledFile,
     ) -> Result<Self, TechniqueError> {
         let pass_label = format!("{id}/pass");
-        let layout = CentreShadowMap::lookup_layout(gpu, &pass_label);
-        let module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(&pass_label),
-                source: wgpu::ShaderSource::Naga(Cow::Owned(compiled.module.clone())),
-            });
-        let pipeline_layout = gpu
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(&pass_label),
-                bind_group_layouts: &[Some(&gpu.layouts.frame), Some(&layout)],
-                immediate_size: 0,
-            });
-        let target = wgpu::ColorTargetState {
-            format: VISIBILITY_FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        };
-        let pipeline =
-            render_pipeline(gpu, &pass_label, &pipeline_layout, &module, &[Some(target)]);
+        // The contract's group 1 (docs/WGSL.md): the map's ShadowView, the map, the parameters.
+        let pass = Pass::from_module(gpu, &pass_label, compiled.module.clone())
+            .after_frame_group()
+            .uniform()
+            .texture(Slot::DEPTH)
+            .uniform()
+            .fullscreen(None)?;
         let settings = FileSettings::new(directives);
         let params_buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(&pass_label),
@@ -171,8 +155,7 @@ impl FileTechnique {
             id: id.to_string(),
             settings,
             shadow_map,
-            pass: FullscreenPipeline { pipeline },
-            layout,
+            pass,
             params_buffer,
             shadow_map_label: format!("{id}/shadow_map"),
             no_casters_label: format!("{id}/no_casters"),
@@ -223,16 +206,17 @@ impl ShadowTechnique for FileTechnique {
         }
         gpu.queue
             .write_buffer(&self.params_buffer, 0, &self.settings.uniform_bytes());
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
-        self.pass.record(
-            frame,
+        let (label, group, params) = (
             &self.pass_label,
             inputs.frame_bind_group,
-            &bind_group,
-            &[],
+            &self.params_buffer,
+        );
+        (self.shadow_map).draw_lookup(
+            frame,
+            &self.pass,
+            label,
+            group,
+            params,
             &out.view,
             Some(1.0),
         );

@@ -13,7 +13,7 @@ use encase::ShaderType;
 use softshadow_core::{
     cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*},
-    fullscreen::FullscreenPipeline,
+    pass::FullscreenPass,
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
@@ -137,8 +137,7 @@ pub struct FixedPcf {
     /// Its settings; changes take effect on the next frame.
     pub settings: FixedPcfSettings,
     shadow_map: CentreShadowMap,
-    lookup: FullscreenPipeline,
-    layout: wgpu::BindGroupLayout,
+    lookup: FullscreenPass,
     params_buffer: wgpu::Buffer,
     stats: TechniqueStats,
 }
@@ -146,20 +145,13 @@ pub struct FixedPcf {
 impl FixedPcf {
     /// Builds the technique's pipeline on `gpu` with `settings`.
     pub fn new(gpu: &Gpu, settings: FixedPcfSettings) -> Result<Self, TechniqueError> {
-        let layout = CentreShadowMap::lookup_layout(gpu, "fixed-pcf/lookup");
         Ok(Self {
             // The map `hard` uses, so that radius 0 is exactly the hard shadow.
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
-            lookup: FullscreenPipeline::new(
-                gpu,
-                "fixed-pcf/lookup",
-                &SHADERS[0],
-                &[],
-                &layout,
-                None,
-            )?,
+            // fixed_pcf.wgsl: the map's ShadowView, the map, FixedPcfParams.
+            lookup: CentreShadowMap::lookup_pass(gpu, "fixed-pcf/lookup", &SHADERS[0])
+                .fullscreen(None)?,
             params_buffer: zeroed_uniform_buffer::<FixedPcfUniform>(gpu, "fixed-pcf/params"),
-            layout,
             settings,
             stats: TechniqueStats::new(),
         })
@@ -204,16 +196,14 @@ impl ShadowTechnique for FixedPcf {
                 bias_texels: self.settings.bias_texels,
             }),
         );
-        let bind_group = self
-            .shadow_map
-            .lookup_bind_group(gpu, &self.layout, &self.params_buffer)
-            .expect("rendered above");
-        self.lookup.record(
+        let (map, params) = (&self.shadow_map, &self.params_buffer);
+        let (lookup, group) = (&self.lookup, inputs.frame_bind_group);
+        map.draw_lookup(
             frame,
+            lookup,
             "fixed-pcf/lookup",
-            inputs.frame_bind_group,
-            &bind_group,
-            &[],
+            group,
+            params,
             &out.view,
             Some(1.0),
         );

@@ -100,7 +100,7 @@ fn occluder_fusion_cuts_backprojections_error_to_three_quarters_on_stiff_fusion_
     Ok(())
 }
 
-/// The loop budget again (docs/ARCHITECTURE.md, "Lavapipe's loop budget"): a bitmask block costs
+/// The loop budget again (docs/DEVICES.md, "Lavapipe's loop budget"): a bitmask block costs
 /// about two of llvmpipe's 65535 loop iterations, so with one pass per layer a full search over a
 /// 448² map (up to 231 x 231 blocks per pixel) silently dropped blocks on stiff-fusion with the
 /// 32x32 pattern: mean |V - exact| 0.41 at 64². With two passes per layer (169 blocks per axis) it

@@ -305,7 +305,7 @@ fn bitmask_depth_bands_and_edge_refinement_bring_large_penumbrae_near_the_full_s
         );
         // The target is 1.5x; against the ray-traced 32 x 32 exact answer the blob
         // measures 1.51x (1.49x against the 16 x 16 ray cast it was first measured with), so
-        // the bound is 1.55x and docs/BENCHMARKS.md ("Large penumbrae") states the miss.
+        // the bound is 1.55x and docs/TECHNIQUES.md ("Large penumbrae") states the miss.
         ensure!(
             new.0 <= 1.55 * full.0,
             "{scene}: defaults {} not within 1.55x of the full search {}",

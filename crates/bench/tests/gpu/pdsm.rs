@@ -407,7 +407,7 @@ fn a_cancelled_build_fails_and_progress_counts_every_row() -> Result<()> {
 }
 
 /// The construction target (64 samples, 512² PDSM, 512² maps) on `pdsm-cylinder`, with
-/// the paper's compression statistics (section 5). Prints figures for docs/BENCHMARKS.md; asserts
+/// the paper's compression statistics (section 5). Prints figures for docs/TECHNIQUES.md (`pdsm`); asserts
 /// only what the build must satisfy, never a time. Slow in the dev profile: run it on purpose,
 /// `cargo test --release -p softshadow-bench --test gpu pdsm:: -- --ignored --nocapture`.
 #[test]

@@ -342,7 +342,7 @@ fn measure_the_expectation_values() -> Result<()> {
 }
 
 /// Acceleration-structure build time against triangle count and shadow rays per second on this
-/// device (docs/BENCHMARKS.md, "Ray queries"). Run by hand:
+/// device (docs/TECHNIQUES.md, `raytraced`). Run by hand:
 /// `cargo test --release --workspace --test gpu raytraced::measure_speed -- --ignored --nocapture`.
 #[test]
 #[ignore = "a measurement of speed, not a check (no time is asserted)"]

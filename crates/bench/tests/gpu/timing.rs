@@ -159,7 +159,7 @@ fn serial_timing_shows_the_backprojection_gather_as_the_largest_pass() -> Result
 }
 
 /// Lavapipe before Mesa 24.1 writes a timestamp without waiting for earlier compute work
-/// (measured on 22.3.6; 25.0.7 waits): docs/ARCHITECTURE.md, "Lavapipe's timestamps". The
+/// (measured on 22.3.6; 25.0.7 waits): docs/DEVICES.md, "Lavapipe's timestamps". The
 /// calibration frame must flag the full-search gather there and must not where timestamps cover
 /// it.
 #[test]

@@ -466,7 +466,7 @@ impl RenderWorker {
 
 /// Light rays the ray-traced exact answer of one timeline step may trace: about a second a step
 /// on lavapipe with 2 loaded cores (1.3 s for 4 x 4 samples over atty-square's receivers at the
-/// viewer's 700x800, measured; docs/BENCHMARKS.md, "Motion"), so 3 or 4 samples per axis at the
+/// viewer's 700x800, measured), so 3 or 4 samples per axis at the
 /// viewer's full size, 11 at 256², the maximum at 128².
 pub(super) const LIVE_TRACED_RAYS: usize = 1 << 23;
 
