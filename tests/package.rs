@@ -48,7 +48,10 @@ fn wgsl_files_under(dir: &Path, root: &Path) -> Result<Vec<String>> {
         if path.is_dir() {
             files.extend(wgsl_files_under(&path, root)?);
         } else if path.extension().is_some_and(|e| e == "wgsl") {
-            let relative = path.strip_prefix(root)?.to_string_lossy().replace('\\', "/");
+            let relative = path
+                .strip_prefix(root)?
+                .to_string_lossy()
+                .replace('\\', "/");
             files.push(relative);
         }
     }
@@ -131,7 +134,14 @@ fn library_crates_have_metadata_docs_and_package() -> Result<()> {
         }
         crates_with_shaders += 1;
         let list = cargo(
-            &["package", "--list", "--allow-dirty", "--offline", "-p", name],
+            &[
+                "package",
+                "--list",
+                "--allow-dirty",
+                "--offline",
+                "-p",
+                name,
+            ],
             &target,
         )?;
         let packaged: Vec<&str> = list.lines().collect();

@@ -116,31 +116,11 @@ fn a_broken_shader_is_reported_with_its_path() {
 }
 
 /// Every crate's Rust uniform structs with the WGSL structs they mirror (each crate lists its own
-/// in a hidden `uniform_mirrors()`, where its private structs are visible).
+/// in a hidden `uniform_mirrors()`, where its private structs are visible; the facade gathers the
+/// built-ins').
 fn all_mirrors() -> Vec<UniformMirror> {
     let mut mirrors = softshadow_core::uniform_mirrors();
-    #[cfg(feature = "adaptive")]
-    mirrors.extend(softshadow::adaptive::uniform_mirrors());
-    #[cfg(feature = "backprojection")]
-    mirrors.extend(softshadow::backprojection::uniform_mirrors());
-    #[cfg(feature = "bitmask")]
-    mirrors.extend(softshadow::bitmask::uniform_mirrors());
-    #[cfg(feature = "hard")]
-    mirrors.extend(softshadow::hard::uniform_mirrors());
-    #[cfg(feature = "msm")]
-    mirrors.extend(softshadow::msm::uniform_mirrors());
-    #[cfg(feature = "pcss")]
-    mirrors.extend(softshadow::pcss::uniform_mirrors());
-    #[cfg(feature = "pdsm")]
-    mirrors.extend(softshadow::pdsm::uniform_mirrors());
-    #[cfg(feature = "raytraced")]
-    mirrors.extend(softshadow::raytraced::uniform_mirrors());
-    #[cfg(feature = "reference")]
-    mirrors.extend(softshadow::reference::uniform_mirrors());
-    #[cfg(feature = "smrt")]
-    mirrors.extend(softshadow::smrt::uniform_mirrors());
-    #[cfg(feature = "ssm")]
-    mirrors.extend(softshadow::ssm::uniform_mirrors());
+    mirrors.extend(softshadow::builtin_uniform_mirrors());
     mirrors.extend(softshadow_viewer::uniform_mirrors());
     mirrors
 }
