@@ -43,7 +43,7 @@ mkdir -p "$out" || { echo "gpu-set: cannot create $out" >&2; exit 2; }
 if [ "$reduced" = 1 ]; then
   # The resolution sweep at three tiny sizes (a sweep file of its own, written here).
   resolution="$out/resolution-reduced.toml"
-  sed 's/^sizes = .*/sizes = ["16x16", "32x18", "48x27"]/' benches/resolution.toml > "$resolution"
+  sed 's/^sizes = .*/sizes = ["16x16", "32x18", "48x27"]/' sweeps/resolution.toml > "$resolution"
   overview_size=32x32
   overview_hd=48x27
   only=(--techniques hard,pcss)
@@ -53,7 +53,7 @@ if [ "$reduced" = 1 ]; then
   motion=(--techniques hard,pcss --scenes atty-square --frames 3 --path orbit "${refs[@]}")
   limit_scale=4 # lavapipe in a debug build
 else
-  resolution=benches/resolution.toml
+  resolution=sweeps/resolution.toml
   overview_size=256x256
   overview_hd=1920x1080
   only=()
@@ -95,10 +95,10 @@ fi
 grep -i "unavailable" "$out/list.txt" || true
 
 stage stiff 80 --suite stiff "${stiff_only[@]}"
-stage overview-256 70 --sweep benches/overview.toml --size "$overview_size" "${only[@]}" "${small[@]}"
+stage overview-256 70 --sweep sweeps/overview.toml --size "$overview_size" "${only[@]}" "${small[@]}"
 stage resolution 35 --sweep "$resolution" --no-error "${only[@]}" "${small[@]}"
-stage motion 85 --sweep benches/motion.toml "${motion[@]}"
-stage overview-1080 150 --sweep benches/overview.toml --size "$overview_hd" --exact-samples 8 \
+stage motion 85 --sweep sweeps/motion.toml "${motion[@]}"
+stage overview-1080 150 --sweep sweeps/overview.toml --size "$overview_hd" --exact-samples 8 \
   --scenes atty-square,balls-3x3x3,pdsm-quads --no-camera-only "${only[@]}" "${small[@]}"
 
 sed -n '/"adapter"/,/}/p' "$out/stiff.json" > "$out/adapter.txt" 2>/dev/null

@@ -1,8 +1,8 @@
 //! `softshadow`: the soft-shadow workbench as a library.
 //!
-//! One crate per technique behind the [`core::ShadowTechnique`] trait; enable only the ones you
-//! need with cargo features (`hard`, `pcss`, `ssm`, `backprojection`, `bitmask`, `adaptive`,
-//! `pdsm`, `msm`, `smrt`, `raytraced`, `reference`; all on by default).
+//! One crate per technique behind the [`core::ShadowTechnique`] trait, re-exported here under its
+//! id (`softshadow::pcss`) behind a cargo feature of the same name; all are on by default, so
+//! `default-features = false, features = ["pcss"]` keeps only the ones you need.
 //!
 //! ```no_run
 //! use softshadow::core::{Gpu, Renderer, SceneGpu, ShadingMode};
@@ -20,58 +20,51 @@ pub use softshadow_core as core;
 pub use softshadow_metrics as metrics;
 pub use softshadow_scenes as scenes;
 
-#[cfg(feature = "adaptive")]
-pub use softshadow_adaptive as adaptive;
-#[cfg(feature = "backprojection")]
-pub use softshadow_backprojection as backprojection;
-#[cfg(feature = "bitmask")]
-pub use softshadow_bitmask as bitmask;
-#[cfg(feature = "hard")]
-pub use softshadow_hard as hard;
-#[cfg(feature = "msm")]
-pub use softshadow_msm as msm;
-#[cfg(feature = "pcss")]
-pub use softshadow_pcss as pcss;
-#[cfg(feature = "pdsm")]
-pub use softshadow_pdsm as pdsm;
-#[cfg(feature = "raytraced")]
-pub use softshadow_raytraced as raytraced;
-#[cfg(feature = "reference")]
-pub use softshadow_reference as reference;
-#[cfg(feature = "smrt")]
-pub use softshadow_smrt as smrt;
-#[cfg(feature = "ssm")]
-pub use softshadow_ssm as ssm;
+use softshadow_core::{shader::uniform_layout::UniformMirror, Registry, TechniqueInfo};
 
-use softshadow_core::{Registry, TechniqueInfo};
+/// Declares the built-in techniques, one line each: `#[cfg(feature = "<id>")] <id>,`, where the
+/// root `Cargo.toml` has the technique's crate as the optional dependency `<id>` (whose implicit
+/// feature is the gate). Each line re-exports the crate as `softshadow::<id>` and registers its
+/// `info()`; the order of the lines is the order `workbench list` prints.
+macro_rules! builtins {
+    ($(#[$gate:meta] $technique:ident,)*) => {
+        $(
+            #[$gate]
+            pub use $technique;
+        )*
 
-/// The built-in techniques of the enabled features, in the order `workbench list` prints them:
-/// the cost floor first, the yardstick last. Adding a built-in technique is one line here.
-pub fn builtin_techniques() -> Vec<TechniqueInfo> {
-    vec![
-        #[cfg(feature = "hard")]
-        softshadow_hard::info(),
-        #[cfg(feature = "pcss")]
-        softshadow_pcss::info(),
-        #[cfg(feature = "ssm")]
-        softshadow_ssm::info(),
-        #[cfg(feature = "backprojection")]
-        softshadow_backprojection::info(),
-        #[cfg(feature = "bitmask")]
-        softshadow_bitmask::info(),
-        #[cfg(feature = "adaptive")]
-        softshadow_adaptive::info(),
-        #[cfg(feature = "pdsm")]
-        softshadow_pdsm::info(),
-        #[cfg(feature = "msm")]
-        softshadow_msm::info(),
-        #[cfg(feature = "smrt")]
-        softshadow_smrt::info(),
-        #[cfg(feature = "raytraced")]
-        softshadow_raytraced::info(),
-        #[cfg(feature = "reference")]
-        softshadow_reference::info(),
-    ]
+        /// The built-in techniques of the enabled features, in the order `workbench list` prints
+        /// them: the cost floor first, the yardstick last.
+        pub fn builtin_techniques() -> Vec<TechniqueInfo> {
+            vec![$(#[$gate] $technique::info(),)*]
+        }
+
+        // Test support (tests/shaders.rs): every built-in's Rust uniform structs with the WGSL
+        // structs they mirror.
+        #[doc(hidden)]
+        pub fn builtin_uniform_mirrors() -> Vec<UniformMirror> {
+            let mut mirrors = Vec::new();
+            $(
+                #[$gate]
+                mirrors.extend($technique::uniform_mirrors());
+            )*
+            mirrors
+        }
+    };
+}
+
+builtins! {
+    #[cfg(feature = "hard")] hard,
+    #[cfg(feature = "pcss")] pcss,
+    #[cfg(feature = "ssm")] ssm,
+    #[cfg(feature = "backprojection")] backprojection,
+    #[cfg(feature = "bitmask")] bitmask,
+    #[cfg(feature = "adaptive")] adaptive,
+    #[cfg(feature = "pdsm")] pdsm,
+    #[cfg(feature = "msm")] msm,
+    #[cfg(feature = "smrt")] smrt,
+    #[cfg(feature = "raytraced")] raytraced,
+    #[cfg(feature = "reference")] reference,
 }
 
 /// The built-in techniques as a [`Registry`], to which a user's own can be added

@@ -1,9 +1,9 @@
 //! The library crates are ready to publish: each has the metadata crates.io shows (description,
 //! license, readme, keywords, categories), a README that exists, documents every public item
-//! (`#![warn(missing_docs)]`, kept clean by clippy's `-D warnings`), carries its shaders, and
-//! `cargo package --workspace` succeeds. Nothing is uploaded and nothing is compiled
-//! (`--no-verify`), so this costs a few seconds, not a build; docs/LIBRARY.md lists the
-//! `cargo doc` check, which would cost CI a `cargo check` of every dependency.
+//! (`#![warn(missing_docs)]`, kept clean by clippy's `-D warnings`), carries every `.wgsl` file
+//! of its `shaders/` folder, and `cargo package --workspace` succeeds. Nothing is uploaded and
+//! nothing is compiled (`--no-verify`), so this costs a few seconds, not a build; docs/LIBRARY.md
+//! lists the `cargo doc` check, which would cost CI a `cargo check` of every dependency.
 
 use std::{path::Path, process::Command};
 
@@ -36,6 +36,28 @@ fn cargo(args: &[&str], target: &Path) -> Result<String> {
     Ok(String::from_utf8(output.stdout)?)
 }
 
+/// The `.wgsl` files under `dir` (none when it does not exist), as paths relative to `root` with
+/// `/` separators, as `cargo package --list` prints them.
+fn wgsl_files_under(dir: &Path, root: &Path) -> Result<Vec<String>> {
+    let mut files = Vec::new();
+    if !dir.is_dir() {
+        return Ok(files);
+    }
+    for entry in std::fs::read_dir(dir)? {
+        let path = entry?.path();
+        if path.is_dir() {
+            files.extend(wgsl_files_under(&path, root)?);
+        } else if path.extension().is_some_and(|e| e == "wgsl") {
+            let relative = path
+                .strip_prefix(root)?
+                .to_string_lossy()
+                .replace('\\', "/");
+            files.push(relative);
+        }
+    }
+    Ok(files)
+}
+
 #[test]
 fn library_crates_have_metadata_docs_and_package() -> Result<()> {
     let target = std::env::temp_dir().join(format!("softshadow-package-{}", std::process::id()));
@@ -64,6 +86,7 @@ fn library_crates_have_metadata_docs_and_package() -> Result<()> {
         "only {} library crates found by cargo metadata",
         libraries.len()
     );
+    let mut library_dirs = Vec::new();
     for package in libraries {
         let name = package["name"].as_str().context("package name")?;
         for field in ["description", "license", "readme", "rust_version"] {
@@ -78,6 +101,7 @@ fn library_crates_have_metadata_docs_and_package() -> Result<()> {
         }
         let manifest = Path::new(package["manifest_path"].as_str().context("manifest_path")?);
         let dir = manifest.parent().context("manifest folder")?;
+        library_dirs.push((name.to_string(), dir.to_path_buf()));
         if !dir.join("README.md").is_file() {
             problems.push(format!("{name}: no README.md beside its Cargo.toml"));
         }
@@ -100,8 +124,15 @@ fn library_crates_have_metadata_docs_and_package() -> Result<()> {
         ],
         &target,
     )?;
-    // Every WGSL file a crate includes must travel with it (through its `shaders/` links).
-    for name in ["softshadow-core", "softshadow-pcss", "softshadow-bitmask"] {
+    // Every WGSL file in a crate's `shaders/` folder must travel with it (`shader_file!` reads
+    // them at compile time, so a package without them does not build).
+    let mut crates_with_shaders = 0;
+    for (name, dir) in &library_dirs {
+        let shaders = wgsl_files_under(&dir.join("shaders"), dir)?;
+        if shaders.is_empty() {
+            continue;
+        }
+        crates_with_shaders += 1;
         let list = cargo(
             &[
                 "package",
@@ -113,12 +144,19 @@ fn library_crates_have_metadata_docs_and_package() -> Result<()> {
             ],
             &target,
         )?;
-        ensure!(
-            list.lines()
-                .any(|l| l.starts_with("shaders/") && l.ends_with(".wgsl")),
-            "{name}'s package holds no shaders: its `shaders/` links are missing\n{list}"
-        );
+        let packaged: Vec<&str> = list.lines().collect();
+        for file in &shaders {
+            ensure!(
+                packaged.contains(&file.as_str()),
+                "{name}'s package lacks {file}: check `include`/`exclude` in its Cargo.toml\n{list}"
+            );
+        }
     }
+    // The core and the eleven built-in techniques (the reference among them), at least.
+    ensure!(
+        crates_with_shaders >= 12,
+        "only {crates_with_shaders} library crates have a shaders/ folder with .wgsl files"
+    );
     let _ = std::fs::remove_dir_all(&target);
     Ok(())
 }

@@ -1,10 +1,11 @@
-//! Every WGSL file under `shaders/` is composed (naga_oil `#import`) and validated with naga, in
-//! every permutation its crate declares. A missing or empty shader folder, or a file that no crate
-//! declares (so nothing would validate it), is a failure.
+//! Every WGSL file in a crate's `shaders/` folder (`crates/<crate>/shaders/`) is composed
+//! (naga_oil `#import`) and validated with naga, in every permutation its crate declares. No shader
+//! folder at all, or a file that no crate declares (so nothing would validate it), is a failure.
 
-use std::path::Path;
-
-use std::collections::BTreeSet;
+use std::{
+    collections::{BTreeMap, BTreeSet},
+    path::{Path, PathBuf},
+};
 
 use anyhow::{bail, ensure, Result};
 use encase::ShaderType;
@@ -23,35 +24,55 @@ fn all_specs() -> Vec<ShaderSpec> {
     specs
 }
 
-fn wgsl_files(dir: &Path, root: &Path, out: &mut Vec<String>) -> Result<()> {
+fn wgsl_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
     for entry in std::fs::read_dir(dir)? {
         let path = entry?.path();
         if path.is_dir() {
-            wgsl_files(&path, root, out)?;
+            wgsl_files(&path, out)?;
         } else if path.extension().is_some_and(|e| e == "wgsl") {
-            out.push(
-                path.strip_prefix(root)?
-                    .to_string_lossy()
-                    .replace('\\', "/"),
-            );
+            out.push(path);
         }
     }
     Ok(())
 }
 
+/// Every `.wgsl` file of the workspace's crates by its key (its path under its crate's
+/// `shaders/`, as `shader_file!` names it), with the file; a key two crates use is an error.
+fn shader_files_by_key() -> Result<BTreeMap<String, PathBuf>> {
+    let crates = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates");
+    let mut by_key = BTreeMap::new();
+    for entry in std::fs::read_dir(&crates)? {
+        let shader_dir = entry?.path().join("shaders");
+        if !shader_dir.is_dir() {
+            continue;
+        }
+        let mut files = Vec::new();
+        wgsl_files(&shader_dir, &mut files)?;
+        for file in files {
+            let key = file
+                .strip_prefix(&shader_dir)?
+                .to_string_lossy()
+                .replace('\\', "/");
+            if let Some(other) = by_key.insert(key.clone(), file.clone()) {
+                bail!(
+                    "{} and {} have the same key `{key}`: keep a crate's files in a folder named after it",
+                    other.display(),
+                    file.display()
+                );
+            }
+        }
+    }
+    ensure!(
+        !by_key.is_empty(),
+        "no .wgsl file in any {}/*/shaders/ folder",
+        crates.display()
+    );
+    Ok(by_key)
+}
+
 #[test]
 fn every_shader_and_permutation_validates() -> Result<()> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-    if !root.is_dir() {
-        bail!("shader folder {} is missing", root.display());
-    }
-    let mut files = Vec::new();
-    wgsl_files(&root, &root, &mut files)?;
-    ensure!(
-        !files.is_empty(),
-        "shader folder {} holds no .wgsl file",
-        root.display()
-    );
+    let files = shader_files_by_key()?;
 
     let specs = all_specs();
     let validated = softshadow_core::shader::validate_all(&specs)?;
@@ -65,17 +86,18 @@ fn every_shader_and_permutation_validates() -> Result<()> {
         .iter()
         .map(|(p, _)| *p)
         .collect();
-    for file in &files {
-        let declared = specs.iter().any(|s| s.path == file) || common.contains(&file.as_str());
+    for (key, file) in &files {
+        let declared = specs.iter().any(|s| s.path == key) || common.contains(&key.as_str());
         ensure!(
             declared,
-            "shaders/{file} is not declared by any crate's SHADERS list, so it is never validated"
+            "{} is not declared by any crate's SHADERS list, so it is never validated",
+            file.display()
         );
     }
     for spec in &specs {
         ensure!(
-            files.contains(&spec.path.to_string()),
-            "{} is declared but not under shaders/",
+            files.contains_key(spec.path),
+            "{} is declared but is in no crate's shaders/ folder",
             spec.path
         );
     }
@@ -97,31 +119,10 @@ fn a_broken_shader_is_reported_with_its_path() {
 
 /// Every crate's Rust uniform structs (and the storage structs the CPU writes or reads) with the
 /// WGSL structs they fill (each crate lists its own in a hidden `uniform_mirrors()`, where its
-/// private structs are visible).
+/// private structs are visible; the facade gathers the built-ins').
 fn all_mirrors() -> Vec<UniformMirror> {
     let mut mirrors = softshadow_core::uniform_mirrors();
-    #[cfg(feature = "adaptive")]
-    mirrors.extend(softshadow::adaptive::uniform_mirrors());
-    #[cfg(feature = "backprojection")]
-    mirrors.extend(softshadow::backprojection::uniform_mirrors());
-    #[cfg(feature = "bitmask")]
-    mirrors.extend(softshadow::bitmask::uniform_mirrors());
-    #[cfg(feature = "hard")]
-    mirrors.extend(softshadow::hard::uniform_mirrors());
-    #[cfg(feature = "msm")]
-    mirrors.extend(softshadow::msm::uniform_mirrors());
-    #[cfg(feature = "pcss")]
-    mirrors.extend(softshadow::pcss::uniform_mirrors());
-    #[cfg(feature = "pdsm")]
-    mirrors.extend(softshadow::pdsm::uniform_mirrors());
-    #[cfg(feature = "raytraced")]
-    mirrors.extend(softshadow::raytraced::uniform_mirrors());
-    #[cfg(feature = "reference")]
-    mirrors.extend(softshadow::reference::uniform_mirrors());
-    #[cfg(feature = "smrt")]
-    mirrors.extend(softshadow::smrt::uniform_mirrors());
-    #[cfg(feature = "ssm")]
-    mirrors.extend(softshadow::ssm::uniform_mirrors());
+    mirrors.extend(softshadow::builtin_uniform_mirrors());
     mirrors.extend(softshadow_viewer::uniform_mirrors());
     mirrors
 }

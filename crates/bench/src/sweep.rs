@@ -494,7 +494,7 @@ impl Sweep {
 }
 
 /// Suites built into the workbench (`workbench bench --suite NAME`), besides the sweep files in
-/// `benches/` that `--suite` also accepts by file stem.
+/// `sweeps/` that `--suite` also accepts by file stem.
 pub const SUITES: &[(&str, &str)] = &[(
     "stiff",
     "every registered technique, default settings, on every `stiff-*` scene at 64x64, each run held against the bound its crate states (docs/STABILITY.md)",
@@ -728,13 +728,13 @@ mod tests {
 
     #[test]
     fn overview_lists_every_technique() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/overview.toml");
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sweeps/overview.toml");
         let sweep = Sweep::load(&path, &registry()).unwrap();
         for t in &registry() {
             let settings = sweep.runs.iter().filter(|r| r.technique == t.id).count();
             assert!(
                 settings >= 2 * 7,
-                "benches/overview.toml has {settings} runs of `{}`: give it two or three settings with `TechniqueInfo::with_overview` in its crate (issue 14)",
+                "sweeps/overview.toml has {settings} runs of `{}`: give it two or three settings with `TechniqueInfo::with_overview` in its crate (issue 14)",
                 t.id
             );
         }

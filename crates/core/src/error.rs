@@ -51,7 +51,7 @@ pub enum GpuError {
     #[error("shader `{path}` failed to compose: {message}")]
     /// A shader did not compose or validate.
     Shader {
-        /// Path under `shaders/`.
+        /// Path under its crate's `shaders/`, e.g. `pcss/pcss.wgsl`.
         path: String,
         /// naga_oil's or naga's message.
         message: String,

@@ -129,7 +129,12 @@ pub fn group_layout(
         .enumerate()
         .map(|(binding, slot)| wgpu::BindGroupLayoutEntry {
             binding: binding as u32,
-            visibility: stages,
+            // WebGPU allows no writable storage in the vertex stage.
+            visibility: if slot.writable() {
+                stages - wgpu::ShaderStages::VERTEX
+            } else {
+                stages
+            },
             ty: slot.binding_type(),
             count: None,
         })

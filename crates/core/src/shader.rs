@@ -1,6 +1,7 @@
-//! Shader composition: every WGSL file lives under `shaders/`, shared code under `shaders/common/`
-//! is imported with naga_oil's `#import` (the one composition mechanism), and each crate lists its
-//! shaders and their permutations in a [`ShaderSpec`] so `cargo test` can validate all of them.
+//! Shader composition: every WGSL file lives in its crate's `shaders/` folder, shared code under
+//! the core's `shaders/common/` is imported with naga_oil's `#import` (the one composition
+//! mechanism), and each crate lists its shaders and their permutations in a [`ShaderSpec`] so
+//! `cargo test` can validate all of them.
 
 use std::collections::HashMap;
 
@@ -15,10 +16,10 @@ use crate::{error::GpuError, Gpu};
 #[doc(hidden)]
 pub mod uniform_layout;
 
-/// Includes `shaders/<path>` as a `(path, source)` pair, read from the calling crate's own
-/// `shaders/` folder: each crate holds symbolic links to its folders of the workspace's
-/// `shaders/` (`crates/pcss/shaders/pcss -> ../../../shaders/pcss`), so a packaged crate
-/// carries its WGSL (`cargo package` follows the links) while the files stay in one tree.
+/// Includes `shaders/<path>` of the calling crate as a `(path, source)` pair. The path is the
+/// shader's key in errors and tests: a built-in crate keeps its files in a folder named after it
+/// (`crates/pcss/shaders/pcss/pcss.wgsl` is `pcss/pcss.wgsl`), so keys stay distinct across
+/// crates, and a packaged crate carries its WGSL.
 #[macro_export]
 macro_rules! shader_file {
     ($path:literal) => {
@@ -56,7 +57,7 @@ pub type Permutation = &'static [(&'static str, DefValue)];
 /// A WGSL entry file and every permutation the code can build from it.
 #[derive(Clone, Copy, Debug)]
 pub struct ShaderSpec {
-    /// Path under `shaders/`, e.g. `pcss/pcss.wgsl`.
+    /// Path under its crate's `shaders/`, e.g. `pcss/pcss.wgsl` (`crates/pcss/shaders/pcss/pcss.wgsl`).
     pub path: &'static str,
     /// The WGSL source.
     pub source: &'static str,
@@ -64,7 +65,7 @@ pub struct ShaderSpec {
     pub permutations: &'static [Permutation],
 }
 
-/// The importable modules under `shaders/common/`.
+/// The importable modules, under the core's `shaders/common/`.
 pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/frame_types.wgsl"),
     shader_file!("common/frame.wgsl"),

@@ -369,7 +369,7 @@ pub struct TechniqueInfo {
     pub cost: CostModel,
     /// Its error bounds per stiff case and paper scene ([`crate::expectations`]).
     pub expectations: Expectations,
-    /// The settings the overview sweep (`benches/overview.toml`) runs it at: parameter name and
+    /// The settings the overview sweep (`sweeps/overview.toml`) runs it at: parameter name and
     /// the values to try, as text (each list multiplies, as in a sweep file). Empty: its defaults.
     pub overview: Vec<(Cow<'static, str>, Vec<Cow<'static, str>>)>,
     /// Why its answer changes from frame to frame with nothing moving (a per-frame sample

@@ -23,14 +23,14 @@ use softshadow_core::{
 
 use crate::{program_name, register_technique_files, resume, stress, BenchArgs};
 
-/// `--suite NAME`: a built-in suite, else `benches/NAME.toml` (from the current folder or the
+/// `--suite NAME`: a built-in suite, else `sweeps/NAME.toml` (from the current folder or the
 /// repository this binary was built from).
 fn load_suite(registry: &Registry, name: &str) -> Result<Sweep> {
     let file = format!("{name}.toml");
     let candidates = [
-        PathBuf::from("benches").join(&file),
+        PathBuf::from("sweeps").join(&file),
         PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../../benches")
+            .join("../../sweeps")
             .join(&file),
     ];
     if softshadow_bench::sweep::SUITES

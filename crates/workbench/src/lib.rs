@@ -7,7 +7,7 @@
 //! - `workbench bench --sweep FILE --out DIR`
 //! - `workbench bench --scene ID --technique ID --path NAME|FILE --frames N --out DIR`: along a
 //!   path (error per frame, flicker, lag)
-//! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `benches/NAME.toml`)
+//! - `workbench bench --suite NAME --out DIR` (`stiff`, or a sweep file `sweeps/NAME.toml`)
 //! - `workbench bench --sweep FILE --shard I/N --out DIR`: shard I (0-based) of N
 //! - `workbench bench --resume DIR`: finish an interrupted benchmark (its results.json keeps every
 //!   finished run)
@@ -183,7 +183,7 @@ struct BenchArgs {
     #[arg(long, conflicts_with = "suite")]
     sweep: Option<PathBuf>,
     /// A named suite: `stiff` (every technique on every stiff case, docs/STABILITY.md) or the
-    /// stem of a sweep file in `benches/` (e.g. `pcss`).
+    /// stem of a sweep file in `sweeps/` (e.g. `pcss`).
     #[arg(long)]
     suite: Option<String>,
     /// Skip the reference and the error metrics (timings only).

@@ -1,6 +1,6 @@
 //! docs/CLUSTER.md's sharded sweeps, run for real: a one-node Slurm (Debian's `slurm-wlm`, with
-//! its own `munged`) is started for the test in a temporary folder and `benches/overview-slurm.sh`
-//! is submitted as a three-task array over a small sweep; `benches/overview-parallel.sh` runs the
+//! its own `munged`) is started for the test in a temporary folder and `sweeps/overview-slurm.sh`
+//! is submitted as a three-task array over a small sweep; `sweeps/overview-parallel.sh` runs the
 //! same sweep as two shards with GNU parallel. The merged shards must give the same errors as the
 //! sweep run in one piece. The Kubernetes Indexed Job file is checked for what can be checked
 //! without a cluster. `.ci/run` installs `slurm-wlm`, `munge` and `parallel`.
@@ -245,7 +245,7 @@ fn the_slurm_array_of_cluster_md_gives_the_errors_of_the_whole_sweep() -> Result
     let sweep = work.path().join("sweep.toml");
     std::fs::write(&sweep, SWEEP)?;
     let sharded = work.path().join("sharded");
-    let script = repository().join("benches/overview-slurm.sh");
+    let script = repository().join("sweeps/overview-slurm.sh");
     let export = format!(
         "ALL,SWEEP={},OUT={},WORKBENCH={WORKBENCH}",
         sweep.display(),
@@ -279,17 +279,17 @@ fn the_gnu_parallel_shards_give_the_errors_of_the_whole_sweep() -> Result<()> {
     let sweep = work.path().join("sweep.toml");
     std::fs::write(&sweep, SWEEP)?;
     let sharded = work.path().join("sharded");
-    let out = Command::new(repository().join("benches/overview-parallel.sh"))
+    let out = Command::new(repository().join("sweeps/overview-parallel.sh"))
         .env("SWEEP", &sweep)
         .env("OUT", &sharded)
         .env("WORKBENCH", WORKBENCH)
         .env("SHARDS", "2")
         .env("JOBS", "2")
         .output()
-        .context("running benches/overview-parallel.sh")?;
+        .context("running sweeps/overview-parallel.sh")?;
     ensure!(
         out.status.success(),
-        "benches/overview-parallel.sh failed: {}",
+        "sweeps/overview-parallel.sh failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     merged_shards_equal_the_whole_sweep(work.path(), &sweep, &sharded, 2)
@@ -353,8 +353,8 @@ fn merged_shards_equal_the_whole_sweep(
 /// command as the Slurm array, one shard per completion index.
 #[test]
 fn the_kubernetes_job_is_an_indexed_job_over_every_shard() -> Result<()> {
-    let text = std::fs::read_to_string(repository().join("benches/overview-k8s.yaml"))?;
-    let job: Value = serde_yaml::from_str(&text).context("benches/overview-k8s.yaml is YAML")?;
+    let text = std::fs::read_to_string(repository().join("sweeps/overview-k8s.yaml"))?;
+    let job: Value = serde_yaml::from_str(&text).context("sweeps/overview-k8s.yaml is YAML")?;
     ensure!(
         job["apiVersion"] == "batch/v1" && job["kind"] == "Job",
         "{job}"
@@ -375,7 +375,7 @@ fn the_kubernetes_job_is_an_indexed_job_over_every_shard() -> Result<()> {
     );
     let command = container["args"][0].as_str().context("args")?;
     for part in [
-        "workbench bench --sweep benches/overview.toml",
+        "workbench bench --sweep sweeps/overview.toml",
         "--shard \"${JOB_COMPLETION_INDEX}/${SHARDS}\"",
         "shard-${JOB_COMPLETION_INDEX}",
     ] {

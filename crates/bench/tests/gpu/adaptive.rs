@@ -5,7 +5,7 @@
 
 use crate::common::{closed_form, gpu};
 use anyhow::{ensure, Context, Result};
-use softshadow_adaptive::{
+use softshadow::adaptive::{
     Adaptive, AdaptiveSettings, Evaluation, FrameReport, Start, ThresholdMode, Weighting,
 };
 use softshadow_core::{
@@ -166,9 +166,9 @@ fn small_penumbra_uses_fewer_maps_than_a_16x16_grid_at_comparable_error() -> Res
         .map(|(r, e)| *r && *e < 1.0)
         .collect();
     let grid_error = mean_difference(&grid_out.v, &exact, &shadowed);
-    let mut hard = softshadow_hard::Hard::new(
+    let mut hard = softshadow::hard::Hard::new(
         &gpu,
-        softshadow_hard::HardSettings {
+        softshadow::hard::HardSettings {
             shadow_map_size: 512,
             ..Default::default()
         },

@@ -4,7 +4,7 @@
 
 use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
-use softshadow_backprojection::{Backprojection, BackprojectionSettings, Primitive};
+use softshadow::backprojection::{Backprojection, BackprojectionSettings, Primitive};
 use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec};
 use softshadow_core::{gather::AdaptiveResolution, Gpu};
 use softshadow_core::{
@@ -292,7 +292,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
 
 #[test]
 fn bad_settings_are_rejected_with_the_range() -> Result<()> {
-    let info = softshadow_backprojection::info();
+    let info = softshadow::backprojection::info();
     for (text, expected) in [
         ("max_patches=3", "4 to 32"),
         ("max_patches=33", "4 to 32"),

@@ -5,8 +5,8 @@
 
 use crate::common::{exact_visibility, gpu, run_checked};
 use anyhow::{ensure, Context, Result};
+use softshadow::bitmask::{Bitmask, BitmaskSettings, Pattern};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
-use softshadow_bitmask::{Bitmask, BitmaskSettings, Pattern};
 use softshadow_core::{
     glam::Vec3, Gpu, HierarchyKind, ParamValue, Renderer, Scene, SceneGpu, ShadowTechnique,
     TechniqueStats,
@@ -165,9 +165,9 @@ fn bitmask_at_most_halves_backprojections_over_darkening_on_stiff_fusion_and_bal
     let gpu = gpu()?;
     for id in ["stiff-fusion", "balls-3x3x3"] {
         let scene = softshadow_scenes::load(id)?.scene;
-        let mut back = softshadow_backprojection::Backprojection::new(
+        let mut back = softshadow::backprojection::Backprojection::new(
             &gpu,
-            softshadow_backprojection::BackprojectionSettings {
+            softshadow::backprojection::BackprojectionSettings {
                 shadow_map_size: 256,
                 hierarchy: HierarchyKind::None,
                 ..Default::default()
@@ -513,7 +513,7 @@ fn extremes_stay_finite_and_bounded() -> Result<()> {
 
 #[test]
 fn bad_settings_are_rejected_with_the_range() -> Result<()> {
-    let info = softshadow_bitmask::info();
+    let info = softshadow::bitmask::info();
     for (text, expected) in [
         ("max_patches=3", "4 to 32"),
         ("layers=5", "1 to 4"),

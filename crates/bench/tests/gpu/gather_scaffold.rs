@@ -1,13 +1,14 @@
 //! Issue 30, item 5: `backprojection` and `bitmask` share one gather scaffold
-//! (`shaders/common/gather.wgsl`). The move must not change an image the old settings make: the
-//! checksums below are those of the visibility images before the move (Mesa 25.0.7's lavapipe,
-//! 64², 256² map), and every setting that existed before must still give them bit for bit.
+//! (`crates/core/shaders/common/gather.wgsl`). The move must not change an image the old settings
+//! make: the checksums below are those of the visibility images before the move (Mesa 25.0.7's
+//! lavapipe, 64², 256² map), and every setting that existed before must still give them bit for
+//! bit.
 //! Another driver compiles the shaders differently, so the comparison runs on that driver only.
 
 use crate::common::gpu;
 use anyhow::{ensure, Result};
-use softshadow_backprojection::{Backprojection, BackprojectionSettings};
-use softshadow_bitmask::{Bitmask, BitmaskSettings};
+use softshadow::backprojection::{Backprojection, BackprojectionSettings};
+use softshadow::bitmask::{Bitmask, BitmaskSettings};
 use softshadow_core::{Renderer, SceneGpu, ShadowTechnique};
 
 const SIZE: u32 = 64;

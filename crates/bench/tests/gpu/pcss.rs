@@ -7,6 +7,7 @@
 //! are in the comments and in docs/TECHNIQUES.md.
 
 use anyhow::{ensure, Context, Result};
+use softshadow::pcss::{Pcss, PcssSettings};
 use softshadow_bench::{
     motion::FrameRecord,
     parse_params,
@@ -14,7 +15,6 @@ use softshadow_bench::{
     Bench, BenchOptions, RunSpec,
 };
 use softshadow_core::{Renderer, SceneGpu, ShadowTechnique};
-use softshadow_pcss::{Pcss, PcssSettings};
 
 use crate::common::{all_lit_vs_exact, exact_bench, gpu, run_checked, vs_exact};
 
@@ -41,8 +41,8 @@ fn path_bench(path: &str, frames: u32) -> Result<Bench> {
 fn spec(bench: &Bench, params: &[String]) -> Result<RunSpec> {
     Ok(RunSpec {
         scene: SCENE.into(),
-        technique: softshadow_pcss::ID.into(),
-        params: parse_params(bench.registry(), softshadow_pcss::ID, params)?,
+        technique: softshadow::pcss::ID.into(),
+        params: parse_params(bench.registry(), softshadow::pcss::ID, params)?,
         width: SIZE,
         height: SIZE,
         path: None,
@@ -156,7 +156,7 @@ fn temporal_off_is_plain_pcss_bit_for_bit_and_its_first_frame_too() -> Result<()
 /// flicker is not zero (its descriptor says so at `temporal=true`, not at the defaults).
 #[test]
 fn temporal_pcss_settles_below_plain_pcss_on_a_still_path() -> Result<()> {
-    let info = softshadow::registry().find(softshadow_pcss::ID)?.clone();
+    let info = softshadow::registry().find(softshadow::pcss::ID)?.clone();
     ensure!(info.varies_per_frame_at(&[]).is_none());
     let on = [(
         "temporal".to_string(),

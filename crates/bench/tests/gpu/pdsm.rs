@@ -9,11 +9,11 @@ use std::sync::atomic::Ordering;
 
 use crate::common::{exact_visibility, gpu};
 use anyhow::{ensure, Context, Result};
+use softshadow::pdsm::{Pdsm, PdsmSettings};
 use softshadow_core::{
     glam::{Mat4, Vec3},
     Gpu, Instance, RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
 };
-use softshadow_pdsm::{Pdsm, PdsmSettings};
 use softshadow_scenes::primitives;
 
 const SIZE: u32 = 64;
@@ -146,7 +146,7 @@ fn error_falls_as_samples_grow() -> Result<()> {
 }
 
 /// Evaluates texel `i` of a PDSM.
-fn texel(data: &softshadow_pdsm::PdsmData, i: usize) -> &[[f32; 2]] {
+fn texel(data: &softshadow::pdsm::PdsmData, i: usize) -> &[[f32; 2]] {
     &data.vertices[data.offsets[i] as usize..data.offsets[i + 1] as usize]
 }
 
@@ -184,7 +184,7 @@ fn compression_stays_within_compression_error_at_every_event_depth() -> Result<(
     let mut depths_checked = 0;
     for i in 0..(raw.size * raw.size) as usize {
         let (r, c) = (texel(raw, i), texel(compressed, i));
-        worst = worst.max(softshadow_pdsm::function::max_deviation(r, c));
+        worst = worst.max(softshadow::pdsm::function::max_deviation(r, c));
         depths_checked += r.len();
     }
     let (before, after) = (raw.vertices.len(), compressed.vertices.len());
@@ -655,10 +655,10 @@ fn a_benchmark_run_reports_the_cold_build_beside_the_cached_frames() -> Result<(
     )?;
     let spec = RunSpec {
         scene: "pdsm-quads".into(),
-        technique: softshadow_pdsm::ID.into(),
+        technique: softshadow::pdsm::ID.into(),
         params: softshadow_bench::parse_params(
             bench.registry(),
-            softshadow_pdsm::ID,
+            softshadow::pdsm::ID,
             &[
                 "pdsm_size=68".into(),
                 "samples=4".into(),

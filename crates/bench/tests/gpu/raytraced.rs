@@ -6,11 +6,11 @@
 //! docs/TECHNIQUES.md ("raytraced").
 
 use anyhow::{ensure, Context, Result};
+use softshadow::raytraced::{Raytraced, RaytracedSettings};
 use softshadow_core::{
     accel::RAY_QUERY, glam::Vec3, Gpu, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
 };
 use softshadow_metrics::compare;
-use softshadow_raytraced::{Raytraced, RaytracedSettings};
 
 use crate::common::gpu;
 
@@ -36,7 +36,7 @@ impl Case {
         let scene_gpu = SceneGpu::upload(gpu, &scene);
         let mut renderer = Renderer::new(gpu, SIZE, SIZE)?;
         // One frame of `hard` fills the G-buffer the exact answer is computed at.
-        let mut hard = softshadow_hard::Hard::new(gpu, Default::default())?;
+        let mut hard = softshadow::hard::Hard::new(gpu, Default::default())?;
         renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut hard, None)?;
         let positions = renderer.read_world_positions()?;
         let mask = renderer.read_receiver_mask()?;
@@ -243,7 +243,7 @@ fn a_moved_dynamic_instance_moves_its_ray_traced_shadow() -> Result<()> {
 fn without_ray_queries_the_technique_says_what_to_install() -> Result<()> {
     let gpu = Gpu::new_headless_without(RAY_QUERY)?;
     ensure!(!gpu.has_ray_query(), "the device has ray queries");
-    let info = softshadow_raytraced::info();
+    let info = softshadow::raytraced::info();
     let why = info
         .unavailable_on(gpu.features())
         .context("listed as available without ray queries")?;
@@ -309,11 +309,11 @@ fn measure_the_expectation_values() -> Result<()> {
     let mut specs: Vec<RunSpec> = suite
         .runs
         .iter()
-        .filter(|s| s.technique == softshadow_raytraced::ID || s.technique == "hard")
+        .filter(|s| s.technique == softshadow::raytraced::ID || s.technique == "hard")
         .cloned()
         .collect();
     for scene in ["atty-square", "blob-floating:triangles=20000"] {
-        for technique in [softshadow_raytraced::ID, "hard"] {
+        for technique in [softshadow::raytraced::ID, "hard"] {
             specs.push(RunSpec {
                 scene: scene.into(),
                 technique: technique.into(),
@@ -365,7 +365,7 @@ fn measure_speed() -> Result<()> {
         times.sort_by(f64::total_cmp);
         // Rays: 64² ground points under the blob, 16 x 16 samples each (1 M rays).
         let mut renderer = Renderer::new(&gpu, 64, 64)?;
-        let mut hard = softshadow_hard::Hard::new(&gpu, Default::default())?;
+        let mut hard = softshadow::hard::Hard::new(&gpu, Default::default())?;
         renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut hard, None)?;
         let positions = renderer.read_world_positions()?;
         let mask = renderer.read_receiver_mask()?;

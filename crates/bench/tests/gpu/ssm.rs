@@ -6,11 +6,11 @@
 
 use crate::common::{closed_form, gpu, mae_shadowed, run_checked};
 use anyhow::{ensure, Context, Result};
+use softshadow::ssm::{Precision, Ssm, SsmSettings};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
 use softshadow_core::{Gpu, ParamValue, Renderer, SceneGpu, ShadowTechnique, TechniqueStats};
 use softshadow_metrics::ErrorReport;
 use softshadow_scenes::AttySquare;
-use softshadow_ssm::{Precision, Ssm, SsmSettings};
 
 /// Renders `atty-square` (with `params`) with `settings` at `size`² and compares it with the
 /// closed form (`reference::exact`) over the receiver pixels.
@@ -250,7 +250,7 @@ fn a_point_light_gives_the_hard_shadow() -> Result<()> {
 
 #[test]
 fn parameters_are_checked_and_listed() -> Result<()> {
-    let specs = softshadow_ssm::SsmSettings::param_specs();
+    let specs = softshadow::ssm::SsmSettings::param_specs();
     let names: Vec<&str> = specs.iter().map(|s| s.name.as_ref()).collect();
     for name in ["occluder_map_size", "two_pass", "precision"] {
         ensure!(names.contains(&name), "{names:?}");
@@ -288,22 +288,22 @@ fn wgsl_function<'a>(source: &'a str, name: &str) -> Result<&'a str> {
     Ok(&source[start..start + end + 2])
 }
 
-/// The scatter shader's maths is the CPU's (`softshadow_ssm::math`): its `occluded_fraction`,
-/// `axis_coverage` and `penumbra_slopes`, cut out of `shaders/ssm/scatter.wgsl` as they are and run
-/// in a compute shader over a grid of patches, receivers and lights (point and line lights,
-/// contact, patches behind the receiver), equal the CPU functions the unit tests in
-/// `crates/ssm/src/math.rs` pin down, to float rounding; and the shader's `CONTACT_EPSILON` is the
-/// CPU's.
+/// The scatter shader's maths is the CPU's (`softshadow::ssm::math`): its `occluded_fraction`,
+/// `axis_coverage` and `penumbra_slopes`, cut out of `crates/ssm/shaders/ssm/scatter.wgsl` as
+/// they are and run in a compute shader over a grid of patches, receivers and lights (point and
+/// line lights, contact, patches behind the receiver), equal the CPU functions the unit tests in
+/// `crates/ssm/src/math.rs` pin down, to float rounding; and the shader's `CONTACT_EPSILON` is
+/// the CPU's.
 #[test]
 fn the_scatter_shader_functions_equal_their_cpu_mirrors() -> Result<()> {
+    use softshadow::ssm::math::{occluded_fraction, penumbra_slopes, SlopeRect, CONTACT_EPSILON};
     use softshadow_core::{
         glam::{Vec2, Vec4},
         readback::read_r32f,
         wgpu::{self, util::DeviceExt},
     };
-    use softshadow_ssm::math::{occluded_fraction, penumbra_slopes, SlopeRect, CONTACT_EPSILON};
 
-    let source = softshadow_ssm::SHADERS
+    let source = softshadow::ssm::SHADERS
         .iter()
         .find(|s| s.path == "ssm/scatter.wgsl")
         .context("ssm/scatter.wgsl is declared")?

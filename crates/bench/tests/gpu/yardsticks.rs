@@ -39,7 +39,7 @@ impl View {
         let scene = softshadow_scenes::load(spec)?.scene;
         let scene_gpu = SceneGpu::upload(gpu, &scene);
         let mut renderer = Renderer::new(gpu, size, size)?;
-        let mut hard = softshadow_hard::Hard::new(gpu, Default::default())?;
+        let mut hard = softshadow::hard::Hard::new(gpu, Default::default())?;
         renderer.render(&scene_gpu, &scene.camera, &scene.light, &mut hard, None)?;
         let positions = renderer.read_world_positions()?;
         let mask = renderer.read_receiver_mask()?;

@@ -2,10 +2,10 @@
 # What isolating every run costs, and what each fault costs a sweep (docs/STABILITY.md, "Long
 # runs"). Run from the repository root after
 #   cargo build --release -p workbench
-# 1. benches/shards.toml (9 runs at 128², references that dominate) in one process
+# 1. sweeps/shards.toml (9 runs at 128², references that dominate) in one process
 #    (--no-isolate) and isolated (the default), three times each, alternating: the medians and
 #    the cost per run of a process and a device of its own.
-# 2. benches/faults.toml (6 runs at 64²) clean, then with each fault of SOFTSHADOW_FAULT
+# 2. sweeps/faults.toml (6 runs at 64²) clean, then with each fault of SOFTSHADOW_FAULT
 #    injected into run 2, isolated (--run-timeout 30) and, for the faults one process survives,
 #    in one process: the sweep's wall time, how run 2 ended, its process's wall time, and the
 #    other runs that did not end `ok` (runs lost; the goal is none).
@@ -33,8 +33,8 @@ median() { sort -n | sed -n 2p; }
 echo "$(nproc) CPUs, load average $(cut -d' ' -f1-3 /proc/loadavg) at the start"
 one=() iso=()
 for _ in 1 2 3; do
-    one+=("$(timed benches/shards.toml "" --no-isolate | cut -d' ' -f1)")
-    iso+=("$(timed benches/shards.toml "" | cut -d' ' -f1)")
+    one+=("$(timed sweeps/shards.toml "" --no-isolate | cut -d' ' -f1)")
+    iso+=("$(timed sweeps/shards.toml "" | cut -d' ' -f1)")
 done
 a=$(printf '%s\n' "${one[@]}" | median)
 b=$(printf '%s\n' "${iso[@]}" | median)
@@ -45,7 +45,7 @@ echo "|---|---|---|---|---|---|"
 row() { # LABEL FAULT ARGS...
     local label=$1 fault=$2
     shift 2
-    read -r wall status process lost <<<"$(timed benches/faults.toml "$fault" "$@")"
+    read -r wall status process lost <<<"$(timed sweeps/faults.toml "$fault" "$@")"
     echo "| $label | ${fault:-none} | $wall | $status | $process | $lost |"
 }
 row isolated "" --run-timeout 30

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Opens a report in headless Chromium (Debian package `chromium`) and saves a screenshot:
-#   benches/report-screenshot.sh docs/report.html docs/images/report.png
+#   sweeps/report-screenshot.sh docs/report.html docs/images/report.png
 # Fails when the browser is missing, exits non-zero or writes no image.
 set -eu
 report=${1:?usage: report-screenshot.sh REPORT.html OUT.png}

@@ -1,14 +1,14 @@
 #!/bin/bash
 # The overview sweep as shards run side by side on one machine with GNU parallel
 # (docs/CLUSTER.md):
-#   benches/overview-parallel.sh
+#   sweeps/overview-parallel.sh
 # then:
 #   ./target/release/workbench report results/overview/shard-* --out report.html
 # Another sweep, folder, binary, shard count or number of jobs at once:
-#   SWEEP=benches/pcss.toml OUT=results/pcss SHARDS=3 JOBS=3 benches/overview-parallel.sh
+#   SWEEP=sweeps/pcss.toml OUT=results/pcss SHARDS=3 JOBS=3 sweeps/overview-parallel.sh
 # (the test `crates/workbench/tests/slurm.rs` runs this file over a small sweep).
 set -euo pipefail
-SWEEP="${SWEEP:-benches/overview.toml}"
+SWEEP="${SWEEP:-sweeps/overview.toml}"
 OUT="${OUT:-results/overview}"
 WORKBENCH="${WORKBENCH:-./target/release/workbench}"
 SHARDS="${SHARDS:-4}"

@@ -1,12 +1,12 @@
 #!/bin/bash
-# Wall time of benches/shards.toml run whole and as 2 and 3 shards at once (GNU parallel), each
+# Wall time of sweeps/shards.toml run whole and as 2 and 3 shards at once (GNU parallel), each
 # without and with a shared reference cache (empty at the start, so the shards fill it), and a
 # whole run with the cache already full (docs/CLUSTER.md, "What sharding and the cache save").
 # Run it on an otherwise idle machine, from the repository root, after
 #   cargo build --release -p workbench
 set -euo pipefail
 WORKBENCH="${WORKBENCH:-./target/release/workbench}"
-SWEEP="${SWEEP:-benches/shards.toml}"
+SWEEP="${SWEEP:-sweeps/shards.toml}"
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 runs=0
