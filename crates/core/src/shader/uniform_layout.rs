@@ -40,7 +40,7 @@ pub struct StructLayout {
     pub name: String,
     /// Size in bytes, trailing padding included.
     pub size: u32,
-    /// Every field, in declaration order (padding is no field: it lies between them).
+    /// Every field (padding is none: it lies between them).
     pub fields: Vec<FieldLayout>,
 }
 
