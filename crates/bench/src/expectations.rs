@@ -70,15 +70,15 @@ pub fn check(
         bound, measured, ..
     } = expect
     {
-        let measured = match stated.by_rule {
-            Some(_) => measured.min(value),
-            None => measured,
+        let (measured, fix) = match stated.by_rule {
+            Some(_) => (measured.min(value), "name the case with a bound of its own"),
+            None => (measured, "tighten it"),
         };
         for baseline in baselines {
             let b = metric_value(metric, &baseline.report);
             if b > CLEARLY_WORSE * measured && b > 1e-3 && b <= bound {
                 problems.push(format!(
-                    "{label}: the bound {} <= {bound}{by_rule} accepts the {} answer ({b:.4}): tighten it",
+                    "{label}: the bound {} <= {bound}{by_rule} accepts the {} answer ({b:.4}): {fix}",
                     metric.name(),
                     baseline.name
                 ));
@@ -197,8 +197,8 @@ impl std::fmt::Display for Unpromised {
         write!(
             f,
             "{technique} promises nothing for {case} (class {class}): add a rule for {class} \
-             cases or an override for {case} to its `expectations()` (crates/{technique}/src/info.rs \
-             for a built-in)"
+             cases, or name {case}, in its `expectations()` (crates/{technique}/src/info.rs for a \
+             built-in)"
         )
     }
 }
@@ -273,7 +273,8 @@ mod tests {
         assert_eq!(problems.len(), 1, "{problems:?}");
         assert!(
             problems[0].contains("the rule for light-plane cases")
-                && problems[0].contains("accepts the all-lit (V = 1) answer"),
+                && problems[0].contains("accepts the all-lit (V = 1) answer")
+                && problems[0].contains("name the case"),
             "{problems:?}"
         );
         // A run as bad as the rule's measurement is held as the named case is.
