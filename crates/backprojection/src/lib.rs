@@ -15,7 +15,7 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    gather::{AdaptivePass, AdaptiveResolution, AdaptiveTargets, GatherCounters},
+    gather::{AdaptivePass, AdaptiveTargets, GatherCounters, GatherSettings},
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
     pass::{ComputePass, Pass, Slot},
@@ -45,52 +45,19 @@ pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
 /// "Lavapipe's loop budget"; `FULL_SEARCH_PATCHES` in `gather.wgsl`, the same number).
 pub const FULL_SEARCH_PATCHES: u32 = 240;
 
-softshadow_core::param_choice! {
-    /// How a shadow-map texel becomes an occluder.
-    pub enum Primitive {
-        /// Each texel is a rectangle parallel to the light at its depth (Guennebaud et al. 2006).
-        Micropatch = "micropatch",
-        /// Unprojected texel centres are the vertices of quads; a quad occludes when all four
-        /// vertices do (bitmask paper section 4).
-        Microquad = "microquad",
-    }
-}
+/// How a shadow-map texel becomes an occluder (shared with `bitmask`).
+pub use softshadow_core::gather::Primitive;
 
 softshadow_core::technique_settings! {
     /// Settings of gather backprojection. Defaults: the MSSM, 16 x 16 micro-patches at most, gap
     /// filling on (the paper's Table 3 uses 12-20 per axis), three depth bands and edge blocks
     /// split two levels down (issue 30; `depth_bands = 1`, `edge_refine = 0` is the 2006 gather).
     pub struct BackprojectionSettings {
-        /// Shadow-map edge in texels (the hierarchies pad it to a power of two)
-        shadow_map_size: u32 = 1024, in 64..=4096;
-        /// Depth hierarchy for search-area refinement: none (full search), hsm (min/max mip
-        /// pyramid), mssm (multi-scale shadow map)
-        hierarchy: HierarchyKind = HierarchyKind::Mssm;
-        /// Most micro-primitives per axis per pixel; larger search areas use coarser blocks
-        max_patches: u32 = 16, in 4..=32;
-        /// Texel interpretation: micropatch (rectangle parallel to the light) or microquad
-        /// (texel centres as quad vertices)
-        primitive: Primitive = Primitive::Micropatch;
-        /// Extend micro-patches to their occluding left and bottom neighbours
-        gap_filling: bool = true;
+        ..gather: GatherSettings;
         /// Occluded area: sum (every micro-primitive backprojected and summed) or contour (only
         /// the edges between occluding and free blocks, integrated; ignores primitive and
         /// gap_filling)
         visibility: Visibility = Visibility::Sum;
-        /// Depth bands gathered each at its own level, the level following the penumbra of
-        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
-        depth_bands: u32 = 3, in 1..=8;
-        /// Levels a partly occluding block (its maximum depth does not occlude: it holds an
-        /// occluder's edge) is split down into sub-blocks (0: none; sum visibility only)
-        edge_refine: u32 = 2, in 0..=3;
-        /// View-dependent adaptive screen resolution: off, or pixels with a wide penumbra
-        /// interpolated (edge-aware) from a gather at half or quarter resolution
-        adaptive_resolution: AdaptiveResolution = AdaptiveResolution::Off;
-        /// Penumbra width in screen pixels from which adaptive resolution interpolates a pixel
-        adaptive_pixels: f32 = 8.0, in 1.0..=256.0;
-        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
-        /// block size)
-        bias_texels: f32 = 1.5, in 0.0..=16.0;
     }
 }
 
@@ -255,34 +222,19 @@ fn gather_pass(gpu: &Gpu, entry: &str) -> Result<ComputePass, TechniqueError> {
 
 /// The gather's uniform for `levels` hierarchy levels.
 fn gather_uniform(s: &BackprojectionSettings, levels: u32) -> GatherUniform {
+    let g = &s.gather;
     GatherUniform {
-        hierarchy: s.hierarchy.shader_value(),
-        primitive: match s.primitive {
-            Primitive::Micropatch => 0,
-            Primitive::Microquad => 1,
-        },
-        gap_filling: u32::from(s.gap_filling),
-        max_patches: s.max_patches.clamp(4, 32),
-        bias_texels: s.bias_texels.max(0.0),
+        hierarchy: g.hierarchy.shader_value(),
+        primitive: g.primitive.shader_value(),
+        gap_filling: u32::from(g.gap_filling),
+        max_patches: g.max_patches.clamp(4, 32),
+        bias_texels: g.bias_texels.max(0.0),
         max_level: levels as i32,
         visibility: s.visibility.shader_value(),
-        depth_bands: s.depth_bands.clamp(1, 8),
-        edge_refine: s.edge_refine.min(3),
-        adaptive_factor: adaptive_factor(s),
-        adaptive_pixels: if s.adaptive_pixels.is_finite() {
-            s.adaptive_pixels.max(0.0)
-        } else {
-            8.0
-        },
-    }
-}
-
-/// The adaptive resolution's factor (1: off). Not with the full search: it stays the yardstick,
-/// and its unrefined area says nothing about the penumbra.
-fn adaptive_factor(s: &BackprojectionSettings) -> u32 {
-    match s.hierarchy {
-        HierarchyKind::None => 1,
-        _ => s.adaptive_resolution.factor(),
+        depth_bands: g.depth_bands.clamp(1, 8),
+        edge_refine: g.edge_refine.min(3),
+        adaptive_factor: g.adaptive_factor(),
+        adaptive_pixels: g.adaptive_pixels_value(),
     }
 }
 
@@ -297,7 +249,7 @@ impl Backprojection {
         frustum: &softshadow_core::SlopeFrustum,
         map_size: u32,
     ) -> (u32, f32) {
-        let s = &self.settings;
+        let s = &self.settings.gather;
         let extent = frustum.s_max - frustum.s_min;
         let half = inputs.light.half_extent();
         let search = max_search_texels(half, frustum.near, extent, map_size);
@@ -380,8 +332,8 @@ impl ShadowTechnique for Backprojection {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         // The settings are range-checked by set_param; a library user may set any value.
-        let map_size =
-            (self.settings.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d);
+        let map_size = (self.settings.gather.shadow_map_size)
+            .clamp(1, gpu.device.limits().max_texture_dimension_2d);
         self.gathered = false;
         let label = "backprojection/shadow_map";
         let Some(frustum) = self.shadow_map.render(frame, inputs, map_size, label) else {
@@ -394,7 +346,7 @@ impl ShadowTechnique for Backprojection {
         gpu.queue
             .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         self.counters.clear(gpu);
-        let factor = adaptive_factor(&self.settings);
+        let factor = self.settings.gather.adaptive_factor();
         let coarse_size = (self.adaptive).prepare(gpu, inputs.width, inputs.height, factor);
         if coarse_size.is_some() && self.coarse.is_none() {
             self.coarse = Some(gather_pass(gpu, "gather_coarse")?);

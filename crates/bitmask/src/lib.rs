@@ -18,7 +18,7 @@
 
 use encase::ShaderType;
 use softshadow_core::{
-    gather::{AdaptivePass, AdaptiveResolution, AdaptiveTargets, GatherCounters},
+    gather::{AdaptivePass, AdaptiveTargets, GatherCounters, GatherSettings},
     gbuffer::create_texture,
     hierarchy::{
         full_search_patches, max_search_texels, needed_levels, DepthHierarchy, HierarchyKind,
@@ -67,16 +67,8 @@ pub const SHADERS: &[ShaderSpec] = &[
     },
 ];
 
-softshadow_core::param_choice! {
-    /// How a shadow-map texel becomes an occluder.
-    pub enum Primitive {
-        /// Each texel is a rectangle parallel to the light at its depth (Guennebaud et al. 2006).
-        Micropatch = "micropatch",
-        /// Unprojected texel centres are the vertices of quads, each approximated by the
-        /// axis-aligned rectangle through its edge centres (paper section 4).
-        Microquad = "microquad",
-    }
-}
+/// How a shadow-map texel becomes an occluder (shared with `backprojection`).
+pub use softshadow_core::gather::Primitive;
 
 softshadow_core::param_choice! {
     /// Light samples tracked by the occlusion bitmask (paper section 3, Fig. 3).
@@ -137,40 +129,14 @@ softshadow_core::technique_settings! {
     /// Settings of bitmask soft shadows. Defaults: the MSSM, 16 x 16 micro-patches at most, the
     /// jittered 16 x 16 pattern (the paper's best trade-off, section 7), one layer, no filter.
     pub struct BitmaskSettings {
-        /// Shadow-map edge in texels, every layer (the hierarchies pad it to a power of two)
-        shadow_map_size: u32 = 1024, in 64..=4096;
-        /// Depth hierarchy for search-area refinement: none (full search), hsm (min/max mip
-        /// pyramid), mssm (multi-scale shadow map)
-        hierarchy: HierarchyKind = HierarchyKind::Mssm;
-        /// Most micro-primitives per axis per pixel and layer; larger search areas use coarser
-        /// blocks
-        max_patches: u32 = 16, in 4..=32;
-        /// Texel interpretation: micropatch (rectangle parallel to the light) or microquad
-        /// (texel centres as quad vertices, rectangle through the edge centres)
-        primitive: Primitive = Primitive::Micropatch;
+        ..gather: GatherSettings;
         /// Light samples of the occlusion bitmask: 8x8, 16x16, 16x16-jittered (rotated grid) or
         /// 32x32
         pattern: Pattern = Pattern::Jittered16;
-        /// Extend micro-patches to their occluding left and bottom neighbours
-        gap_filling: bool = true;
         /// Depth layers peeled from the light centre, all OR-ed into the one bitmask
         layers: u32 = 1, in 1..=4;
         /// Post-filter passes driven by the area estimate (0 = off; the paper uses 5)
         filter_passes: u32 = 0, in 0..=8;
-        /// Levels a partly occluding micro-patch block (it holds an occluder's edge) is split
-        /// down into sub-blocks (0: none; micro-patches with a hierarchy only)
-        edge_refine: u32 = 2, in 0..=3;
-        /// Depth bands gathered each at its own level, the level following the penumbra of
-        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
-        depth_bands: u32 = 3, in 1..=8;
-        /// View-dependent adaptive screen resolution: off, or pixels with a wide penumbra
-        /// interpolated (edge-aware) from a gather at half or quarter resolution
-        adaptive_resolution: AdaptiveResolution = AdaptiveResolution::Off;
-        /// Penumbra width in screen pixels from which adaptive resolution interpolates a pixel
-        adaptive_pixels: f32 = 8.0, in 1.0..=256.0;
-        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
-        /// block size)
-        bias_texels: f32 = 1.5, in 0.0..=16.0;
     }
 }
 
@@ -479,28 +445,25 @@ impl Plan {
         // A bitmask block costs two iterations of the loop budget, so a layer counts as two
         // passes (docs/DEVICES.md, "Lavapipe's loop budget").
         let full_search = full_search_patches(2 * layers);
+        let g = &s.gather;
         Self {
             layers,
             full_search,
-            max_patches: match s.hierarchy {
+            max_patches: match g.hierarchy {
                 HierarchyKind::None => full_search,
-                _ => s.max_patches.clamp(4, 32),
+                _ => g.max_patches.clamp(4, 32),
             },
             filter_passes: s.filter_passes.min(8),
-            map_size: (s.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d),
+            map_size: (g.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d),
             pattern: s.pattern.layout(),
-            // Not with the full search: it stays the yardstick, and its unrefined area says
-            // nothing about the penumbra.
-            adaptive: match s.hierarchy {
-                HierarchyKind::None => 1,
-                _ => s.adaptive_resolution.factor(),
-            },
+            adaptive: g.adaptive_factor(),
         }
     }
 }
 
 /// The gather's uniform for a frame of `plan` over `layers` built layers of `levels` levels.
 fn gather_uniform(s: &BitmaskSettings, plan: &Plan, levels: u32, layers: usize) -> GatherUniform {
+    let s = &s.gather;
     let finite_or = |value: f32, default: f32| {
         if value.is_finite() {
             value.max(0.0)
@@ -510,10 +473,7 @@ fn gather_uniform(s: &BitmaskSettings, plan: &Plan, levels: u32, layers: usize) 
     };
     GatherUniform {
         hierarchy: s.hierarchy.shader_value(),
-        primitive: match s.primitive {
-            Primitive::Micropatch => 0,
-            Primitive::Microquad => 1,
-        },
+        primitive: s.primitive.shader_value(),
         gap_filling: u32::from(s.gap_filling),
         max_patches: plan.max_patches,
         bias_texels: finite_or(s.bias_texels, 1.5),
@@ -526,7 +486,7 @@ fn gather_uniform(s: &BitmaskSettings, plan: &Plan, levels: u32, layers: usize) 
         edge_refine: s.edge_refine.min(3),
         depth_bands: s.depth_bands.clamp(1, 8),
         adaptive_factor: plan.adaptive,
-        adaptive_pixels: finite_or(s.adaptive_pixels, 8.0),
+        adaptive_pixels: s.adaptive_pixels_value(),
     }
 }
 
@@ -540,7 +500,7 @@ impl Bitmask {
         inputs: &ShadowInputs<'_>,
         plan: &Plan,
     ) -> Option<(LightSpaceKey, f32)> {
-        let s = &self.settings;
+        let s = &self.settings.gather;
         let map_size = plan.map_size;
         let frustum = (self.shadow_map).render(frame, inputs, map_size, "bitmask/shadow_map")?;
         // Only the levels this light and map can need (core::hierarchy::needed_levels).

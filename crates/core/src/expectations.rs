@@ -1,8 +1,10 @@
-//! What a technique promises about its own error: per named case (a `stiff-*` case or a paper
-//! scene) a bound on an error measure against the exact answer, with the value measured when the
-//! bound was set. The technique's crate states them ([`crate::TechniqueInfo::expectations`]); the
-//! workspace's tests and `workbench bench --suite stiff` check every registered technique against
-//! its own.
+//! What a technique promises about its own error: per case (a `stiff-*` case or a paper scene) a
+//! bound on an error measure against the exact answer, with the value measured when the bound
+//! was set. The technique's crate states them ([`crate::TechniqueInfo::expectations`]): a rule
+//! per [`StiffClass`] (the bound every stiff case of that class gets) and named cases (the paper
+//! scenes, and the stiff cases whose bound differs from their class's rule). The workspace's
+//! tests and `workbench bench --suite stiff` check every registered technique against its own;
+//! a stiff case that neither a rule nor a named case covers fails the suite, naming both.
 //!
 //! Every bound holds under [`EXPECTATION_SETTINGS`]: the technique's default settings at
 //! [`EXPECTATION_SIZE`]² pixels, against the exact answer (closed form where every caster is a
@@ -11,7 +13,9 @@
 //! least measurement + 0.001), lowered to halfway to the nearest wrong answer (all-lit, or `hard`
 //! for a soft technique) where that answer is within reach; every wrong answer more than 1.1x the
 //! measurement must fail the bound (the benchmark checks it); a technique that is not 1.5x better
-//! than drawing no shadow at all, or no better than `hard`, states a known failure instead.
+//! than drawing no shadow at all, or no better than `hard`, states a known failure instead. A
+//! class's rule is the loosest bound the technique states on a case of that class, with its
+//! measurement (the case it was measured on is named beside it).
 
 use std::borrow::Cow;
 
@@ -42,6 +46,60 @@ impl ErrorMetric {
         match self {
             ErrorMetric::MaeShadowed => "mae_shadowed",
             ErrorMetric::MaxAbs => "max_abs",
+        }
+    }
+}
+
+/// What a stiff case stresses (`crates/scenes/src/stiff.rs` gives every case one). A technique
+/// states one rule per class, so that a new case of a known class needs no edit in any
+/// technique's crate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StiffClass {
+    /// Nothing casts a shadow: V = 1 everywhere (stated in `max_abs`).
+    Unshadowed,
+    /// A light shrunk to (nearly) a point: the answer is the hard shadow.
+    PointLight,
+    /// An occluder at, or a hair from, the receiver or the light, or casters whose depths span
+    /// orders of magnitude: the distances a penumbra estimate divides by go to zero, or the
+    /// precision runs out.
+    VanishingDistance,
+    /// A light far wider than its occluders, very elongated, or at a grazing angle to the
+    /// receiver: penumbrae much larger or more stretched than the paper scenes'.
+    LightShape,
+    /// Occluders at different depths overlapping: the answer is their union (fusion), which
+    /// filtered depths get wrong (light leaks).
+    OccluderOverlap,
+    /// Geometry on both sides of the one-sided light's plane: receivers behind it hold V = 0,
+    /// an occluder crossing it lies partly outside every light frustum.
+    LightPlane,
+    /// Occluders of zero thickness or thinner than a shadow map's bias, or input with broken
+    /// triangles that loading repairs.
+    ThinGeometry,
+}
+
+impl StiffClass {
+    /// Every class.
+    pub const ALL: [StiffClass; 7] = [
+        StiffClass::Unshadowed,
+        StiffClass::PointLight,
+        StiffClass::VanishingDistance,
+        StiffClass::LightShape,
+        StiffClass::OccluderOverlap,
+        StiffClass::LightPlane,
+        StiffClass::ThinGeometry,
+    ];
+
+    /// The name used in messages (`vanishing-distance`).
+    pub fn name(self) -> &'static str {
+        match self {
+            StiffClass::Unshadowed => "unshadowed",
+            StiffClass::PointLight => "point-light",
+            StiffClass::VanishingDistance => "vanishing-distance",
+            StiffClass::LightShape => "light-shape",
+            StiffClass::OccluderOverlap => "occluder-overlap",
+            StiffClass::LightPlane => "light-plane",
+            StiffClass::ThinGeometry => "thin-geometry",
         }
     }
 }
@@ -138,26 +196,46 @@ impl Expect {
     }
 }
 
-/// A technique's expectations, one per case (a scene spec as `workbench bench --scene` takes it:
-/// `stiff-contact`, `blob-floating:triangles=20000`).
+/// What a technique states for a case, and whether its class's rule said it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stated {
+    /// The expectation.
+    pub expect: Expect,
+    /// The class whose rule gave it; `None`: the case is named in the technique's table.
+    pub by_rule: Option<StiffClass>,
+}
+
+/// A technique's expectations: named cases (a scene spec as `workbench bench --scene` takes it:
+/// `stiff-contact`, `blob-floating:triangles=20000`) and one rule per stiff class, which every
+/// stiff case of the class not named gets.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Expectations {
     /// `(case, expectation)` in the order stated.
     pub cases: Vec<(Cow<'static, str>, Expect)>,
+    /// `(class, expectation)` in the order stated: bounds ([`Expect::AtMost`]); a known failure
+    /// belongs to a named case.
+    pub rules: Vec<(StiffClass, Expect)>,
 }
 
 impl Expectations {
-    /// From a table written in the technique's crate.
+    /// From a table of named cases written in the technique's crate.
     pub fn new(cases: &[(&'static str, Expect)]) -> Self {
         Self {
             cases: cases
                 .iter()
                 .map(|(case, expect)| (Cow::Borrowed(*case), *expect))
                 .collect(),
+            rules: Vec::new(),
         }
     }
 
-    /// The expectation stated for `case`, if any.
+    /// With these rules, one per stiff class.
+    pub fn with_rules(mut self, rules: &[(StiffClass, Expect)]) -> Self {
+        self.rules = rules.to_vec();
+        self
+    }
+
+    /// The expectation stated for the named case `case`, if any (rules aside).
     pub fn get(&self, case: &str) -> Option<Expect> {
         self.cases
             .iter()
@@ -165,7 +243,31 @@ impl Expectations {
             .map(|(_, expect)| *expect)
     }
 
-    /// The cases, in the order stated.
+    /// The rule stated for `class`, if any.
+    pub fn rule(&self, class: StiffClass) -> Option<Expect> {
+        self.rules
+            .iter()
+            .find(|(c, _)| *c == class)
+            .map(|(_, expect)| *expect)
+    }
+
+    /// What is stated for `case` of class `class` (`None` for a scene that is no stiff case):
+    /// the case by name, else its class's rule.
+    pub fn resolve(&self, case: &str, class: Option<StiffClass>) -> Option<Stated> {
+        if let Some(expect) = self.get(case) {
+            return Some(Stated {
+                expect,
+                by_rule: None,
+            });
+        }
+        let class = class?;
+        self.rule(class).map(|expect| Stated {
+            expect,
+            by_rule: Some(class),
+        })
+    }
+
+    /// The named cases, in the order stated.
     pub fn case_names(&self) -> impl Iterator<Item = &str> {
         self.cases.iter().map(|(c, _)| c.as_ref())
     }
@@ -191,5 +293,35 @@ mod tests {
             table.case_names().collect::<Vec<_>>(),
             ["stiff-contact", "atty-square"]
         );
+    }
+
+    #[test]
+    fn a_named_case_comes_before_its_class_rule_and_a_class_without_one_has_nothing() {
+        let named = at_most(ErrorMetric::MaeShadowed, 0.05, 0.02);
+        let rule = at_most(ErrorMetric::MaeShadowed, 0.2, 0.08);
+        let table = Expectations::new(&[("stiff-contact", named)])
+            .with_rules(&[(StiffClass::VanishingDistance, rule)]);
+        let class = Some(StiffClass::VanishingDistance);
+        let stated = |case| table.resolve(case, class);
+        assert_eq!(
+            stated("stiff-contact"),
+            Some(Stated {
+                expect: named,
+                by_rule: None
+            })
+        );
+        assert_eq!(
+            stated("stiff-near-light"),
+            Some(Stated {
+                expect: rule,
+                by_rule: class
+            })
+        );
+        assert_eq!(
+            table.resolve("stiff-fusion", Some(StiffClass::OccluderOverlap)),
+            None
+        );
+        // A scene outside the stiff family gets no rule.
+        assert_eq!(table.resolve("atty-square", None), None);
     }
 }

@@ -6,6 +6,7 @@
 
 pub use crate::frame::storage_texture_entry;
 use crate::gbuffer::create_texture;
+use crate::hierarchy::HierarchyKind;
 use crate::pass::Slot;
 use crate::{uniform::storage_bytes, wgpu, Frame, Gpu};
 use encase::{
@@ -13,6 +14,83 @@ use encase::{
     ShaderSize, StorageBuffer,
 };
 use std::marker::PhantomData;
+
+crate::param_choice! {
+    /// How a shadow-map texel becomes an occluder.
+    pub enum Primitive {
+        /// Each texel is a rectangle parallel to the light at its depth (Guennebaud et al. 2006).
+        Micropatch = "micropatch",
+        /// Unprojected texel centres are the vertices of quads, each approximated by the
+        /// axis-aligned rectangle through its edge centres (Schwarz & Stamminger 2007, section 4).
+        Microquad = "microquad",
+    }
+}
+
+impl Primitive {
+    /// The value the gather shaders read (`GatherParams.primitive`).
+    pub fn shader_value(self) -> u32 {
+        match self {
+            Primitive::Micropatch => 0,
+            Primitive::Microquad => 1,
+        }
+    }
+}
+
+crate::technique_settings! {
+    /// The settings `backprojection` and `bitmask` share (`..gather: GatherSettings;` in
+    /// theirs): the map, its hierarchy, the micro-primitives, the depth bands and edge blocks,
+    /// the adaptive screen resolution and the bias. Defaults: the MSSM, 16 x 16 micro-patches at
+    /// most, gap filling on, three depth bands and edge blocks split two levels down.
+    pub struct GatherSettings {
+        /// Shadow-map edge in texels (the hierarchies pad it to a power of two)
+        shadow_map_size: u32 = 1024, in 64..=4096;
+        /// Depth hierarchy for search-area refinement: none (full search), hsm (min/max mip
+        /// pyramid), mssm (multi-scale shadow map)
+        hierarchy: HierarchyKind = HierarchyKind::Mssm;
+        /// Most micro-primitives per axis per pixel (and layer); larger search areas use coarser
+        /// blocks
+        max_patches: u32 = 16, in 4..=32;
+        /// Texel interpretation: micropatch (rectangle parallel to the light) or microquad
+        /// (texel centres as quad vertices)
+        primitive: Primitive = Primitive::Micropatch;
+        /// Extend micro-patches to their occluding left and bottom neighbours
+        gap_filling: bool = true;
+        /// Depth bands gathered each at its own level, the level following the penumbra of
+        /// that depth (1: one level for the whole search area, chosen by its nearest occluder)
+        depth_bands: u32 = 3, in 1..=8;
+        /// Levels a partly occluding block (it holds an occluder's edge) is split down into
+        /// sub-blocks (0: none; micro-patches summed with a hierarchy only)
+        edge_refine: u32 = 2, in 0..=3;
+        /// View-dependent adaptive screen resolution: off, or pixels with a wide penumbra
+        /// interpolated (edge-aware) from a gather at half or quarter resolution
+        adaptive_resolution: AdaptiveResolution = AdaptiveResolution::Off;
+        /// Penumbra width in screen pixels from which adaptive resolution interpolates a pixel
+        adaptive_pixels: f32 = 8.0, in 1.0..=256.0;
+        /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes and by the
+        /// block size)
+        bias_texels: f32 = 1.5, in 0.0..=16.0;
+    }
+}
+
+impl GatherSettings {
+    /// The adaptive resolution's factor (1: off). Not with the full search: it stays the
+    /// yardstick, and its unrefined area says nothing about the penumbra.
+    pub fn adaptive_factor(&self) -> u32 {
+        match self.hierarchy {
+            HierarchyKind::None => 1,
+            _ => self.adaptive_resolution.factor(),
+        }
+    }
+
+    /// `adaptive_pixels` as the shaders read it (8 when not finite).
+    pub fn adaptive_pixels_value(&self) -> f32 {
+        if self.adaptive_pixels.is_finite() {
+            self.adaptive_pixels.max(0.0)
+        } else {
+            8.0
+        }
+    }
+}
 
 crate::param_choice! {
     /// View-dependent adaptive screen resolution (Guennebaud, Barthe & Paulin 2007): pixels whose

@@ -43,7 +43,7 @@ pub use accel::SceneAccel;
 pub use camera::Camera;
 pub use cost::{Cost, CostModel, CostQuery};
 pub use error::{GpuError, ParamError, RenderError, TechniqueError};
-pub use expectations::{ErrorMetric, Expect, Expectations};
+pub use expectations::{ErrorMetric, Expect, Expectations, StiffClass};
 pub use frame::{
     Frame, FrameChanges, FrameState, FrameUniforms, SerialTimes, ShadowInputs, TimingSource,
 };

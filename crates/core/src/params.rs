@@ -525,11 +525,40 @@ macro_rules! param_choice {
 /// assert!(s.set_param("example", "shadow_map_size", ParamValue::Int(1)).is_err());
 /// assert_eq!(s.specs()[0].description, "Shadow-map edge in texels.");
 /// ```
+///
+/// A group of parameters several techniques share (the gather settings of `backprojection` and
+/// `bitmask`, say) is itself declared with this macro and included first, as `..name: Type;`:
+/// its parameters come first, under their own names, and live in the field `name`.
+///
+/// ```
+/// softshadow_core::technique_settings! {
+///     /// Shared by two example techniques.
+///     pub struct SharedSettings {
+///         /// Shadow-map edge in texels.
+///         shadow_map_size: u32 = 1024, in 64..=4096;
+///     }
+/// }
+/// softshadow_core::technique_settings! {
+///     /// One of them.
+///     pub struct OneSettings {
+///         ..shared: SharedSettings;
+///         /// Jitter the samples.
+///         jitter: bool = true;
+///     }
+/// }
+/// use softshadow_core::params::{TechniqueSettings, ParamValue};
+/// let mut s = OneSettings::default();
+/// s.set_param("one", "shadow_map_size", ParamValue::Int(512)).unwrap();
+/// assert_eq!(s.shared.shadow_map_size, 512);
+/// assert_eq!(s.specs()[0].name, "shadow_map_size");
+/// assert_eq!(s.specs()[1].name, "jitter");
+/// ```
 #[macro_export]
 macro_rules! technique_settings {
     (
         $(#[$meta:meta])*
         $vis:vis struct $name:ident {
+            $( .. $group:ident : $group_ty:ty ; )?
             $(
                 $(#[doc = $doc:literal])*
                 $field:ident : $ty:ty = $default:expr
@@ -540,20 +569,28 @@ macro_rules! technique_settings {
         $(#[$meta])*
         #[derive(Clone, Debug, PartialEq)]
         $vis struct $name {
+            $( #[doc = "The shared group's parameters (listed first)."] pub $group: $group_ty, )?
             $( $(#[doc = $doc])* pub $field: $ty, )+
         }
 
         impl Default for $name {
             fn default() -> Self {
-                Self { $( $field: $default, )+ }
+                Self {
+                    $( $group: <$group_ty as Default>::default(), )?
+                    $( $field: $default, )+
+                }
             }
         }
 
         impl $name {
-            /// Parameter specs with this struct's defaults (for `TechniqueInfo::params`).
+            /// Parameter specs with this struct's defaults (for `TechniqueInfo::params`): the
+            /// shared group's first, then its own in declaration order.
             pub fn param_specs() -> Vec<$crate::params::ParamSpec> {
                 let defaults = Self::default();
-                vec![ $(
+                #[allow(unused_mut)]
+                let mut specs: Vec<$crate::params::ParamSpec> = Vec::new();
+                $( specs.extend(<$group_ty>::param_specs()); )?
+                specs.extend([ $(
                     <$ty as $crate::params::ParamType>::spec(
                         stringify!($field),
                         concat!($($doc),*).trim_ascii(),
@@ -561,7 +598,8 @@ macro_rules! technique_settings {
                         $crate::technique_settings!(@range $($min, $max)?),
                         $crate::technique_settings!(@log $($($log)?)?),
                     ),
-                )+ ]
+                )+ ]);
+                specs
             }
         }
 
@@ -571,7 +609,13 @@ macro_rules! technique_settings {
             }
 
             fn param_set(&self) -> $crate::params::ParamSet {
-                let values = [ $( $crate::params::ParamType::to_value(&self.$field), )+ ];
+                #[allow(unused_mut)]
+                let mut values: Vec<$crate::params::ParamValue> = Vec::new();
+                $(
+                    let group = $crate::params::TechniqueSettings::param_set(&self.$group);
+                    values.extend(group.entries.into_iter().map(|(_, value)| value));
+                )?
+                values.extend([ $( $crate::params::ParamType::to_value(&self.$field), )+ ]);
                 $crate::params::ParamSet {
                     entries: Self::param_specs().into_iter().zip(values).collect(),
                 }
@@ -583,6 +627,16 @@ macro_rules! technique_settings {
                 name: &str,
                 value: $crate::params::ParamValue,
             ) -> Result<(), $crate::ParamError> {
+                $(
+                    if <$group_ty>::param_specs().iter().any(|spec| spec.name == name) {
+                        return $crate::params::TechniqueSettings::set_param(
+                            &mut self.$group,
+                            technique,
+                            name,
+                            value,
+                        );
+                    }
+                )?
                 let specs = Self::param_specs();
                 let spec = $crate::params::find_spec(technique, &specs, name)?;
                 let value = spec.check(value)?;

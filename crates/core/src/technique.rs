@@ -367,7 +367,7 @@ pub struct TechniqueInfo {
     pub create: Arc<CreateFn>,
     /// Its cost as a function of its parameters (the stress cap's model).
     pub cost: CostModel,
-    /// Its error bounds per stiff case and paper scene ([`crate::expectations`]).
+    /// Its error bounds per stiff class and named case ([`crate::expectations`]).
     pub expectations: Expectations,
     /// The settings the overview sweep (`sweeps/overview.toml`) runs it at: parameter name and
     /// the values to try, as text (each list multiplies, as in a sweep file). Empty: its defaults.

@@ -3,6 +3,10 @@
 //! to break the references too. Every id starts with `stiff-`; `workbench bench --suite stiff`
 //! runs every registered technique on every one of them.
 //!
+//! Every case has a class, what it stresses ([`StiffClass`]): a technique states a bound per class
+//! and names only the cases whose bound differs, so a new case of a known class is one entry in
+//! [`cases`] (and its scene in `build`).
+//!
 //! Most cases use only rectangles parallel to the light, so the benchmark can score them against
 //! the exact closed form (`softshadow_reference::exact`); the others (contact, grazing light,
 //! occluder crossing the light plane) are scored against a sampled exact answer (ray-traced with
@@ -12,7 +16,10 @@
 //! y = 0, casters are not receivers unless said, lights face the ground.
 
 use glam::{Mat4, Vec3};
-use softshadow_core::{AreaLight, Camera, Mesh, Scene};
+use softshadow_core::{
+    AreaLight, Camera, Mesh, Scene,
+    StiffClass::{self, *},
+};
 
 use crate::builtin::{camera, down_light, light_width, Builder, BuiltinInfo, ParamInfo};
 use crate::primitives::{self, face, push_quad};
@@ -21,121 +28,202 @@ use crate::SceneError;
 /// Every stiff-case id starts with this.
 pub const PREFIX: &str = "stiff-";
 
-/// Every stiff case with its parameters (listed by `workbench list` with the other builtins).
-pub fn infos() -> Vec<BuiltinInfo> {
+/// A stiff case: what it stresses (a technique's bound for it comes from the rule it states for
+/// the class, unless it names the case) and its scene's id, description and parameters.
+#[derive(Clone, Debug)]
+pub struct StiffCase {
+    /// What the case stresses.
+    pub class: StiffClass,
+    /// Its id (`stiff-...`), description and parameters.
+    pub info: BuiltinInfo,
+}
+
+/// Every stiff case with its class and parameters.
+pub fn cases() -> Vec<StiffCase> {
     vec![
-        BuiltinInfo {
-            id: "stiff-contact",
-            description: "stiff: a cube resting on the ground and a quad leaning on it at 30 degrees (occluder touching the receiver: z_R - z_O -> 0)",
-            params: vec![
-                light_width(1.0),
-                ParamInfo::new("gap", 0.0, 0.0, 1.0, "height of the occluders' lowest points above the ground (0 = touching)"),
-            ],
+        StiffCase {
+            class: VanishingDistance,
+            info: BuiltinInfo {
+                id: "stiff-contact",
+                description: "stiff: a cube resting on the ground and a quad leaning on it at 30 degrees (occluder touching the receiver: z_R - z_O -> 0)",
+                params: vec![
+                    light_width(1.0),
+                    ParamInfo::new("gap", 0.0, 0.0, 1.0, "height of the occluders' lowest points above the ground (0 = touching)"),
+                ],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-near-light",
-            description: "stiff: a square occluder just below the light (distance light_gap x light height: z_O -> 0)",
-            params: vec![
-                light_width(1.0),
-                ParamInfo::new("light_gap", 1e-3, 0.0, 0.5, "distance between occluder and light, as a fraction of the light's height (2)")
-                    .min_exclusive(),
-            ],
+        StiffCase {
+            class: VanishingDistance,
+            info: BuiltinInfo {
+                id: "stiff-near-light",
+                description: "stiff: a square occluder just below the light (distance light_gap x light height: z_O -> 0)",
+                params: vec![
+                    light_width(1.0),
+                    ParamInfo::new("light_gap", 1e-3, 0.0, 0.5, "distance between occluder and light, as a fraction of the light's height (2)")
+                        .min_exclusive(),
+                ],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-point-light",
-            description: "stiff: the atty-square set-up under a point-like light (width 1e-4): soft techniques must reduce to hard shadows",
-            params: vec![ParamInfo::new("light_width", 1e-4, 0.0, 0.01, "side of the square light")],
+        StiffCase {
+            class: PointLight,
+            info: BuiltinInfo {
+                id: "stiff-point-light",
+                description: "stiff: the atty-square set-up under a point-like light (width 1e-4): soft techniques must reduce to hard shadows",
+                params: vec![ParamInfo::new("light_width", 1e-4, 0.0, 0.01, "side of the square light")],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-wide-light",
-            description: "stiff: a 0.3 square occluder under a light light_ratio times wider (no umbra, wide penumbra)",
-            params: vec![ParamInfo::new("light_ratio", 10.0, 1.0, 20.0, "light width over occluder width")],
+        StiffCase {
+            class: LightShape,
+            info: BuiltinInfo {
+                id: "stiff-wide-light",
+                description: "stiff: a 0.3 square occluder under a light light_ratio times wider (no umbra, wide penumbra)",
+                params: vec![ParamInfo::new("light_ratio", 10.0, 1.0, 20.0, "light width over occluder width")],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-grazing",
-            description: "stiff: light at angle_degrees from the receiver normal, occluder square parallel to the light (shadow stretched ~11x)",
-            params: vec![ParamInfo::new("angle_degrees", 85.0, 0.0, 89.0, "angle between the ground normal and the direction to the light")],
+        StiffCase {
+            class: LightShape,
+            info: BuiltinInfo {
+                id: "stiff-grazing",
+                description: "stiff: light at angle_degrees from the receiver normal, occluder square parallel to the light (shadow stretched ~11x)",
+                params: vec![ParamInfo::new("angle_degrees", 85.0, 0.0, 89.0, "angle between the ground normal and the direction to the light")],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-depth-range",
-            description: "stiff: light at height 10, one occluder `near` below it and one 0.1 above the ground (caster near/far ~ 1e-4)",
-            params: vec![
-                ParamInfo::new("near", 1e-3, 0.0, 1.0, "distance of the upper occluder below the light")
-                    .min_exclusive(),
-            ],
+        StiffCase {
+            class: VanishingDistance,
+            info: BuiltinInfo {
+                id: "stiff-depth-range",
+                description: "stiff: light at height 10, one occluder `near` below it and one 0.1 above the ground (caster near/far ~ 1e-4)",
+                params: vec![
+                    ParamInfo::new("near", 1e-3, 0.0, 1.0, "distance of the upper occluder below the light")
+                        .min_exclusive(),
+                ],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-zero-thickness",
-            description: "stiff: zero-thickness occluders: one-sided quads facing the light and facing away, and a box flattened to zero height",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: ThinGeometry,
+            info: BuiltinInfo {
+                id: "stiff-zero-thickness",
+                description: "stiff: zero-thickness occluders: one-sided quads facing the light and facing away, and a box flattened to zero height",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-partly-outside",
-            description: "stiff: a vertical wall that crosses the light plane beside the light (part of the occluder behind the light, outside every light frustum)",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: LightPlane,
+            info: BuiltinInfo {
+                id: "stiff-partly-outside",
+                description: "stiff: a vertical wall that crosses the light plane beside the light (part of the occluder behind the light, outside every light frustum)",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-no-occluder",
-            description: "stiff: the ground alone (nothing casts a shadow: V = 1 everywhere)",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: Unshadowed,
+            info: BuiltinInfo {
+                id: "stiff-no-occluder",
+                description: "stiff: the ground alone (nothing casts a shadow: V = 1 everywhere)",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-aspect-100",
-            description: "stiff: a 4-wide light of aspect ratio `aspect`:1 over a square occluder",
-            params: vec![ParamInfo::new("aspect", 100.0, 1.0, 1000.0, "light width over light height")],
+        StiffCase {
+            class: LightShape,
+            info: BuiltinInfo {
+                id: "stiff-aspect-100",
+                description: "stiff: a 4-wide light of aspect ratio `aspect`:1 over a square occluder",
+                params: vec![ParamInfo::new("aspect", 100.0, 1.0, 1000.0, "light width over light height")],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-tiny-patches",
-            description: "stiff (FP16 trap, Atty et al. appendix A): a large square just below a large light, so thousands of micro-patches each hide ~1e-3 of the light",
-            params: vec![
-                ParamInfo::new("occluder_gap", 0.1, 0.0, 1.0, "distance between the occluder and the light (height 2)")
-                    .min_exclusive(),
-            ],
+        StiffCase {
+            class: VanishingDistance,
+            info: BuiltinInfo {
+                id: "stiff-tiny-patches",
+                description: "stiff (FP16 trap, Atty et al. appendix A): a large square just below a large light, so thousands of micro-patches each hide ~1e-3 of the light",
+                params: vec![
+                    ParamInfo::new("occluder_gap", 0.1, 0.0, 1.0, "distance between the occluder and the light (height 2)")
+                        .min_exclusive(),
+                ],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-degenerate",
-            description: "stiff: an occluder mesh with degenerate, non-finite and out-of-range triangles (repaired with a warning naming them)",
-            params: Vec::new(),
+        StiffCase {
+            class: ThinGeometry,
+            info: BuiltinInfo {
+                id: "stiff-degenerate",
+                description: "stiff: an occluder mesh with degenerate, non-finite and out-of-range triangles (repaired with a warning naming them)",
+                params: Vec::new(),
+            },
         },
-        BuiltinInfo {
-            id: "stiff-behind-light",
-            description: "stiff: receivers on both sides of the light plane (a raised platform above a downward light at height 1): V = 0 behind the one-sided light",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: LightPlane,
+            info: BuiltinInfo {
+                id: "stiff-behind-light",
+                description: "stiff: receivers on both sides of the light plane (a raised platform above a downward light at height 1): V = 0 behind the one-sided light",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-receiver-behind-light",
-            description: "stiff: an oblique light (at (6, 3, 0), aimed at (-3, 0, 0)) over a 20 x 14 ground that reaches behind its plane, a 2 x 2 square at height 1 between them (a hard shadow map fitted to the receivers must ignore the part behind the light)",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: LightPlane,
+            info: BuiltinInfo {
+                id: "stiff-receiver-behind-light",
+                description: "stiff: an oblique light (at (6, 3, 0), aimed at (-3, 0, 0)) over a 20 x 14 ground that reaches behind its plane, a 2 x 2 square at height 1 between them (a hard shadow map fitted to the receivers must ignore the part behind the light)",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-light-up",
-            description: "stiff: a light facing straight up between the ground (behind it: V = 0) and a ceiling that receives a square's shadow",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: LightPlane,
+            info: BuiltinInfo {
+                id: "stiff-light-up",
+                description: "stiff: a light facing straight up between the ground (behind it: V = 0) and a ceiling that receives a square's shadow",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-fusion",
-            description: "stiff: three overlapping squares at different heights (occluder fusion: the exact answer is the area of the union)",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: OccluderOverlap,
+            info: BuiltinInfo {
+                id: "stiff-fusion",
+                description: "stiff: three overlapping squares at different heights (occluder fusion: the exact answer is the area of the union)",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-light-leak",
-            description: "stiff (light leaking): a small square just below the light, one halfway and a wide one (3 x 3) 0.15 above the ground, overlapping, seen from low down; filterable shadow maps (variance, exponential, moment) brighten the wide one's umbra",
-            params: vec![light_width(1.0)],
+        StiffCase {
+            class: OccluderOverlap,
+            info: BuiltinInfo {
+                id: "stiff-light-leak",
+                description: "stiff (light leaking): a small square just below the light, one halfway and a wide one (3 x 3) 0.15 above the ground, overlapping, seen from low down; filterable shadow maps (variance, exponential, moment) brighten the wide one's umbra",
+                params: vec![light_width(1.0)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-large-light",
-            description: "stiff (large penumbrae, issue 30): a light_width x light_width/2 light 2 above the ground, a 0.6 x 0.4 rectangle 0.25 below it and a 1.0 x 0.5 rectangle 0.7 above the ground (penumbrae wider than the casters; coarse hierarchy levels over-darken)",
-            params: vec![light_width(1.2)],
+        StiffCase {
+            class: LightShape,
+            info: BuiltinInfo {
+                id: "stiff-large-light",
+                description: "stiff (large penumbrae, issue 30): a light_width x light_width/2 light 2 above the ground, a 0.6 x 0.4 rectangle 0.25 below it and a 1.0 x 0.5 rectangle 0.7 above the ground (penumbrae wider than the casters; coarse hierarchy levels over-darken)",
+                params: vec![light_width(1.2)],
+            },
         },
-        BuiltinInfo {
-            id: "stiff-thin-roof",
-            description: "stiff (issue 38): a roof `thickness` thick (below a shadow map's bias) over a wall, the light high above: under the eaves the wall sees the light at a grazing angle and the roof's underside faces away from it; the V error and the irradiance error disagree there",
-            params: vec![
-                light_width(1.0),
-                ParamInfo::new("thickness", 0.002, 0.0005, 0.05, "thickness of the roof slab"),
-            ],
+        StiffCase {
+            class: ThinGeometry,
+            info: BuiltinInfo {
+                id: "stiff-thin-roof",
+                description: "stiff (issue 38): a roof `thickness` thick (below a shadow map's bias) over a wall, the light high above: under the eaves the wall sees the light at a grazing angle and the roof's underside faces away from it; the V error and the irradiance error disagree there",
+                params: vec![
+                    light_width(1.0),
+                    ParamInfo::new("thickness", 0.002, 0.0005, 0.05, "thickness of the roof slab"),
+                ],
+            },
         },
     ]
+}
+
+/// Every stiff case's scene (listed by `workbench list` with the other builtins).
+pub fn infos() -> Vec<BuiltinInfo> {
+    cases().into_iter().map(|case| case.info).collect()
+}
+
+/// The class of the stiff case `spec` names exactly (`stiff-contact`; not `stiff-contact:gap=0.1`,
+/// whose bounds nobody states), or `None`.
+pub fn class_of(spec: &str) -> Option<StiffClass> {
+    cases()
+        .into_iter()
+        .find(|case| case.info.id == spec)
+        .map(|case| case.class)
 }
 
 /// Builds stiff case `id`; `value(name)` returns its (checked) parameters.

@@ -2,8 +2,13 @@
 //! its parameter puts the geometry where its description says.
 
 use glam::Vec3;
-use softshadow_scenes::{builtin_scenes, load, stiff::PREFIX};
+use softshadow_core::StiffClass;
+use softshadow_scenes::{
+    builtin_scenes, load,
+    stiff::{self, PREFIX},
+};
 
+/// The cases when this test was written.
 const EXPECTED: [&str; 19] = [
     "stiff-contact",
     "stiff-near-light",
@@ -44,19 +49,30 @@ fn caster_depths(spec: &str) -> Vec<f32> {
 
 #[test]
 fn every_stiff_case_loads_and_only_the_broken_ones_warn() {
-    let ids: Vec<&str> = builtin_scenes()
+    let cases = stiff::cases();
+    let ids: Vec<&str> = cases.iter().map(|case| case.info.id).collect();
+    let listed: Vec<&str> = builtin_scenes()
         .iter()
         .map(|b| b.id)
         .filter(|id| id.starts_with(PREFIX))
         .collect();
-    assert_eq!(ids, EXPECTED);
+    assert_eq!(listed, ids);
+    // A new case needs no line here (its class gives it every technique's bound); none of these
+    // may go missing, and no id comes twice.
     for id in EXPECTED {
+        assert!(ids.contains(&id), "{id} is no longer a stiff case");
+    }
+    for (k, id) in ids.iter().enumerate() {
+        assert!(!ids[..k].contains(id), "{id} twice");
+    }
+    for case in &cases {
+        let id = case.info.id;
         let loaded = load(id).unwrap_or_else(|e| panic!("{id}: {e}"));
         let scene = &loaded.scene;
         assert!(scene.instances.iter().any(|i| i.receives_shadow), "{id}");
         assert_eq!(
             scene.instances.iter().any(|i| i.casts_shadow),
-            id != "stiff-no-occluder",
+            case.class != StiffClass::Unshadowed,
             "{id}"
         );
         for mesh in &scene.meshes {

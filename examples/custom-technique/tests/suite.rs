@@ -5,6 +5,7 @@
 use std::process::Command;
 
 use anyhow::{bail, ensure, Context, Result};
+use softshadow::scenes::stiff;
 use softshadow_bench::{expectations, Bench, BenchOptions, RunSpec, Status, Sweep};
 use softshadow_core::{
     expectations::EXPECTATION_SIZE, Gpu, ParamValue, Registry, Renderer, SceneGpu,
@@ -83,7 +84,11 @@ fn the_stiff_suite_and_the_paper_scenes_meet_the_bounds_the_crate_states() -> Re
         );
         runs.push(run);
     }
-    let mut failures = expectations::judge(&registry, &mut runs);
+    let mut failures: Vec<String> = expectations::unpromised(&registry, &stiff::cases())
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    failures.extend(expectations::judge(&registry, &mut runs));
     for run in runs.iter().filter(|r| r.technique == custom_technique::ID) {
         let error = run.error.as_ref().context("error metrics")?;
         let exact = error.vs_exact.as_ref().context("exact answer")?;
@@ -94,7 +99,7 @@ fn the_stiff_suite_and_the_paper_scenes_meet_the_bounds_the_crate_states() -> Re
         );
         if run.expectation.is_none() {
             failures.push(format!(
-                "{}: no expectation stated in custom_technique::info()",
+                "{}: no verdict: nothing stated in custom_technique::info(), or no exact answer",
                 run.scene
             ));
         }
@@ -146,6 +151,40 @@ fn radius_zero_is_the_hard_shadow() -> Result<()> {
             "{scene_id}: radius 0 differs from hard by {worst}"
         );
     }
+    Ok(())
+}
+
+/// `fixed-pcf`'s bound for every case it states one for (by name or by its class's rule), as
+/// taken from its per-case table before the rules came (tests/stated_bounds.json).
+#[test]
+fn every_case_resolves_to_the_bound_it_had_before_the_rules() -> Result<()> {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/stated_bounds.json");
+    let snapshot: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path)?)?;
+    let before = snapshot[custom_technique::ID]
+        .as_object()
+        .context("fixed-pcf's table")?;
+    let info = custom_technique::info();
+    let now = expectations::stated_by_case(&info, &stiff::cases());
+    let mut differences = Vec::new();
+    for (case, stated) in &now {
+        let stated = serde_json::to_value(stated.expect)?;
+        if before.get(case) != Some(&stated) {
+            differences.push(format!(
+                "{case}: now {stated}, before {:?}",
+                before.get(case)
+            ));
+        }
+    }
+    for case in before.keys() {
+        if !now.iter().any(|(c, _)| c == case) {
+            differences.push(format!("{case}: nothing stated now"));
+        }
+    }
+    ensure!(
+        differences.is_empty(),
+        "{}\n(changed on purpose? update tests/stated_bounds.json)",
+        differences.join("\n")
+    );
     Ok(())
 }
 

@@ -6,6 +6,7 @@ use crate::common::{gpu, run_checked};
 use anyhow::{ensure, Context, Result};
 use softshadow::backprojection::{Backprojection, BackprojectionSettings, Primitive};
 use softshadow_bench::{parse_params, Bench, BenchOptions, RunSpec};
+use softshadow_core::gather::GatherSettings;
 use softshadow_core::{gather::AdaptiveResolution, Gpu};
 use softshadow_core::{
     glam::Vec3, HierarchyKind, ParamValue, Renderer, Scene, SceneGpu, ShadowTechnique,
@@ -49,13 +50,16 @@ fn settings(
     max_patches: u32,
 ) -> BackprojectionSettings {
     BackprojectionSettings {
-        shadow_map_size: 256,
-        hierarchy,
-        primitive,
-        max_patches,
-        // The 2006 gather these bounds were measured with (issue 30's remedies are tested apart).
-        depth_bands: 1,
-        edge_refine: 0,
+        gather: GatherSettings {
+            shadow_map_size: 256,
+            hierarchy,
+            primitive,
+            max_patches,
+            // The 2006 gather these bounds were measured with (issue 30's remedies are tested apart).
+            depth_bands: 1,
+            edge_refine: 0,
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
@@ -428,11 +432,14 @@ fn the_full_search_ignores_depth_bands_and_edge_refinement() -> Result<()> {
     let gpu = gpu()?;
     let scene = softshadow_scenes::load("stiff-large-light")?.scene;
     let full = |depth_bands, edge_refine, adaptive_resolution| BackprojectionSettings {
-        shadow_map_size: 256,
-        hierarchy: HierarchyKind::None,
-        depth_bands,
-        edge_refine,
-        adaptive_resolution,
+        gather: GatherSettings {
+            shadow_map_size: 256,
+            hierarchy: HierarchyKind::None,
+            depth_bands,
+            edge_refine,
+            adaptive_resolution,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let old = render(

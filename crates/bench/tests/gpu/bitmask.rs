@@ -7,6 +7,7 @@ use crate::common::{exact_visibility, gpu, run_checked};
 use anyhow::{ensure, Context, Result};
 use softshadow::bitmask::{Bitmask, BitmaskSettings, Pattern};
 use softshadow_bench::{parse_params, results::Run, Bench, BenchOptions, RunSpec};
+use softshadow_core::gather::GatherSettings;
 use softshadow_core::{
     glam::Vec3, Gpu, HierarchyKind, ParamValue, Renderer, Scene, SceneGpu, ShadowTechnique,
     TechniqueStats,
@@ -115,8 +116,11 @@ fn full_search_keeps_every_block_on_stiff_fusion_at_every_map_size() -> Result<(
         let mut technique = Bitmask::new(
             &gpu,
             BitmaskSettings {
-                shadow_map_size: map,
-                hierarchy: HierarchyKind::None,
+                gather: GatherSettings {
+                    shadow_map_size: map,
+                    hierarchy: HierarchyKind::None,
+                    ..Default::default()
+                },
                 pattern: Pattern::Grid32,
                 layers,
                 ..Default::default()
@@ -168,16 +172,22 @@ fn bitmask_at_most_halves_backprojections_over_darkening_on_stiff_fusion_and_bal
         let mut back = softshadow::backprojection::Backprojection::new(
             &gpu,
             softshadow::backprojection::BackprojectionSettings {
-                shadow_map_size: 256,
-                hierarchy: HierarchyKind::None,
+                gather: GatherSettings {
+                    shadow_map_size: 256,
+                    hierarchy: HierarchyKind::None,
+                    ..Default::default()
+                },
                 ..Default::default()
             },
         )?;
         let mut bits = Bitmask::new(
             &gpu,
             BitmaskSettings {
-                shadow_map_size: 256,
-                hierarchy: HierarchyKind::None,
+                gather: GatherSettings {
+                    shadow_map_size: 256,
+                    hierarchy: HierarchyKind::None,
+                    ..Default::default()
+                },
                 ..Default::default()
             },
         )?;
@@ -304,8 +314,11 @@ fn full_search_with_32x32_samples_converges_to_the_closed_form_on_atty_square() 
     let mut technique = Bitmask::new(
         &gpu,
         BitmaskSettings {
-            shadow_map_size: 256,
-            hierarchy: HierarchyKind::None,
+            gather: GatherSettings {
+                shadow_map_size: 256,
+                hierarchy: HierarchyKind::None,
+                ..Default::default()
+            },
             pattern: Pattern::Grid32,
             ..Default::default()
         },
@@ -336,8 +349,11 @@ fn full_search_on_a_512_map_keeps_every_block_with_32x32_samples_on_atty_square(
     let mut technique = Bitmask::new(
         &gpu,
         BitmaskSettings {
-            shadow_map_size: 512,
-            hierarchy: HierarchyKind::None,
+            gather: GatherSettings {
+                shadow_map_size: 512,
+                hierarchy: HierarchyKind::None,
+                ..Default::default()
+            },
             pattern: Pattern::Grid32,
             ..Default::default()
         },
@@ -373,7 +389,10 @@ fn post_filter_lowers_the_8x8_error_on_atty_square() -> Result<()> {
         let mut technique = Bitmask::new(
             &gpu,
             BitmaskSettings {
-                shadow_map_size: 256,
+                gather: GatherSettings {
+                    shadow_map_size: 256,
+                    ..Default::default()
+                },
                 pattern: Pattern::Grid8,
                 filter_passes,
                 ..Default::default()
@@ -410,7 +429,10 @@ fn light_space_layers_are_kept_while_only_the_camera_moves() -> Result<()> {
     let mut technique = Bitmask::new(
         &gpu,
         BitmaskSettings {
-            shadow_map_size: 256,
+            gather: GatherSettings {
+                shadow_map_size: 256,
+                ..Default::default()
+            },
             layers: 2,
             ..Default::default()
         },

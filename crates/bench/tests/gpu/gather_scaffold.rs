@@ -9,6 +9,7 @@ use crate::common::gpu;
 use anyhow::{ensure, Result};
 use softshadow::backprojection::{Backprojection, BackprojectionSettings};
 use softshadow::bitmask::{Bitmask, BitmaskSettings};
+use softshadow_core::gather::GatherSettings;
 use softshadow_core::{Renderer, SceneGpu, ShadowTechnique};
 
 const SIZE: u32 = 64;
@@ -108,7 +109,10 @@ fn technique(
         Box::new(Backprojection::new(
             gpu,
             BackprojectionSettings {
-                shadow_map_size: 256,
+                gather: GatherSettings {
+                    shadow_map_size: 256,
+                    ..Default::default()
+                },
                 ..Default::default()
             },
         )?)
@@ -116,7 +120,10 @@ fn technique(
         Box::new(Bitmask::new(
             gpu,
             BitmaskSettings {
-                shadow_map_size: 256,
+                gather: GatherSettings {
+                    shadow_map_size: 256,
+                    ..Default::default()
+                },
                 ..Default::default()
             },
         )?)
