@@ -63,7 +63,10 @@ fn no_function_outside_tests_is_too_long() -> Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut functions = Vec::new();
     for file in source_files(root)? {
-        let relative = file.strip_prefix(root)?.to_string_lossy().replace('\\', "/");
+        let relative = file
+            .strip_prefix(root)?
+            .to_string_lossy()
+            .replace('\\', "/");
         let source =
             fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
         functions.extend(measure(&relative, &source)?);
@@ -179,11 +182,17 @@ fn problems(
     let mut problems = Vec::new();
     for function in functions {
         let Function {
-            file, line, name, lines, ..
+            file,
+            line,
+            name,
+            lines,
+            ..
         } = function;
         if *lines > MAX_LINES {
             if !listed(allowed_over_max, function) {
-                problems.push(format!("{file}:{line} {name}: {lines} lines, over {MAX_LINES}"));
+                problems.push(format!(
+                    "{file}:{line} {name}: {lines} lines, over {MAX_LINES}"
+                ));
             }
         } else if *lines > REASON_NEEDED_OVER
             && !function.has_reason
@@ -200,9 +209,15 @@ fn problems(
             .filter(|function| function.file == file && function.name == name)
             .collect();
         if matching.is_empty() {
-            problems.push(format!("allow-list entry {file} {name} is not a function: remove it"));
+            problems.push(format!(
+                "allow-list entry {file} {name} is not a function: remove it"
+            ));
         } else if matching.iter().all(|function| function.lines <= MAX_LINES) {
-            let lines = matching.iter().map(|function| function.lines).max().unwrap_or(0);
+            let lines = matching
+                .iter()
+                .map(|function| function.lines)
+                .max()
+                .unwrap_or(0);
             problems.push(format!(
                 "allow-list entry {file} {name} is not over {MAX_LINES} lines ({lines}): remove it"
             ));
@@ -230,7 +245,8 @@ fn source_files(root: &Path) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     let mut folders: Vec<PathBuf> = SOURCE_ROOTS.iter().map(|name| root.join(name)).collect();
     while let Some(folder) = folders.pop() {
-        for entry in fs::read_dir(&folder).with_context(|| format!("listing {}", folder.display()))?
+        for entry in
+            fs::read_dir(&folder).with_context(|| format!("listing {}", folder.display()))?
         {
             let path = entry?.path();
             let name = path.file_name().unwrap_or_default().to_string_lossy();
