@@ -22,6 +22,7 @@ use crate::SceneError;
 pub const PREFIX: &str = "stiff-";
 
 /// Every stiff case with its parameters (listed by `workbench list` with the other builtins).
+// Long: one entry per stiff case; the table reads best whole.
 pub fn infos() -> Vec<BuiltinInfo> {
     vec![
         BuiltinInfo {
