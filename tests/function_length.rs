@@ -379,6 +379,9 @@ impl<'ast> Visit<'ast> for Collector<'_> {
     }
 
     fn visit_trait_item_fn(&mut self, function: &'ast TraitItemFn) {
+        if is_test_only(&function.attrs) {
+            return;
+        }
         if let Some(body) = &function.default {
             self.record(&function.attrs, &function.sig, body);
         }
