@@ -321,11 +321,11 @@ impl Collector<'_> {
                 .is_some_and(|reason| !reason.trim().is_empty())
         };
         let own = &self.source_lines[item_start - 1..last.min(self.source_lines.len())];
-        let above = self.source_lines[..item_start - 1]
+        let mut above = self.source_lines[..item_start - 1]
             .iter()
             .rev()
             .take_while(|line| line.trim_start().starts_with("//"));
-        own.iter().any(|line| is_reason(&line)) || above.into_iter().any(is_reason)
+        own.iter().any(is_reason) || above.any(is_reason)
     }
 
     fn within<T>(&mut self, name: String, visit: impl FnOnce(&mut Self) -> T) -> T {
