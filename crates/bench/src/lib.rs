@@ -939,7 +939,8 @@ impl StillView<'_> {
             Some(frames) => {
                 let (timing, _, _) = time_frames(frames.saturating_sub(1).max(1), |_| {
                     let (scene, camera, light) = (self.scene, &self.camera, &self.light);
-                    (self.renderer).render(scene, camera, light, &mut *self.technique, None)
+                    self.renderer
+                        .render(scene, camera, light, &mut *self.technique, None)
                 })?;
                 Some((frames, timing, self.renderer.read_visibility()?))
             }

@@ -235,7 +235,8 @@ fn runs_in_order(inputs: &[Loaded]) -> Result<Vec<Entry>, BenchError> {
 /// A warning for every input that ran on another adapter than the first.
 fn adapter_warnings(inputs: &[Loaded]) -> Vec<String> {
     let adapter = &inputs[0].results.adapter;
-    (inputs[1..].iter())
+    inputs[1..]
+        .iter()
         .filter(|input| input.results.adapter.name != adapter.name)
         .map(|input| {
             format!(

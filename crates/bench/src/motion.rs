@@ -197,7 +197,11 @@ impl Bench {
             gpu: &self.gpu,
             method,
             sampled: method.key_on(Some(&self.gpu)),
-            cache: (self.options.reference_cache.as_deref()).map(reference_cache::exact_in_dir),
+            cache: self
+                .options
+                .reference_cache
+                .as_deref()
+                .map(reference_cache::exact_in_dir),
             width,
             height,
         };
@@ -225,7 +229,9 @@ impl Bench {
             let time = path.frame_time(k, frames);
             let pose = path.pose(&base, time);
             let kind = frame_kind(recorder.previous.as_ref(), &pose);
-            let moved = (recorder.previous.as_ref())
+            let moved = recorder
+                .previous
+                .as_ref()
                 .is_none_or(|before| before.pose.transforms != pose.transforms);
             pose.apply(&mut scene);
             if moved || gpu_scene.is_none() {
@@ -577,14 +583,16 @@ impl PathRecorder {
         let animation = match self.animation.take() {
             Some(animation) => {
                 animation.finish()?;
-                (run.images).insert("animation".into(), self.animation_name.clone());
+                run.images
+                    .insert("animation".into(), self.animation_name.clone());
                 Some(self.animation_name)
             }
             None => None,
         };
         let video_quality = {
             puffin::profile_scope!("perceptual video metric of a path run");
-            match (self.video).score(crate::video_metric::path_fps(path.duration, frames)) {
+            let fps = crate::video_metric::path_fps(path.duration, frames);
+            match self.video.score(fps) {
                 Ok(score) => Some(score),
                 Err(why) => {
                     run.warnings.push(why);

@@ -356,7 +356,8 @@ pub fn plot_svg_over(
                 points.iter().filter(|p| p.technique == technique).collect();
             chart
                 .draw_series(
-                    (of_technique.iter())
+                    of_technique
+                        .iter()
                         .map(|p| EmptyElement::at((p.time_ms, p.value)) + marker(style, (0, 0))),
                 )
                 .map_err(plot_error)?

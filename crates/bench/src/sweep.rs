@@ -211,7 +211,9 @@ impl SweepFile {
             None => None,
         };
         if let Some(light) = &light {
-            (light.validate()).map_err(|e| sweep_error(format!("[light]: {e}")))?;
+            light
+                .validate()
+                .map_err(|e| sweep_error(format!("[light]: {e}")))?;
         }
         Ok((camera, light))
     }
