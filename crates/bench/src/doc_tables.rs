@@ -473,16 +473,6 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
             ));
         }
     }
-    let floor = |run: &Run| {
-        runs.iter()
-            .filter(|r| {
-                r.technique == COST_FLOOR_TECHNIQUE
-                    && r.scene == run.scene
-                    && (r.width, r.height) == (run.width, run.height)
-            })
-            .filter_map(frame_time_ms)
-            .fold(f64::INFINITY, f64::min)
-    };
     let mut t = String::from("|");
     for column in &columns {
         let header = COLUMNS
@@ -501,56 +491,72 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
     for run in selected {
         t.push('|');
         for column in &columns {
-            let value = match *column {
-                "scene" => format!("`{}`", run.scene),
-                "technique" => format!("`{}`", run.technique),
-                "params" => params_text(run),
-                "size" => format!("{}x{}", run.width, run.height),
-                "frame_ms" => frame_time_ms(run).map_or("-".into(), ms),
-                "cold_frame_ms" => cold_frame_ms(run).map_or("-".into(), ms),
-                "camera_only_ms" => run
-                    .timing_camera_only
-                    .as_ref()
-                    .and_then(|t| t.frame_ms.as_ref())
-                    .map_or("-".into(), |p| ms(p.median)),
-                "floor_ratio" => match (frame_time_ms(run), floor(run)) {
-                    (Some(time), f) if f.is_finite() => format!("{:.2}", time / f),
-                    _ => "-".into(),
-                },
-                "mae_shadowed" => mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
-                "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
-                "brighter_umbra" => brighter_umbra(run).map_or("-".into(), |e| format!("{e:.4}")),
-                "irradiance" => {
-                    irradiance_mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}"))
-                }
-                "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
-                "still_flicker" => still_flicker_text(run.still_flicker),
-                "reference_vs_exact" => run
-                    .error
-                    .as_ref()
-                    .and_then(|e| e.reference_vs_exact.as_ref())
-                    .map_or("-".into(), |e| format!("{:.4}", e.mae_shadowed)),
-                "all_lit_vs_exact" => run
-                    .error
-                    .as_ref()
-                    .and_then(|e| e.all_lit_vs_exact.as_ref())
-                    .map_or("-".into(), |e| format!("{:.4}", e.mae_shadowed)),
-                "exact" => run
-                    .error
-                    .as_ref()
-                    .and_then(|e| e.exact.clone())
-                    .unwrap_or_else(|| "-".into()),
-                "status" => match run.status {
-                    Status::Ok => "ok".into(),
-                    failed => format!("{failed}: {}", run.message),
-                },
-                _ => unreachable!("columns checked above"),
-            };
+            let value = run_cell(column, run, runs);
             let _ = write!(t, " {} |", value.replace('|', "\\|"));
         }
         t.push('\n');
     }
     Ok(t)
+}
+
+/// The `column` cell of `run` in a `runs` table (its cost floor from `runs`).
+fn run_cell(column: &str, run: &Run, runs: &[Run]) -> String {
+    match column {
+        "scene" => format!("`{}`", run.scene),
+        "technique" => format!("`{}`", run.technique),
+        "params" => params_text(run),
+        "size" => format!("{}x{}", run.width, run.height),
+        "frame_ms" => frame_time_ms(run).map_or("-".into(), ms),
+        "cold_frame_ms" => cold_frame_ms(run).map_or("-".into(), ms),
+        "camera_only_ms" => run
+            .timing_camera_only
+            .as_ref()
+            .and_then(|t| t.frame_ms.as_ref())
+            .map_or("-".into(), |p| ms(p.median)),
+        "floor_ratio" => match (frame_time_ms(run), floor_frame_ms(runs, run)) {
+            (Some(time), f) if f.is_finite() => format!("{:.2}", time / f),
+            _ => "-".into(),
+        },
+        "mae_shadowed" => mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
+        "darker_shadowed" => darker_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
+        "brighter_umbra" => brighter_umbra(run).map_or("-".into(), |e| format!("{e:.4}")),
+        "irradiance" => irradiance_mae_shadowed(run).map_or("-".into(), |e| format!("{e:.4}")),
+        "flip" => flip(run).map_or("-".into(), |e| format!("{e:.4}")),
+        "still_flicker" => still_flicker_text(run.still_flicker),
+        "reference_vs_exact" => run
+            .error
+            .as_ref()
+            .and_then(|e| e.reference_vs_exact.as_ref())
+            .map_or("-".into(), |e| format!("{:.4}", e.mae_shadowed)),
+        "all_lit_vs_exact" => run
+            .error
+            .as_ref()
+            .and_then(|e| e.all_lit_vs_exact.as_ref())
+            .map_or("-".into(), |e| format!("{:.4}", e.mae_shadowed)),
+        "exact" => run
+            .error
+            .as_ref()
+            .and_then(|e| e.exact.clone())
+            .unwrap_or_else(|| "-".into()),
+        "status" => match run.status {
+            Status::Ok => "ok".into(),
+            failed => format!("{failed}: {}", run.message),
+        },
+        _ => unreachable!("runs_table checks the columns first"),
+    }
+}
+
+/// The fastest frame time of the cost-floor technique on `run`'s scene and size in `runs`
+/// (infinite when it has none).
+fn floor_frame_ms(runs: &[Run], run: &Run) -> f64 {
+    runs.iter()
+        .filter(|r| {
+            r.technique == COST_FLOOR_TECHNIQUE
+                && r.scene == run.scene
+                && (r.width, r.height) == (run.width, run.height)
+        })
+        .filter_map(frame_time_ms)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The parameters (name=value) of `run` whose values differ among `runs` of its technique.
@@ -727,14 +733,6 @@ fn motion_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, 
             .copied()
             .find(|r| row_of(r) == *row && r.motion.as_ref().is_some_and(|m| m.path == path))
     };
-    // A lag column only where some run keeps history (a non-zero lag).
-    let has_lag = |path: &str| {
-        on_scene.iter().any(|r| {
-            r.motion.as_ref().is_some_and(|m| {
-                m.path == path && m.lag.as_ref().is_some_and(|l| l.frames_to_settle > 0)
-            })
-        })
-    };
     let floor_ms = |run: &Run, path: &str| {
         on_scene
             .iter()
@@ -746,28 +744,7 @@ fn motion_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, 
             .filter_map(|r| path_frame_ms(r).map(|(_, ms)| ms))
             .fold(f64::INFINITY, f64::min)
     };
-    let mut t = String::from("| technique | settings that differ |");
-    let mut columns = 2;
-    for path in &paths {
-        let _ = write!(t, " error {path} | flicker {path} |");
-        columns += 2;
-        if has_lag(path) {
-            let _ = write!(t, " lag {path} (extra error, frames) |");
-            columns += 1;
-        }
-    }
-    for path in &paths {
-        let kind = on_scene
-            .iter()
-            .filter(|r| r.motion.as_ref().is_some_and(|m| m.path == *path))
-            .find_map(|r| path_frame_ms(r).map(|(kind, _)| kind))
-            .unwrap_or("still");
-        let _ = write!(t, " {kind} frame / `{COST_FLOOR_TECHNIQUE}`'s ({path}) |");
-        columns += 1;
-    }
-    t.push_str("\n|");
-    t.push_str(&"---|".repeat(columns));
-    t.push('\n');
+    let mut t = motion_header(&on_scene, &paths);
     let dash = || "-".to_string();
     for row in &rows {
         let _ = write!(t, "| `{}` | {} |", row.0, row.1.replace('|', "\\|"));
@@ -779,7 +756,7 @@ fn motion_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, 
                 .and_then(|m| m.flicker.as_ref())
                 .map_or_else(dash, |f| format!("{:.4}", f.mean));
             let _ = write!(t, " {error} | {flicker} |");
-            if has_lag(path) {
+            if has_lag(&on_scene, path) {
                 let lag = motion.and_then(|m| m.lag.as_ref()).map_or_else(dash, |l| {
                     format!("{:.4}, {}", l.extra_error, l.frames_to_settle)
                 });
@@ -799,6 +776,45 @@ fn motion_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, 
         t.push('\n');
     }
     Ok(t)
+}
+
+/// The header of a `motion` table of the runs `on_scene` along `paths`: per path its error,
+/// flicker and (where some run lags) lag columns, then per path the frame time against the cost
+/// floor's.
+fn motion_header(on_scene: &[&Run], paths: &[&str]) -> String {
+    let mut t = String::from("| technique | settings that differ |");
+    let mut columns = 2;
+    for path in paths {
+        let _ = write!(t, " error {path} | flicker {path} |");
+        columns += 2;
+        if has_lag(on_scene, path) {
+            let _ = write!(t, " lag {path} (extra error, frames) |");
+            columns += 1;
+        }
+    }
+    for path in paths {
+        let kind = on_scene
+            .iter()
+            .filter(|r| r.motion.as_ref().is_some_and(|m| m.path == *path))
+            .find_map(|r| path_frame_ms(r).map(|(kind, _)| kind))
+            .unwrap_or("still");
+        let _ = write!(t, " {kind} frame / `{COST_FLOOR_TECHNIQUE}`'s ({path}) |");
+        columns += 1;
+    }
+    t.push_str("\n|");
+    t.push_str(&"---|".repeat(columns));
+    t.push('\n');
+    t
+}
+
+/// Whether a `motion` table has a lag column for `path`: only where some run of `on_scene` keeps
+/// history (a non-zero lag).
+fn has_lag(on_scene: &[&Run], path: &str) -> bool {
+    on_scene.iter().any(|r| {
+        r.motion.as_ref().is_some_and(|m| {
+            m.path == path && m.lag.as_ref().is_some_and(|l| l.frames_to_settle > 0)
+        })
+    })
 }
 
 #[cfg(test)]

@@ -25,9 +25,9 @@ use std::{
 };
 
 use softshadow_core::{
-    AreaLight, BuildControl, Camera, FrameOutput, Gpu, MemoryUse, ParamError, ParamValue, Registry,
-    RegistryError, RenderError, Renderer, Scene, SceneGpu, ShadingMode, ShadowTechnique,
-    TechniqueError, TechniqueInfo, TimingSource, YARDSTICK_TECHNIQUE,
+    disk_cache::DiskCache, AreaLight, BuildControl, Camera, FrameOutput, Gpu, MemoryUse,
+    ParamError, ParamValue, Registry, RegistryError, RenderError, Renderer, Scene, SceneGpu,
+    ShadingMode, ShadowTechnique, TechniqueError, TechniqueInfo, TimingSource, YARDSTICK_TECHNIQUE,
 };
 use softshadow_metrics::ErrorReport;
 
@@ -485,263 +485,86 @@ impl Bench {
         check_size_within(spec.width, spec.height, edge)?;
         let info = resolve_technique(&self.registry, &spec.technique)?;
         self.load_scene_and_renderer(spec)?;
-        // What the device holds without the technique: the scene, the renderer, the reference
-        // kept from earlier runs (the wait frees what earlier runs dropped). The empty submit
-        // first flushes the queue's pending writes, whose staging buffers (a scene's
-        // `create_buffer_init` uploads) would otherwise be in the baseline and freed by the
-        // technique's first frame, hiding as many bytes of what it creates.
-        self.gpu.queue.submit([]);
-        self.gpu.wait_idle()?;
-        let memory_baseline = self.gpu.memory_in_use();
+        let memory_baseline = self.memory_without_technique()?;
+        let mut technique = self.create_technique(&info, spec, run)?;
+        self.faults.in_the_middle(index, &self.gpu);
+        let scene = &self.scenes[&spec.scene];
+        run.warnings = scene.warnings.clone();
+        let renderer = self
+            .renderers
+            .get_mut(&(spec.width, spec.height))
+            .expect("inserted above");
+        renderer.timing = self.timing;
+        let mut still = StillView {
+            renderer,
+            scene: &scene.gpu,
+            camera: self.camera.unwrap_or(scene.scene.camera),
+            light: self.light.unwrap_or(scene.scene.light),
+            technique: technique.as_mut(),
+        };
+        let inputs = still
+            .renderer
+            .inputs(still.scene, &still.camera, &still.light);
+        still.technique.prepare(&self.gpu, &inputs)?;
+
+        let memory_peak = still.time_frames(&self.options, run)?;
+        if self.gpu.counts_memory() {
+            run.memory = Some(results::TechniqueMemory {
+                current: self.gpu.memory_in_use().since(memory_baseline),
+                peak: memory_peak.since(memory_baseline),
+            });
+        }
+        run.stats = still.technique.stats();
+        let images = still.last_images(info.settle_frames_at(&spec.params), run)?;
+
+        let stem = format!("{index:03}_{}_{}", sanitize(&spec.scene), spec.technique);
+        if self.options.images {
+            let name = format!("{stem}_visibility.exr");
+            let (width, height) = (spec.width, spec.height);
+            output::write_exr_gray(&out_dir.join(&name), width, height, &images.visibility)?;
+            run.images.insert("visibility".into(), name);
+            let name = format!("{stem}_shaded.png");
+            output::write_png(&out_dir.join(&name), width, height, 3, &images.shaded)?;
+            run.images.insert("shaded".into(), name);
+        }
+        if self.options.error {
+            let write_images = self.options.images;
+            let reference = self.reference_for(spec, out_dir)?;
+            measure_against_reference(reference, &images, spec, run)?;
+            if write_images {
+                let name = format!("{stem}_difference.png");
+                write_difference_image(&images, reference, spec, &out_dir.join(&name))?;
+                run.images.insert("difference".into(), name);
+            }
+        }
+        Ok(())
+    }
+
+    /// `spec`'s technique with its settings, sharing this benchmark's build control; its
+    /// settings, defaults filled in, go into `run.params`.
+    fn create_technique(
+        &self,
+        info: &TechniqueInfo,
+        spec: &RunSpec,
+        run: &mut Run,
+    ) -> Result<Box<dyn ShadowTechnique>, BenchError> {
         let mut technique = info.create_with(&self.gpu, &spec.params)?;
         if let Some(control) = &self.build_control {
             technique.set_build_control(control.clone());
         }
         run.params = technique.params().to_map();
-        self.faults.in_the_middle(index, &self.gpu);
-        let key = (spec.width, spec.height);
-        let timing_source = self.timing;
-        let scene = &self.scenes[&spec.scene];
-        run.warnings = scene.warnings.clone();
-        let renderer = self.renderers.get_mut(&key).expect("inserted above");
-        renderer.timing = timing_source;
-        let camera = self.camera.unwrap_or(scene.scene.camera);
-        let light = self.light.unwrap_or(scene.scene.light);
-        technique.prepare(&self.gpu, &renderer.inputs(&scene.gpu, &camera, &light))?;
+        Ok(technique)
+    }
 
-        // The first frame, cold (nothing built or loaded yet), is timed on its own and counts
-        // as the first warm-up frame.
-        let (cold, cold_passes, mut memory_peak) = time_frames(1, |_| {
-            renderer.render(
-                &scene.gpu,
-                &camera,
-                &light,
-                technique.as_mut(),
-                Some(ShadingMode::Shaded),
-            )
-        })?;
-        run.cold = Some(results::ColdFrame {
-            timing: results::Timing {
-                passes_run: Some(cold_passes),
-                ..cold
-            },
-            stats: technique.stats(),
-        });
-        for _ in 1..self.options.warmup {
-            technique.invalidate_cache();
-            renderer.render(
-                &scene.gpu,
-                &camera,
-                &light,
-                technique.as_mut(),
-                Some(ShadingMode::Shaded),
-            )?;
-        }
-        if self.options.camera_only {
-            // Light-space work is built once here (untimed), then only the camera moves.
-            technique.invalidate_cache();
-            renderer.render(
-                &scene.gpu,
-                &camera,
-                &light,
-                technique.as_mut(),
-                Some(ShadingMode::Shaded),
-            )?;
-            let (timing, passes, peak) = time_frames(self.options.frames, |k| {
-                renderer.render(
-                    &scene.gpu,
-                    &orbit_camera(&camera, k),
-                    &light,
-                    technique.as_mut(),
-                    Some(ShadingMode::Shaded),
-                )
-            })?;
-            run.timing_camera_only = Some(results::Timing {
-                passes_run: Some(passes),
-                ..timing
-            });
-            memory_peak = memory_peak.max_by_total(peak);
-        }
-        // Full cost: every frame rebuilds everything (the reference keeps its image between
-        // frames, every technique its light-space maps), so the timing measures the work.
-        let (timing, passes, peak) = time_frames(self.options.frames, |_| {
-            technique.invalidate_cache();
-            renderer.render(
-                &scene.gpu,
-                &camera,
-                &light,
-                technique.as_mut(),
-                Some(ShadingMode::Shaded),
-            )
-        })?;
-        let mut timing = timing;
-        if timing_source == TimingSource::Timestamps {
-            // Calibration (issue 14): one full-cost frame timed serially on the same adapter.
-            renderer.timing = TimingSource::Serial;
-            technique.invalidate_cache();
-            let serial = renderer.render(
-                &scene.gpu,
-                &camera,
-                &light,
-                technique.as_mut(),
-                Some(ShadingMode::Shaded),
-            );
-            renderer.timing = timing_source;
-            if let Some(serial) = serial?.gpu {
-                timing.warnings = calibration_warnings(&timing.passes, &serial.passes);
-                for pass in &mut timing.passes {
-                    pass.serial_ms = serial
-                        .passes
-                        .iter()
-                        .find(|(n, _)| *n == pass.name)
-                        .map(|(_, ms)| *ms);
-                }
-            }
-        }
-        if self.gpu.counts_memory() {
-            run.memory = Some(results::TechniqueMemory {
-                current: self.gpu.memory_in_use().since(memory_baseline),
-                peak: memory_peak.max_by_total(peak).since(memory_baseline),
-            });
-        }
-        run.timing = Some(timing);
-        run.passes_run = passes;
-        run.stats = technique.stats();
-
-        let visibility = renderer.read_visibility()?;
-        let shaded = output::rgba_to_rgb(&renderer.read_shaded()?);
-        let mask = renderer.read_receiver_mask()?;
-        run.stability = Some(softshadow_metrics::stability(&visibility));
-        // One more frame with nothing changed, as a renderer's next frame: what a still picture
-        // shows changing (the exact answer does not change, so it stands in for both).
-        renderer.render(
-            &scene.gpu,
-            &camera,
-            &light,
-            technique.as_mut(),
-            Some(ShadingMode::Shaded),
-        )?;
-        let next = renderer.read_visibility()?;
-        run.still_flicker = Some(softshadow_metrics::flicker(
-            (&visibility, &visibility, &mask),
-            (&next, &visibility, &mask),
-        )?);
-        // A technique that accumulates: the still frames it takes to settle (after the one
-        // above), timed, then its last frame (measured with the error below).
-        let settled = match info.settle_frames_at(&spec.params) {
-            Some(frames) => {
-                let (timing, _, _) = time_frames(frames.saturating_sub(1).max(1), |_| {
-                    renderer.render(&scene.gpu, &camera, &light, technique.as_mut(), None)
-                })?;
-                Some((frames, timing, renderer.read_visibility()?))
-            }
-            None => None,
-        };
-
-        let stem = format!("{index:03}_{}_{}", sanitize(&spec.scene), spec.technique);
-        if self.options.images {
-            let name = format!("{stem}_visibility.exr");
-            output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
-            run.images.insert("visibility".into(), name);
-            let name = format!("{stem}_shaded.png");
-            output::write_png(&out_dir.join(&name), spec.width, spec.height, 3, &shaded)?;
-            run.images.insert("shaded".into(), name);
-        }
-
-        let write_images = self.options.images;
-        if self.options.error {
-            let reference = self.reference_for(spec, out_dir)?;
-            run.reference_cache = reference.cache_use.clone();
-            if let Some(why) = &reference.exact_warning {
-                run.warnings.push(why.clone());
-            }
-            if let Some(ReferenceCacheUse::Rebuilt(why) | ReferenceCacheUse::NotStored(why)) =
-                &run.reference_cache
-            {
-                run.warnings.push(why.clone());
-            }
-            let mut report =
-                softshadow_metrics::compare(&visibility, &reference.visibility, &mask)?;
-            report.flip_mean = Some(softshadow_metrics::flip_mean(
-                &shaded,
-                &reference.shaded_rgb,
-                spec.width,
-                spec.height,
-            )?);
-            let exact_sampling_error = reference.exact.as_ref().and_then(|e| e.sampling_error);
-            let (exact, vs_exact, reference_vs_exact, all_lit_vs_exact) = match &reference.exact {
-                Some(exact) => (
-                    Some(exact.label.clone()),
-                    Some(softshadow_metrics::compare(
-                        &visibility,
-                        &exact.visibility,
-                        &mask,
-                    )?),
-                    Some(exact.reference_vs_exact.clone()),
-                    Some(exact.all_lit_vs_exact.clone()),
-                ),
-                None => (None, None, None, None),
-            };
-            if let Some((frames, timing, settled)) = settled {
-                run.settled = Some(results::Settled {
-                    frames,
-                    timing,
-                    report: softshadow_metrics::compare(&settled, &reference.visibility, &mask)?,
-                    vs_exact: match &reference.exact {
-                        Some(exact) => Some(softshadow_metrics::compare(
-                            &settled,
-                            &exact.visibility,
-                            &mask,
-                        )?),
-                        None => None,
-                    },
-                });
-            }
-            let irradiance = match reference.exact.as_ref().map(|e| (e, &e.irradiance)) {
-                Some((exact, Some(i))) => Some(results::IrradianceFields {
-                    vs_exact: softshadow_metrics::compare_irradiance(
-                        &visibility,
-                        &exact.visibility,
-                        &i.images.irradiance,
-                        &i.images.unoccluded,
-                        &mask,
-                    )?,
-                    reference_vs_exact: i.reference_vs_exact,
-                    all_lit_vs_exact: i.all_lit_vs_exact,
-                }),
-                _ => None,
-            };
-            run.error = Some(results::ErrorFields {
-                reference: reference.label.clone(),
-                report,
-                exact,
-                exact_sampling_error,
-                vs_exact,
-                reference_vs_exact,
-                all_lit_vs_exact,
-                irradiance,
-            });
-            run.images.extend(reference.images.clone());
-            if write_images {
-                let diff = softshadow_metrics::difference_image(
-                    &visibility,
-                    &reference.visibility,
-                    &mask,
-                    spec.width,
-                    spec.height,
-                )?;
-                let name = format!("{stem}_difference.png");
-                output::write_png(
-                    &out_dir.join(&name),
-                    spec.width,
-                    spec.height,
-                    3,
-                    diff.as_raw(),
-                )?;
-                run.images.insert("difference".into(), name);
-            }
-        }
-        Ok(())
+    /// What the device holds without the technique: the scene, the renderer, the reference kept
+    /// from earlier runs (the wait frees what earlier runs dropped). The empty submit first
+    /// flushes the queue's pending writes, whose staging buffers (a scene's `create_buffer_init`
+    /// uploads) would otherwise be in the baseline and freed by the technique's first frame,
+    /// hiding as many bytes of what it creates.
+    fn memory_without_technique(&self) -> Result<MemoryUse, BenchError> {
+        self.gpu.queue.submit([]);
+        self.gpu.wait_idle()?;
+        Ok(self.gpu.memory_in_use())
     }
 
     /// The reference for this scene and size, computed once per benchmark (or read from the
@@ -777,30 +600,25 @@ impl Bench {
         if self.reference.is_none() {
             self.reference = Some(info.create_with(&self.gpu, &self.options.reference_params)?);
         }
-        let reference = self.reference.as_mut().expect("created above");
         let scene = &self.scenes[&spec.scene];
-        let renderer = self
-            .renderers
-            .get_mut(&(spec.width, spec.height))
-            .expect("created by the run");
-        let camera = self.camera.unwrap_or(scene.scene.camera);
-        let light = self.light.unwrap_or(scene.scene.light);
-        let settings: Vec<String> = reference
-            .params()
-            .entries
-            .iter()
-            .map(|(s, v)| format!("{}={v}", s.name))
-            .collect();
-        let label = format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","));
-        let pixels = (spec.width * spec.height) as usize;
+        let mut view = StillView {
+            renderer: self
+                .renderers
+                .get_mut(&(spec.width, spec.height))
+                .expect("created by the run"),
+            scene: &scene.gpu,
+            camera: self.camera.unwrap_or(scene.scene.camera),
+            light: self.light.unwrap_or(scene.scene.light),
+            technique: self.reference.as_deref_mut().expect("created above"),
+        };
+        let label = yardstick_label(view.technique);
         let method = self.options.exact_method();
         let sampled = method.map(|m| m.key_on(Some(&self.gpu)));
-
         let cache = self.options.reference_cache.as_deref().map(|dir| {
             let key = ReferenceKey {
                 scene: &scene.scene,
-                camera: &camera,
-                light: &light,
+                camera: &view.camera,
+                light: &view.light,
                 width: spec.width,
                 height: spec.height,
                 label: &label,
@@ -809,168 +627,477 @@ impl Bench {
             };
             (reference_cache::in_dir(dir), key.hash())
         });
-        let mut cache_use = None;
-        let mut cached = None;
+
+        let pixels = (spec.width * spec.height) as usize;
+        let (found, mut cache_use) = match &cache {
+            Some((cache, key)) => look_up_reference(cache, *key, pixels),
+            None => (None, None),
+        };
         let mut exact_warning = None;
-        if let Some((cache, key)) = &cache {
-            match cache.load(*key).and_then(|payload| {
-                payload
-                    .map(|p| reference_cache::decode(&p, pixels))
-                    .transpose()
-            }) {
-                Ok(Some(found)) => cached = Some(found),
-                Ok(None) => cache_use = Some(ReferenceCacheUse::Stored),
-                Err(why) => {
-                    cache_use = Some(ReferenceCacheUse::Rebuilt(format!(
-                    "a reference cache entry cannot be trusted ({why}): rendered again and stored"
-                )))
-                }
-            }
-        }
-        let cached = match cached {
+        let cached = match found {
             Some(found) => {
                 cache_use = Some(ReferenceCacheUse::Hit);
                 found
             }
             None => {
-                renderer.render(
-                    &scene.gpu,
-                    &camera,
-                    &light,
-                    reference.as_mut(),
-                    Some(ShadingMode::Shaded),
-                )?;
-                let visibility = renderer.read_visibility()?;
-                let shaded_rgb = output::rgba_to_rgb(&renderer.read_shaded()?);
-                let mut exact_sampling_error = None;
-                let mut exact_irradiance = None;
-                let exact = match method {
-                    Some(method) => {
-                        puffin::profile_scope!("exact ground truth");
-                        let positions = renderer.read_world_positions()?;
-                        let normals = renderer.read_world_normals()?;
-                        let mask = renderer.read_receiver_mask()?;
-                        // The exact answer of the scene as it is seen and lit here (a sweep's
-                        // `[camera]` / `[light]` replace the scene's own).
-                        let viewed = Scene {
-                            camera,
-                            light,
-                            ..scene.scene.clone()
-                        };
-                        let answer = softshadow_reference::exact_answer(
-                            Some(&self.gpu),
-                            &viewed,
-                            &positions,
-                            Some(&normals),
-                            &mask,
-                            method,
-                            self.build_control.as_ref(),
-                        )?;
-                        exact_sampling_error = answer.sampling_error(&mask);
-                        exact_warning = answer.fallback;
-                        exact_irradiance = answer.irradiance;
-                        Some((answer.truth.to_string(), answer.visibility))
-                    }
-                    None => None,
-                };
-                let made = CachedReference {
-                    label: label.clone(),
-                    visibility,
-                    shaded_rgb,
-                    exact,
-                    exact_sampling_error,
-                    exact_irradiance,
-                };
+                let control = self.build_control.as_ref();
+                let (made, warning) =
+                    view.reference_images(&scene.scene, label, method, &self.gpu, control)?;
+                exact_warning = warning;
                 if let Some((cache, key)) = &cache {
                     if let Err(e) = cache.store(*key, &reference_cache::encode(&made)) {
-                        // A cache that cannot be written costs time, not results.
-                        cache_use = Some(ReferenceCacheUse::NotStored(format!(
-                            "cannot write the reference cache in {} ({e}): the reference is used but not kept; point --reference-cache at a writable folder",
-                            cache.dir.display()
-                        )));
+                        cache_use = Some(not_stored(&cache.dir, e));
                     }
                 }
                 made
             }
         };
 
-        let exact = match cached.exact {
-            Some((label, exact)) => {
-                let mask = renderer.read_receiver_mask()?;
-                let reference_vs_exact =
-                    softshadow_metrics::compare(&cached.visibility, &exact, &mask)?;
-                let all_lit = vec![1.0; exact.len()];
-                let all_lit_vs_exact = softshadow_metrics::compare(&all_lit, &exact, &mask)?;
-                let irradiance_of = |v: &[f32], e: &softshadow_reference::ExactIrradiance| {
-                    softshadow_metrics::compare_irradiance(
-                        v,
-                        &exact,
-                        &e.irradiance,
-                        &e.unoccluded,
-                        &mask,
-                    )
-                };
-                let irradiance = match &cached.exact_irradiance {
-                    Some(e) => Some(ExactIrradianceResult {
-                        reference_vs_exact: irradiance_of(&cached.visibility, e)?,
-                        all_lit_vs_exact: irradiance_of(&all_lit, e)?,
-                        images: e.clone(),
-                    }),
-                    None => None,
-                };
-                Some(ExactResult {
-                    visibility: exact,
-                    label,
-                    sampling_error: cached.exact_sampling_error,
-                    reference_vs_exact,
-                    all_lit_vs_exact,
-                    irradiance,
-                })
-            }
+        let CachedReference {
+            label,
+            visibility,
+            shaded_rgb,
+            exact,
+            exact_sampling_error,
+            exact_irradiance,
+        } = cached;
+        let exact = match exact {
+            Some((label, exact)) => Some(ExactResult::of_reference(
+                label,
+                exact,
+                &visibility,
+                exact_sampling_error,
+                exact_irradiance.as_ref(),
+                &view.renderer.read_receiver_mask()?,
+            )?),
             None => None,
         };
-        let (visibility, shaded_rgb) = (cached.visibility, cached.shaded_rgb);
-        let mut images = BTreeMap::new();
-        if self.options.images {
-            let stem = format!(
-                "reference_{}_{}x{}",
-                sanitize(&spec.scene),
-                spec.width,
-                spec.height
-            );
-            let name = format!("{stem}.exr");
-            output::write_exr_gray(&out_dir.join(&name), spec.width, spec.height, &visibility)?;
-            images.insert(YARDSTICK_TECHNIQUE.into(), name);
-            let name = format!("{stem}_shaded.png");
-            output::write_png(
-                &out_dir.join(&name),
-                spec.width,
-                spec.height,
-                3,
-                &shaded_rgb,
-            )?;
-            images.insert(format!("{YARDSTICK_TECHNIQUE}_shaded"), name);
-            if let Some(exact) = &exact {
-                let name = format!("{stem}_exact.exr");
-                output::write_exr_gray(
-                    &out_dir.join(&name),
-                    spec.width,
-                    spec.height,
-                    &exact.visibility,
-                )?;
-                images.insert("exact".into(), name);
-            }
-        }
+        let images = if self.options.images {
+            write_reference_images(out_dir, spec, &visibility, &shaded_rgb, exact.as_ref())?
+        } else {
+            BTreeMap::new()
+        };
         Ok(ReferenceResult {
             visibility,
             shaded_rgb,
-            label: cached.label,
+            label,
             images,
             exact,
             cache_use,
             exact_warning,
         })
     }
+}
+
+/// `reference(name=value,...)`: the yardstick with its settings, as results name it.
+fn yardstick_label(reference: &dyn ShadowTechnique) -> String {
+    let settings: Vec<String> = reference
+        .params()
+        .entries
+        .iter()
+        .map(|(s, v)| format!("{}={v}", s.name))
+        .collect();
+    format!("{YARDSTICK_TECHNIQUE}({})", settings.join(","))
+}
+
+/// The reference cached under `key`, or (none and) what rendering it will count as.
+fn look_up_reference(
+    cache: &DiskCache,
+    key: u64,
+    pixels: usize,
+) -> (Option<CachedReference>, Option<ReferenceCacheUse>) {
+    match cache.load(key).and_then(|payload| {
+        payload
+            .map(|p| reference_cache::decode(&p, pixels))
+            .transpose()
+    }) {
+        Ok(Some(found)) => (Some(found), None),
+        Ok(None) => (None, Some(ReferenceCacheUse::Stored)),
+        Err(why) => (
+            None,
+            Some(ReferenceCacheUse::Rebuilt(format!(
+                "a reference cache entry cannot be trusted ({why}): rendered again and stored"
+            ))),
+        ),
+    }
+}
+
+/// A reference cache in `dir` that cannot be written (`error`): that costs time, not results.
+fn not_stored(dir: &Path, error: impl std::fmt::Display) -> ReferenceCacheUse {
+    ReferenceCacheUse::NotStored(format!(
+        "cannot write the reference cache in {} ({error}): the reference is used but not kept; point --reference-cache at a writable folder",
+        dir.display()
+    ))
+}
+
+impl ExactResult {
+    /// The exact answer `exact` (named `label`) with the reference's (`reference`) and no
+    /// shadow's errors against it, in visibility and, with the exact `irradiance`, in irradiance.
+    fn of_reference(
+        label: String,
+        exact: Vec<f32>,
+        reference: &[f32],
+        sampling_error: Option<f64>,
+        irradiance: Option<&softshadow_reference::ExactIrradiance>,
+        mask: &[bool],
+    ) -> Result<Self, BenchError> {
+        let reference_vs_exact = softshadow_metrics::compare(reference, &exact, mask)?;
+        let all_lit = vec![1.0; exact.len()];
+        let all_lit_vs_exact = softshadow_metrics::compare(&all_lit, &exact, mask)?;
+        let irradiance_of = |v: &[f32], e: &softshadow_reference::ExactIrradiance| {
+            softshadow_metrics::compare_irradiance(v, &exact, &e.irradiance, &e.unoccluded, mask)
+        };
+        let irradiance = match irradiance {
+            Some(e) => Some(ExactIrradianceResult {
+                reference_vs_exact: irradiance_of(reference, e)?,
+                all_lit_vs_exact: irradiance_of(&all_lit, e)?,
+                images: e.clone(),
+            }),
+            None => None,
+        };
+        Ok(Self {
+            visibility: exact,
+            label,
+            sampling_error,
+            reference_vs_exact,
+            all_lit_vs_exact,
+            irradiance,
+        })
+    }
+}
+
+/// Writes the reference's images (visibility, shaded, and the exact answer when there is one)
+/// to `out_dir`; returns their file names by image name.
+fn write_reference_images(
+    out_dir: &Path,
+    spec: &RunSpec,
+    visibility: &[f32],
+    shaded_rgb: &[u8],
+    exact: Option<&ExactResult>,
+) -> Result<BTreeMap<String, String>, BenchError> {
+    let (width, height) = (spec.width, spec.height);
+    let stem = format!("reference_{}_{width}x{height}", sanitize(&spec.scene));
+    let mut images = BTreeMap::new();
+    let name = format!("{stem}.exr");
+    output::write_exr_gray(&out_dir.join(&name), width, height, visibility)?;
+    images.insert(YARDSTICK_TECHNIQUE.into(), name);
+    let name = format!("{stem}_shaded.png");
+    output::write_png(&out_dir.join(&name), width, height, 3, shaded_rgb)?;
+    images.insert(format!("{YARDSTICK_TECHNIQUE}_shaded"), name);
+    if let Some(exact) = exact {
+        let name = format!("{stem}_exact.exr");
+        output::write_exr_gray(&out_dir.join(&name), width, height, &exact.visibility)?;
+        images.insert("exact".into(), name);
+    }
+    Ok(images)
+}
+
+/// A still run's view: `technique` drawn by `renderer` on one scene from one camera under one
+/// light.
+struct StillView<'a> {
+    renderer: &'a mut Renderer,
+    scene: &'a SceneGpu,
+    camera: Camera,
+    light: AreaLight,
+    technique: &'a mut dyn ShadowTechnique,
+}
+
+/// The last frame of a still run as read back, for its images and its error.
+struct StillImages {
+    visibility: Vec<f32>,
+    /// RGB.
+    shaded: Vec<u8>,
+    mask: Vec<bool>,
+    /// A technique that accumulates: the still frames it took to settle, their timing and the
+    /// last one's visibility.
+    settled: Option<(u32, results::Timing, Vec<f32>)>,
+}
+
+impl StillView<'_> {
+    /// One shaded frame, seen from `camera`.
+    fn frame_from(&mut self, camera: &Camera) -> Result<FrameOutput, RenderError> {
+        self.renderer.render(
+            self.scene,
+            camera,
+            &self.light,
+            &mut *self.technique,
+            Some(ShadingMode::Shaded),
+        )
+    }
+
+    /// One shaded frame from the view's camera.
+    fn frame(&mut self) -> Result<FrameOutput, RenderError> {
+        let camera = self.camera;
+        self.frame_from(&camera)
+    }
+
+    /// One shaded frame that builds everything again (nothing kept from the frame before).
+    fn rebuilt_frame(&mut self) -> Result<FrameOutput, RenderError> {
+        self.technique.invalidate_cache();
+        self.frame()
+    }
+
+    /// The timed frames of a run: the cold first frame (`run.cold`), the warm-up, the frames in
+    /// which only the camera moves (`run.timing_camera_only`, when `options` ask for them) and
+    /// the full-cost frames (`run.timing`, `run.passes_run`). Returns the most GPU memory the
+    /// device held in any of them.
+    fn time_frames(
+        &mut self,
+        options: &BenchOptions,
+        run: &mut Run,
+    ) -> Result<MemoryUse, BenchError> {
+        // The first frame, cold (nothing built or loaded yet), is timed on its own and counts
+        // as the first warm-up frame.
+        let (cold, cold_passes, mut memory_peak) = time_frames(1, |_| self.frame())?;
+        run.cold = Some(results::ColdFrame {
+            timing: results::Timing {
+                passes_run: Some(cold_passes),
+                ..cold
+            },
+            stats: self.technique.stats(),
+        });
+        for _ in 1..options.warmup {
+            self.rebuilt_frame()?;
+        }
+        if options.camera_only {
+            let (timing, peak) = self.time_camera_only(options.frames)?;
+            run.timing_camera_only = Some(timing);
+            memory_peak = memory_peak.max_by_total(peak);
+        }
+        // Full cost: every frame rebuilds everything (the reference keeps its image between
+        // frames, every technique its light-space maps), so the timing measures the work.
+        let (mut timing, passes, peak) = time_frames(options.frames, |_| self.rebuilt_frame())?;
+        if self.renderer.timing == TimingSource::Timestamps {
+            self.calibrate(&mut timing)?;
+        }
+        run.timing = Some(timing);
+        run.passes_run = passes;
+        Ok(memory_peak.max_by_total(peak))
+    }
+
+    /// `frames` frames in which only the camera moves (an orbit), light-space work built once
+    /// before them (untimed); their timing and memory peak.
+    fn time_camera_only(
+        &mut self,
+        frames: u32,
+    ) -> Result<(results::Timing, MemoryUse), BenchError> {
+        self.rebuilt_frame()?;
+        let camera = self.camera;
+        let (timing, passes, peak) =
+            time_frames(frames, |k| self.frame_from(&orbit_camera(&camera, k)))?;
+        let timing = results::Timing {
+            passes_run: Some(passes),
+            ..timing
+        };
+        Ok((timing, peak))
+    }
+
+    /// Calibration of timestamp timings (issue 14): one full-cost frame timed serially on the
+    /// same adapter; each pass's serial time goes beside its timestamp time, and a pass whose
+    /// timestamps miss its work is warned of.
+    fn calibrate(&mut self, timing: &mut results::Timing) -> Result<(), BenchError> {
+        let timing_source = self.renderer.timing;
+        self.renderer.timing = TimingSource::Serial;
+        let serial = self.rebuilt_frame();
+        self.renderer.timing = timing_source;
+        if let Some(serial) = serial?.gpu {
+            timing.warnings = calibration_warnings(&timing.passes, &serial.passes);
+            for pass in &mut timing.passes {
+                pass.serial_ms = serial
+                    .passes
+                    .iter()
+                    .find(|(n, _)| *n == pass.name)
+                    .map(|(_, ms)| *ms);
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads the last frame back, measures its stability and the flicker of one more frame with
+    /// nothing changed (`run.stability`, `run.still_flicker`), then renders the `settle_frames`
+    /// of a technique that accumulates.
+    fn last_images(
+        &mut self,
+        settle_frames: Option<u32>,
+        run: &mut Run,
+    ) -> Result<StillImages, BenchError> {
+        let visibility = self.renderer.read_visibility()?;
+        let shaded = output::rgba_to_rgb(&self.renderer.read_shaded()?);
+        let mask = self.renderer.read_receiver_mask()?;
+        run.stability = Some(softshadow_metrics::stability(&visibility));
+        // One more frame with nothing changed, as a renderer's next frame: what a still picture
+        // shows changing (the exact answer does not change, so it stands in for both).
+        self.frame()?;
+        let next = self.renderer.read_visibility()?;
+        run.still_flicker = Some(softshadow_metrics::flicker(
+            (&visibility, &visibility, &mask),
+            (&next, &visibility, &mask),
+        )?);
+        // A technique that accumulates: the still frames it takes to settle (after the one
+        // above), timed, then its last frame (measured with the error).
+        let settled = match settle_frames {
+            Some(frames) => {
+                let (timing, _, _) = time_frames(frames.saturating_sub(1).max(1), |_| {
+                    let (scene, camera, light) = (self.scene, &self.camera, &self.light);
+                    self.renderer
+                        .render(scene, camera, light, &mut *self.technique, None)
+                })?;
+                Some((frames, timing, self.renderer.read_visibility()?))
+            }
+            None => None,
+        };
+        Ok(StillImages {
+            visibility,
+            shaded,
+            mask,
+            settled,
+        })
+    }
+
+    /// Renders the view's technique (the yardstick) and, with `method`, the exact answer of
+    /// `scene` as the view sees and lights it (a sweep's `[camera]` / `[light]` replace the
+    /// scene's own); returns them as the reference cache keeps them (named `label`), with why the
+    /// exact answer is not the one asked for, if so.
+    fn reference_images(
+        &mut self,
+        scene: &Scene,
+        label: String,
+        method: Option<softshadow_reference::ExactMethod>,
+        gpu: &Gpu,
+        control: Option<&BuildControl>,
+    ) -> Result<(CachedReference, Option<String>), BenchError> {
+        self.frame()?;
+        let mut made = CachedReference {
+            label,
+            visibility: self.renderer.read_visibility()?,
+            shaded_rgb: output::rgba_to_rgb(&self.renderer.read_shaded()?),
+            exact: None,
+            exact_sampling_error: None,
+            exact_irradiance: None,
+        };
+        let Some(method) = method else {
+            return Ok((made, None));
+        };
+        puffin::profile_scope!("exact ground truth");
+        let positions = self.renderer.read_world_positions()?;
+        let normals = self.renderer.read_world_normals()?;
+        let mask = self.renderer.read_receiver_mask()?;
+        let viewed = Scene {
+            camera: self.camera,
+            light: self.light,
+            ..scene.clone()
+        };
+        let answer = softshadow_reference::exact_answer(
+            Some(gpu),
+            &viewed,
+            &positions,
+            Some(&normals),
+            &mask,
+            method,
+            control,
+        )?;
+        made.exact_sampling_error = answer.sampling_error(&mask);
+        made.exact_irradiance = answer.irradiance;
+        made.exact = Some((answer.truth.to_string(), answer.visibility));
+        Ok((made, answer.fallback))
+    }
+}
+
+/// Measures a still run's last frame against `reference` (and its exact answer, when it has one)
+/// into `run.error` and `run.settled`; takes the reference's cache use, warnings and images into
+/// `run`.
+fn measure_against_reference(
+    reference: &ReferenceResult,
+    images: &StillImages,
+    spec: &RunSpec,
+    run: &mut Run,
+) -> Result<(), BenchError> {
+    run.reference_cache = reference.cache_use.clone();
+    if let Some(why) = &reference.exact_warning {
+        run.warnings.push(why.clone());
+    }
+    if let Some(ReferenceCacheUse::Rebuilt(why) | ReferenceCacheUse::NotStored(why)) =
+        &run.reference_cache
+    {
+        run.warnings.push(why.clone());
+    }
+    let StillImages {
+        visibility, mask, ..
+    } = images;
+    let mut report = softshadow_metrics::compare(visibility, &reference.visibility, mask)?;
+    report.flip_mean = Some(softshadow_metrics::flip_mean(
+        &images.shaded,
+        &reference.shaded_rgb,
+        spec.width,
+        spec.height,
+    )?);
+    let exact = reference.exact.as_ref();
+    let vs_exact = match exact {
+        Some(exact) => Some(softshadow_metrics::compare(
+            visibility,
+            &exact.visibility,
+            mask,
+        )?),
+        None => None,
+    };
+    if let Some((frames, timing, settled)) = &images.settled {
+        run.settled = Some(results::Settled {
+            frames: *frames,
+            timing: timing.clone(),
+            report: softshadow_metrics::compare(settled, &reference.visibility, mask)?,
+            vs_exact: match exact {
+                Some(exact) => Some(softshadow_metrics::compare(
+                    settled,
+                    &exact.visibility,
+                    mask,
+                )?),
+                None => None,
+            },
+        });
+    }
+    let irradiance = match exact.map(|e| (e, &e.irradiance)) {
+        Some((exact, Some(i))) => Some(results::IrradianceFields {
+            vs_exact: softshadow_metrics::compare_irradiance(
+                visibility,
+                &exact.visibility,
+                &i.images.irradiance,
+                &i.images.unoccluded,
+                mask,
+            )?,
+            reference_vs_exact: i.reference_vs_exact,
+            all_lit_vs_exact: i.all_lit_vs_exact,
+        }),
+        _ => None,
+    };
+    run.error = Some(results::ErrorFields {
+        reference: reference.label.clone(),
+        report,
+        exact: exact.map(|e| e.label.clone()),
+        exact_sampling_error: exact.and_then(|e| e.sampling_error),
+        vs_exact,
+        reference_vs_exact: exact.map(|e| e.reference_vs_exact.clone()),
+        all_lit_vs_exact: exact.map(|e| e.all_lit_vs_exact.clone()),
+        irradiance,
+    });
+    run.images.extend(reference.images.clone());
+    Ok(())
+}
+
+/// The difference of a still run's last frame from `reference`, as a PNG at `path`.
+fn write_difference_image(
+    images: &StillImages,
+    reference: &ReferenceResult,
+    spec: &RunSpec,
+    path: &Path,
+) -> Result<(), BenchError> {
+    let diff = softshadow_metrics::difference_image(
+        &images.visibility,
+        &reference.visibility,
+        &images.mask,
+        spec.width,
+        spec.height,
+    )?;
+    output::write_png(path, spec.width, spec.height, 3, diff.as_raw())
 }
 
 /// File-name-safe form of a scene spec (ids may carry `:key=value,...`; paths have slashes).

@@ -83,7 +83,40 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
         ));
     }
     let mut warnings = Vec::new();
-    // Shards must come from one sweep.
+    let complete_sweep = match shards_of_one_sweep(inputs)? {
+        Some((hash, shards)) => complete_sweep(hash, &shards, &mut warnings)?,
+        None => None,
+    };
+    let entries = runs_in_order(inputs)?;
+    warnings.extend(adapter_warnings(inputs));
+    let all_one_sweep = inputs.iter().all(|l| {
+        l.results.sweep.as_ref().map(|s| &s.hash)
+            == inputs[0].results.sweep.as_ref().map(|s| &s.hash)
+    });
+    let sweep = if all_one_sweep {
+        complete_sweep.or_else(|| {
+            (inputs.len() == 1)
+                .then(|| inputs[0].results.sweep.clone())
+                .flatten()
+        })
+    } else {
+        None
+    };
+    let run_dirs = entries.iter().map(|e| e.dir.clone()).collect();
+    Ok(Merged {
+        results: Results {
+            sweep,
+            runs: entries.into_iter().map(|e| e.run).collect(),
+            ..merged_header(inputs)
+        },
+        run_dirs,
+        warnings,
+    })
+}
+
+/// The inputs that are shards, by their sweep's hash: none, or the shards of one sweep (shards
+/// of different sweeps are refused).
+fn shards_of_one_sweep(inputs: &[Loaded]) -> Result<Option<(&str, Vec<&Loaded>)>, BenchError> {
     let shard_hashes: BTreeMap<&str, Vec<&Loaded>> =
         inputs.iter().fold(BTreeMap::new(), |mut m, l| {
             if let Some(sweep) = l.results.sweep.as_ref().filter(|s| s.shard.is_some()) {
@@ -107,46 +140,66 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
             list.join("; ")
         )));
     }
-    let mut complete_sweep: Option<SweepInfo> = None;
-    if let Some((hash, files)) = shard_hashes.iter().next() {
-        let counts: BTreeSet<usize> = files
-            .iter()
-            .filter_map(|l| l.results.sweep.as_ref()?.shard.map(|s| s.count))
-            .collect();
-        if counts.len() > 1 {
-            return Err(BenchError::Merge(format!(
-                "sweep {hash} was split into different shard counts ({counts:?}): merge the shards of one split"
-            )));
-        }
-        let count = *counts.iter().next().expect("at least one shard");
-        let present: BTreeSet<usize> = files
-            .iter()
-            .filter_map(|l| l.results.sweep.as_ref()?.shard.map(|s| s.index))
-            .collect();
-        let missing: Vec<String> = (0..count)
-            .filter(|i| !present.contains(i))
-            .map(|i| i.to_string())
-            .collect();
-        let runs_total = files[0].results.sweep.as_ref().map_or(0, |s| s.runs_total);
-        if missing.is_empty() {
-            complete_sweep = Some(SweepInfo {
-                hash: hash.to_string(),
-                runs_total,
-                shard: None,
-            });
-        } else {
-            warnings.push(format!(
-                "sweep {hash}: shard{} {} of {count} missing (shards are 0-based; the runs they hold are absent)",
-                if missing.len() == 1 { "" } else { "s" },
-                missing.join(", ")
-            ));
-        }
-    }
+    Ok(shard_hashes.into_iter().next())
+}
 
-    // Duplicates: the same sweep index of the same sweep, or the same settings outside a sweep.
+/// The sweep `files` (the shards of sweep `hash`) make whole when none is missing; a missing
+/// shard is a warning. Shards of different splits of the sweep are refused.
+fn complete_sweep(
+    hash: &str,
+    files: &[&Loaded],
+    warnings: &mut Vec<String>,
+) -> Result<Option<SweepInfo>, BenchError> {
+    let counts: BTreeSet<usize> = files
+        .iter()
+        .filter_map(|l| l.results.sweep.as_ref()?.shard.map(|s| s.count))
+        .collect();
+    if counts.len() > 1 {
+        return Err(BenchError::Merge(format!(
+            "sweep {hash} was split into different shard counts ({counts:?}): merge the shards of one split"
+        )));
+    }
+    let count = *counts.iter().next().expect("at least one shard");
+    let present: BTreeSet<usize> = files
+        .iter()
+        .filter_map(|l| l.results.sweep.as_ref()?.shard.map(|s| s.index))
+        .collect();
+    let missing: Vec<String> = (0..count)
+        .filter(|i| !present.contains(i))
+        .map(|i| i.to_string())
+        .collect();
+    if !missing.is_empty() {
+        warnings.push(format!(
+            "sweep {hash}: shard{} {} of {count} missing (shards are 0-based; the runs they hold are absent)",
+            if missing.len() == 1 { "" } else { "s" },
+            missing.join(", ")
+        ));
+        return Ok(None);
+    }
+    let runs_total = files[0].results.sweep.as_ref().map_or(0, |s| s.runs_total);
+    Ok(Some(SweepInfo {
+        hash: hash.to_string(),
+        runs_total,
+        shard: None,
+    }))
+}
+
+/// One run to merge and where it sorts.
+struct Entry {
+    /// Its sweep's hash and its index in that sweep.
+    sweep_index: Option<(String, usize)>,
+    /// Which input it came from.
+    input: usize,
+    run: Run,
+    /// Its images' folder.
+    dir: PathBuf,
+}
+
+/// Every input's runs: a sweep's runs by sweep index, other files' runs after, in input order.
+/// A run present twice (the same sweep index of the same sweep, or the same settings outside a
+/// sweep) is refused.
+fn runs_in_order(inputs: &[Loaded]) -> Result<Vec<Entry>, BenchError> {
     let mut seen: HashMap<String, &Path> = HashMap::new();
-    // (sweep hash and index, input order, run, image folder)
-    type Entry = (Option<(String, usize)>, usize, Run, PathBuf);
     let mut entries: Vec<Entry> = Vec::new();
     for (order, input) in inputs.iter().enumerate() {
         let hash = input.results.sweep.as_ref().map(|s| s.hash.clone());
@@ -162,79 +215,72 @@ pub fn merge(inputs: &[Loaded]) -> Result<Merged, BenchError> {
                     input.file.display()
                 )));
             }
-            entries.push((
-                hash.clone().map(|h| (h, run.index)),
-                order,
-                run.clone(),
-                input.dir.clone(),
-            ));
+            entries.push(Entry {
+                sweep_index: hash.clone().map(|h| (h, run.index)),
+                input: order,
+                run: run.clone(),
+                dir: input.dir.clone(),
+            });
         }
     }
-    entries.sort_by(|a, b| match (&a.0, &b.0) {
+    entries.sort_by(|a, b| match (&a.sweep_index, &b.sweep_index) {
         (Some(x), Some(y)) => x.cmp(y),
         (Some(_), None) => std::cmp::Ordering::Less,
         (None, Some(_)) => std::cmp::Ordering::Greater,
-        (None, None) => a.1.cmp(&b.1),
+        (None, None) => a.input.cmp(&b.input),
     });
+    Ok(entries)
+}
 
-    let adapter = inputs[0].results.adapter.clone();
-    for input in &inputs[1..] {
-        if input.results.adapter.name != adapter.name {
-            warnings.push(format!(
+/// A warning for every input that ran on another adapter than the first.
+fn adapter_warnings(inputs: &[Loaded]) -> Vec<String> {
+    let adapter = &inputs[0].results.adapter;
+    inputs[1..]
+        .iter()
+        .filter(|input| input.results.adapter.name != adapter.name)
+        .map(|input| {
+            format!(
                 "{} ran on `{}`, {} on `{}`: times from different adapters are not comparable",
                 inputs[0].file.display(),
                 adapter.name,
                 input.file.display(),
                 input.results.adapter.name
-            ));
-        }
-    }
-    let all_one_sweep = inputs.iter().all(|l| {
-        l.results.sweep.as_ref().map(|s| &s.hash)
-            == inputs[0].results.sweep.as_ref().map(|s| &s.hash)
-    });
-    let sweep = if all_one_sweep {
-        complete_sweep.or_else(|| {
-            (inputs.len() == 1)
-                .then(|| inputs[0].results.sweep.clone())
-                .flatten()
+            )
         })
-    } else {
-        None
-    };
-    let run_dirs = entries.iter().map(|e| e.3.clone()).collect();
-    Ok(Merged {
-        results: Results {
-            schema_version: crate::results::SCHEMA_VERSION,
-            adapter,
-            command: inputs
-                .first()
-                .map(|i| i.results.command.clone())
-                .unwrap_or_default(),
-            program: inputs
-                .first()
-                .map(|i| i.results.program.clone())
-                .unwrap_or_default(),
-            date: inputs
-                .iter()
-                .map(|i| i.results.date.clone())
-                .max()
-                .unwrap_or_default(),
-            // Shards ran apart: the busiest start and end any of them saw.
-            load: inputs
-                .iter()
-                .filter_map(|i| i.results.load.clone())
-                .reduce(|a, b| crate::results::MachineLoad {
-                    cpus: a.cpus.max(b.cpus),
-                    start: a.start.max(b.start),
-                    end: a.end.max(b.end),
-                }),
-            sweep,
-            runs: entries.into_iter().map(|e| e.2).collect(),
-        },
-        run_dirs,
-        warnings,
-    })
+        .collect()
+}
+
+/// The merged results without sweep and runs: the first input's adapter, command and program,
+/// the latest date, and the busiest machine load.
+fn merged_header(inputs: &[Loaded]) -> Results {
+    Results {
+        schema_version: crate::results::SCHEMA_VERSION,
+        adapter: inputs[0].results.adapter.clone(),
+        command: inputs
+            .first()
+            .map(|i| i.results.command.clone())
+            .unwrap_or_default(),
+        program: inputs
+            .first()
+            .map(|i| i.results.program.clone())
+            .unwrap_or_default(),
+        date: inputs
+            .iter()
+            .map(|i| i.results.date.clone())
+            .max()
+            .unwrap_or_default(),
+        // Shards ran apart: the busiest start and end any of them saw.
+        load: inputs
+            .iter()
+            .filter_map(|i| i.results.load.clone())
+            .reduce(|a, b| crate::results::MachineLoad {
+                cpus: a.cpus.max(b.cpus),
+                start: a.start.max(b.start),
+                end: a.end.max(b.end),
+            }),
+        sweep: None,
+        runs: Vec::new(),
+    }
 }
 
 /// Writes `merged` to `out_dir`: results.json and a copy of every image its runs name. Images

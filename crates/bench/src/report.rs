@@ -355,68 +355,16 @@ pub fn plot_svg_over(
             let of_technique: Vec<&PlotPoint> =
                 points.iter().filter(|p| p.technique == technique).collect();
             chart
-                .draw_series(of_technique.iter().map(|p| {
-                    let c = colour(style);
-                    let at = (p.time_ms, p.value);
-                    match (style / 10 + style) % 6 {
-                        0 => EmptyElement::at(at) + Circle::new((0, 0), 4, c.filled()).into_dyn(),
-                        1 => {
-                            EmptyElement::at(at)
-                                + TriangleMarker::new((0, 0), 6, c.filled()).into_dyn()
-                        }
-                        2 => {
-                            EmptyElement::at(at)
-                                + Cross::new((0, 0), 4, c.stroke_width(2)).into_dyn()
-                        }
-                        3 => {
-                            EmptyElement::at(at)
-                                + Rectangle::new([(-4, -4), (4, 4)], c.filled()).into_dyn()
-                        }
-                        4 => {
-                            EmptyElement::at(at)
-                                + Circle::new((0, 0), 4, c.stroke_width(2)).into_dyn()
-                        }
-                        _ => {
-                            EmptyElement::at(at)
-                                + Rectangle::new([(-4, -4), (4, 4)], c.stroke_width(2)).into_dyn()
-                        }
-                    }
-                }))
+                .draw_series(
+                    of_technique
+                        .iter()
+                        .map(|p| EmptyElement::at((p.time_ms, p.value)) + marker(style, (0, 0))),
+                )
                 .map_err(plot_error)?
                 .label(technique)
-                .legend(move |at| {
-                    let c = colour(style);
-                    match (style / 10 + style) % 6 {
-                        0 => Circle::new(at, 4, c.filled()).into_dyn(),
-                        1 => TriangleMarker::new(at, 6, c.filled()).into_dyn(),
-                        2 => Cross::new(at, 4, c.stroke_width(2)).into_dyn(),
-                        3 => {
-                            Rectangle::new([(at.0 - 4, at.1 - 4), (at.0 + 4, at.1 + 4)], c.filled())
-                                .into_dyn()
-                        }
-                        4 => Circle::new(at, 4, c.stroke_width(2)).into_dyn(),
-                        _ => Rectangle::new(
-                            [(at.0 - 4, at.1 - 4), (at.0 + 4, at.1 + 4)],
-                            c.stroke_width(2),
-                        )
-                        .into_dyn(),
-                    }
-                });
+                .legend(move |at| marker(style, at));
         }
-        let front = pareto_front(
-            &points
-                .iter()
-                .map(|p| (p.time_ms, p.value))
-                .collect::<Vec<_>>(),
-        );
-        // A staircase: from each front point right to the next one's time, then down.
-        let mut stairs = Vec::new();
-        for (k, &i) in front.iter().enumerate() {
-            if k > 0 {
-                stairs.push((points[i].time_ms, points[front[k - 1]].value));
-            }
-            stairs.push((points[i].time_ms, points[i].value));
-        }
+        let stairs = pareto_stairs(points);
         if !stairs.is_empty() {
             chart
                 .draw_series(LineSeries::new(stairs, PARETO_COLOUR.stroke_width(2)))
@@ -439,6 +387,49 @@ pub fn plot_svg_over(
         }
         root.present().map_err(plot_error)?;
     }
+    with_point_overlay(svg, &hits)
+}
+
+/// The marker of technique style `style` at pixel offset `at`: one of six shapes (filled or
+/// outlined) in the style's colour.
+fn marker<DB: DrawingBackend>(style: usize, at: (i32, i32)) -> DynElement<'static, DB, (i32, i32)> {
+    let c = colour(style);
+    let square = [(at.0 - 4, at.1 - 4), (at.0 + 4, at.1 + 4)];
+    match (style / 10 + style) % 6 {
+        0 => Circle::new(at, 4, c.filled()).into_dyn(),
+        1 => TriangleMarker::new(at, 6, c.filled()).into_dyn(),
+        2 => Cross::new(at, 4, c.stroke_width(2)).into_dyn(),
+        3 => Rectangle::new(square, c.filled()).into_dyn(),
+        4 => Circle::new(at, 4, c.stroke_width(2)).into_dyn(),
+        _ => Rectangle::new(square, c.stroke_width(2)).into_dyn(),
+    }
+}
+
+/// The Pareto front of `points` as a staircase: from each front point right to the next one's
+/// time, then down.
+fn pareto_stairs(points: &[PlotPoint]) -> Vec<(f64, f64)> {
+    let front = pareto_front(
+        &points
+            .iter()
+            .map(|p| (p.time_ms, p.value))
+            .collect::<Vec<_>>(),
+    );
+    let mut stairs = Vec::new();
+    for (k, &i) in front.iter().enumerate() {
+        if k > 0 {
+            stairs.push((points[i].time_ms, points[front[k - 1]].value));
+        }
+        stairs.push((points[i].time_ms, points[i].value));
+    }
+    stairs
+}
+
+/// `svg` with an invisible circle over every point (its pixel position in `hits`): class `run`,
+/// `data-run`, `data-time` and `data-value` attributes and a `<title>` tooltip.
+fn with_point_overlay(
+    mut svg: String,
+    hits: &[(&PlotPoint, (i32, i32))],
+) -> Result<String, BenchError> {
     let mut overlay = String::new();
     for (p, (x, y)) in hits {
         let _ = write!(
@@ -566,6 +557,31 @@ pub fn render_html_beside(
             .iter()
             .filter(|s| !scenes.contains(s))
             .count();
+    let mut body = report_heading(merged);
+    if !runs.is_empty() {
+        // Still-frame tables; a report of runs along paths only has the motion section.
+        body.push_str(&still_tables(runs, &scenes, cpu));
+    }
+    for scene in &scenes {
+        body.push_str(&scene_section(merged, runs, scene, &styles, &mut summary)?);
+    }
+    if !motion_runs.is_empty() {
+        body.push_str(&motion_section(
+            merged,
+            &motion_runs,
+            &styles,
+            &mut summary,
+        )?);
+    }
+    let html = format!(
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>softshadow report</title><style>{STYLE}</style></head><body>{body}</body></html>\n"
+    );
+    Ok((html, summary))
+}
+
+/// The report's title paragraph (runs, adapter, timing, sweep) and the merge's warnings.
+fn report_heading(merged: &Merged) -> String {
+    let all_runs = &merged.results.runs;
     let adapter = &merged.results.adapter;
     let sources: Vec<String> = {
         let mut s: Vec<String> = all_runs
@@ -595,153 +611,167 @@ pub fn render_html_beside(
     for w in &merged.warnings {
         let _ = write!(body, "<p class=\"warn\">warning: {}</p>", escape(w));
     }
-    if !runs.is_empty() {
-        // Still-frame tables; a report of runs along paths only has the motion section.
+    body
+}
+
+/// The tables over every scene of the still runs: the summaries (visibility, irradiance where
+/// measured, millisecond budgets where they apply), the CPU-to-GPU section with `cpu`, the
+/// headline table.
+fn still_tables(runs: &[Run], scenes: &[(String, u32, u32)], cpu: Option<&[Run]>) -> String {
+    let mut body = summary_table(runs, scenes, Budgets::FloorMultiples, Score::Visibility);
+    if runs.iter().any(|r| irradiance_mae_shadowed(r).is_some()) {
         body.push_str(&summary_table(
             runs,
-            &scenes,
+            scenes,
             Budgets::FloorMultiples,
+            Score::Irradiance,
+        ));
+    }
+    let ms_scenes = ms_budget_scenes(runs, scenes);
+    if !ms_scenes.is_empty() {
+        body.push_str(&summary_table(
+            runs,
+            &ms_scenes,
+            Budgets::Milliseconds,
             Score::Visibility,
         ));
-        if runs.iter().any(|r| irradiance_mae_shadowed(r).is_some()) {
-            body.push_str(&summary_table(
-                runs,
-                &scenes,
-                Budgets::FloorMultiples,
-                Score::Irradiance,
-            ));
-        }
-        let ms_scenes = ms_budget_scenes(runs, &scenes);
-        if !ms_scenes.is_empty() {
-            body.push_str(&summary_table(
-                runs,
-                &ms_scenes,
-                Budgets::Milliseconds,
-                Score::Visibility,
-            ));
-        }
-        if let Some(cpu) = cpu {
-            body.push_str(&cpu_to_gpu_section(cpu, runs));
-        }
-        body.push_str(&headline_table(runs, &scenes));
     }
+    if let Some(cpu) = cpu {
+        body.push_str(&cpu_to_gpu_section(cpu, runs));
+    }
+    body.push_str(&headline_table(runs, scenes));
+    body
+}
 
-    for (scene, width, height) in &scenes {
-        let in_scene: Vec<usize> = (0..runs.len())
-            .filter(|&i| {
-                let r = &runs[i];
-                &r.scene == scene && r.width == *width && r.height == *height
-            })
-            .collect();
-        let point = |i: usize, value: Option<f64>| -> Option<PlotPoint> {
-            let run = &runs[i];
-            if run.status != Status::Ok {
-                return None;
-            }
+/// One scene's section of the still runs `runs`: its plots, its runs' table and the images of
+/// its Pareto front; counts its plotted and unplotted runs in `summary`.
+fn scene_section(
+    merged: &Merged,
+    runs: &[Run],
+    (scene, width, height): &(String, u32, u32),
+    styles: &BTreeMap<String, usize>,
+    summary: &mut ReportSummary,
+) -> Result<String, BenchError> {
+    let in_scene: Vec<usize> = (0..runs.len())
+        .filter(|&i| {
+            let r = &runs[i];
+            &r.scene == scene && r.width == *width && r.height == *height
+        })
+        .collect();
+    let mae_points: Vec<PlotPoint> = in_scene
+        .iter()
+        .filter_map(|&i| plot_point(runs, i, mae_shadowed(&runs[i])))
+        .collect();
+    summary.points += mae_points.len();
+    summary.unplotted += in_scene.len() - mae_points.len();
+    let mut body = String::new();
+    let title = format!("{scene} ({width}x{height})");
+    let _ = write!(
+        body,
+        "<h2 id=\"{}\">{}</h2><div class=\"plots\" data-scene=\"{}\">",
+        escape(&crate::sanitize(scene)),
+        escape(&title),
+        escape(scene)
+    );
+    body.push_str(&scene_plots(runs, &in_scene, &mae_points, styles)?);
+    body.push_str("</div>");
+    let front: Vec<usize> = pareto_front(
+        &mae_points
+            .iter()
+            .map(|p| (p.time_ms, p.value))
+            .collect::<Vec<_>>(),
+    )
+    .into_iter()
+    .map(|k| mae_points[k].run)
+    .collect();
+    body.push_str(&runs_table(runs, &in_scene, &front));
+    // `front` indexes the still runs; the strip reads images through the merged runs.
+    let all_runs = &merged.results.runs;
+    let still_index: Vec<usize> = (0..all_runs.len())
+        .filter(|&i| all_runs[i].motion.is_none())
+        .collect();
+    let front_merged: Vec<usize> = front.iter().map(|&k| still_index[k]).collect();
+    body.push_str(&image_strip(merged, &front_merged));
+    Ok(body)
+}
+
+/// A scene's plots: mae_shadowed (`mae_points`) and FLIP against frame time, and mae_shadowed
+/// against GPU memory where it was counted.
+fn scene_plots(
+    runs: &[Run],
+    in_scene: &[usize],
+    mae_points: &[PlotPoint],
+    styles: &BTreeMap<String, usize>,
+) -> Result<String, BenchError> {
+    let flip_points: Vec<PlotPoint> = in_scene
+        .iter()
+        .filter_map(|&i| plot_point(runs, i, flip(&runs[i])))
+        .collect();
+    let mut body = format!(
+        "<div class=\"plot mae\">{}</div>",
+        plot_svg(
+            mae_points,
+            styles,
+            "mae_shadowed against frame time",
+            "mae_shadowed"
+        )?
+    );
+    body.push_str(&format!(
+        "<div class=\"plot flip\">{}</div>",
+        plot_svg(
+            &flip_points,
+            styles,
+            "FLIP against frame time",
+            "FLIP (mean)"
+        )?
+    ));
+    // Error against the GPU memory the technique holds at its peak, where it was counted.
+    let memory_points: Vec<PlotPoint> = in_scene
+        .iter()
+        .filter_map(|&i| {
+            let mib = runs[i].memory.as_ref()?.peak.total_mib();
             Some(PlotPoint {
-                run: i,
-                technique: run.technique.clone(),
-                time_ms: frame_time_ms(run)?,
-                value: value?,
-                tooltip: format!(
-                    "{} {}\n{} ms, mae_shadowed {}, FLIP {}",
-                    run.technique,
-                    params_text(run),
-                    frame_time_ms(run).map_or("-".into(), ms),
-                    mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
-                    flip(run).map_or("-".into(), |v| format!("{v:.4}")),
-                ),
+                time_ms: mib.max(1e-3),
+                ..plot_point(runs, i, mae_shadowed(&runs[i]))?
             })
-        };
-        let mae_points: Vec<PlotPoint> = in_scene
-            .iter()
-            .filter_map(|&i| point(i, mae_shadowed(&runs[i])))
-            .collect();
-        let flip_points: Vec<PlotPoint> = in_scene
-            .iter()
-            .filter_map(|&i| point(i, flip(&runs[i])))
-            .collect();
-        summary.points += mae_points.len();
-        summary.unplotted += in_scene.len() - mae_points.len();
-        let title = format!("{scene} ({width}x{height})");
-        let _ = write!(
-            body,
-            "<h2 id=\"{}\">{}</h2><div class=\"plots\" data-scene=\"{}\">",
-            escape(&crate::sanitize(scene)),
-            escape(&title),
-            escape(scene)
-        );
+        })
+        .collect();
+    if !memory_points.is_empty() {
         body.push_str(&format!(
-            "<div class=\"plot mae\">{}</div>",
-            plot_svg(
-                &mae_points,
-                &styles,
-                "mae_shadowed against frame time",
+            "<div class=\"plot memory\">{}</div>",
+            plot_svg_over(
+                &memory_points,
+                styles,
+                "mae_shadowed against GPU memory",
+                "technique's GPU memory at its peak, MiB (log)",
                 "mae_shadowed"
             )?
         ));
-        body.push_str(&format!(
-            "<div class=\"plot flip\">{}</div>",
-            plot_svg(
-                &flip_points,
-                &styles,
-                "FLIP against frame time",
-                "FLIP (mean)"
-            )?
-        ));
-        // Error against the GPU memory the technique holds at its peak, where it was counted.
-        let memory_points: Vec<PlotPoint> = in_scene
-            .iter()
-            .filter_map(|&i| {
-                let mib = runs[i].memory.as_ref()?.peak.total_mib();
-                Some(PlotPoint {
-                    time_ms: mib.max(1e-3),
-                    ..point(i, mae_shadowed(&runs[i]))?
-                })
-            })
-            .collect();
-        if !memory_points.is_empty() {
-            body.push_str(&format!(
-                "<div class=\"plot memory\">{}</div>",
-                plot_svg_over(
-                    &memory_points,
-                    &styles,
-                    "mae_shadowed against GPU memory",
-                    "technique's GPU memory at its peak, MiB (log)",
-                    "mae_shadowed"
-                )?
-            ));
-        }
-        body.push_str("</div>");
-        let front: Vec<usize> = pareto_front(
-            &mae_points
-                .iter()
-                .map(|p| (p.time_ms, p.value))
-                .collect::<Vec<_>>(),
-        )
-        .into_iter()
-        .map(|k| mae_points[k].run)
-        .collect();
-        body.push_str(&runs_table(runs, &in_scene, &front));
-        // `front` indexes the still runs; the strip reads images through the merged runs.
-        let still_index: Vec<usize> = (0..all_runs.len())
-            .filter(|&i| all_runs[i].motion.is_none())
-            .collect();
-        let front_merged: Vec<usize> = front.iter().map(|&k| still_index[k]).collect();
-        body.push_str(&image_strip(merged, &front_merged));
     }
-    if !motion_runs.is_empty() {
-        body.push_str(&motion_section(
-            merged,
-            &motion_runs,
-            &styles,
-            &mut summary,
-        )?);
+    Ok(body)
+}
+
+/// Run `i` of `runs` as a point at its frame time with `value`; none for a run that failed or
+/// lacks either.
+fn plot_point(runs: &[Run], i: usize, value: Option<f64>) -> Option<PlotPoint> {
+    let run = &runs[i];
+    if run.status != Status::Ok {
+        return None;
     }
-    let html = format!(
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>softshadow report</title><style>{STYLE}</style></head><body>{body}</body></html>\n"
-    );
-    Ok((html, summary))
+    Some(PlotPoint {
+        run: i,
+        technique: run.technique.clone(),
+        time_ms: frame_time_ms(run)?,
+        value: value?,
+        tooltip: format!(
+            "{} {}\n{} ms, mae_shadowed {}, FLIP {}",
+            run.technique,
+            params_text(run),
+            frame_time_ms(run).map_or("-".into(), ms),
+            mae_shadowed(run).map_or("-".into(), |v| format!("{v:.4}")),
+            flip(run).map_or("-".into(), |v| format!("{v:.4}")),
+        ),
+    })
 }
 
 /// Per-frame lines: `lines` holds (technique, value per frame), one colour per technique.
@@ -831,127 +861,160 @@ fn motion_section(
     let mut out = String::from(
         "<h2 id=\"motion\">Motion: error and flicker along paths</h2><p>Every frame against its own exact answer. Flicker: mean over receiver pixels of |(V<sub>t</sub> - V<sub>t-1</sub>) - (E<sub>t</sub> - E<sub>t-1</sub>)|, the change the technique shows that the exact answer does not. Lag: error right after the last moving frame minus the settled error. Frame times split into frames where only the camera moved and frames where the light or a caster moved (docs/BENCHMARKS.md, \"Motion\").</p>",
     );
-    for (scene, path, width, height) in groups {
-        let in_group: Vec<usize> = motion_runs
-            .iter()
-            .copied()
-            .filter(|&i| {
-                let r = &runs[i];
-                r.scene == scene
-                    && r.width == width
-                    && r.height == height
-                    && r.motion.as_ref().is_some_and(|m| m.path == path)
-            })
-            .collect();
-        let ok: Vec<usize> = in_group
-            .iter()
-            .copied()
-            .filter(|&i| runs[i].status == Status::Ok)
-            .collect();
-        let label = |i: usize| {
-            let r = &runs[i];
-            if ok
-                .iter()
-                .filter(|&&j| runs[j].technique == r.technique)
-                .count()
-                > 1
-            {
-                format!("{} {}", r.technique, params_text(r))
-            } else {
-                r.technique.clone()
-            }
-        };
-        let error_lines: Vec<(String, Vec<f64>)> = ok
-            .iter()
-            .filter_map(|&i| Some((label(i), runs[i].motion.as_ref()?.series.error.clone())))
-            .collect();
-        let flicker_lines: Vec<(String, Vec<f64>)> = ok
-            .iter()
-            .filter_map(|&i| {
-                let mut f = runs[i].motion.as_ref()?.series.flicker.clone();
-                // Frame 0 has no flicker: not drawn.
-                if let Some(first) = f.first_mut() {
-                    *first = f64::NAN;
-                }
-                Some((label(i), f))
-            })
-            .collect();
-        let points: Vec<PlotPoint> = ok
-            .iter()
-            .filter_map(|&i| {
-                let r = &runs[i];
-                let m = r.motion.as_ref()?;
-                let flicker = m.flicker.as_ref()?.mean;
-                Some(PlotPoint {
-                    run: i,
-                    technique: r.technique.clone(),
-                    time_ms: frame_time_ms(r)?,
-                    value: flicker,
-                    tooltip: format!(
-                        "{} {}\n{} ms, flicker {flicker:.5}, error {:.4}",
-                        r.technique,
-                        params_text(r),
-                        frame_time_ms(r).map_or("-".into(), ms),
-                        m.error.mean
-                    ),
-                })
-            })
-            .collect();
-        summary.points += points.len();
-        summary.unplotted += in_group.len() - points.len();
-        let title = format!("{scene} along {path} ({width}x{height})");
-        let _ = write!(
-            out,
-            "<h3 id=\"motion-{}-{}\">{}</h3><div class=\"plots motion\" data-scene=\"{}\" data-path=\"{}\">",
-            escape(&crate::sanitize(&scene)),
-            escape(&crate::sanitize(&path)),
-            escape(&title),
-            escape(&scene),
-            escape(&path)
-        );
-        let _ = write!(
-            out,
-            "<div class=\"plot error-series\">{}</div><div class=\"plot flicker-series\">{}</div><div class=\"plot flicker-time\">{}</div></div>",
-            series_svg(&error_lines, styles, "error over time", "mae_shadowed vs exact")?,
-            series_svg(&flicker_lines, styles, "flicker over time", "flicker")?,
-            plot_svg(&points, styles, "mean flicker against frame time", "flicker (mean)")?
-        );
-        out.push_str(&motion_table(runs, &in_group));
-        // The run that flickers most, as it moves.
-        let flicker_of = |i: usize| {
-            runs[i]
-                .motion
-                .as_ref()
-                .and_then(|m| m.flicker.as_ref())
-                .map(|f| f.mean)
-        };
-        let worst = ok
-            .iter()
-            .copied()
-            .filter(|&i| flicker_of(i).is_some())
-            .max_by(|&a, &b| {
-                flicker_of(a)
-                    .unwrap_or(0.0)
-                    .total_cmp(&flicker_of(b).unwrap_or(0.0))
-            });
-        let animation = worst.and_then(|i| {
-            let name = runs[i].motion.as_ref()?.animation.as_ref()?;
-            Some((i, std::fs::read(merged.run_dirs[i].join(name)).ok()?))
-        });
-        if let Some((i, bytes)) = animation {
-            let _ = write!(
-                out,
-                "<figure class=\"animation\"><img src=\"data:image/png;base64,{}\" alt=\"{} along {}\"><figcaption>the run that flickers most: {} {} (left) beside the exact answer (right), {} frames per second</figcaption></figure>",
-                base64::engine::general_purpose::STANDARD.encode(bytes),
-                escape(&runs[i].technique),
-                escape(&path),
-                escape(&runs[i].technique),
-                escape(&params_text(&runs[i])),
-                crate::motion::ANIMATION_FPS
-            );
-        }
+    for group in groups {
+        out.push_str(&motion_group(merged, motion_runs, group, styles, summary)?);
     }
     Ok(out)
+}
+
+/// The motion section of one scene, path and size: its plots, its table and the animation of the
+/// run that flickers most; counts its plotted and unplotted runs in `summary`.
+fn motion_group(
+    merged: &Merged,
+    motion_runs: &[usize],
+    (scene, path, width, height): (String, String, u32, u32),
+    styles: &BTreeMap<String, usize>,
+    summary: &mut ReportSummary,
+) -> Result<String, BenchError> {
+    let runs = &merged.results.runs;
+    let in_group: Vec<usize> = motion_runs
+        .iter()
+        .copied()
+        .filter(|&i| {
+            let r = &runs[i];
+            r.scene == scene
+                && r.width == width
+                && r.height == height
+                && r.motion.as_ref().is_some_and(|m| m.path == path)
+        })
+        .collect();
+    let ok: Vec<usize> = in_group
+        .iter()
+        .copied()
+        .filter(|&i| runs[i].status == Status::Ok)
+        .collect();
+    let (plots, points) = motion_plots(runs, &ok, styles)?;
+    summary.points += points;
+    summary.unplotted += in_group.len() - points;
+    let mut out = String::new();
+    let title = format!("{scene} along {path} ({width}x{height})");
+    let _ = write!(
+        out,
+        "<h3 id=\"motion-{}-{}\">{}</h3><div class=\"plots motion\" data-scene=\"{}\" data-path=\"{}\">",
+        escape(&crate::sanitize(&scene)),
+        escape(&crate::sanitize(&path)),
+        escape(&title),
+        escape(&scene),
+        escape(&path)
+    );
+    out.push_str(&plots);
+    out.push_str(&motion_table(runs, &in_group));
+    out.push_str(&flickering_most_animation(merged, &ok, &path));
+    Ok(out)
+}
+
+/// The plots of the runs `ok` along one path (error and flicker over time, mean flicker against
+/// frame time) with the closing tag of their `plots` element; and how many runs the last one
+/// plots.
+fn motion_plots(
+    runs: &[Run],
+    ok: &[usize],
+    styles: &BTreeMap<String, usize>,
+) -> Result<(String, usize), BenchError> {
+    let label = |i: usize| {
+        let r = &runs[i];
+        if ok
+            .iter()
+            .filter(|&&j| runs[j].technique == r.technique)
+            .count()
+            > 1
+        {
+            format!("{} {}", r.technique, params_text(r))
+        } else {
+            r.technique.clone()
+        }
+    };
+    let error_lines: Vec<(String, Vec<f64>)> = ok
+        .iter()
+        .filter_map(|&i| Some((label(i), runs[i].motion.as_ref()?.series.error.clone())))
+        .collect();
+    let flicker_lines: Vec<(String, Vec<f64>)> = ok
+        .iter()
+        .filter_map(|&i| {
+            let mut f = runs[i].motion.as_ref()?.series.flicker.clone();
+            // Frame 0 has no flicker: not drawn.
+            if let Some(first) = f.first_mut() {
+                *first = f64::NAN;
+            }
+            Some((label(i), f))
+        })
+        .collect();
+    let points: Vec<PlotPoint> = ok
+        .iter()
+        .filter_map(|&i| {
+            let r = &runs[i];
+            let m = r.motion.as_ref()?;
+            let flicker = m.flicker.as_ref()?.mean;
+            Some(PlotPoint {
+                run: i,
+                technique: r.technique.clone(),
+                time_ms: frame_time_ms(r)?,
+                value: flicker,
+                tooltip: format!(
+                    "{} {}\n{} ms, flicker {flicker:.5}, error {:.4}",
+                    r.technique,
+                    params_text(r),
+                    frame_time_ms(r).map_or("-".into(), ms),
+                    m.error.mean
+                ),
+            })
+        })
+        .collect();
+    let plots = format!(
+        "<div class=\"plot error-series\">{}</div><div class=\"plot flicker-series\">{}</div><div class=\"plot flicker-time\">{}</div></div>",
+        series_svg(&error_lines, styles, "error over time", "mae_shadowed vs exact")?,
+        series_svg(&flicker_lines, styles, "flicker over time", "flicker")?,
+        plot_svg(&points, styles, "mean flicker against frame time", "flicker (mean)")?
+    );
+    Ok((plots, points.len()))
+}
+
+/// The animation of the run of `ok` that flickers most along `path`, as it moves; empty when no
+/// run has both a flicker and an animation file.
+fn flickering_most_animation(merged: &Merged, ok: &[usize], path: &str) -> String {
+    let runs = &merged.results.runs;
+    let flicker_of = |i: usize| {
+        runs[i]
+            .motion
+            .as_ref()
+            .and_then(|m| m.flicker.as_ref())
+            .map(|f| f.mean)
+    };
+    let worst = ok
+        .iter()
+        .copied()
+        .filter(|&i| flicker_of(i).is_some())
+        .max_by(|&a, &b| {
+            flicker_of(a)
+                .unwrap_or(0.0)
+                .total_cmp(&flicker_of(b).unwrap_or(0.0))
+        });
+    let animation = worst.and_then(|i| {
+        let name = runs[i].motion.as_ref()?.animation.as_ref()?;
+        Some((i, std::fs::read(merged.run_dirs[i].join(name)).ok()?))
+    });
+    let Some((i, bytes)) = animation else {
+        return String::new();
+    };
+    format!(
+        "<figure class=\"animation\"><img src=\"data:image/png;base64,{}\" alt=\"{} along {}\"><figcaption>the run that flickers most: {} {} (left) beside the exact answer (right), {} frames per second</figcaption></figure>",
+        base64::engine::general_purpose::STANDARD.encode(bytes),
+        escape(&runs[i].technique),
+        escape(path),
+        escape(&runs[i].technique),
+        escape(&params_text(&runs[i])),
+        crate::motion::ANIMATION_FPS
+    )
 }
 
 /// The per-path summaries of `in_group`'s runs, least flicker first.

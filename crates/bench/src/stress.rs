@@ -18,8 +18,8 @@ use std::{
 };
 
 use softshadow_core::{
-    cost::rates::FRAME, glam::Vec3, AreaLight, Cost, GpuError, ParamKind, ParamSpec, ParamValue,
-    Registry, RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
+    cost::rates::FRAME, glam::Vec3, Aabb, AreaLight, Cost, GpuError, ParamKind, ParamSpec,
+    ParamValue, Registry, RenderError, Renderer, Scene, SceneGpu, ShadowTechnique, TechniqueError,
     TechniqueInfo,
 };
 
@@ -661,58 +661,19 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
     let kind = *rng.pick(&kinds);
     let mut width = rng.range(0.0, 2.0) as f32;
     let mut height = rng.range(0.0, 2.0) as f32;
-    let above = |rng: &mut Rng| {
-        center
-            + Vec3::new(
-                rng.range(-0.5, 0.5) as f32 * extent,
-                rng.range(0.5, 2.0) as f32 * extent,
-                rng.range(-0.5, 0.5) as f32 * extent,
-            )
-    };
-    let aim = |from: Vec3, rng: &mut Rng| {
-        let target = center
-            + Vec3::new(
-                rng.range(-0.3, 0.3) as f32,
-                0.0,
-                rng.range(-0.3, 0.3) as f32,
-            ) * extent;
-        (target - from).try_normalize().unwrap_or(Vec3::NEG_Y)
-    };
-    let random_unit = |rng: &mut Rng| loop {
-        let v = Vec3::new(
-            rng.range(-1.0, 1.0) as f32,
-            rng.range(-1.0, 1.0) as f32,
-            rng.range(-1.0, 1.0) as f32,
-        );
-        if let Some(n) = v.try_normalize() {
-            break n;
-        }
-    };
     let (light_center, direction, up) = match kind {
         LightKind::Ordinary | LightKind::ZeroWidth | LightKind::Aspect1000 => {
-            let c = above(rng);
-            (c, aim(c, rng), Vec3::Z)
+            let c = point_above(center, extent, rng);
+            (c, aim_near(center, extent, c, rng), Vec3::Z)
         }
-        LightKind::TouchingCaster => {
-            let top = if casters.is_empty() {
-                center
-            } else {
-                Vec3::new(
-                    rng.range(casters.min.x as f64, casters.max.x as f64) as f32,
-                    casters.max.y,
-                    rng.range(casters.min.z as f64, casters.max.z as f64) as f32,
-                )
-            };
-            let gap = 10f64.powf(rng.range(-5.0, -2.0)) as f32;
-            (top + Vec3::Y * gap, Vec3::NEG_Y, Vec3::Z)
-        }
+        LightKind::TouchingCaster => light_touching_caster(&casters, center, rng),
         LightKind::AnyDirection => {
             let c = center + random_unit(rng) * extent * rng.range(0.2, 2.0) as f32;
             (c, random_unit(rng), random_unit(rng))
         }
         LightKind::UpParallel => {
-            let c = above(rng);
-            let d = aim(c, rng);
+            let c = point_above(center, extent, rng);
+            let d = aim_near(center, extent, c, rng);
             (c, d, if rng.chance(0.5) { d } else { -d })
         }
         LightKind::ObliqueOverLargeReceiver => oblique_light(center, extent, rng),
@@ -743,6 +704,58 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
         intensity: 1.0,
     };
     (kind, light)
+}
+
+/// A random point above a scene centred at `center` of size `extent`: within half the extent
+/// sideways, 0.5 to 2 extents up.
+fn point_above(center: Vec3, extent: f32, rng: &mut Rng) -> Vec3 {
+    center
+        + Vec3::new(
+            rng.range(-0.5, 0.5) as f32 * extent,
+            rng.range(0.5, 2.0) as f32 * extent,
+            rng.range(-0.5, 0.5) as f32 * extent,
+        )
+}
+
+/// The direction from `from` to a random point of the ground within 0.3 extents of `center`.
+fn aim_near(center: Vec3, extent: f32, from: Vec3, rng: &mut Rng) -> Vec3 {
+    let target = center
+        + Vec3::new(
+            rng.range(-0.3, 0.3) as f32,
+            0.0,
+            rng.range(-0.3, 0.3) as f32,
+        ) * extent;
+    (target - from).try_normalize().unwrap_or(Vec3::NEG_Y)
+}
+
+/// A random direction (uniform in the cube, normalised).
+fn random_unit(rng: &mut Rng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.range(-1.0, 1.0) as f32,
+            rng.range(-1.0, 1.0) as f32,
+            rng.range(-1.0, 1.0) as f32,
+        );
+        if let Some(n) = v.try_normalize() {
+            break n;
+        }
+    }
+}
+
+/// A light facing down from 1e-5 to 1e-2 above a random point of the casters' top (of `center`
+/// without casters).
+fn light_touching_caster(casters: &Aabb, center: Vec3, rng: &mut Rng) -> (Vec3, Vec3, Vec3) {
+    let top = if casters.is_empty() {
+        center
+    } else {
+        Vec3::new(
+            rng.range(casters.min.x as f64, casters.max.x as f64) as f32,
+            casters.max.y,
+            rng.range(casters.min.z as f64, casters.max.z as f64) as f32,
+        )
+    };
+    let gap = 10f64.powf(rng.range(-5.0, -2.0)) as f32;
+    (top + Vec3::Y * gap, Vec3::NEG_Y, Vec3::Z)
 }
 
 /// A light low beside the scene (0.35 to 0.7 of its extent out, 0.15 to 0.4 up), aimed at a

@@ -145,78 +145,113 @@ impl Sweep {
 
     /// Parses a sweep file's text; its techniques must be in `registry` (or be .wgsl files).
     pub fn parse(text: &str, registry: &Registry) -> Result<Self, BenchError> {
-        let err = |message: String| BenchError::Sweep {
-            path: "<sweep>".into(),
-            message,
-        };
         let file: SweepFile =
-            toml::from_str(text).map_err(|e| err(e.to_string().replace('\n', " ")))?;
-        let sizes: Vec<(u32, u32)> = match (&file.size, file.sizes.is_empty()) {
-            (Some(_), false) => {
-                return Err(err(
-                    "both `size` and `sizes`: give one size with `size` or a list with `sizes`"
-                        .into(),
-                ))
-            }
-            (_, false) => file
-                .sizes
-                .iter()
-                .map(|s| parse_size(s))
-                .collect::<Result<_, _>>()?,
-            (size, true) => vec![parse_size(size.as_deref().unwrap_or("256x256"))?],
-        };
-        let (width, height) = sizes[0];
+            toml::from_str(text).map_err(|e| sweep_error(e.to_string().replace('\n', " ")))?;
+        let sizes = file.sizes()?;
         if file.scenes.is_empty() {
-            return Err(err(
-                "`scenes` is empty: list at least one scene id or file".into()
+            return Err(sweep_error(
+                "`scenes` is empty: list at least one scene id or file".into(),
             ));
         }
         if file.technique.is_empty() && !file.every_technique {
-            return Err(err(
+            return Err(sweep_error(
                 "no technique: add `every_technique = true` or a [[technique]] table with an `id`"
                     .into(),
             ));
         }
-        let camera = file.camera.as_ref().map(CameraDef::to_camera);
+        let (camera, light) = file.view()?;
+        let paths = file.paths()?;
+        let reference_params = file.reference_params(registry)?;
+        let grids = file.grids(registry)?;
+        let runs = expand_runs(&grids, &file.scenes, &paths, &sizes)?;
+        Ok(Self {
+            runs,
+            frames: file.frames,
+            warmup: file.warmup,
+            reference_params,
+            camera,
+            light,
+        })
+    }
+}
+
+/// An error in the sweep file's text (the caller names the file).
+fn sweep_error(message: String) -> BenchError {
+    BenchError::Sweep {
+        path: "<sweep>".into(),
+        message,
+    }
+}
+
+impl SweepFile {
+    /// `size` or `sizes` (256x256 without either).
+    fn sizes(&self) -> Result<Vec<(u32, u32)>, BenchError> {
+        match (&self.size, self.sizes.is_empty()) {
+            (Some(_), false) => Err(sweep_error(
+                "both `size` and `sizes`: give one size with `size` or a list with `sizes`".into(),
+            )),
+            (_, false) => self.sizes.iter().map(|s| parse_size(s)).collect(),
+            (size, true) => Ok(vec![parse_size(size.as_deref().unwrap_or("256x256"))?]),
+        }
+    }
+
+    /// The `[camera]` and `[light]` that replace every scene's own, checked.
+    fn view(&self) -> Result<(Option<Camera>, Option<AreaLight>), BenchError> {
+        let camera = self.camera.as_ref().map(CameraDef::to_camera);
         if let Some(camera) = &camera {
             camera
                 .validate()
-                .map_err(|e| err(format!("[camera]: {e}")))?;
+                .map_err(|e| sweep_error(format!("[camera]: {e}")))?;
         }
-        let light = match &file.light {
+        let light = match &self.light {
             Some(def) => Some(
                 def.to_light("the sweep file")
-                    .map_err(|e| err(e.to_string()))?,
+                    .map_err(|e| sweep_error(e.to_string()))?,
             ),
             None => None,
         };
         if let Some(light) = &light {
-            light.validate().map_err(|e| err(format!("[light]: {e}")))?;
+            light
+                .validate()
+                .map_err(|e| sweep_error(format!("[light]: {e}")))?;
         }
-        // Each run once per path (a still frame when the sweep names none).
-        let paths: Vec<Option<String>> = match (file.path, file.paths.is_empty()) {
-            (Some(_), false) => {
-                return Err(err(
-                    "both `path` and `paths`: give one path with `path` or a list with `paths`"
-                        .into(),
-                ))
-            }
-            (Some(path), true) => vec![Some(path)],
-            (None, false) => file.paths.into_iter().map(Some).collect(),
-            (None, true) => vec![None],
-        };
+        Ok((camera, light))
+    }
+
+    /// Each run once per path (a still frame when the sweep names none).
+    fn paths(&self) -> Result<Vec<Option<String>>, BenchError> {
+        match (&self.path, self.paths.is_empty()) {
+            (Some(_), false) => Err(sweep_error(
+                "both `path` and `paths`: give one path with `path` or a list with `paths`".into(),
+            )),
+            (Some(path), true) => Ok(vec![Some(path.clone())]),
+            (None, false) => Ok(self.paths.iter().cloned().map(Some).collect()),
+            (None, true) => Ok(vec![None]),
+        }
+    }
+
+    /// The `[reference]` settings, parsed against the registry's yardstick.
+    fn reference_params(
+        &self,
+        registry: &Registry,
+    ) -> Result<Vec<(String, ParamValue)>, BenchError> {
         let mut reference_params = Vec::new();
-        if !file.reference.is_empty() {
+        if !self.reference.is_empty() {
             let yardstick = registry.yardstick()?;
-            for (name, value) in &file.reference {
+            for (name, value) in &self.reference {
                 let text = value_text(value)
-                    .ok_or_else(|| err(format!("reference.{name}: give a single value")))?;
+                    .ok_or_else(|| sweep_error(format!("reference.{name}: give a single value")))?;
                 reference_params.push(yardstick.parse_param(&format!("{name}={text}"))?);
             }
         }
-        // Each technique with its grid, in the order they run.
+        Ok(reference_params)
+    }
+
+    /// Each technique with its grid, in the order they run: with `every_technique` every
+    /// registered one at its overview settings, then the `[[technique]]` tables.
+    fn grids(&self, registry: &Registry) -> Result<Vec<(TechniqueInfo, Grid)>, BenchError> {
         let mut grids: Vec<(TechniqueInfo, Grid)> = Vec::new();
-        if file.every_technique {
+        if self.every_technique {
             for info in registry {
                 let grid = info
                     .overview
@@ -231,77 +266,86 @@ impl Sweep {
                 grids.push((info.clone(), grid));
             }
         }
-        for table in &file.technique {
+        for table in &self.technique {
             let info = resolve_technique(registry, &table.id)?;
-            let mut grid = Vec::new();
-            for (name, value) in &table.params {
-                let values: Vec<&toml::Value> = match value {
-                    toml::Value::Array(items) => items.iter().collect(),
-                    single => vec![single],
-                };
-                let texts = values
-                    .into_iter()
-                    .map(|v| {
-                        value_text(v).ok_or_else(|| {
-                            err(format!(
-                                "{}.{name}: values must be numbers, booleans or strings",
-                                table.id
-                            ))
-                        })
-                    })
-                    .collect::<Result<Vec<_>, _>>()?;
-                grid.push((name.clone(), texts));
-            }
-            grids.push((info, grid));
+            grids.push((info, table.grid()?));
         }
-        let mut runs = Vec::new();
-        for (info, grid) in &grids {
-            let combos = expand_grid(info, grid, file.scenes.len()).map_err(|e| match e {
-                GridError::Param(e) => BenchError::from(e),
-                GridError::Message(message) => err(message),
-            })?;
-            if runs.len() + combos.len() * file.scenes.len() * paths.len() * sizes.len()
-                > MAX_SWEEP_RUNS
-            {
-                return Err(err(format!(
-                    "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
-                )));
-            }
-            for path in &paths {
-                for scene in &file.scenes {
-                    for combo in &combos {
-                        runs.push(RunSpec {
-                            scene: scene.clone(),
-                            technique: info.id.to_string(),
-                            params: combo.clone(),
-                            width,
-                            height,
-                            path: path.clone(),
-                        });
-                    }
+        Ok(grids)
+    }
+}
+
+impl TechniqueGrid {
+    /// Its parameters, each with its values as text (a single value is a list of one).
+    fn grid(&self) -> Result<Grid, BenchError> {
+        let mut grid = Vec::new();
+        for (name, value) in &self.params {
+            let values: Vec<&toml::Value> = match value {
+                toml::Value::Array(items) => items.iter().collect(),
+                single => vec![single],
+            };
+            let texts = values
+                .into_iter()
+                .map(|v| {
+                    value_text(v).ok_or_else(|| {
+                        sweep_error(format!(
+                            "{}.{name}: values must be numbers, booleans or strings",
+                            self.id
+                        ))
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            grid.push((name.clone(), texts));
+        }
+        Ok(grid)
+    }
+}
+
+/// Every run of the sweep: each technique's grid on each scene along each path, the whole at
+/// each size, one size after the other; refused over [`MAX_SWEEP_RUNS`].
+fn expand_runs(
+    grids: &[(TechniqueInfo, Grid)],
+    scenes: &[String],
+    paths: &[Option<String>],
+    sizes: &[(u32, u32)],
+) -> Result<Vec<RunSpec>, BenchError> {
+    let (width, height) = sizes[0];
+    let mut runs = Vec::new();
+    for (info, grid) in grids {
+        let combos = expand_grid(info, grid, scenes.len()).map_err(|e| match e {
+            GridError::Param(e) => BenchError::from(e),
+            GridError::Message(message) => sweep_error(message),
+        })?;
+        if runs.len() + combos.len() * scenes.len() * paths.len() * sizes.len() > MAX_SWEEP_RUNS {
+            return Err(sweep_error(format!(
+                "the sweep has more than {MAX_SWEEP_RUNS} runs (sweep::MAX_SWEEP_RUNS): split it into several files"
+            )));
+        }
+        for path in paths {
+            for scene in scenes {
+                for combo in &combos {
+                    runs.push(RunSpec {
+                        scene: scene.clone(),
+                        technique: info.id.to_string(),
+                        params: combo.clone(),
+                        width,
+                        height,
+                        path: path.clone(),
+                    });
                 }
             }
         }
-        // Each size runs the whole sweep, the sizes one after the other.
-        let runs = sizes
-            .iter()
-            .flat_map(|&(width, height)| {
-                runs.iter().map(move |run| RunSpec {
-                    width,
-                    height,
-                    ..run.clone()
-                })
-            })
-            .collect();
-        Ok(Self {
-            runs,
-            frames: file.frames,
-            warmup: file.warmup,
-            reference_params,
-            camera,
-            light,
-        })
     }
+    // Each size runs the whole sweep, the sizes one after the other.
+    Ok(sizes
+        .iter()
+        .flat_map(|&(width, height)| {
+            runs.iter().map(move |run| RunSpec {
+                width,
+                height,
+                ..run.clone()
+            })
+        })
+        .collect())
 }
 
 /// A technique's parameter grid: each parameter with the values to try, as text.

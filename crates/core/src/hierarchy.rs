@@ -217,6 +217,36 @@ struct BuildTimer {
     pending: bool,
 }
 
+impl BuildTimer {
+    /// Two timestamp queries and their resolve and readback buffers; `None` without
+    /// `TIMESTAMP_QUERY_INSIDE_ENCODERS`.
+    fn new(gpu: &Gpu) -> Option<Self> {
+        let needed =
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let device = &gpu.device;
+        gpu.features().contains(needed).then(|| BuildTimer {
+            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("core/hierarchy build time"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("core/hierarchy build time resolve"),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("core/hierarchy build time readback"),
+                size: 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            pending: false,
+        })
+    }
+}
+
 impl DepthHierarchy {
     /// Builds the pipelines (`shaders/core/hierarchy.wgsl`); textures are made by the first build.
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
@@ -298,28 +328,7 @@ impl DepthHierarchy {
                 ..Default::default()
             },
         );
-        let needed =
-            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
-        let timer = gpu.features().contains(needed).then(|| BuildTimer {
-            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("core/hierarchy build time"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2,
-            }),
-            resolve: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("core/hierarchy build time resolve"),
-                size: 16,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
-            readback: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("core/hierarchy build time readback"),
-                size: 16,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
-            pending: false,
-        });
+        let timer = BuildTimer::new(gpu);
         Ok(Self {
             linearize,
             hsm_reduce,
@@ -408,57 +417,12 @@ impl DepthHierarchy {
         }
         let hsm = self.hsm.as_ref().expect("allocated above");
         let padded = padded_size(map_size);
-        let level_bind_group = |src: &wgpu::TextureView, dst: &wgpu::TextureView, level: u32| {
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("core/hierarchy level"),
-                layout: &self.level_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(src),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &self.level_params,
-                            offset: level as u64 * SLOT,
-                            size: Some(LevelParams::min_size()),
-                        }),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: wgpu::BindingResource::TextureView(dst),
-                    },
-                ],
-            })
+        let pipeline = if kind == HierarchyKind::Mssm {
+            &self.mssm_level
+        } else {
+            &self.hsm_reduce
         };
-        // (pipeline, bind group, edge of the target) per level.
-        let mut dispatches = Vec::new();
-        match (kind, levels) {
-            (_, 0) => {}
-            (HierarchyKind::None | HierarchyKind::Hsm, _) => {
-                for level in 1..=levels {
-                    let bind_group = level_bind_group(
-                        &hsm.mips[level as usize - 1],
-                        &hsm.mips[level as usize],
-                        level,
-                    );
-                    dispatches.push((&self.hsm_reduce, bind_group, (padded >> level).max(1)));
-                }
-            }
-            (HierarchyKind::Mssm, _) => {
-                let mssm = self.mssm.as_ref().expect("allocated above");
-                for level in 1..=levels {
-                    let src = if level == 1 {
-                        &hsm.mips[0]
-                    } else {
-                        &mssm.layers[level as usize - 2]
-                    };
-                    let bind_group = level_bind_group(src, &mssm.layers[level as usize - 1], level);
-                    dispatches.push((&self.mssm_level, bind_group, padded));
-                }
-            }
-        }
+        let dispatches = self.level_dispatches(gpu, kind, levels, padded);
         // Timestamps after a dependent dispatch (docs/DEVICES.md, "Lavapipe's timestamps").
         // With serial timing the level pass is submitted and waited for on its own, so its wall
         // time is the build time and timestamps in two submissions would add the round trips.
@@ -473,8 +437,8 @@ impl DepthHierarchy {
             _ => &hsm.mips[levels as usize],
         };
         let fences = [
-            level_bind_group(first_source, &self.fence_target, 0),
-            level_bind_group(last_target, &self.fence_target, 0),
+            self.level_bind_group(gpu, first_source, &self.fence_target, 0),
+            self.level_bind_group(gpu, last_target, &self.fence_target, 0),
         ];
         let fence = |frame: &mut Frame<'_>, bind_group: &wgpu::BindGroup| {
             frame.compute_pass(&format!("{label}/fence"), |pass| {
@@ -499,7 +463,7 @@ impl DepthHierarchy {
             let pass = format!("{label}/{name}");
             let before = frame.serial_pass_ms(&pass);
             frame.compute_pass(&pass, |pass| {
-                for (pipeline, bind_group, edge) in &dispatches {
+                for (bind_group, edge) in &dispatches {
                     pass.set_pipeline(pipeline);
                     pass.set_bind_group(0, bind_group, &[]);
                     let groups = edge.div_ceil(8);
@@ -528,6 +492,81 @@ impl DepthHierarchy {
             levels,
             map_size,
         };
+    }
+
+    /// The level passes of `levels` levels of `kind` over a padded map of edge `padded`: (bind
+    /// group, edge of the target) per level. The HSM reduces each level from the one below; the
+    /// MSSM builds every level at full size from the one below (level 1 from the HSM's level 0).
+    fn level_dispatches(
+        &self,
+        gpu: &Gpu,
+        kind: HierarchyKind,
+        levels: u32,
+        padded: u32,
+    ) -> Vec<(wgpu::BindGroup, u32)> {
+        let hsm = self.hsm.as_ref().expect("allocated by build_levels");
+        let mut dispatches = Vec::new();
+        match (kind, levels) {
+            (_, 0) => {}
+            (HierarchyKind::None | HierarchyKind::Hsm, _) => {
+                for level in 1..=levels {
+                    let bind_group = self.level_bind_group(
+                        gpu,
+                        &hsm.mips[level as usize - 1],
+                        &hsm.mips[level as usize],
+                        level,
+                    );
+                    dispatches.push((bind_group, (padded >> level).max(1)));
+                }
+            }
+            (HierarchyKind::Mssm, _) => {
+                let mssm = self.mssm.as_ref().expect("allocated by build_levels");
+                for level in 1..=levels {
+                    let src = if level == 1 {
+                        &hsm.mips[0]
+                    } else {
+                        &mssm.layers[level as usize - 2]
+                    };
+                    let dst = &mssm.layers[level as usize - 1];
+                    let bind_group = self.level_bind_group(gpu, src, dst, level);
+                    dispatches.push((bind_group, padded));
+                }
+            }
+        }
+        dispatches
+    }
+
+    /// The bind group of one level pass (or a fence): level `src` read, `dst` written, the level
+    /// number's uniform slot.
+    fn level_bind_group(
+        &self,
+        gpu: &Gpu,
+        src: &wgpu::TextureView,
+        dst: &wgpu::TextureView,
+        level: u32,
+    ) -> wgpu::BindGroup {
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("core/hierarchy level"),
+            layout: &self.level_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(src),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &self.level_params,
+                        offset: level as u64 * SLOT,
+                        size: Some(LevelParams::min_size()),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(dst),
+                },
+            ],
+        })
     }
 
     fn ensure_hsm(&mut self, gpu: &Gpu, map_size: u32) {

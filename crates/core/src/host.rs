@@ -474,40 +474,7 @@ impl HostRenderer {
         let mut passes_run = Vec::new();
         let result = {
             let mut frame = Frame::new(&self.gpu, encoder, &self.profiler, &mut passes_run);
-            let pipeline = match surface.positions {
-                SurfacePositions::World(_) => &self.conversion.pipeline_world,
-                SurfacePositions::Depth { .. } => &self.conversion.pipeline_depth,
-            };
-            let attachment = |view| {
-                Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })
-            };
-            frame.render_pass(
-                "host/surface",
-                wgpu::RenderPassDescriptor {
-                    label: None,
-                    color_attachments: &[
-                        attachment(&self.position_view),
-                        attachment(&self.normal_view),
-                    ],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                },
-                |pass| {
-                    pass.set_pipeline(pipeline);
-                    pass.set_bind_group(0, &convert, &[]);
-                    pass.draw(0..3, 0..1);
-                },
-            );
+            self.surface_pass(&mut frame, surface, &convert);
             let result = self.stage.record(
                 &mut frame,
                 casters,
@@ -517,33 +484,7 @@ impl HostRenderer {
                 &self.visibility,
             );
             if result.is_ok() {
-                match output {
-                    Some(HostOutput::Texture(texture)) => {
-                        self.check_output(texture)?;
-                        self.visibility.copy_to(frame.encoder, texture);
-                        frame.note_pass("host/output");
-                    }
-                    Some(HostOutput::View { view, format }) => {
-                        let pipeline = &self.output_pipelines[&format];
-                        frame.render_pass(
-                            "host/output",
-                            wgpu::RenderPassDescriptor {
-                                label: None,
-                                color_attachments: &[attachment(view)],
-                                depth_stencil_attachment: None,
-                                timestamp_writes: None,
-                                occlusion_query_set: None,
-                                multiview_mask: None,
-                            },
-                            |pass| {
-                                pass.set_pipeline(pipeline);
-                                pass.set_bind_group(0, &self.output_group, &[]);
-                                pass.draw(0..3, 0..1);
-                            },
-                        );
-                    }
-                    None => {}
-                }
+                self.output_pass(&mut frame, output)?;
             }
             result
         };
@@ -553,6 +494,72 @@ impl HostRenderer {
         result?;
         self.stage.finish(technique.id(), state);
         Ok(passes_run)
+    }
+
+    /// The pass `host/surface`: the host's surface converted into the core's format (world
+    /// position + hit flag, normal + receiver flag) through the bind group `convert`.
+    fn surface_pass(
+        &self,
+        frame: &mut Frame<'_>,
+        surface: &HostSurface<'_>,
+        convert: &wgpu::BindGroup,
+    ) {
+        let pipeline = match surface.positions {
+            SurfacePositions::World(_) => &self.conversion.pipeline_world,
+            SurfacePositions::Depth { .. } => &self.conversion.pipeline_depth,
+        };
+        frame.render_pass(
+            "host/surface",
+            wgpu::RenderPassDescriptor {
+                label: None,
+                color_attachments: &[cleared(&self.position_view), cleared(&self.normal_view)],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            },
+            |pass| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, convert, &[]);
+                pass.draw(0..3, 0..1);
+            },
+        );
+    }
+
+    /// The pass `host/output`: the visibility copied into the host's `output`, if any.
+    fn output_pass(
+        &self,
+        frame: &mut Frame<'_>,
+        output: Option<HostOutput<'_>>,
+    ) -> Result<(), RenderError> {
+        match output {
+            Some(HostOutput::Texture(texture)) => {
+                self.check_output(texture)?;
+                self.visibility.copy_to(frame.encoder, texture);
+                frame.note_pass("host/output");
+            }
+            Some(HostOutput::View { view, format }) => {
+                let pipeline = &self.output_pipelines[&format];
+                frame.render_pass(
+                    "host/output",
+                    wgpu::RenderPassDescriptor {
+                        label: None,
+                        color_attachments: &[cleared(view)],
+                        depth_stencil_attachment: None,
+                        timestamp_writes: None,
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    },
+                    |pass| {
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, &self.output_group, &[]);
+                        pass.draw(0..3, 0..1);
+                    },
+                );
+            }
+            None => {}
+        }
+        Ok(())
     }
 
     /// Runs [`ShadowTechnique::prepare`] (scene-only work, such as the PDSM's precompute) on
@@ -689,4 +696,17 @@ impl HostRenderer {
         self.output_pipelines.insert(format, pipeline);
         Ok(())
     }
+}
+
+/// A colour attachment of `view`, cleared to transparent and stored.
+fn cleared(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+            store: wgpu::StoreOp::Store,
+        },
+    })
 }

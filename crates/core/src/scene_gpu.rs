@@ -7,7 +7,11 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-use crate::{light::AreaLight, scene::Aabb, Gpu, Scene};
+use crate::{
+    light::AreaLight,
+    scene::{Aabb, Instance, Mesh},
+    Gpu, Scene,
+};
 
 /// Vertex as the G-buffer and depth passes read it (`shaders/core/gbuffer.wgsl`).
 #[repr(C)]
@@ -186,71 +190,129 @@ fn clipped_bounds(light_space: &[Vec3], indices: &[u32]) -> Option<Aabb> {
     (!b.is_empty() && b.max.z > 0.0).then_some(b)
 }
 
+/// A scene baked into world space on the CPU: what [`SceneGpu::upload`] puts on the device, and
+/// the bounds and positions it keeps.
+struct Baked {
+    vertices: Vec<Vertex>,
+    /// Index lists into `vertices`.
+    all: Vec<u32>,
+    casters: Vec<u32>,
+    static_casters: Vec<u32>,
+    dynamic_casters: Vec<u32>,
+    receivers: Vec<u32>,
+    bounds: Aabb,
+    caster_bounds: Aabb,
+    receiver_bounds: Aabb,
+    static_bounds: Aabb,
+    static_caster_bounds: Aabb,
+    /// The world position of every vertex.
+    positions: Vec<Vec3>,
+}
+
+impl Baked {
+    fn new() -> Self {
+        Self {
+            vertices: Vec::new(),
+            all: Vec::new(),
+            casters: Vec::new(),
+            static_casters: Vec::new(),
+            dynamic_casters: Vec::new(),
+            receivers: Vec::new(),
+            bounds: Aabb::EMPTY,
+            caster_bounds: Aabb::EMPTY,
+            receiver_bounds: Aabb::EMPTY,
+            static_bounds: Aabb::EMPTY,
+            static_caster_bounds: Aabb::EMPTY,
+            positions: Vec::new(),
+        }
+    }
+
+    /// Adds `mesh` placed by `instance`: its vertices in world space with the instance's albedo
+    /// and flags, its triangles in the index lists it belongs to, its points in the bounds.
+    fn add(&mut self, instance: &Instance, mesh: &Mesh) {
+        let base = self.vertices.len() as u32;
+        let normal_matrix = instance.transform.inverse().transpose();
+        let color_flags = color_flags(instance);
+        for (k, p) in mesh.positions.iter().enumerate() {
+            let world = instance.transform.transform_point3(*p);
+            let n = mesh.normals.get(k).copied().unwrap_or(Vec3::Y);
+            let world_n = normal_matrix.transform_vector3(n).normalize_or(Vec3::Y);
+            self.vertices.push(Vertex {
+                position: world.to_array(),
+                normal: world_n.to_array(),
+                color_flags,
+            });
+            self.bounds.extend(world);
+            if !instance.dynamic {
+                self.static_bounds.extend(world);
+                if instance.casts_shadow {
+                    self.static_caster_bounds.extend(world);
+                }
+            }
+            self.positions.push(world);
+            if instance.casts_shadow {
+                self.caster_bounds.extend(world);
+            }
+            if instance.receives_shadow {
+                self.receiver_bounds.extend(world);
+            }
+        }
+        let indices = mesh.indices.iter().map(|i| base + i);
+        self.all.extend(indices.clone());
+        if instance.casts_shadow {
+            self.casters.extend(indices.clone());
+            if instance.dynamic {
+                self.dynamic_casters.extend(indices.clone());
+            } else {
+                self.static_casters.extend(indices.clone());
+            }
+        }
+        if instance.receives_shadow {
+            self.receivers.extend(indices);
+        }
+    }
+}
+
+/// A vertex's `color_flags` for `instance`: its albedo as RGB8, and whether it casts and
+/// receives shadows.
+fn color_flags(instance: &Instance) -> u32 {
+    let albedo = instance.albedo.clamp(Vec3::ZERO, Vec3::ONE);
+    let mut color_flags = (albedo.x * 255.0).round() as u32
+        | ((albedo.y * 255.0).round() as u32) << 8
+        | ((albedo.z * 255.0).round() as u32) << 16;
+    if instance.casts_shadow {
+        color_flags |= FLAG_CASTS;
+    }
+    if instance.receives_shadow {
+        color_flags |= FLAG_RECEIVES;
+    }
+    color_flags
+}
+
 impl SceneGpu {
     /// Uploads a scene. Instances are baked into world space (one vertex buffer, no per-draw state).
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Self {
         puffin::profile_function!();
-        let mut vertices: Vec<Vertex> = Vec::new();
-        let (mut all, mut casters, mut receivers) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut static_casters, mut dynamic_casters) = (Vec::new(), Vec::new());
-        let (mut bounds, mut caster_bounds, mut receiver_bounds) =
-            (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
-        let (mut static_bounds, mut static_caster_bounds) = (Aabb::EMPTY, Aabb::EMPTY);
-        let mut positions = Vec::new();
+        let mut baked = Baked::new();
         for instance in &scene.instances {
-            let Some(mesh) = scene.meshes.get(instance.mesh) else {
-                continue;
-            };
-            let base = vertices.len() as u32;
-            let normal_matrix = instance.transform.inverse().transpose();
-            let albedo = instance.albedo.clamp(Vec3::ZERO, Vec3::ONE);
-            let mut color_flags = (albedo.x * 255.0).round() as u32
-                | ((albedo.y * 255.0).round() as u32) << 8
-                | ((albedo.z * 255.0).round() as u32) << 16;
-            if instance.casts_shadow {
-                color_flags |= FLAG_CASTS;
-            }
-            if instance.receives_shadow {
-                color_flags |= FLAG_RECEIVES;
-            }
-            for (k, p) in mesh.positions.iter().enumerate() {
-                let world = instance.transform.transform_point3(*p);
-                let n = mesh.normals.get(k).copied().unwrap_or(Vec3::Y);
-                let world_n = normal_matrix.transform_vector3(n).normalize_or(Vec3::Y);
-                vertices.push(Vertex {
-                    position: world.to_array(),
-                    normal: world_n.to_array(),
-                    color_flags,
-                });
-                bounds.extend(world);
-                if !instance.dynamic {
-                    static_bounds.extend(world);
-                    if instance.casts_shadow {
-                        static_caster_bounds.extend(world);
-                    }
-                }
-                positions.push(world);
-                if instance.casts_shadow {
-                    caster_bounds.extend(world);
-                }
-                if instance.receives_shadow {
-                    receiver_bounds.extend(world);
-                }
-            }
-            let indices = mesh.indices.iter().map(|i| base + i);
-            all.extend(indices.clone());
-            if instance.casts_shadow {
-                casters.extend(indices.clone());
-                if instance.dynamic {
-                    dynamic_casters.extend(indices.clone());
-                } else {
-                    static_casters.extend(indices.clone());
-                }
-            }
-            if instance.receives_shadow {
-                receivers.extend(indices);
+            if let Some(mesh) = scene.meshes.get(instance.mesh) {
+                baked.add(instance, mesh);
             }
         }
+        let Baked {
+            vertices,
+            all,
+            casters,
+            static_casters,
+            dynamic_casters,
+            receivers,
+            bounds,
+            caster_bounds,
+            receiver_bounds,
+            static_bounds,
+            static_caster_bounds,
+            positions,
+        } = baked;
         let device = &gpu.device;
         // Ray-query techniques build acceleration structures from these buffers (crate::accel).
         let blas_input = if gpu.has_ray_query() {

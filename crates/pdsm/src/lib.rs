@@ -644,6 +644,8 @@ impl Pdsm {
     /// Builds (or loads) the PDSM for this frame's static scene and light. In background mode a
     /// build runs on its own thread and this fails with [`TechniqueError::Building`] until it is
     /// done.
+    // Long: the cache, the background build and the foreground build are one decision read
+    // top to bottom; each branch is a few lines.
     fn prepare_pdsm(
         &mut self,
         frame: &mut Frame<'_>,
@@ -920,6 +922,8 @@ impl Pdsm {
 
     /// Algorithm 1 step 2 on the GPU: one depth map of the static casters per window, copied to
     /// buffers in batches and read back as light-space depth.
+    // Long: one loop over batches (render, copy, read back, cancel check) whose steps share the
+    // batch's buffers.
     fn render_sample_maps(
         &mut self,
         frame: &mut Frame<'_>,

@@ -92,104 +92,30 @@ pub fn visibility_image_and_error(
     receiver: &[bool],
     samples_per_axis: u32,
 ) -> Result<(Vec<f32>, Vec<f32>), TracedError> {
-    if positions.len() != receiver.len() {
-        return Err(TracedError::Input(format!(
-            "{} positions but {} receiver flags: give one of each per pixel",
-            positions.len(),
-            receiver.len()
-        )));
-    }
-    if samples_per_axis == 0 {
-        return Err(TracedError::Input(
-            "samples_per_axis is 0: give at least 1".into(),
-        ));
-    }
+    check_inputs(positions, receiver, samples_per_axis)?;
     let count = positions.len();
     if count == 0 {
         return Ok((Vec::new(), Vec::new()));
     }
-    let points: Vec<[f32; 4]> = positions
-        .iter()
-        .zip(receiver)
-        .map(|(p, &r)| match p {
-            Some(p) if r && p.is_finite() => [p.x, p.y, p.z, 1.0],
-            _ => [0.0; 4],
-        })
-        .collect();
+    let points = trace_points(positions, receiver);
     let device = &gpu.device;
     let scene_gpu = SceneGpu::upload(gpu, scene);
     if !scene_gpu.has_casters() {
-        let lit: Vec<f32> = points
-            .iter()
-            .map(|p| {
-                let lit = p[3] < 0.5
-                    || scene
-                        .light
-                        .view()
-                        .transform_point3(Vec3::new(p[0], p[1], p[2]))
-                        .z
-                        > 0.0;
-                if lit {
-                    1.0
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let errors = vec![0.0; lit.len()];
-        return Ok((lit, errors));
+        return Ok(without_casters(scene, &points));
     }
     let mut accel = SceneAccel::new();
     let mut encoder = device.create_command_encoder(&Default::default());
     accel.build(gpu, &mut encoder, &scene_gpu)?;
     gpu.queue.submit([encoder.finish()]);
 
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("reference/trace"),
-        entries: &[
-            softshadow_core::frame::uniform_entry(0, wgpu::ShaderStages::COMPUTE, false),
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::AccelerationStructure {
-                    vertex_return: false,
-                },
-                count: None,
-            },
-            storage_entry(2, true),
-            storage_entry(3, false),
-            storage_entry(4, false),
-        ],
-    });
-    let module = shader::create_module(gpu, &SHADER, &[])?;
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("reference/trace"),
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("reference/trace"),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some("trace"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let (layout, pipeline) = trace_pipeline(gpu)?;
     let points_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("reference/trace points"),
         contents: bytemuck::cast_slice(&points),
         usage: wgpu::BufferUsages::STORAGE,
     });
-    let lit_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("reference/trace lit"),
-        contents: bytemuck::cast_slice(&vec![0f32; count]),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    });
-    let disagree_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("reference/trace disagree"),
-        contents: bytemuck::cast_slice(&vec![0f32; count]),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    });
+    let lit_buffer = zeroed_counts(device, "reference/trace lit", count);
+    let disagree_buffer = zeroed_counts(device, "reference/trace disagree", count);
     let half = scene.light.half_extent();
     let view = scene.light.view();
     // One uniform buffer per row: rows are dispatched in one submission.
@@ -246,9 +172,129 @@ pub fn visibility_image_and_error(
         }
         gpu.queue.submit([encoder.finish()]);
     }
-    let bytes = read_buffer(gpu, &lit_buffer, 0, (count * 4) as u64)?;
+    let counts = [&lit_buffer, &disagree_buffer];
+    read_visibility_and_error(gpu, &points, counts, samples_per_axis)
+}
+
+/// One position and one receiver flag per pixel, and at least one sample per axis.
+fn check_inputs(
+    positions: &[Option<Vec3>],
+    receiver: &[bool],
+    samples_per_axis: u32,
+) -> Result<(), TracedError> {
+    if positions.len() != receiver.len() {
+        return Err(TracedError::Input(format!(
+            "{} positions but {} receiver flags: give one of each per pixel",
+            positions.len(),
+            receiver.len()
+        )));
+    }
+    if samples_per_axis == 0 {
+        return Err(TracedError::Input(
+            "samples_per_axis is 0: give at least 1".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The points the shader traces from: `[x, y, z, 1]` at a finite receiver position, zeros (not
+/// traced) elsewhere.
+fn trace_points(positions: &[Option<Vec3>], receiver: &[bool]) -> Vec<[f32; 4]> {
+    positions
+        .iter()
+        .zip(receiver)
+        .map(|(p, &r)| match p {
+            Some(p) if r && p.is_finite() => [p.x, p.y, p.z, 1.0],
+            _ => [0.0; 4],
+        })
+        .collect()
+}
+
+/// The answer of a scene without casters: every traced point lit unless behind the light, with
+/// no sampling error.
+fn without_casters(scene: &Scene, points: &[[f32; 4]]) -> (Vec<f32>, Vec<f32>) {
+    let lit: Vec<f32> = points
+        .iter()
+        .map(|p| {
+            let lit = p[3] < 0.5
+                || scene
+                    .light
+                    .view()
+                    .transform_point3(Vec3::new(p[0], p[1], p[2]))
+                    .z
+                    > 0.0;
+            if lit {
+                1.0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let errors = vec![0.0; lit.len()];
+    (lit, errors)
+}
+
+/// The trace pass's bind group layout (the row's parameters, the casters' acceleration
+/// structure, the points, the lit and disagreeing sample counts) and its compute pipeline.
+fn trace_pipeline(
+    gpu: &Gpu,
+) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), TracedError> {
+    let device = &gpu.device;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("reference/trace"),
+        entries: &[
+            softshadow_core::frame::uniform_entry(0, wgpu::ShaderStages::COMPUTE, false),
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::AccelerationStructure {
+                    vertex_return: false,
+                },
+                count: None,
+            },
+            storage_entry(2, true),
+            storage_entry(3, false),
+            storage_entry(4, false),
+        ],
+    });
+    let module = shader::create_module(gpu, &SHADER, &[])?;
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("reference/trace"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("reference/trace"),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some("trace"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    Ok((layout, pipeline))
+}
+
+/// A storage buffer of `count` zeros (f32) the trace pass adds sample counts to, read back after.
+fn zeroed_counts(device: &wgpu::Device, label: &str, count: usize) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(&vec![0f32; count]),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    })
+}
+
+/// Reads the lit and disagreeing sample counts back (`counts`) and turns them into each point's
+/// visible fraction and standard-error estimate (1 and 0 where nothing was traced).
+fn read_visibility_and_error(
+    gpu: &Gpu,
+    points: &[[f32; 4]],
+    [lit_buffer, disagree_buffer]: [&wgpu::Buffer; 2],
+    samples_per_axis: u32,
+) -> Result<(Vec<f32>, Vec<f32>), TracedError> {
+    let count = points.len();
+    let bytes = read_buffer(gpu, lit_buffer, 0, (count * 4) as u64)?;
     let lit: &[f32] = bytemuck::cast_slice(&bytes);
-    let bytes = read_buffer(gpu, &disagree_buffer, 0, (count * 4) as u64)?;
+    let bytes = read_buffer(gpu, disagree_buffer, 0, (count * 4) as u64)?;
     let disagree: &[f32] = bytemuck::cast_slice(&bytes);
     let total = (samples_per_axis * samples_per_axis) as f32;
     Ok(points

@@ -46,17 +46,55 @@ pub fn parse_gltf(
     base: Option<&Path>,
     path: &Path,
 ) -> Result<GltfGeometry, SceneError> {
-    let shown = path.display().to_string();
-    let malformed = |message: String| SceneError::GltfMalformed {
-        path: shown.clone(),
-        message: crate::error::one_line(&message),
-    };
-    let limit = |what: String, limit: String, advice: &str| SceneError::Limit {
-        origin: format!("glTF file `{shown}`"),
-        what,
-        limit,
-        advice: advice.into(),
-    };
+    let file = Shown(path.display().to_string());
+    check_glb_header(bytes, &file)?;
+    let (document, blob) = read_document(bytes, &file)?;
+    check_buffers(&document, base, &file)?;
+    let buffers = gltf::import_buffers(&document, base, blob)
+        .map_err(|e| file.malformed(format!("cannot load its buffers ({e})")))?;
+    let file_name = path
+        .file_name()
+        .map_or_else(|| file.0.clone(), |n| n.to_string_lossy().into_owned());
+
+    let mut geometry = GltfGeometry::default();
+    let primitives_of = read_meshes(&document, &buffers, &file, &file_name, &mut geometry)?;
+    place_instances(&document, &primitives_of, &file, &file_name, &mut geometry)?;
+    if geometry.instances.is_empty() {
+        return Err(SceneError::GltfNoGeometry { path: file.0 });
+    }
+    Ok(geometry)
+}
+
+/// The file as messages name it.
+struct Shown(String);
+
+impl Shown {
+    fn malformed(&self, message: String) -> SceneError {
+        SceneError::GltfMalformed {
+            path: self.0.clone(),
+            message: crate::error::one_line(&message),
+        }
+    }
+
+    fn limit(&self, what: String, limit: String, advice: &str) -> SceneError {
+        SceneError::Limit {
+            origin: format!("glTF file `{}`", self.0),
+            what,
+            limit,
+            advice: advice.into(),
+        }
+    }
+
+    fn version(&self, version: String) -> SceneError {
+        SceneError::GltfVersion {
+            path: self.0.clone(),
+            version,
+        }
+    }
+}
+
+/// Refuses a GLB header gltf would mishandle: version 1 and a length below the header's own.
+fn check_glb_header(bytes: &[u8], file: &Shown) -> Result<(), SceneError> {
     let header_word = |at: usize| {
         let word = bytes.strip_prefix(b"glTF")?.get(at..at + 4)?;
         Some(u32::from_le_bytes([word[0], word[1], word[2], word[3]]))
@@ -64,20 +102,26 @@ pub fn parse_gltf(
     // A version 1 GLB is glTF 1.0's binary form (KHR_binary_glTF); gltf calls it only
     // "unsupported version".
     if header_word(0) == Some(1) {
-        return Err(SceneError::GltfVersion {
-            path: shown.clone(),
-            version: "1.0 (binary, KHR_binary_glTF)".into(),
-        });
+        return Err(file.version("1.0 (binary, KHR_binary_glTF)".into()));
     }
     // gltf 1.4 subtracts 12 from the GLB header's length unchecked (a panic below 12: found by
     // the `gltf` fuzz target), so that header is checked here first.
     if let Some(length) = header_word(4) {
         if length < 12 {
-            return Err(malformed(format!(
+            return Err(file.malformed(format!(
                 "its GLB header gives a length of {length} bytes, less than the 12-byte header"
             )));
         }
     }
+    Ok(())
+}
+
+/// The glTF 2.0 document of `bytes` and its GLB blob, validated; other versions and required
+/// extensions gltf lacks are refused with what they are.
+fn read_document(
+    bytes: &[u8],
+    file: &Shown,
+) -> Result<(gltf::Document, Option<Vec<u8>>), SceneError> {
     // gltf-json 1.4's validation reads the POSITION accessor of every primitive by index
     // without a bounds check (a panic on an index past the accessors: found by the `gltf` fuzz
     // target), so those indices are checked here before gltf validates the rest.
@@ -87,20 +131,14 @@ pub fn parse_gltf(
             // glTF 1.0 keeps its objects in dictionaries, so gltf's message for it is a
             // type error ("invalid type: map, expected a sequence").
             if let Some(version) = gltf_1_json_version(bytes) {
-                return Err(SceneError::GltfVersion {
-                    path: shown.clone(),
-                    version,
-                });
+                return Err(file.version(version));
             }
-            return Err(malformed(e.to_string()));
+            return Err(file.malformed(e.to_string()));
         }
     };
     let root = document.into_json();
     if !root.asset.version.starts_with("2.") {
-        return Err(SceneError::GltfVersion {
-            path: shown.clone(),
-            version: root.asset.version.clone(),
-        });
+        return Err(file.version(root.asset.version.clone()));
     }
     // gltf would call these "malformed" ("Unsupported extension"): say which one and what to do.
     if let Some(extension) = root
@@ -109,7 +147,7 @@ pub fn parse_gltf(
         .find(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()))
     {
         return Err(SceneError::GltfExtension {
-            path: shown.clone(),
+            path: file.0.clone(),
             extension: extension.clone(),
             what: match extension.as_str() {
                 "KHR_draco_mesh_compression" => " (Draco-compressed geometry)",
@@ -125,7 +163,7 @@ pub fn parse_gltf(
             let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
             if let Some(accessor) = primitive.attributes.get(&position) {
                 if accessor.value() >= root.accessors.len() {
-                    return Err(malformed(format!(
+                    return Err(file.malformed(format!(
                         "mesh {m} primitive {p}: its POSITION attribute names accessor {}, but the file has {} accessors",
                         accessor.value(),
                         root.accessors.len()
@@ -134,10 +172,20 @@ pub fn parse_gltf(
             }
         }
     }
-    let document = gltf::Document::from_json(root).map_err(|e| malformed(e.to_string()))?;
+    let document = gltf::Document::from_json(root).map_err(|e| file.malformed(e.to_string()))?;
+    Ok((document, blob))
+}
+
+/// Refuses a buffer over [`MAX_FILE_BYTES`], and a buffer in another file without a folder
+/// `base` to read it from or that is not a plain file of a readable size.
+fn check_buffers(
+    document: &gltf::Document,
+    base: Option<&Path>,
+    file: &Shown,
+) -> Result<(), SceneError> {
     for buffer in document.buffers() {
         if buffer.length() as u64 > MAX_FILE_BYTES {
-            return Err(limit(
+            return Err(file.limit(
                 format!("buffer {} ({} bytes)", buffer.index(), buffer.length()),
                 format!("{MAX_FILE_BYTES} bytes (limits::MAX_FILE_BYTES)"),
                 "split or decimate the model",
@@ -146,27 +194,32 @@ pub fn parse_gltf(
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             if !uri.starts_with("data:") {
                 let Some(base) = base else {
-                    return Err(malformed(format!(
+                    return Err(file.malformed(format!(
                         "buffer {} is in another file (`{uri}`), which is not read here; embed it (save as .glb)",
                         buffer.index()
                     )));
                 };
                 // A device or pipe named as a buffer would never end: check before gltf reads it.
-                let file = base.join(uri.strip_prefix("file://").unwrap_or(uri));
-                if file.exists() {
-                    crate::check_file(&file, "glTF buffer file")?;
+                let buffer_file = base.join(uri.strip_prefix("file://").unwrap_or(uri));
+                if buffer_file.exists() {
+                    crate::check_file(&buffer_file, "glTF buffer file")?;
                 }
             }
         }
     }
-    let buffers = gltf::import_buffers(&document, base, blob)
-        .map_err(|e| malformed(format!("cannot load its buffers ({e})")))?;
-    let file_name = path
-        .file_name()
-        .map_or_else(|| shown.clone(), |n| n.to_string_lossy().into_owned());
+    Ok(())
+}
 
-    let mut geometry = GltfGeometry::default();
-    // For each glTF mesh, the indices of the meshes made from its triangle primitives.
+/// Reads every triangle primitive into `geometry.meshes` (repaired; a primitive that cannot be
+/// read is skipped with a warning), checking the vertex and triangle limits before each; returns,
+/// for each glTF mesh, the indices of the meshes made from it.
+fn read_meshes(
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    file: &Shown,
+    file_name: &str,
+    geometry: &mut GltfGeometry,
+) -> Result<Vec<Vec<usize>>, SceneError> {
     let mut primitives_of: Vec<Vec<usize>> = Vec::new();
     // Triangles of every primitive read so far, checked against the limit before reading more.
     let mut triangles_read = 0usize;
@@ -184,7 +237,7 @@ pub fn parse_gltf(
             };
             let (vertices, triangles) = primitive_size(&primitive);
             if vertices > MAX_VERTICES {
-                return Err(limit(
+                return Err(file.limit(
                     format!("mesh `{name}`'s vertex count ({vertices})"),
                     format!("{MAX_VERTICES} vertices per primitive (limits::MAX_VERTICES)"),
                     "decimate the model",
@@ -192,18 +245,18 @@ pub fn parse_gltf(
             }
             triangles_read = triangles_read.saturating_add(triangles);
             if triangles_read > MAX_TRIANGLES {
-                return Err(limit(
+                return Err(file.limit(
                     format!("the triangle count of its meshes (at least {triangles_read})"),
                     format!("{MAX_TRIANGLES} triangles (limits::MAX_TRIANGLES)"),
                     "decimate the model",
                 ));
             }
-            match read_primitive(&primitive, &buffers, &name) {
+            match read_primitive(&primitive, buffers, &name) {
                 Ok(mut mesh) => {
                     let repair = mesh.repair();
                     geometry
                         .warnings
-                        .extend(repair_warnings(&mesh.name, &file_name, &repair));
+                        .extend(repair_warnings(&mesh.name, file_name, &repair));
                     if mesh.indices.is_empty() {
                         geometry.warnings.push(format!(
                             "mesh `{name}` from {file_name}: no triangles left after repair"
@@ -219,45 +272,49 @@ pub fn parse_gltf(
         }
         primitives_of.push(made);
     }
+    Ok(primitives_of)
+}
 
+/// Places the meshes (`primitives_of` each glTF mesh) as the default scene's node hierarchy (or
+/// the first scene's) instances them into `geometry.instances`; without a scene, every mesh once
+/// at the origin, with a warning.
+fn place_instances(
+    document: &gltf::Document,
+    primitives_of: &[Vec<usize>],
+    file: &Shown,
+    file_name: &str,
+    geometry: &mut GltfGeometry,
+) -> Result<(), SceneError> {
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next());
-    match scene {
-        Some(scene) => {
-            let mut walker = Walker {
-                primitives_of: &primitives_of,
-                triangles_of: geometry.meshes.iter().map(Mesh::triangle_count).collect(),
-                triangles: 0,
-                visits: 0,
-                out: &mut geometry.instances,
-            };
-            for node in scene.nodes() {
-                walker
-                    .walk(&node, Mat4::IDENTITY, 0)
-                    .map_err(|e| match e {
-                        WalkError::Malformed(message) => malformed(message),
-                        WalkError::Limit { what, limit: l } => limit(
-                            what,
-                            l,
-                            "instance the mesh fewer times (a node graph that reuses children multiplies)",
-                        ),
-                    })?;
-            }
+    let Some(scene) = scene else {
+        geometry.warnings.push(format!(
+            "{file_name} has no scene: placed every mesh once at the origin"
+        ));
+        for mesh in primitives_of.iter().flatten() {
+            geometry.instances.push((*mesh, Mat4::IDENTITY));
         }
-        None => {
-            geometry.warnings.push(format!(
-                "{file_name} has no scene: placed every mesh once at the origin"
-            ));
-            for mesh in primitives_of.iter().flatten() {
-                geometry.instances.push((*mesh, Mat4::IDENTITY));
-            }
-        }
+        return Ok(());
+    };
+    let mut walker = Walker {
+        primitives_of,
+        triangles_of: geometry.meshes.iter().map(Mesh::triangle_count).collect(),
+        triangles: 0,
+        visits: 0,
+        out: &mut geometry.instances,
+    };
+    for node in scene.nodes() {
+        walker.walk(&node, Mat4::IDENTITY, 0).map_err(|e| match e {
+            WalkError::Malformed(message) => file.malformed(message),
+            WalkError::Limit { what, limit } => file.limit(
+                what,
+                limit,
+                "instance the mesh fewer times (a node graph that reuses children multiplies)",
+            ),
+        })?;
     }
-    if geometry.instances.is_empty() {
-        return Err(SceneError::GltfNoGeometry { path: shown });
-    }
-    Ok(geometry)
+    Ok(())
 }
 
 /// The version of a glTF 1.0 JSON file that gltf could not parse: its `asset.version` when that

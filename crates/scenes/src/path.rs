@@ -260,54 +260,68 @@ impl Path {
     /// `[0, duration]`, every moved instance present and `dynamic`, and every keyframe's camera
     /// and light valid.
     pub fn check(&self, scene: &Scene) -> Result<(), SceneError> {
-        let fail = |message: String| SceneError::Path {
-            name: self.name.clone(),
-            message,
-        };
         if !(self.duration.is_finite() && self.duration >= 0.0 && self.duration <= 1e6) {
-            return Err(fail(format!(
+            return Err(self.fail(format!(
                 "duration {} is not a number of seconds from 0 to 1e6",
                 self.duration
             )));
         }
-        let check_times = |what: &str, times: Vec<f32>| -> Result<(), SceneError> {
-            if times.is_empty() {
-                return Err(fail(format!("{what} has no keyframe: give at least one")));
-            }
-            if times.len() > MAX_KEYS {
-                return Err(fail(format!(
-                    "{what} has {} keyframes, more than {MAX_KEYS}",
-                    times.len()
+        self.check_camera(scene)?;
+        self.check_light(scene)?;
+        self.check_objects(scene)
+    }
+
+    /// What is wrong with this path.
+    fn fail(&self, message: String) -> SceneError {
+        SceneError::Path {
+            name: self.name.clone(),
+            message,
+        }
+    }
+
+    /// `what`'s keyframe times: at least one, at most [`MAX_KEYS`], increasing, within
+    /// `[0, duration]`.
+    fn check_times(&self, what: &str, times: Vec<f32>) -> Result<(), SceneError> {
+        if times.is_empty() {
+            return Err(self.fail(format!("{what} has no keyframe: give at least one")));
+        }
+        if times.len() > MAX_KEYS {
+            return Err(self.fail(format!(
+                "{what} has {} keyframes, more than {MAX_KEYS}",
+                times.len()
+            )));
+        }
+        for (k, &time) in times.iter().enumerate() {
+            if !time.is_finite() || time < 0.0 || time > self.duration {
+                return Err(self.fail(format!(
+                    "{what}: keyframe {} has time {time}, outside 0 to the duration ({}); give times within it or a longer duration",
+                    k + 1,
+                    self.duration
                 )));
             }
-            for (k, &time) in times.iter().enumerate() {
-                if !time.is_finite() || time < 0.0 || time > self.duration {
-                    return Err(fail(format!(
-                        "{what}: keyframe {} has time {time}, outside 0 to the duration ({}); give times within it or a longer duration",
-                        k + 1,
-                        self.duration
-                    )));
-                }
-                if k > 0 && time <= times[k - 1] {
-                    return Err(fail(format!(
-                        "{what}: keyframe {} (time {time}) does not come after the one before it; list keyframes in increasing time",
-                        k + 1
-                    )));
-                }
+            if k > 0 && time <= times[k - 1] {
+                return Err(self.fail(format!(
+                    "{what}: keyframe {} (time {time}) does not come after the one before it; list keyframes in increasing time",
+                    k + 1
+                )));
             }
-            Ok(())
-        };
+        }
+        Ok(())
+    }
+
+    /// A finite orbit, or camera keyframes each a valid camera (with `scene`'s lens).
+    fn check_camera(&self, scene: &Scene) -> Result<(), SceneError> {
         match &self.camera {
             CameraTrack::Fixed => {}
             CameraTrack::Orbit { degrees } => {
                 if !degrees.is_finite() || degrees.abs() > 1e5 {
-                    return Err(fail(format!(
-                        "orbit of {degrees} degrees: give a finite turn"
-                    )));
+                    return Err(
+                        self.fail(format!("orbit of {degrees} degrees: give a finite turn"))
+                    );
                 }
             }
             CameraTrack::Keys(keys) => {
-                check_times("the camera", keys.iter().map(|k| k.time).collect())?;
+                self.check_times("the camera", keys.iter().map(|k| k.time).collect())?;
                 for (k, key) in keys.iter().enumerate() {
                     Camera {
                         eye: key.eye,
@@ -316,52 +330,64 @@ impl Path {
                         ..scene.camera
                     }
                     .validate()
-                    .map_err(|e| fail(format!("camera keyframe {}: {e}", k + 1)))?;
+                    .map_err(|e| self.fail(format!("camera keyframe {}: {e}", k + 1)))?;
                 }
             }
         }
-        if !self.light.is_empty() {
-            check_times("the light", self.light.iter().map(|k| k.time).collect())?;
-            for (k, key) in self.light.iter().enumerate() {
-                let light = AreaLight {
-                    center: key.center,
-                    direction: key.orientation * Vec3::Z,
-                    up: key.orientation * Vec3::Y,
-                    width: key.width,
-                    height: key.height,
-                    intensity: scene.light.intensity,
-                };
-                if !key.orientation.is_finite() {
-                    return Err(fail(format!(
-                        "light keyframe {}: its orientation is not finite",
-                        k + 1
-                    )));
-                }
-                light
-                    .validate()
-                    .map_err(|e| fail(format!("light keyframe {}: {e}", k + 1)))?;
-            }
+        Ok(())
+    }
+
+    /// Light keyframes, if any, each a valid light (with `scene`'s intensity).
+    fn check_light(&self, scene: &Scene) -> Result<(), SceneError> {
+        if self.light.is_empty() {
+            return Ok(());
         }
+        self.check_times("the light", self.light.iter().map(|k| k.time).collect())?;
+        for (k, key) in self.light.iter().enumerate() {
+            let light = AreaLight {
+                center: key.center,
+                direction: key.orientation * Vec3::Z,
+                up: key.orientation * Vec3::Y,
+                width: key.width,
+                height: key.height,
+                intensity: scene.light.intensity,
+            };
+            if !key.orientation.is_finite() {
+                return Err(self.fail(format!(
+                    "light keyframe {}: its orientation is not finite",
+                    k + 1
+                )));
+            }
+            light
+                .validate()
+                .map_err(|e| self.fail(format!("light keyframe {}: {e}", k + 1)))?;
+        }
+        Ok(())
+    }
+
+    /// Every moved instance present in `scene` and `dynamic`, its keyframes finite with a
+    /// positive scale.
+    fn check_objects(&self, scene: &Scene) -> Result<(), SceneError> {
         for track in &self.objects {
             let what = format!("instance {}", track.instance);
             let Some(instance) = scene.instances.get(track.instance) else {
-                return Err(fail(format!(
+                return Err(self.fail(format!(
                     "{what} does not exist: the scene has {} instances (numbered from 0)",
                     scene.instances.len()
                 )));
             };
             if !instance.dynamic {
-                return Err(fail(format!(
+                return Err(self.fail(format!(
                     "{what} is not dynamic: set `dynamic = true` on its object so that precomputes over static casters leave it out"
                 )));
             }
-            check_times(&what, track.keys.iter().map(|k| k.time).collect())?;
+            self.check_times(&what, track.keys.iter().map(|k| k.time).collect())?;
             for (k, key) in track.keys.iter().enumerate() {
                 let finite = key.translation.is_finite()
                     && key.rotation.is_finite()
                     && key.scale.is_finite();
                 if !finite || key.scale.min_element() <= 0.0 {
-                    return Err(fail(format!(
+                    return Err(self.fail(format!(
                         "{what} keyframe {}: translation, rotation and a positive scale must be finite",
                         k + 1
                     )));
@@ -618,93 +644,14 @@ pub fn builtin_path(name: &str, scene: &mut Scene) -> Result<Path, SceneError> {
     match name {
         "still" => Ok(fixed(CameraTrack::Fixed)),
         "orbit" => Ok(fixed(CameraTrack::Orbit { degrees: 90.0 })),
-        "light-sweep" => {
-            let light = scene.light;
-            let casters = scene.bounds(|i| i.casts_shadow);
-            let aim_distance = if casters.is_empty() {
-                1.0
-            } else {
-                (0.5 * (casters.min + casters.max) - light.center)
-                    .dot(light.direction.normalize_or(Vec3::NEG_Y))
-                    .max(0.1)
-            };
-            let (x, _, z) = light.basis();
-            let aim = light.center + z * aim_distance;
-            let center = light.center + x * (0.3 * aim_distance);
-            let moved = AreaLight {
-                center,
-                direction: (aim - center).normalize(),
-                up: light.basis().1,
-                ..light
-            };
-            let key = |time, l: &AreaLight, grow: (f32, f32)| LightKey {
-                time,
-                center: l.center,
-                orientation: light_orientation(l),
-                width: light.width * grow.0,
-                height: light.height * grow.1,
-            };
-            let d = BUILTIN_DURATION;
-            Ok(Path {
-                light: vec![
-                    key(0.15 * d, &light, (1.0, 1.0)),
-                    key(0.65 * d, &moved, (1.25, 0.8)),
-                ],
-                ..fixed(CameraTrack::Fixed)
-            })
-        }
-        "object-move" => {
-            let mut moving: Vec<usize> = (0..scene.instances.len())
-                .filter(|&i| scene.instances[i].dynamic && scene.instances[i].casts_shadow)
-                .collect();
-            if moving.is_empty() {
-                let first = scene
-                    .instances
-                    .iter()
-                    .position(|i| i.casts_shadow)
-                    .ok_or_else(|| SceneError::Path {
-                        name: name.into(),
-                        message: format!(
-                            "scene `{}` has no caster to move: use `orbit` or `light-sweep`",
-                            scene.name
-                        ),
-                    })?;
-                scene.instances[first].dynamic = true;
-                moving.push(first);
-            }
-            let d = BUILTIN_DURATION;
-            let objects = moving
-                .into_iter()
-                .map(|index| {
-                    let instance = &scene.instances[index];
-                    let (scale, rotation, translation) =
-                        instance.transform.to_scale_rotation_translation();
-                    let mut bounds = softshadow_core::Aabb::EMPTY;
-                    for p in &scene.meshes[instance.mesh].positions {
-                        bounds.extend(instance.transform.transform_point3(*p));
-                    }
-                    let size = if bounds.is_empty() {
-                        0.2
-                    } else {
-                        (bounds.max - bounds.min).max_element().max(0.2)
-                    };
-                    let key = |time, offset: f32| TransformKey {
-                        time,
-                        translation: translation + Vec3::X * offset,
-                        rotation,
-                        scale,
-                    };
-                    ObjectTrack {
-                        instance: index,
-                        keys: vec![key(0.0, -0.5 * size), key(0.7 * d, 0.5 * size)],
-                    }
-                })
-                .collect();
-            Ok(Path {
-                objects,
-                ..fixed(CameraTrack::Fixed)
-            })
-        }
+        "light-sweep" => Ok(Path {
+            light: light_sweep_keys(scene),
+            ..fixed(CameraTrack::Fixed)
+        }),
+        "object-move" => Ok(Path {
+            objects: object_move_tracks(name, scene)?,
+            ..fixed(CameraTrack::Fixed)
+        }),
         _ => Err(SceneError::Path {
             name: name.into(),
             message: format!(
@@ -712,6 +659,95 @@ pub fn builtin_path(name: &str, scene: &mut Scene) -> Result<Path, SceneError> {
                 BUILTIN_PATHS.map(|(n, _)| n).join(", ")
             ),
         }),
+    }
+}
+
+/// `light-sweep`'s keyframes: the scene's light, then the light moved sideways by 0.3 of its
+/// distance to the casters (still aimed at the same point) and stretched 1.25 x 0.8.
+fn light_sweep_keys(scene: &Scene) -> Vec<LightKey> {
+    let light = scene.light;
+    let casters = scene.bounds(|i| i.casts_shadow);
+    let aim_distance = if casters.is_empty() {
+        1.0
+    } else {
+        (0.5 * (casters.min + casters.max) - light.center)
+            .dot(light.direction.normalize_or(Vec3::NEG_Y))
+            .max(0.1)
+    };
+    let (x, _, z) = light.basis();
+    let aim = light.center + z * aim_distance;
+    let center = light.center + x * (0.3 * aim_distance);
+    let moved = AreaLight {
+        center,
+        direction: (aim - center).normalize(),
+        up: light.basis().1,
+        ..light
+    };
+    let key = |time, l: &AreaLight, grow: (f32, f32)| LightKey {
+        time,
+        center: l.center,
+        orientation: light_orientation(l),
+        width: light.width * grow.0,
+        height: light.height * grow.1,
+    };
+    let d = BUILTIN_DURATION;
+    vec![
+        key(0.15 * d, &light, (1.0, 1.0)),
+        key(0.65 * d, &moved, (1.25, 0.8)),
+    ]
+}
+
+/// `object-move`'s tracks: every dynamic caster of `scene` (else its first caster, made
+/// dynamic) slides along x by its size.
+fn object_move_tracks(name: &str, scene: &mut Scene) -> Result<Vec<ObjectTrack>, SceneError> {
+    let mut moving: Vec<usize> = (0..scene.instances.len())
+        .filter(|&i| scene.instances[i].dynamic && scene.instances[i].casts_shadow)
+        .collect();
+    if moving.is_empty() {
+        let first = scene
+            .instances
+            .iter()
+            .position(|i| i.casts_shadow)
+            .ok_or_else(|| SceneError::Path {
+                name: name.into(),
+                message: format!(
+                    "scene `{}` has no caster to move: use `orbit` or `light-sweep`",
+                    scene.name
+                ),
+            })?;
+        scene.instances[first].dynamic = true;
+        moving.push(first);
+    }
+    Ok(moving
+        .into_iter()
+        .map(|index| sliding_track(scene, index))
+        .collect())
+}
+
+/// Instance `index` of `scene` sliding along x from half its size (at least 0.2) one way to half
+/// its size the other, over 0.7 of the path.
+fn sliding_track(scene: &Scene, index: usize) -> ObjectTrack {
+    let instance = &scene.instances[index];
+    let (scale, rotation, translation) = instance.transform.to_scale_rotation_translation();
+    let mut bounds = softshadow_core::Aabb::EMPTY;
+    for p in &scene.meshes[instance.mesh].positions {
+        bounds.extend(instance.transform.transform_point3(*p));
+    }
+    let size = if bounds.is_empty() {
+        0.2
+    } else {
+        (bounds.max - bounds.min).max_element().max(0.2)
+    };
+    let key = |time, offset: f32| TransformKey {
+        time,
+        translation: translation + Vec3::X * offset,
+        rotation,
+        scale,
+    };
+    let d = BUILTIN_DURATION;
+    ObjectTrack {
+        instance: index,
+        keys: vec![key(0.0, -0.5 * size), key(0.7 * d, 0.5 * size)],
     }
 }
 

@@ -372,39 +372,14 @@ impl DisplayPass {
         source: &wgpu::Texture,
         target: &DisplayTarget,
     ) -> Result<DebugKind, String> {
-        let format = source.format();
-        let float_sample = format.sample_type(None, None);
-        let (kind, pipeline, layout, range, range_layout, aspect) =
-            if format.is_depth_stencil_format() {
-                (
-                    DebugKind::Depth,
-                    &self.debug_depth,
-                    &self.debug_depth_layout,
-                    &self.range_depth,
-                    &self.range_depth_layout,
-                    wgpu::TextureAspect::DepthOnly,
-                )
-            } else if float_sample == Some(wgpu::TextureSampleType::Float { filterable: true })
-                || float_sample == Some(wgpu::TextureSampleType::Float { filterable: false })
-            {
-                // Several channels in a unorm format are colours (a classification image); one
-                // channel, or float channels, are values to map.
-                let colour = format.components() > 1 && !is_float_format(format);
-                (
-                    if colour {
-                        DebugKind::Colour
-                    } else {
-                        DebugKind::Float
-                    },
-                    &self.debug_float,
-                    &self.debug_float_layout,
-                    &self.range_float,
-                    &self.range_float_layout,
-                    wgpu::TextureAspect::All,
-                )
-            } else {
-                return Err(format!("cannot show a {format:?} debug texture"));
-            };
+        let DebugPasses {
+            kind,
+            pipeline,
+            layout,
+            range,
+            range_layout,
+            aspect,
+        } = self.debug_passes(source.format())?;
         if source.dimension() != wgpu::TextureDimension::D2
             || !source
                 .usage()
@@ -428,29 +403,7 @@ impl DisplayPass {
             array_layer_count: Some(1),
             ..Default::default()
         });
-        let range_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("viewer/debug_range"),
-            layout: range_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.range.as_entire_binding(),
-                },
-            ],
-        });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("viewer/debug_range"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(range);
-            pass.set_bind_group(0, &range_bind_group, &[]);
-            pass.dispatch_workgroups(source.width().div_ceil(8), source.height().div_ceil(8), 1);
-        }
+        self.record_range(gpu, encoder, range, range_layout, &view, source);
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewer/debug"),
             layout,
@@ -472,6 +425,78 @@ impl DisplayPass {
         draw(encoder, pipeline, &bind_group, &target.view);
         encoder.copy_buffer_to_buffer(&self.range, 0, &self.range_readback, 0, None);
         Ok(kind)
+    }
+
+    /// The pipelines that show a debug texture of `format` and find its range, with what kind of
+    /// image it is and the aspect to read.
+    fn debug_passes(&self, format: wgpu::TextureFormat) -> Result<DebugPasses<'_>, String> {
+        let float_sample = format.sample_type(None, None);
+        if format.is_depth_stencil_format() {
+            return Ok(DebugPasses {
+                kind: DebugKind::Depth,
+                pipeline: &self.debug_depth,
+                layout: &self.debug_depth_layout,
+                range: &self.range_depth,
+                range_layout: &self.range_depth_layout,
+                aspect: wgpu::TextureAspect::DepthOnly,
+            });
+        }
+        if float_sample != Some(wgpu::TextureSampleType::Float { filterable: true })
+            && float_sample != Some(wgpu::TextureSampleType::Float { filterable: false })
+        {
+            return Err(format!("cannot show a {format:?} debug texture"));
+        }
+        // Several channels in a unorm format are colours (a classification image); one
+        // channel, or float channels, are values to map.
+        let colour = format.components() > 1 && !is_float_format(format);
+        Ok(DebugPasses {
+            kind: if colour {
+                DebugKind::Colour
+            } else {
+                DebugKind::Float
+            },
+            pipeline: &self.debug_float,
+            layout: &self.debug_float_layout,
+            range: &self.range_float,
+            range_layout: &self.range_float_layout,
+            aspect: wgpu::TextureAspect::All,
+        })
+    }
+
+    /// Records the `range` pass (`debug_range.wgsl`) over `view` (of `source`) into the range
+    /// buffer.
+    fn record_range(
+        &self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        range: &wgpu::ComputePipeline,
+        range_layout: &wgpu::BindGroupLayout,
+        view: &wgpu::TextureView,
+        source: &wgpu::Texture,
+    ) {
+        let range_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("viewer/debug_range"),
+            layout: range_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.range.as_entire_binding(),
+                },
+            ],
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("viewer/debug_range"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(range);
+            pass.set_bind_group(0, &range_bind_group, &[]);
+            pass.dispatch_workgroups(source.width().div_ceil(8), source.height().div_ceil(8), 1);
+        }
     }
 
     /// The range the last [`DisplayPass::record_debug`] mapped (call after submitting its
@@ -601,6 +626,17 @@ fn pipeline(
         &module,
         &[Some(target)],
     ))
+}
+
+/// The passes that show one kind of debug texture ([`DisplayPass::record_debug`]).
+struct DebugPasses<'a> {
+    kind: DebugKind,
+    pipeline: &'a wgpu::RenderPipeline,
+    layout: &'a wgpu::BindGroupLayout,
+    /// Finds the range of the meaningful texels.
+    range: &'a wgpu::ComputePipeline,
+    range_layout: &'a wgpu::BindGroupLayout,
+    aspect: wgpu::TextureAspect,
 }
 
 fn draw(

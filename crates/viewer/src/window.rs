@@ -328,20 +328,7 @@ impl Handler {
         }
         let capture = screenshot.as_ref().map(|path| {
             // The same paint jobs into a copyable texture (surface textures may not be).
-            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("viewer/screenshot"),
-                size: wgpu::Extent3d {
-                    width: running.config.width,
-                    height: running.config.height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: running.config.format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
+            let texture = screenshot_texture(gpu, &running.config);
             let view = texture.create_view(&Default::default());
             paint(&renderer, &mut encoder, &view, &jobs, &screen, background);
             (path.clone(), texture)
@@ -356,20 +343,20 @@ impl Handler {
         drop(renderer);
 
         if let Some((path, texture)) = capture {
-            if let Err(e) = save_screenshot(gpu, &texture, &path) {
-                if last_frame {
-                    return Err(e);
-                }
-                running.app.report_error(e.to_string());
-            } else {
-                log::info!("screenshot saved to {}", path.display());
-                running.app.confirm(format!(
-                    "saved the screenshot to {}",
-                    crate::app::shown_path(&path)
-                ));
-            }
+            save_capture(&mut running.app, gpu, &texture, &path, last_frame)?;
         }
+        self.count_frame();
+        if last_frame {
+            self.warn_of_a_shown_error();
+            event_loop.exit();
+        }
+        Ok(())
+    }
 
+    /// Counts a frame shown: its wall time, and the summary's frames, reference progress and
+    /// technique time; logs the driver warning once the first frame is shown.
+    fn count_frame(&mut self) {
+        let running = self.running.as_ref().expect("started");
         let now = Instant::now();
         if let Some(last) = self.last_frame.replace(now) {
             let converged = self.summary.reference_progress.0 >= self.summary.reference_progress.1
@@ -394,19 +381,59 @@ impl Handler {
             .map(|r| r.median_ms)
             .reduce(|a, b| a + b)
             .or(running.app.cost_ms());
-        if last_frame {
-            let errors = running.app.errors();
-            if let Some(error) = running
-                .app
-                .technique_error()
-                .or(errors.first().map(|e| e.as_str()))
-            {
-                log::warn!("the viewer showed an error: {error}");
-            }
-            event_loop.exit();
-        }
-        Ok(())
     }
+
+    /// Logs the error the viewer shows, if any (the technique's first), as a `--frames` run
+    /// closes the window.
+    fn warn_of_a_shown_error(&self) {
+        let app = &self.running.as_ref().expect("started").app;
+        let errors = app.errors();
+        if let Some(error) = app.technique_error().or(errors.first().map(|e| e.as_str())) {
+            log::warn!("the viewer showed an error: {error}");
+        }
+    }
+}
+
+/// A texture the size and format of the surface that can be painted into and copied from.
+fn screenshot_texture(gpu: &Gpu, config: &wgpu::SurfaceConfiguration) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("viewer/screenshot"),
+        size: wgpu::Extent3d {
+            width: config.width,
+            height: config.height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: config.format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// Saves the screenshot painted into `texture` to `path` and says so in `app`; a failure is
+/// shown in `app`, or returned on the `last_frame` (no one would see it).
+fn save_capture(
+    app: &mut ViewerApp,
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    path: &std::path::Path,
+    last_frame: bool,
+) -> Result<(), ViewerError> {
+    if let Err(e) = save_screenshot(gpu, texture, path) {
+        if last_frame {
+            return Err(e);
+        }
+        app.report_error(e.to_string());
+    } else {
+        log::info!("screenshot saved to {}", path.display());
+        app.confirm(format!(
+            "saved the screenshot to {}",
+            crate::app::shown_path(path)
+        ));
+    }
+    Ok(())
 }
 
 fn paint(

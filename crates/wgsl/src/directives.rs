@@ -140,6 +140,7 @@ pub fn parse(path: &str, source: &str) -> Result<Directives, WgslError> {
 const GRAMMAR: &str = "write `// @param NAME: TYPE = DEFAULT in MIN..=MAX, DESCRIPTION` (TYPE f32, u32 or i32) or `// @param NAME: bool = DEFAULT, DESCRIPTION`";
 
 /// `NAME: TYPE = DEFAULT [in MIN..=MAX][, DESCRIPTION]` (what follows `@param`).
+// Long: a parser of one line of the grammar, each error message beside the part it checks.
 fn parse_param(text: &str, line: usize) -> Result<ParamDirective, String> {
     let (name, rest) = text
         .split_once(':')

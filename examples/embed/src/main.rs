@@ -211,29 +211,7 @@ fn texture(
 
 impl Host {
     fn new(size: u32) -> Result<Self> {
-        // The host's own instance, adapter and device.
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&Default::default())).context(
-            "no GPU adapter: on Linux without a GPU install Mesa's lavapipe \
-             (apt-get install -y mesa-vulkan-drivers)",
-        )?;
-        // Ask for what the two techniques declare they need; `Gpu::from_host` checks it.
-        let techniques = [softshadow_pcss::info(), softshadow_bitmask::info()];
-        let needs = Requirements::all(&techniques);
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("embed host device"),
-            required_features: needs.features,
-            required_limits: needs.limits.apply_to(wgpu::Limits::default()),
-            ..Default::default()
-        }))
-        .context("creating the host device")?;
-        let gpu = Gpu::from_host(adapter, device.clone(), queue.clone(), &techniques)?;
-
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("embed gbuffer"),
-            source: wgpu::ShaderSource::Wgsl(GBUFFER_WGSL.into()),
-        });
+        let (device, queue, gpu) = host_device()?;
         let uniform_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("embed uniform"),
             entries: &[wgpu::BindGroupLayoutEntry {
@@ -247,158 +225,26 @@ impl Host {
                 count: None,
             }],
         });
-        let uniform_group = |label: &str, bytes: &[u8]| {
-            let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytes,
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: &uniform_layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buffer.as_entire_binding(),
-                }],
-            })
-        };
         let camera_group = uniform_group(
+            &device,
+            &uniform_layout,
             "embed camera",
             bytemuck::bytes_of(&view_proj().to_cols_array()),
         );
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("embed gbuffer"),
-            bind_group_layouts: &[Some(&uniform_layout), Some(&uniform_layout)],
-            immediate_size: 0,
-        });
-        let target = |format| {
-            Some(wgpu::ColorTargetState {
-                format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })
-        };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("embed gbuffer"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: VERTEX_STRIDE,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: Some(wgpu::Face::Back),
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[
-                    target(wgpu::TextureFormat::Rgba32Float),
-                    target(wgpu::TextureFormat::Rgba8Unorm),
-                    target(wgpu::TextureFormat::R8Unorm),
-                ],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-
-        // The host's mesh buffers. COPY_SRC because softshadow reads the casters once.
-        let mut meshes = Vec::new();
-        let (mut casters, mut receivers) = (Vec::new(), Vec::new());
+        let pipeline = gbuffer_pipeline(&device, &uniform_layout);
         let scene = scene();
-        for (k, mesh) in scene.iter().enumerate() {
-            let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("embed vertices"),
-                contents: bytemuck::cast_slice(&mesh.vertices),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC,
-            });
-            // u16 indices padded to a multiple of 4 bytes (wgpu's copy alignment).
-            let mut index_bytes = bytemuck::cast_slice::<u16, u8>(&mesh.indices).to_vec();
-            index_bytes.resize(index_bytes.len().next_multiple_of(4), 0);
-            let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("embed indices"),
-                contents: &index_bytes,
-                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
-            });
-            let mut model = mesh.transform.to_cols_array().to_vec();
-            model.extend([mesh.receives as u32 as f32, 0.0, 0.0, 0.0]);
-            let group = uniform_group(&format!("embed model {k}"), bytemuck::cast_slice(&model));
-            meshes.push((vertices, indices, mesh.indices.len() as u32, group));
-        }
-        for ((vertices, indices, count, _), mesh) in meshes.iter().zip(&scene) {
-            let host = HostMesh {
-                vertices,
-                vertex_stride: VERTEX_STRIDE,
-                position_offset: POSITION_OFFSET,
-                vertex_count: mesh.vertices.len() as u32,
-                indices,
-                index_format: wgpu::IndexFormat::Uint16,
-                index_count: *count,
-                transform: mesh.transform,
-                dynamic: false,
-            };
-            if mesh.casts {
-                casters.push(host);
-            }
-            if mesh.receives {
-                receivers.push(host);
-            }
-        }
-        let casters = SceneGpu::from_host(
-            &gpu,
-            "embed",
-            &HostGeometry {
-                casters: &casters,
-                receivers: &receivers,
-            },
-        )?;
+        let meshes = upload_meshes(&device, &uniform_layout, &scene);
+        let casters = casters_of(&gpu, &meshes, &scene)?;
 
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let view = |t: wgpu::Texture| t.create_view(&Default::default());
+        let target = |label, format| {
+            texture(&device, label, size, format, usage).create_view(&Default::default())
+        };
         Ok(Self {
-            position: view(texture(
-                &device,
-                "embed position",
-                size,
-                wgpu::TextureFormat::Rgba32Float,
-                usage,
-            )),
-            normal: view(texture(
-                &device,
-                "embed normal",
-                size,
-                wgpu::TextureFormat::Rgba8Unorm,
-                usage,
-            )),
-            mask: view(texture(
-                &device,
-                "embed mask",
-                size,
-                wgpu::TextureFormat::R8Unorm,
-                usage,
-            )),
-            depth: view(texture(
-                &device,
-                "embed depth",
-                size,
-                wgpu::TextureFormat::Depth32Float,
-                usage,
-            )),
+            position: target("embed position", wgpu::TextureFormat::Rgba32Float),
+            normal: target("embed normal", wgpu::TextureFormat::Rgba8Unorm),
+            mask: target("embed mask", wgpu::TextureFormat::R8Unorm),
+            depth: target("embed depth", wgpu::TextureFormat::Depth32Float),
             device,
             queue,
             gpu,
@@ -450,6 +296,178 @@ impl Host {
             pass.draw_indexed(0..*count, 0, 0..1);
         }
     }
+}
+
+/// The host's own instance, adapter and device, with what the two techniques declare they need;
+/// and the same device as softshadow's `Gpu` (`Gpu::from_host` checks the needs are met).
+fn host_device() -> Result<(wgpu::Device, wgpu::Queue, Gpu)> {
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default())).context(
+        "no GPU adapter: on Linux without a GPU install Mesa's lavapipe \
+         (apt-get install -y mesa-vulkan-drivers)",
+    )?;
+    let techniques = [softshadow_pcss::info(), softshadow_bitmask::info()];
+    let needs = Requirements::all(&techniques);
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("embed host device"),
+        required_features: needs.features,
+        required_limits: needs.limits.apply_to(wgpu::Limits::default()),
+        ..Default::default()
+    }))
+    .context("creating the host device")?;
+    let gpu = Gpu::from_host(adapter, device.clone(), queue.clone(), &techniques)?;
+    Ok((device, queue, gpu))
+}
+
+/// A uniform buffer holding `bytes`, bound in `layout`'s one binding.
+fn uniform_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    label: &str,
+    bytes: &[u8],
+) -> wgpu::BindGroup {
+    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytes,
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: buffer.as_entire_binding(),
+        }],
+    })
+}
+
+/// The host's G-buffer pipeline ([`GBUFFER_WGSL`]): camera and model uniforms in
+/// `uniform_layout`, the host's vertex layout, back faces culled, depth tested, world position,
+/// normal and receiver mask written.
+fn gbuffer_pipeline(
+    device: &wgpu::Device,
+    uniform_layout: &wgpu::BindGroupLayout,
+) -> wgpu::RenderPipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("embed gbuffer"),
+        source: wgpu::ShaderSource::Wgsl(GBUFFER_WGSL.into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("embed gbuffer"),
+        bind_group_layouts: &[Some(uniform_layout), Some(uniform_layout)],
+        immediate_size: 0,
+    });
+    let target = |format| {
+        Some(wgpu::ColorTargetState {
+            format,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("embed gbuffer"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: VERTEX_STRIDE,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            cull_mode: Some(wgpu::Face::Back),
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: wgpu::TextureFormat::Depth32Float,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[
+                target(wgpu::TextureFormat::Rgba32Float),
+                target(wgpu::TextureFormat::Rgba8Unorm),
+                target(wgpu::TextureFormat::R8Unorm),
+            ],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// The host's mesh buffers, one (vertices, indices, index count, model uniform) per mesh of
+/// `scene`. COPY_SRC because softshadow reads the casters once.
+fn upload_meshes(
+    device: &wgpu::Device,
+    uniform_layout: &wgpu::BindGroupLayout,
+    scene: &[MeshData],
+) -> Vec<(wgpu::Buffer, wgpu::Buffer, u32, wgpu::BindGroup)> {
+    let mut meshes = Vec::new();
+    for (k, mesh) in scene.iter().enumerate() {
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("embed vertices"),
+            contents: bytemuck::cast_slice(&mesh.vertices),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC,
+        });
+        // u16 indices padded to a multiple of 4 bytes (wgpu's copy alignment).
+        let mut index_bytes = bytemuck::cast_slice::<u16, u8>(&mesh.indices).to_vec();
+        index_bytes.resize(index_bytes.len().next_multiple_of(4), 0);
+        let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("embed indices"),
+            contents: &index_bytes,
+            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
+        });
+        let mut model = mesh.transform.to_cols_array().to_vec();
+        model.extend([mesh.receives as u32 as f32, 0.0, 0.0, 0.0]);
+        let label = format!("embed model {k}");
+        let group = uniform_group(device, uniform_layout, &label, bytemuck::cast_slice(&model));
+        meshes.push((vertices, indices, mesh.indices.len() as u32, group));
+    }
+    meshes
+}
+
+/// The casters (and receivers) of `scene` read from the host's mesh buffers `meshes` into a
+/// softshadow `SceneGpu`.
+fn casters_of(
+    gpu: &Gpu,
+    meshes: &[(wgpu::Buffer, wgpu::Buffer, u32, wgpu::BindGroup)],
+    scene: &[MeshData],
+) -> Result<SceneGpu> {
+    let (mut casters, mut receivers) = (Vec::new(), Vec::new());
+    for ((vertices, indices, count, _), mesh) in meshes.iter().zip(scene) {
+        let host = HostMesh {
+            vertices,
+            vertex_stride: VERTEX_STRIDE,
+            position_offset: POSITION_OFFSET,
+            vertex_count: mesh.vertices.len() as u32,
+            indices,
+            index_format: wgpu::IndexFormat::Uint16,
+            index_count: *count,
+            transform: mesh.transform,
+            dynamic: false,
+        };
+        if mesh.casts {
+            casters.push(host);
+        }
+        if mesh.receives {
+            receivers.push(host);
+        }
+    }
+    let geometry = HostGeometry {
+        casters: &casters,
+        receivers: &receivers,
+    };
+    Ok(SceneGpu::from_host(gpu, "embed", &geometry)?)
 }
 
 /// Visibility of both techniques, row-major `size` x `size`: (PCSS, bitmask).
