@@ -158,6 +158,17 @@ pub(crate) fn uniform_mirror() -> shader::uniform_layout::UniformMirror {
     crate::uniform_mirror!(LevelParams { level } => "core/hierarchy.wgsl", LevelParams)
 }
 
+/// Every level's [`LevelParams`], each in its own [`SLOT`] (bound at the level's offset).
+fn level_slots() -> Vec<u8> {
+    let mut slots = vec![0u8; (SLOT * MAX_HIERARCHY_LEVELS as u64) as usize];
+    for level in 0..MAX_HIERARCHY_LEVELS {
+        let params = uniform_bytes(&LevelParams { level });
+        let at = (level as u64 * SLOT) as usize;
+        slots[at..at + params.len()].copy_from_slice(&params);
+    }
+    slots
+}
+
 /// The HSM and MSSM textures of one map size and the pipelines that build them.
 pub struct DepthHierarchy {
     linearize: wgpu::ComputePipeline,
@@ -308,17 +319,11 @@ impl DepthHierarchy {
         let fence = pipeline(&level_layout, "fence");
         let fence_target =
             create_texture(gpu, "core/hierarchy fence", 1, 1, 1).create_view(&Default::default());
-        let mut slots = vec![0u8; (SLOT * MAX_HIERARCHY_LEVELS as u64) as usize];
-        for level in 0..MAX_HIERARCHY_LEVELS {
-            let params = uniform_bytes(&LevelParams { level });
-            let at = (level as u64 * SLOT) as usize;
-            slots[at..at + params.len()].copy_from_slice(&params);
-        }
         let level_params = {
             use wgpu::util::DeviceExt;
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("core/hierarchy levels"),
-                contents: &slots,
+                contents: &level_slots(),
                 usage: wgpu::BufferUsages::UNIFORM,
             })
         };
