@@ -8,9 +8,11 @@ use std::{
 };
 
 use anyhow::{bail, ensure, Result};
+use encase::ShaderType;
+use softshadow_core::glam::{Vec2, Vec4};
 use softshadow_core::shader::{
     compose,
-    uniform_layout::{self, FieldLayout, StructLayout, UniformMirror},
+    uniform_layout::{self, FieldLayout, UniformMirror},
     ShaderSpec,
 };
 
@@ -115,9 +117,9 @@ fn a_broken_shader_is_reported_with_its_path() {
     assert!(error.contains("test/broken.wgsl"), "{error}");
 }
 
-/// Every crate's Rust uniform structs with the WGSL structs they mirror (each crate lists its own
-/// in a hidden `uniform_mirrors()`, where its private structs are visible; the facade gathers the
-/// built-ins').
+/// Every crate's Rust uniform structs (and the storage structs the CPU writes or reads) with the
+/// WGSL structs they fill (each crate lists its own in a hidden `uniform_mirrors()`, where its
+/// private structs are visible; the facade gathers the built-ins').
 fn all_mirrors() -> Vec<UniformMirror> {
     let mut mirrors = softshadow_core::uniform_mirrors();
     mirrors.extend(softshadow::builtin_uniform_mirrors());
@@ -125,29 +127,10 @@ fn all_mirrors() -> Vec<UniformMirror> {
     mirrors
 }
 
-/// Uniform structs with no Rust struct to compare with: their bytes are written by hand. Each
-/// entry is (file declaring the struct, struct name, why).
-const WITHOUT_RUST_MIRROR: &[(&str, &str, &str)] = &[
-    (
-        "core/depth.wgsl",
-        "DepthView",
-        "one mat4x4, written as ShadowViewUniform::light_view_proj into 256-byte slots",
-    ),
-    (
-        "ssm/depth.wgsl",
-        "DepthView",
-        "one mat4x4, written as ShadowViewUniform::light_view_proj",
-    ),
-    (
-        "core/hierarchy.wgsl",
-        "LevelParams",
-        "one u32 level per 256-byte slot, written as bytes in DepthHierarchy::new",
-    ),
-];
-
 /// Every struct held by a `var<uniform>` in any shader, in every permutation, has the size and
-/// field offsets of its Rust mirror; a uniform struct without a mirror, or a mirror whose WGSL
-/// struct no shader uses, fails too.
+/// field offsets of its Rust struct (encase's layout of it); so does every `var<storage>` struct
+/// with a Rust struct listed. A uniform struct without one, or a listed struct that no shader
+/// holds, fails too.
 #[test]
 fn every_uniform_struct_matches_its_rust_mirror() -> Result<()> {
     let mirrors = all_mirrors();
@@ -158,24 +141,24 @@ fn every_uniform_struct_matches_its_rust_mirror() -> Result<()> {
     for spec in all_specs() {
         for permutation in spec.permutations {
             let module = compose(&spec, permutation)?;
-            for mut wgsl in uniform_layout::uniform_structs(&module)? {
+            let uniform = uniform_layout::uniform_structs(&module)?;
+            let storage = uniform_layout::storage_structs(&module)?;
+            let held = (uniform.into_iter().map(|s| (s, true)))
+                .chain(storage.into_iter().map(|s| (s, false)));
+            for (mut wgsl, in_uniform) in held {
                 let matching: Vec<usize> = (0..mirrors.len())
                     .filter(|&i| {
                         mirrors[i].may_appear_in(spec.path) && mirrors[i].naga_name() == wgsl.name
                     })
                     .collect();
                 wgsl.name = uniform_layout::display_name(&wgsl.name);
-                if matching.is_empty() {
-                    let exempt = WITHOUT_RUST_MIRROR
-                        .iter()
-                        .any(|(file, name, _)| *file == spec.path && *name == wgsl.name);
-                    if !exempt {
-                        errors.insert(format!(
-                            "{}: uniform struct `{}` has no Rust mirror: list it with \
-                             softshadow_core::uniform_mirror! in its crate's uniform_mirrors()",
-                            spec.path, wgsl.name
-                        ));
-                    }
+                if matching.is_empty() && in_uniform {
+                    errors.insert(format!(
+                        "{}: uniform struct `{}` has no Rust struct to compare with: derive \
+                         encase::ShaderType for the one that fills it and list it with \
+                         softshadow_core::uniform_mirror! in its crate's uniform_mirrors()",
+                        spec.path, wgsl.name
+                    ));
                 }
                 for i in matching {
                     used[i] = true;
@@ -197,7 +180,8 @@ fn every_uniform_struct_matches_its_rust_mirror() -> Result<()> {
     for (mirror, used) in mirrors.iter().zip(used) {
         if !used {
             errors.insert(format!(
-                "Rust `{}` mirrors `{}` in {}, but no shader holds that struct in a uniform",
+                "Rust `{}` is listed for `{}` in {}, but no shader holds that struct in a uniform \
+                 or storage buffer",
                 mirror.rust.name, mirror.wgsl_struct, mirror.wgsl_file
             ));
         }
@@ -213,7 +197,7 @@ fn every_uniform_struct_matches_its_rust_mirror() -> Result<()> {
 }
 
 /// The comparison names the struct and the field when a field is added on one side only, moved,
-/// or resized, and when the sizes differ; padding is skipped by name, not by position.
+/// or resized, and when the sizes differ; the Rust side is encase's layout of a real struct.
 #[test]
 fn a_uniform_mirror_out_of_step_is_reported_with_the_field() -> Result<()> {
     // A WGSL struct as a shader would declare it, reflected the way the real ones are.
@@ -223,11 +207,11 @@ fn a_uniform_mirror_out_of_step_is_reported_with_the_field() -> Result<()> {
     scale: f32,
     count: u32,
     added: f32,
-    _pad0: u32,
+    direction: vec4<f32>,
 }
 @group(0) @binding(0) var<uniform> params: Params;
 @fragment fn fs_main() -> @location(0) vec4<f32> {
-    return vec4<f32>(params.scale);
+    return params.direction * params.scale;
 }",
         permutations: &[&[]],
     };
@@ -238,68 +222,82 @@ fn a_uniform_mirror_out_of_step_is_reported_with_the_field() -> Result<()> {
         offset,
         size,
     };
-    assert_eq!(wgsl.size, 16);
+    assert_eq!(wgsl.size, 32);
     assert_eq!(wgsl.fields[2], field("added", 8, 4));
 
-    // The Rust side as uniform_mirror! lists it, from a deliberately stale struct: `added` is
-    // missing and the padding is spelled differently.
-    #[repr(C)]
-    #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+    // A deliberately stale Rust struct: `added` is missing. The vec4 still starts at 16 and the
+    // sizes agree, so only the field list tells.
+    #[derive(ShaderType)]
     struct StaleParams {
         scale: f32,
         count: u32,
-        _pad: [u32; 2],
+        direction: Vec4,
     }
     let stale = softshadow_core::uniform_mirror!(
-        StaleParams { scale, count, _pad } => "test/params.wgsl", Params
+        StaleParams { scale, count, direction } => "test/params.wgsl", Params
     );
     assert_eq!(
         uniform_layout::compare(&stale.rust, &wgsl),
         ["Rust `StaleParams` / WGSL `Params`: field `added` (offset 8, 4 bytes) is in WGSL only"]
     );
-
-    // Added in Rust only, which also grows the struct.
-    let mut grown = stale.rust.clone();
-    grown.fields.insert(2, field("added", 8, 4));
-    grown.fields.push(field("extra", 16, 4));
-    grown.size = 20;
-    let errors = uniform_layout::compare(&grown, &wgsl);
-    assert!(
-        errors
-            .iter()
-            .any(|e| e.contains("size 20 bytes in Rust, 16 in WGSL")),
-        "{errors:?}"
+    // The offsets are encase's by field name, whatever the order of the list.
+    let listed_backwards = softshadow_core::uniform_mirror!(
+        StaleParams { direction, count, scale } => "test/params.wgsl", Params
     );
-    assert!(
-        errors
-            .iter()
-            .any(|e| e.contains("field `extra` (offset 16, 4 bytes) is in Rust only")),
-        "{errors:?}"
+    assert_eq!(listed_backwards.rust.fields[1], field("count", 4, 4));
+    assert_eq!(listed_backwards.rust.fields[0], field("direction", 16, 16));
+
+    // Added in Rust only, which also grows the struct (a vec4 rounds it up to 16 bytes).
+    #[derive(ShaderType)]
+    struct GrownParams {
+        scale: f32,
+        count: u32,
+        added: f32,
+        direction: Vec4,
+        extra: f32,
+    }
+    let grown = softshadow_core::uniform_mirror!(
+        GrownParams { scale, count, added, direction, extra } => "test/params.wgsl", Params
+    );
+    assert_eq!(
+        uniform_layout::compare(&grown.rust, &wgsl),
+        [
+            "Rust `GrownParams` / WGSL `Params`: size 48 bytes in Rust, 32 in WGSL",
+            "Rust `GrownParams` / WGSL `Params`: field `extra` (offset 32, 4 bytes) is in Rust only",
+        ]
     );
 
     // Two fields swapped on one side; and one of another size.
-    let moved = StructLayout {
-        name: "Moved".into(),
-        size: 16,
-        fields: vec![
-            field("count", 0, 4),
-            field("scale", 4, 4),
-            field("added", 8, 8),
-        ],
-    };
-    let errors = uniform_layout::compare(&moved, &wgsl);
+    #[derive(ShaderType)]
+    struct MovedParams {
+        count: u32,
+        scale: f32,
+        added: Vec2,
+        direction: Vec4,
+    }
+    let moved = softshadow_core::uniform_mirror!(
+        MovedParams { count, scale, added, direction } => "test/params.wgsl", Params
+    );
     assert_eq!(
-        errors,
+        uniform_layout::compare(&moved.rust, &wgsl),
         [
-            "Rust `Moved` / WGSL `Params`: field `scale` at offset 4 in Rust, 0 in WGSL",
-            "Rust `Moved` / WGSL `Params`: field `count` at offset 0 in Rust, 4 in WGSL",
-            "Rust `Moved` / WGSL `Params`: field `added` is 8 bytes in Rust, 4 in WGSL",
+            "Rust `MovedParams` / WGSL `Params`: field `scale` at offset 4 in Rust, 0 in WGSL",
+            "Rust `MovedParams` / WGSL `Params`: field `count` at offset 0 in Rust, 4 in WGSL",
+            "Rust `MovedParams` / WGSL `Params`: field `added` is 8 bytes in Rust, 4 in WGSL",
         ]
     );
 
     // And a matching pair has nothing to say.
-    let mut matching = stale.rust;
-    matching.fields.insert(2, field("added", 8, 4));
-    assert!(uniform_layout::compare(&matching, &wgsl).is_empty());
+    #[derive(ShaderType)]
+    struct MatchingParams {
+        scale: f32,
+        count: u32,
+        added: f32,
+        direction: Vec4,
+    }
+    let matching = softshadow_core::uniform_mirror!(
+        MatchingParams { scale, count, added, direction } => "test/params.wgsl", Params
+    );
+    assert!(uniform_layout::compare(&matching.rust, &wgsl).is_empty());
     Ok(())
 }

@@ -28,11 +28,10 @@ pub mod refine;
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use refine::{Cell, Layout, SampleKey, Shape};
 use softshadow_core::{
-    fullscreen::uniform_buffer,
-    glam::Vec2,
+    glam::{UVec4, Vec2, Vec4},
     pass::{FullscreenPass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
@@ -40,6 +39,7 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
+    uniform::{storage_bytes, uniform_bytes, uniform_size, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, GpuError, Requirements, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -124,12 +124,10 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `Params` in `shaders/adaptive/*.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct Params {
-    values: [f32; 4],
-    counts: [u32; 4],
+    values: Vec4,
+    counts: UVec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -281,7 +279,7 @@ impl Adaptive {
                 .uniform()
                 .texture(Slot::FLOAT)
                 .fullscreen(None)?,
-            params: uniform_buffer(gpu, "adaptive/params", &Params::zeroed()),
+            params: zeroed_uniform_buffer::<Params>(gpu, "adaptive/params"),
             settings,
             store: None,
             differing: None,
@@ -360,17 +358,17 @@ impl Adaptive {
         let s = &self.settings;
         let relative = matches!(s.threshold_mode, ThresholdMode::Relative);
         let params = Params {
-            values: [
+            values: Vec4::new(
                 s.gamma,
                 if relative { 1.0 } else { 0.0 },
                 s.bias_texels,
                 // PCF is a shader permutation (`evaluate`, `accumulate`).
                 0.0,
-            ],
-            counts: [count, 0, 0, 0],
+            ),
+            counts: UVec4::new(count, 0, 0, 0),
         };
         gpu.queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+            .write_buffer(&self.params, 0, &uniform_bytes(&params));
     }
 }
 
@@ -392,7 +390,7 @@ impl Store {
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         // A level compares at most 2 pairs per leaf cell; leaves <= maps.
         let max_pairs = 2 * capacity as u64;
-        let view_bytes = std::mem::size_of::<ShadowViewUniform>() as u64;
+        let view_bytes = uniform_size::<ShadowViewUniform>();
         let counts_usage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST;
@@ -416,7 +414,7 @@ impl Store {
             pairs: buffer("adaptive/pairs", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform),
             terms: buffer("adaptive/terms", 2 * MAX_MAPS as u64 * ITEM_BYTES, uniform),
             layers: BTreeMap::new(),
-            layer_uniforms: vec![ShadowViewUniform::zeroed(); capacity as usize],
+            layer_uniforms: vec![ShadowViewUniform::ZERO; capacity as usize],
             kept_layout: None,
         })
     }
@@ -532,7 +530,7 @@ impl Maps<'_> {
         gpu.queue.write_buffer(
             &self.store.views,
             0,
-            bytemuck::cast_slice(&self.store.layer_uniforms),
+            &storage_bytes(&self.store.layer_uniforms[..]),
         );
         for layer in new {
             depth.record(

@@ -13,9 +13,8 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::uniform_buffer,
     gather::{AdaptivePass, AdaptiveTargets, GatherCounters, GatherSettings},
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
@@ -23,6 +22,7 @@ use softshadow_core::{
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -61,9 +61,7 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `GatherParams` in `shaders/backprojection/gather.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct GatherUniform {
     hierarchy: u32,
     primitive: u32,
@@ -76,24 +74,29 @@ struct GatherUniform {
     edge_refine: u32,
     adaptive_factor: u32,
     adaptive_pixels: f32,
-    _pad: u32,
 }
 
-/// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
-/// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+/// This crate's uniform structs, and the counters it reads back, with the WGSL structs they
+/// fill, for the layout test in tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
-    vec![softshadow_core::uniform_mirror!(
-        GatherUniform {
-            hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, visibility,
-            depth_bands, edge_refine, adaptive_factor, adaptive_pixels, _pad
-        } => "backprojection/gather.wgsl", GatherParams
-    )]
+    vec![
+        softshadow_core::uniform_mirror!(
+            GatherUniform {
+                hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, visibility,
+                depth_bands, edge_refine, adaptive_factor, adaptive_pixels
+            } => "backprojection/gather.wgsl", GatherParams
+        ),
+        softshadow_core::uniform_mirror!(
+            Counters {
+                receivers, lit, umbra, backprojected, primitives_lo, primitives_hi, upsampled
+            } => "backprojection/gather.wgsl", Counters
+        ),
+    ]
 }
 
-/// Mirrors `Counters` in `gather.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+/// What the gather adds up per frame (`atomic<u32>`s in WGSL).
+#[derive(Clone, Copy, Debug, Default, ShaderType)]
 struct Counters {
     receivers: u32,
     lit: u32,
@@ -102,7 +105,6 @@ struct Counters {
     primitives_lo: u32,
     primitives_hi: u32,
     upsampled: u32,
-    _pad: u32,
 }
 
 /// Per-pixel debug images, reallocated with the screen size.
@@ -147,7 +149,7 @@ impl Backprojection {
             hierarchy: DepthHierarchy::new(gpu)?,
             gather: gather_pass(gpu, "gather")?,
             coarse: None,
-            params_buffer: uniform_buffer(gpu, "backprojection/params", &GatherUniform::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "backprojection/params"),
             counters: GatherCounters::new(gpu, "backprojection/counters"),
             adaptive: AdaptiveTargets::new(gpu, "backprojection"),
             debug: None,
@@ -233,7 +235,6 @@ fn gather_uniform(s: &BackprojectionSettings, levels: u32) -> GatherUniform {
         edge_refine: g.edge_refine.min(3),
         adaptive_factor: g.adaptive_factor(),
         adaptive_pixels: g.adaptive_pixels_value(),
-        _pad: 0,
     }
 }
 
@@ -343,7 +344,7 @@ impl ShadowTechnique for Backprojection {
         let (levels, search) = self.build_hierarchy(frame, inputs, &frustum, map_size);
         let uniform = gather_uniform(&self.settings, levels);
         gpu.queue
-            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
+            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         self.counters.clear(gpu);
         let factor = self.settings.gather.adaptive_factor();
         let coarse_size = (self.adaptive).prepare(gpu, inputs.width, inputs.height, factor);

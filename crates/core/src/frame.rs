@@ -2,29 +2,29 @@
 //! G-buffer), the command encoder and the GPU timer, wrapped so that every pass gets a named
 //! timer scope and is recorded in `passes_run`.
 
-use bytemuck::{Pod, Zeroable};
-use glam::Mat4;
+use encase::ShaderType;
+use glam::{Mat4, Vec4};
 
 use crate::{light::AreaLight, scene_gpu::SceneGpu, Camera, Gpu};
 
-/// Mirrors `FrameUniforms` in `shaders/common/frame_types.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+/// The frame uniforms every technique pass reads (`FrameUniforms` in
+/// `shaders/common/frame_types.wgsl`).
+#[derive(Clone, Copy, Debug, ShaderType)]
 pub struct FrameUniforms {
     /// World to clip of the camera.
-    pub view_proj: [[f32; 4]; 4],
+    pub view_proj: Mat4,
     /// World to light space (light centre at the origin, facing +z).
-    pub world_to_light: [[f32; 4]; 4],
+    pub world_to_light: Mat4,
     /// xyz camera position, w = 1.
-    pub camera_pos: [f32; 4],
+    pub camera_pos: Vec4,
     /// xyz light centre, w = light intensity.
-    pub light_center: [f32; 4],
+    pub light_center: Vec4,
     /// xyz light direction, w = the ambient term ([`AMBIENT`]).
-    pub light_dir: [f32; 4],
+    pub light_dir: Vec4,
     /// Half width, half height and area of the light rectangle; w unused.
-    pub light_half: [f32; 4],
+    pub light_half: Vec4,
     /// Width, height, 1 / width, 1 / height of the frame.
-    pub screen: [f32; 4],
+    pub screen: Vec4,
 }
 
 /// Ambient term of the shading pass (fraction of albedo visible in full shadow).
@@ -48,38 +48,37 @@ impl FrameUniforms {
     ) -> Self {
         let half = light.half_extent();
         Self {
-            view_proj: view_proj.to_cols_array_2d(),
-            world_to_light: light.view().to_cols_array_2d(),
-            camera_pos: eye.extend(1.0).to_array(),
-            light_center: light.center.extend(light.intensity).to_array(),
+            view_proj,
+            world_to_light: light.view(),
+            camera_pos: eye.extend(1.0),
+            light_center: light.center.extend(light.intensity),
             light_dir: light
                 .direction
                 .normalize_or(glam::Vec3::NEG_Y)
-                .extend(AMBIENT)
-                .to_array(),
-            light_half: [half.x, half.y, 4.0 * half.x * half.y, 0.0],
-            screen: [
+                .extend(AMBIENT),
+            light_half: Vec4::new(half.x, half.y, 4.0 * half.x * half.y, 0.0),
+            screen: Vec4::new(
                 width as f32,
                 height as f32,
                 1.0 / width as f32,
                 1.0 / height as f32,
-            ],
+            ),
         }
     }
 
     /// The camera's view-projection matrix.
     pub fn view_proj(&self) -> Mat4 {
-        Mat4::from_cols_array_2d(&self.view_proj)
+        self.view_proj
     }
 
     /// The camera position.
     pub fn eye(&self) -> glam::Vec3 {
-        glam::Vec3::new(self.camera_pos[0], self.camera_pos[1], self.camera_pos[2])
+        self.camera_pos.truncate()
     }
 
     /// World to light space (light centre at the origin, facing +z).
     pub fn world_to_light(&self) -> Mat4 {
-        Mat4::from_cols_array_2d(&self.world_to_light)
+        self.world_to_light
     }
 }
 
@@ -103,7 +102,7 @@ impl CoreLayouts {
             ty: wgpu::BindingType::Buffer {
                 ty: wgpu::BufferBindingType::Uniform,
                 has_dynamic_offset: false,
-                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<FrameUniforms>() as u64),
+                min_binding_size: Some(FrameUniforms::min_size()),
             },
             count: None,
         };

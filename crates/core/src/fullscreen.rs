@@ -217,14 +217,3 @@ pub fn depth_texture_entry(binding: u32, array: bool) -> wgpu::BindGroupLayoutEn
         count: None,
     }
 }
-
-/// A small uniform buffer holding one `Pod` value.
-pub fn uniform_buffer<T: bytemuck::Pod>(gpu: &Gpu, label: &str, value: &T) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt;
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::bytes_of(value),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        })
-}

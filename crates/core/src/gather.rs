@@ -8,8 +8,11 @@ pub use crate::frame::storage_texture_entry;
 use crate::gbuffer::create_texture;
 use crate::hierarchy::HierarchyKind;
 use crate::pass::Slot;
-use crate::{wgpu, Frame, Gpu};
-use bytemuck::Pod;
+use crate::{uniform::storage_bytes, wgpu, Frame, Gpu};
+use encase::{
+    internal::{CreateFrom, WriteInto},
+    ShaderSize, StorageBuffer,
+};
 use std::marker::PhantomData;
 
 crate::param_choice! {
@@ -130,16 +133,16 @@ pub fn float_texture_entry(
     }
 }
 
-/// Counters of type `T` (a `Pod` mirror of a WGSL struct of atomics) that a gather pass adds up
-/// per workgroup, and their copy the CPU reads after the frame.
+/// Counters of type `T` (a `ShaderType` struct of `u32`s, `atomic<u32>` in WGSL) that a gather
+/// pass adds up per workgroup, and their copy the CPU reads after the frame.
 pub struct GatherCounters<T> {
     buffer: wgpu::Buffer,
     readback: wgpu::Buffer,
     _counters: PhantomData<T>,
 }
 
-impl<T: Pod + Default> GatherCounters<T> {
-    const SIZE: u64 = std::mem::size_of::<T>() as u64;
+impl<T: ShaderSize + WriteInto + CreateFrom + Default> GatherCounters<T> {
+    const SIZE: u64 = T::SHADER_SIZE.get();
 
     /// Both buffers, labelled `<label>` and `<label> readback`.
     pub fn new(gpu: &Gpu, label: &str) -> Self {
@@ -191,7 +194,7 @@ impl<T: Pod + Default> GatherCounters<T> {
     /// Sets every counter to zero (before the pass).
     pub fn clear(&self, gpu: &Gpu) {
         gpu.queue
-            .write_buffer(&self.buffer, 0, bytemuck::bytes_of(&T::default()));
+            .write_buffer(&self.buffer, 0, &storage_bytes(&T::default()));
     }
 
     /// Records the copy to the readback buffer (after the pass).
@@ -212,7 +215,9 @@ impl<T: Pod + Default> GatherCounters<T> {
         receiver.recv().ok()?.ok()?;
         let counters = {
             let data = slice.get_mapped_range().ok()?;
-            *bytemuck::from_bytes::<T>(&data[..Self::SIZE as usize])
+            StorageBuffer::new(&data[..Self::SIZE as usize])
+                .create()
+                .ok()?
         };
         self.readback.unmap();
         Some(counters)

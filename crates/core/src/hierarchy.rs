@@ -14,10 +14,14 @@
 //! levels the light size and map resolution can need are built ([`needed_levels`]).
 //! Shaders read them with `softshadow::search_area` (`shaders/common/search_area.wgsl`).
 
+use encase::ShaderType;
+
 use crate::{
     frame::{texture_entry, uniform_entry, Frame},
     fullscreen::depth_texture_entry,
-    shader, Gpu, GpuError,
+    shader,
+    uniform::uniform_bytes,
+    Gpu, GpuError,
 };
 
 /// Depth of a texel without a caster (mirrors `HIERARCHY_EMPTY` in `search_area.wgsl`).
@@ -141,6 +145,18 @@ pub fn needed_levels(map_size: u32, search_texels: f32, per_axis: u32, refine: b
 
 /// Uniform stride of the per-level parameters.
 const SLOT: u64 = 256;
+
+/// The parameters of one level's dispatch (`LevelParams` in `shaders/core/hierarchy.wgsl`), one
+/// per [`SLOT`].
+#[derive(ShaderType)]
+struct LevelParams {
+    level: u32,
+}
+
+/// The level uniform against its WGSL struct (tests/shaders.rs).
+pub(crate) fn uniform_mirror() -> shader::uniform_layout::UniformMirror {
+    crate::uniform_mirror!(LevelParams { level } => "core/hierarchy.wgsl", LevelParams)
+}
 
 /// The HSM and MSSM textures of one map size and the pipelines that build them.
 pub struct DepthHierarchy {
@@ -294,8 +310,9 @@ impl DepthHierarchy {
             create_texture(gpu, "core/hierarchy fence", 1, 1, 1).create_view(&Default::default());
         let mut slots = vec![0u8; (SLOT * MAX_HIERARCHY_LEVELS as u64) as usize];
         for level in 0..MAX_HIERARCHY_LEVELS {
+            let params = uniform_bytes(&LevelParams { level });
             let at = (level as u64 * SLOT) as usize;
-            slots[at..at + 4].copy_from_slice(&level.to_le_bytes());
+            slots[at..at + params.len()].copy_from_slice(&params);
         }
         let level_params = {
             use wgpu::util::DeviceExt;
@@ -541,7 +558,7 @@ impl DepthHierarchy {
                     resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                         buffer: &self.level_params,
                         offset: level as u64 * SLOT,
-                        size: wgpu::BufferSize::new(16),
+                        size: Some(LevelParams::min_size()),
                     }),
                 },
                 wgpu::BindGroupEntry {

@@ -17,7 +17,7 @@
 
 use std::collections::HashMap;
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 use wgpu::util::DeviceExt;
 use wgpu_profiler::{GpuProfiler, GpuProfilerSettings};
 
@@ -31,6 +31,7 @@ use crate::{
     shader::{self, DefValue},
     stage::ShadowStage,
     technique::ShadowTechnique,
+    uniform::{uniform_bytes, uniform_size},
     visibility::{VisibilityBuffer, VISIBILITY_FORMAT},
     AreaLight, Gpu,
 };
@@ -229,12 +230,11 @@ pub enum HostOutput<'a> {
 }
 
 /// Uniforms of `shaders/core/host_surface.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(encase::ShaderType)]
 struct SurfaceUniforms {
-    inverse_view_proj: [[f32; 4]; 4],
-    eye: [f32; 4],
-    mode: [f32; 4],
+    inverse_view_proj: Mat4,
+    eye: Vec4,
+    mode: Vec4,
 }
 
 /// The host surface uniform against its WGSL struct (tests/shaders.rs).
@@ -457,7 +457,7 @@ impl HostRenderer {
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("host/frame uniforms"),
-                contents: bytemuck::bytes_of(&uniforms),
+                contents: &uniform_bytes(&uniforms),
                 usage: wgpu::BufferUsages::COPY_SRC,
             });
         encoder.copy_buffer_to_buffer(
@@ -465,7 +465,7 @@ impl HostRenderer {
             0,
             self.stage.uniform_buffer(),
             0,
-            std::mem::size_of::<FrameUniforms>() as u64,
+            uniform_size::<FrameUniforms>(),
         );
         let convert = self.surface_bind_group(surface, view)?;
         if let Some(HostOutput::View { format, .. }) = output {
@@ -624,14 +624,14 @@ impl HostRenderer {
             }
         };
         let uniforms = SurfaceUniforms {
-            inverse_view_proj: inverse.to_cols_array_2d(),
-            eye: view.eye.extend(1.0).to_array(),
-            mode: [
+            inverse_view_proj: inverse,
+            eye: view.eye.extend(1.0),
+            mode: Vec4::new(
                 (surface.normal_encoding == NormalEncoding::Unorm) as u32 as f32,
                 surface.receiver_mask.is_some() as u32 as f32,
                 background,
                 0.0,
-            ],
+            ),
         };
         // A buffer per frame (not a queue write) for the same reason as the frame uniforms.
         let buffer = self
@@ -639,7 +639,7 @@ impl HostRenderer {
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("host/surface uniforms"),
-                contents: bytemuck::bytes_of(&uniforms),
+                contents: &uniform_bytes(&uniforms),
                 usage: wgpu::BufferUsages::UNIFORM,
             });
         let texture = |binding, view| wgpu::BindGroupEntry {

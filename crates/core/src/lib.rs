@@ -36,6 +36,7 @@ pub mod shading;
 pub mod shadow_map;
 pub mod stage;
 pub mod technique;
+pub mod uniform;
 pub mod visibility;
 
 pub use accel::SceneAccel;
@@ -66,14 +67,14 @@ pub use technique::{
 pub use visibility::VisibilityBuffer;
 
 // Re-exported so technique crates use the same versions.
-pub use {bytemuck, glam, puffin, wgpu};
+pub use {bytemuck, encase, glam, puffin, wgpu};
 
-/// The core's uniform structs with the WGSL structs they mirror, for the layout test in
+/// The core's uniform structs with the WGSL structs they fill, for the layout test in
 /// tests/shaders.rs ([`shader::uniform_layout`]).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
     use frame::FrameUniforms;
-    use shadow_map::ShadowViewUniform;
+    use shadow_map::{DepthView, ShadowViewUniform};
     vec![
         uniform_mirror!(
             FrameUniforms {
@@ -90,7 +91,9 @@ pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
             ShadowViewUniform { light_view_proj, window, eye_near_far, size }
                 => "common/shadow_view.wgsl", ShadowView
         ),
+        uniform_mirror!(DepthView { light_view_proj } => "core/depth.wgsl", DepthView),
         shading::uniform_mirror(),
+        hierarchy::uniform_mirror(),
         host::uniform_mirror(),
     ]
 }

@@ -1,12 +1,13 @@
 //! Shading pass: one pass serves every technique (docs/ARCHITECTURE.md, "The contract").
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 
 use crate::{
     frame::{texture_entry, uniform_entry, Frame},
     fullscreen::FullscreenPipeline,
     gbuffer::{create_texture, GBuffer},
     shader,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     visibility::VisibilityBuffer,
     Gpu, GpuError,
 };
@@ -23,16 +24,14 @@ pub enum ShadingMode {
     Visibility = 1,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct ShadingParams {
     mode: u32,
-    _pad: [u32; 3],
 }
 
 /// The shading uniform against its WGSL struct (tests/shaders.rs).
 pub(crate) fn uniform_mirror() -> shader::uniform_layout::UniformMirror {
-    crate::uniform_mirror!(ShadingParams { mode, _pad } => "core/shading.wgsl", ShadingParams)
+    crate::uniform_mirror!(ShadingParams { mode } => "core/shading.wgsl", ShadingParams)
 }
 
 /// The shading pass: albedo * (ambient + V * intensity * cos), or V as grey.
@@ -67,12 +66,7 @@ impl ShadingPass {
             SHADED_FORMAT,
             None,
         )?;
-        let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("core/shading params"),
-            size: std::mem::size_of::<ShadingParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let params = zeroed_uniform_buffer::<ShadingParams>(gpu, "core/shading params");
         Ok(Self {
             pipeline,
             layout,
@@ -109,10 +103,7 @@ impl ShadingPass {
         gpu.queue.write_buffer(
             &self.params,
             0,
-            bytemuck::bytes_of(&ShadingParams {
-                mode: mode as u32,
-                _pad: [0; 3],
-            }),
+            &uniform_bytes(&ShadingParams { mode: mode as u32 }),
         );
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("core/shading"),

@@ -2,8 +2,8 @@
 //! lets shaders look them up (`shaders/common/shadow_view.wgsl`). Used by `hard`, `pcss` and the
 //! accumulated reference (one map per light sample).
 
-use bytemuck::{Pod, Zeroable};
-use glam::{Vec2, Vec3};
+use encase::ShaderType;
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 use crate::{
     frame::{uniform_entry, Frame},
@@ -12,36 +12,53 @@ use crate::{
     scene_gpu::{IndexList, SceneGpu, Vertex},
     shader,
     shader::ShaderSpec,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     Gpu, GpuError,
 };
 
 /// Format of every shadow map.
 pub const SHADOW_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Mirrors `ShadowView` in `shaders/common/shadow_view.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+/// A shadow map's view as shaders look it up (`ShadowView` in
+/// `shaders/common/shadow_view.wgsl`).
+#[derive(Clone, Copy, Debug, ShaderType)]
 pub struct ShadowViewUniform {
     /// World to the map's clip space.
-    pub light_view_proj: [[f32; 4]; 4],
+    pub light_view_proj: Mat4,
     /// The slope window: s_min, s_max, t_min, t_max.
-    pub window: [f32; 4],
+    pub window: Vec4,
     /// Eye (x, y) on the light plane, near and far depth.
-    pub eye_near_far: [f32; 4],
+    pub eye_near_far: Vec4,
     /// Map edge in texels, its inverse, and two unused values.
-    pub size: [f32; 4],
+    pub size: Vec4,
+}
+
+/// The uniform of one depth pass (`DepthView` in `shaders/core/depth.wgsl`), one per 256-byte
+/// slot of [`DepthMapRenderer`].
+#[derive(Clone, Copy, Debug, ShaderType)]
+pub struct DepthView {
+    /// World to the map's clip space ([`ShadowViewUniform::light_view_proj`]).
+    pub light_view_proj: Mat4,
 }
 
 impl ShadowViewUniform {
+    /// Every value zero: a slot no map has been drawn into yet.
+    pub const ZERO: Self = Self {
+        light_view_proj: Mat4::ZERO,
+        window: Vec4::ZERO,
+        eye_near_far: Vec4::ZERO,
+        size: Vec4::ZERO,
+    };
+
     /// The view of a `map_size`² map through `frustum`.
     pub fn new(light: &AreaLight, frustum: &SlopeFrustum, map_size: u32) -> Self {
         let m = frustum.projection() * light.view();
         let n = map_size as f32;
         Self {
-            light_view_proj: m.to_cols_array_2d(),
-            window: [frustum.s_min, frustum.s_max, frustum.t_min, frustum.t_max],
-            eye_near_far: [frustum.eye.x, frustum.eye.y, frustum.near, frustum.far],
-            size: [n, n, 1.0 / n, 1.0 / n],
+            light_view_proj: m,
+            window: Vec4::new(frustum.s_min, frustum.s_max, frustum.t_min, frustum.t_max),
+            eye_near_far: Vec4::new(frustum.eye.x, frustum.eye.y, frustum.near, frustum.far),
+            size: Vec4::new(n, n, 1.0 / n, 1.0 / n),
         }
     }
 }
@@ -253,7 +270,7 @@ impl DepthMapRenderer {
                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                     buffer: &buffer,
                     offset: 0,
-                    size: wgpu::BufferSize::new(64),
+                    size: Some(DepthView::min_size()),
                 }),
             }],
         });
@@ -273,8 +290,11 @@ impl DepthMapRenderer {
         }
         let mut bytes = vec![0u8; SLOT as usize * views.len()];
         for (k, v) in views.iter().enumerate() {
+            let view = uniform_bytes(&DepthView {
+                light_view_proj: v.light_view_proj,
+            });
             let at = k * SLOT as usize;
-            bytes[at..at + 64].copy_from_slice(bytemuck::bytes_of(&v.light_view_proj));
+            bytes[at..at + view.len()].copy_from_slice(&view);
         }
         if !bytes.is_empty() {
             gpu.queue.write_buffer(&self.buffer, 0, &bytes);
@@ -459,11 +479,7 @@ impl CentreShadowMap {
             depth: DepthMapRenderer::new(gpu)?,
             map: None,
             clip_to_receivers: false,
-            view_buffer: crate::fullscreen::uniform_buffer(
-                gpu,
-                "centre shadow view",
-                &ShadowViewUniform::zeroed(),
-            ),
+            view_buffer: zeroed_uniform_buffer::<ShadowViewUniform>(gpu, "centre shadow view"),
             kept: None,
             rebuilt: false,
         })
@@ -512,7 +528,7 @@ impl CentreShadowMap {
         let view = ShadowViewUniform::new(inputs.light, &frustum, size);
         self.depth.set_views(gpu, &[view]);
         gpu.queue
-            .write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
+            .write_buffer(&self.view_buffer, 0, &uniform_bytes(&view));
         let (_, _, map_view) = self.map.as_ref().expect("created above");
         self.depth.record(frame, label, inputs.scene, 0, map_view);
         Some(frustum)

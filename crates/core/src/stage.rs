@@ -8,13 +8,12 @@
 
 use std::collections::HashMap;
 
-use wgpu::util::DeviceExt;
-
 use crate::{
     error::RenderError,
     frame::{Frame, FrameChanges, FrameState, FrameUniforms, ShadowInputs},
     scene_gpu::SceneGpu,
     technique::{check_requirements, ShadowTechnique},
+    uniform::{uniform_buffer, uniform_bytes},
     visibility::VisibilityBuffer,
     AreaLight, Camera, Gpu,
 };
@@ -43,13 +42,7 @@ impl ShadowStage {
     ) -> Self {
         let last_uniforms =
             FrameUniforms::new(&Camera::default(), &AreaLight::default(), width, height);
-        let uniforms = gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("core/frame uniforms"),
-                contents: bytemuck::bytes_of(&last_uniforms),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
+        let uniforms = uniform_buffer(gpu, "core/frame uniforms", &last_uniforms);
         let frame_bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("core/frame"),
             layout: &gpu.layouts.frame,
@@ -129,7 +122,7 @@ impl ShadowStage {
         let changes = state.changes_since(self.last_states.remove(technique.id()).as_ref());
         self.last_uniforms = uniforms;
         gpu.queue
-            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&self.last_uniforms));
+            .write_buffer(&self.uniforms, 0, &uniform_bytes(&self.last_uniforms));
         Ok((state, changes))
     }
 
@@ -139,7 +132,7 @@ impl ShadowStage {
     pub fn write_uniforms(&mut self, gpu: &Gpu, uniforms: FrameUniforms) {
         self.last_uniforms = uniforms;
         gpu.queue
-            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&self.last_uniforms));
+            .write_buffer(&self.uniforms, 0, &uniform_bytes(&self.last_uniforms));
     }
 
     /// Records the technique's passes into `frame`, writing `out`.

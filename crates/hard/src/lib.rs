@@ -6,11 +6,15 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::uniform_buffer, pass::FullscreenPass, shader::ShaderSpec, shader_file,
-    shadow_map::CentreShadowMap, wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique,
-    TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    pass::FullscreenPass,
+    shader::ShaderSpec,
+    shader_file,
+    shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
+    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
+    TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
@@ -36,11 +40,9 @@ softshadow_core::technique_settings! {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct HardParams {
     bias_texels: f32,
-    _pad: [f32; 3],
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -48,7 +50,7 @@ struct HardParams {
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
-        HardParams { bias_texels, _pad } => "hard/hard.wgsl", HardParams
+        HardParams { bias_texels } => "hard/hard.wgsl", HardParams
     )]
 }
 
@@ -71,7 +73,7 @@ impl Hard {
         Ok(Self {
             shadow_map: CentreShadowMap::new(gpu)?.clipped_to_receivers(),
             lookup,
-            params_buffer: uniform_buffer(gpu, "hard/params", &HardParams::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<HardParams>(gpu, "hard/params"),
             settings,
             stats: TechniqueStats::new(),
         })
@@ -112,9 +114,8 @@ impl ShadowTechnique for Hard {
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
-            bytemuck::bytes_of(&HardParams {
+            &uniform_bytes(&HardParams {
                 bias_texels: self.settings.bias_texels,
-                _pad: [0.0; 3],
             }),
         );
         let (lookup, params, group) = (&self.lookup, &self.params_buffer, inputs.frame_bind_group);

@@ -13,13 +13,14 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::uniform_buffer,
+    glam::Vec2,
     pass::{FullscreenPass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -95,12 +96,10 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `MsmParams` in `shaders/msm/*.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct MsmUniform {
-    depth_range: [f32; 2],
-    exponents: [f32; 2],
+    depth_range: Vec2,
+    exponents: Vec2,
     moment_bias: f32,
     light_bleeding_reduction: f32,
     bias_texels: f32,
@@ -108,7 +107,6 @@ struct MsmUniform {
     min_filter_texels: f32,
     filter_taps: u32,
     levels: u32,
-    _pad: u32,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -119,13 +117,13 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
         softshadow_core::uniform_mirror!(
             MsmUniform {
                 depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels,
-                blocker_search_scale, min_filter_texels, filter_taps, levels, _pad
+                blocker_search_scale, min_filter_texels, filter_taps, levels
             } => "msm/moments.wgsl", MsmParams
         ),
         softshadow_core::uniform_mirror!(
             MsmUniform {
                 depth_range, exponents, moment_bias, light_bleeding_reduction, bias_texels,
-                blocker_search_scale, min_filter_texels, filter_taps, levels, _pad
+                blocker_search_scale, min_filter_texels, filter_taps, levels
             } => "msm/msm.wgsl", MsmParams
         ),
     ]
@@ -227,7 +225,7 @@ impl Msm {
             filter_msm4: filter("msm/filter", &[])?,
             filter_evsm2: filter("msm/filter evsm2", &[EVSM])?,
             filter_evsm4: filter("msm/filter evsm4", &[EVSM, EVSM4])?,
-            params_buffer: uniform_buffer(gpu, "msm/params", &MsmUniform::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<MsmUniform>(gpu, "msm/params"),
             moment_map: None,
             settings,
             stats: TechniqueStats::new(),
@@ -305,8 +303,8 @@ impl ShadowTechnique for Msm {
             .map_or(frustum.far, |r| r.max.z);
         let far = frustum.far.max(receivers_far) + 1e-4;
         let uniform = MsmUniform {
-            depth_range: [frustum.near, far],
-            exponents: EVSM_EXPONENTS,
+            depth_range: Vec2::new(frustum.near, far),
+            exponents: Vec2::from(EVSM_EXPONENTS),
             moment_bias: s.moment_bias,
             light_bleeding_reduction: s.light_bleeding_reduction,
             bias_texels: s.bias_texels,
@@ -314,10 +312,9 @@ impl ShadowTechnique for Msm {
             min_filter_texels: s.min_filter_texels,
             filter_taps: s.filter_taps,
             levels: s.shadow_map_size.ilog2() + 1,
-            _pad: 0,
         };
         gpu.queue
-            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
+            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         let evsm = s.variant != Variant::Msm4;
         let kept = self
             .moment_map

@@ -13,15 +13,16 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::uniform_buffer,
     gbuffer::create_texture,
+    glam::Mat4,
     pass::{ComputePass, FullscreenPass, Pass, Slot},
     reprojection::History,
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -90,29 +91,22 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `PcssParams` in `shaders/pcss/pcss.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct PcssUniform {
     blocker_samples: u32,
     filter_samples: u32,
     /// Frame index of the temporal mode (read by the `TEMPORAL` permutation only).
     frame_index: u32,
-    _pad0: u32,
     bias_texels: f32,
     min_filter_texels: f32,
-    _pad1: [f32; 2],
 }
 
-/// Mirrors `TemporalParams` in `shaders/pcss/temporal.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct TemporalUniform {
-    prev_view_proj: [[f32; 4]; 4],
+    prev_view_proj: Mat4,
     history_valid: u32,
     max_history: u32,
     clamp_sigma: f32,
-    _pad: u32,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -122,13 +116,12 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
     vec![
         softshadow_core::uniform_mirror!(
             PcssUniform {
-                blocker_samples, filter_samples, frame_index, _pad0, bias_texels, min_filter_texels,
-                _pad1
+                blocker_samples, filter_samples, frame_index, bias_texels, min_filter_texels
             } => "pcss/pcss.wgsl", PcssParams
         ),
         softshadow_core::uniform_mirror!(
             TemporalUniform {
-                prev_view_proj, history_valid, max_history, clamp_sigma, _pad
+                prev_view_proj, history_valid, max_history, clamp_sigma
             } => "pcss/temporal.wgsl", TemporalParams
         ),
     ]
@@ -206,7 +199,7 @@ impl Temporal {
             filter_vogel: filter_pass(gpu, "pcss/filter temporal", &[temporal])?,
             filter_grid: filter_pass(gpu, "pcss/filter grid temporal", &[grid, temporal])?,
             resolve,
-            params_buffer: uniform_buffer(gpu, "pcss/temporal params", &TemporalUniform::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<TemporalUniform>(gpu, "pcss/temporal params"),
             targets: None,
             frame_index: 0,
         })
@@ -250,12 +243,11 @@ impl Temporal {
         frame.gpu.queue.write_buffer(
             &self.params_buffer,
             0,
-            bytemuck::bytes_of(&TemporalUniform {
-                prev_view_proj: history.prev_view_proj().to_cols_array_2d(),
+            &uniform_bytes(&TemporalUniform {
+                prev_view_proj: history.prev_view_proj(),
                 history_valid: u32::from(history.is_valid()),
                 max_history: s.max_history.max(1),
                 clamp_sigma: s.clamp_sigma,
-                _pad: 0,
             }),
         );
         let (previous, next) = (history.previous(), history.next());
@@ -318,7 +310,7 @@ impl Pcss {
                 "pcss/filter grid",
                 &[("KERNEL_GRID", DefValue::Bool(true))],
             )?,
-            params_buffer: uniform_buffer(gpu, "pcss/params", &PcssUniform::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<PcssUniform>(gpu, "pcss/params"),
             settings,
             temporal: None,
             stats: TechniqueStats::new(),
@@ -374,13 +366,11 @@ impl ShadowTechnique for Pcss {
             blocker_samples: s.blocker_samples,
             filter_samples: s.filter_samples,
             frame_index: temporal.as_ref().map_or(0, |t| t.frame_index),
-            _pad0: 0,
             bias_texels: s.bias_texels,
             min_filter_texels: s.min_filter_texels,
-            _pad1: [0.0; 2],
         };
         gpu.queue
-            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&uniform));
+            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         let pixels = inputs.width as f64 * inputs.height as f64;
         let mut stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),

@@ -31,16 +31,17 @@ use std::{
     time::{Duration, Instant},
 };
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
     background::BackgroundJob,
-    fullscreen::{uniform_buffer, FullscreenPipeline, STENCIL_FORMAT},
-    glam::{Vec2, Vec3},
+    fullscreen::{FullscreenPipeline, STENCIL_FORMAT},
+    glam::{Vec2, Vec3, Vec4},
     pass::{PassGroup, Slot},
     scene::{Aabb, Fnv1a},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu::{self, util::DeviceExt},
     AreaLight, BuildControl, DebugLegend, DebugView, Frame, Gpu, GpuError, ShadowInputs,
     ShadowTechnique, SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats,
@@ -109,12 +110,11 @@ const READBACK_BATCH_BYTES: u64 = 64 << 20;
 /// park scene averages 5 events after compression, 40 at most, section 5).
 const ESTIMATED_VERTICES_PER_TEXEL: u64 = 16;
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct PdsmParams {
-    window: [f32; 4],
-    size_bias: [f32; 4],
-    dynamic_map_texel: [f32; 4],
+    window: Vec4,
+    size_bias: Vec4,
+    dynamic_map_texel: Vec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -561,11 +561,10 @@ impl Pdsm {
             stencil: None,
             two_draw: true,
             group,
-            params_buffer: uniform_buffer(gpu, "pdsm/params", &PdsmParams::zeroed()),
-            dynamic_view_buffer: uniform_buffer(
+            params_buffer: zeroed_uniform_buffer::<PdsmParams>(gpu, "pdsm/params"),
+            dynamic_view_buffer: zeroed_uniform_buffer::<ShadowViewUniform>(
                 gpu,
                 "pdsm/dynamic view",
-                &ShadowViewUniform::zeroed(),
             ),
             placeholder_map: placeholder.create_view(&Default::default()),
             kept: None,
@@ -1196,7 +1195,7 @@ impl Pdsm {
         let view = ShadowViewUniform::new(inputs.light, &window, size);
         self.dynamic_depth.set_views(gpu, &[view]);
         gpu.queue
-            .write_buffer(&self.dynamic_view_buffer, 0, bytemuck::bytes_of(&view));
+            .write_buffer(&self.dynamic_view_buffer, 0, &uniform_bytes(&view));
         let dynamic = self.dynamic.as_mut().expect("created above");
         self.dynamic_depth.record_list(
             frame,
@@ -1273,23 +1272,23 @@ impl Pdsm {
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
-            bytemuck::bytes_of(&PdsmParams {
-                window: [f.s_min, f.s_max, f.t_min, f.t_max],
-                size_bias: [
+            &uniform_bytes(&PdsmParams {
+                window: Vec4::new(f.s_min, f.s_max, f.t_min, f.t_max),
+                size_bias: Vec4::new(
                     kept.data.size as f32,
                     self.settings.bias_texels,
                     // How far a tap's tangent-plane depth may reach along its ray.
                     (f.s_max - f.s_min) / kept.data.size as f32,
                     self.settings.pcf_radius as f32,
-                ],
-                dynamic_map_texel: [
+                ),
+                dynamic_map_texel: Vec4::new(
                     f32::from(u8::from(has_dynamic)),
                     // Each sample map's window is fitted to the casters, inside the PDSM's
                     // window (fitted to all they shadow): this bounds a map texel's extent.
                     (f.s_max - f.s_min) / self.settings.shadow_map_size as f32,
                     0.0,
                     0.0,
-                ],
+                ),
             }),
         );
     }

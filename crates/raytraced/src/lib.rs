@@ -20,17 +20,18 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
     accel::RAY_QUERY,
-    fullscreen::uniform_buffer,
     gbuffer::create_texture,
+    glam::Mat4,
     pass::{ComputePass, Pass, Slot},
     reprojection::History,
     shader::ShaderSpec,
-    shader_file, wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel,
-    ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
-    VisibilityBuffer,
+    shader_file,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
+    wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, SceneAccel, ShadowInputs,
+    ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
@@ -69,19 +70,16 @@ softshadow_core::technique_settings! {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct TraceParams {
-    light_to_world: [[f32; 4]; 4],
+    light_to_world: Mat4,
     rays: u32,
     frame_index: u32,
-    _pad: [u32; 2],
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct DenoiseParams {
-    prev_view_proj: [[f32; 4]; 4],
+    prev_view_proj: Mat4,
     history_valid: u32,
     max_history: u32,
     max_radius: f32,
@@ -95,7 +93,7 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
     vec![
         softshadow_core::uniform_mirror!(
             TraceParams {
-                light_to_world, rays, frame_index, _pad
+                light_to_world, rays, frame_index
             } => "raytraced/trace.wgsl", TraceParams
         ),
         softshadow_core::uniform_mirror!(
@@ -219,12 +217,8 @@ impl Raytraced {
             penumbra: denoise("raytraced/penumbra", "penumbra")?,
             filter: denoise("raytraced/filter", "spatial_filter")?,
             trace,
-            trace_params: uniform_buffer(gpu, "raytraced/trace params", &TraceParams::zeroed()),
-            denoise_params: uniform_buffer(
-                gpu,
-                "raytraced/denoise params",
-                &DenoiseParams::zeroed(),
-            ),
+            trace_params: zeroed_uniform_buffer::<TraceParams>(gpu, "raytraced/trace params"),
+            denoise_params: zeroed_uniform_buffer::<DenoiseParams>(gpu, "raytraced/denoise params"),
             dummies: Dummies {
                 sampled: dummy(
                     wgpu::TextureFormat::R32Float,
@@ -257,15 +251,10 @@ impl Raytraced {
         frame.gpu.queue.write_buffer(
             &self.trace_params,
             0,
-            bytemuck::bytes_of(&TraceParams {
-                light_to_world: inputs
-                    .uniforms
-                    .world_to_light()
-                    .inverse()
-                    .to_cols_array_2d(),
+            &uniform_bytes(&TraceParams {
+                light_to_world: inputs.uniforms.world_to_light().inverse(),
                 rays,
                 frame_index: self.frame_index,
-                _pad: [0; 2],
             }),
         );
         let tlas = self.accel.tlas().expect("updated by render");
@@ -287,8 +276,8 @@ impl Raytraced {
         frame.gpu.queue.write_buffer(
             &self.denoise_params,
             0,
-            bytemuck::bytes_of(&DenoiseParams {
-                prev_view_proj: history.prev_view_proj().to_cols_array_2d(),
+            &uniform_bytes(&DenoiseParams {
+                prev_view_proj: history.prev_view_proj(),
                 history_valid: u32::from(temporal && history.is_valid()),
                 max_history: if temporal {
                     self.settings.max_history.max(1)

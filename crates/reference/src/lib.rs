@@ -26,10 +26,9 @@ pub mod exact;
 pub mod raycast;
 pub mod traced;
 
-use bytemuck::{Pod, Zeroable};
+use encase::{ShaderSize, ShaderType};
 use softshadow_core::{
-    fullscreen::uniform_buffer,
-    glam::Vec2,
+    glam::{Vec2, Vec4},
     pass::{FullscreenPass, Pass, Resource, Slot},
     scene::Fnv1a,
     shader::ShaderSpec,
@@ -38,6 +37,7 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -68,7 +68,7 @@ const BATCH: u32 = 16;
 /// Bytes per batch slot in the uniform buffer (dynamic offsets need 256-byte alignment).
 const BATCH_SLOT: u64 = 2048;
 /// Bytes of one batch's uniform (`BatchUniform`), the view the accumulation binds per slot.
-const BATCH_UNIFORM_BYTES: u64 = std::mem::size_of::<BatchUniform>() as u64;
+const BATCH_UNIFORM_BYTES: u64 = BatchUniform::SHADER_SIZE.get();
 
 softshadow_core::technique_settings! {
     /// Settings of the accumulated reference.
@@ -397,17 +397,15 @@ impl SplitMix64 {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct BatchUniform {
-    count_bias: [f32; 4],
+    count_bias: Vec4,
     views: [ShadowViewUniform; BATCH as usize],
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct ResolveUniform {
-    samples: [f32; 4],
+    samples: Vec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -518,7 +516,7 @@ impl Reference {
                 .fullscreen(None)?,
             batches: Self::batch_buffer(gpu, 4),
             batch_capacity: 4,
-            resolve_buffer: uniform_buffer(gpu, "reference/resolve", &ResolveUniform::zeroed()),
+            resolve_buffer: zeroed_uniform_buffer::<ResolveUniform>(gpu, "reference/resolve"),
             settings,
             maps: None,
             cache: None,
@@ -550,8 +548,8 @@ impl Reference {
         h.write_u64(inputs.scene.content_hash);
         h.write_u64(inputs.light.content_hash());
         // The camera as the frame sees it (a host renderer has no workbench `Camera`).
-        h.write_f32s(&inputs.uniforms.view_proj.concat());
-        h.write_f32s(&inputs.uniforms.camera_pos);
+        h.write_f32s(&inputs.uniforms.view_proj.to_cols_array());
+        h.write_f32s(&inputs.uniforms.camera_pos.to_array());
         h.write_u64(inputs.width as u64 | (inputs.height as u64) << 32);
         for (_, v) in self.params().entries {
             h.write_str(&v.to_string());
@@ -768,12 +766,14 @@ impl Reference {
         // view) gets its own slot.
         let mut bytes = vec![0u8; (BATCH_SLOT * batch_count as u64) as usize];
         for (b, chunk) in views.chunks(BATCH as usize).enumerate() {
-            let mut uniform = BatchUniform::zeroed();
-            uniform.count_bias = [chunk.len() as f32, self.settings.bias_texels, 0.0, 0.0];
+            let mut uniform = BatchUniform {
+                count_bias: Vec4::new(chunk.len() as f32, self.settings.bias_texels, 0.0, 0.0),
+                views: [ShadowViewUniform::ZERO; BATCH as usize],
+            };
             uniform.views[..chunk.len()].copy_from_slice(chunk);
+            let uniform = uniform_bytes(&uniform);
             let at = b * BATCH_SLOT as usize;
-            bytes[at..at + std::mem::size_of::<BatchUniform>()]
-                .copy_from_slice(bytemuck::bytes_of(&uniform));
+            bytes[at..at + uniform.len()].copy_from_slice(&uniform);
         }
         gpu.queue.write_buffer(&self.batches, 0, &bytes);
         self.depth.set_views(gpu, views);
@@ -820,8 +820,8 @@ impl Reference {
         gpu.queue.write_buffer(
             &self.resolve_buffer,
             0,
-            bytemuck::bytes_of(&ResolveUniform {
-                samples: [samples as f32, 0.0, 0.0, 0.0],
+            &uniform_bytes(&ResolveUniform {
+                samples: Vec4::new(samples as f32, 0.0, 0.0, 0.0),
             }),
         );
         self.resolve

@@ -12,13 +12,15 @@
 //! a segment test with terminate-on-first-hit; lavapipe traces about 0.5-1 M rays/s on 2 cores
 //! (docs/TECHNIQUES.md, `raytraced`), so `64²` points at `32 x 32` samples take a few seconds.
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
     accel::AccelError,
-    glam::Vec3,
+    glam::{Mat4, Vec2, Vec3},
     readback::read_buffer,
     shader::{self, ShaderSpec},
-    shader_file, wgpu, Gpu, GpuError, Scene, SceneAccel, SceneGpu,
+    shader_file,
+    uniform::uniform_bytes,
+    wgpu, Gpu, GpuError, Scene, SceneAccel, SceneGpu,
 };
 use thiserror::Error;
 use wgpu::util::DeviceExt;
@@ -47,24 +49,22 @@ pub enum TracedError {
     Input(String),
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct Params {
-    world_to_light: [[f32; 4]; 4],
-    light_to_world: [[f32; 4]; 4],
-    half: [f32; 2],
+    world_to_light: Mat4,
+    light_to_world: Mat4,
+    half: Vec2,
     samples_per_axis: u32,
     row: u32,
     count: u32,
     seed: u32,
-    _pad: [u32; 2],
 }
 
 /// The ray-traced answer's uniform against its WGSL struct (tests/shaders.rs).
 pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
         Params {
-            world_to_light, light_to_world, half, samples_per_axis, row, count, seed, _pad
+            world_to_light, light_to_world, half, samples_per_axis, row, count, seed
         } => "reference/trace.wgsl", TraceParams
     )]
 }
@@ -124,18 +124,17 @@ pub fn visibility_image_and_error(
     let tlas = accel.tlas().expect("built above");
     for row in 0..samples_per_axis {
         let params = Params {
-            world_to_light: view.to_cols_array_2d(),
-            light_to_world: view.inverse().to_cols_array_2d(),
-            half: [half.x, half.y],
+            world_to_light: view,
+            light_to_world: view.inverse(),
+            half,
             samples_per_axis,
             row,
             count: count as u32,
             seed: IMAGE_SEED,
-            _pad: [0; 2],
         };
         let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("reference/trace params"),
-            contents: bytemuck::bytes_of(&params),
+            contents: &uniform_bytes(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -11,13 +11,13 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::uniform_buffer,
     pass::FullscreenPass,
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -67,19 +67,15 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `SmrtParams` in `shaders/smrt/smrt.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct SmrtUniform {
     ray_count: u32,
     samples_per_ray: u32,
-    _pad0: [u32; 2],
     bias_texels: f32,
     extrapolate_max_slope: f32,
     ray_length_scale: f32,
     texel_dither: f32,
     max_ray_tan: f32,
-    _pad1: [f32; 3],
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -88,8 +84,8 @@ struct SmrtUniform {
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
         SmrtUniform {
-            ray_count, samples_per_ray, _pad0, bias_texels, extrapolate_max_slope, ray_length_scale,
-            texel_dither, max_ray_tan, _pad1
+            ray_count, samples_per_ray, bias_texels, extrapolate_max_slope, ray_length_scale,
+            texel_dither, max_ray_tan
         } => "smrt/smrt.wgsl", SmrtParams
     )]
 }
@@ -105,13 +101,11 @@ impl SmrtUniform {
         Self {
             ray_count: s.ray_count,
             samples_per_ray: s.samples_per_ray,
-            _pad0: [0; 2],
             bias_texels: s.bias_texels,
             extrapolate_max_slope: s.extrapolate_max_slope,
             ray_length_scale: s.ray_length_scale,
             texel_dither: s.texel_dither,
             max_ray_tan,
-            _pad1: [0.0; 3],
         }
     }
 }
@@ -153,7 +147,7 @@ impl Smrt {
             trace: pipeline("smrt/trace", &[])?,
             debug_steps: pipeline("smrt/debug steps", &[DEBUG_STEPS])?,
             debug_extrapolated: pipeline("smrt/debug extrapolated", &[DEBUG_EXTRAPOLATED])?,
-            params_buffer: uniform_buffer(gpu, "smrt/params", &SmrtUniform::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<SmrtUniform>(gpu, "smrt/params"),
             debug: None,
             shown: None,
             settings,
@@ -227,7 +221,7 @@ impl ShadowTechnique for Smrt {
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
-            bytemuck::bytes_of(&SmrtUniform::new(&s)),
+            &uniform_bytes(&SmrtUniform::new(&s)),
         );
         let (map, params) = (&self.shadow_map, &self.params_buffer);
         let group = inputs.frame_bind_group;

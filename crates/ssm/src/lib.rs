@@ -20,14 +20,14 @@
 
 pub mod math;
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
-    fullscreen::uniform_buffer,
-    glam::Vec3,
+    glam::{Vec3, Vec4},
     pass::{ComputePass, FullscreenPass, Pass, PassGroup, Slot},
     shader::{create_module, DefValue, ShaderSpec},
     shader_file,
     shadow_map::{CasterDraw, DepthMapRenderer, ShadowViewUniform},
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique,
     SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -107,18 +107,16 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `SsmParams` in `shaders/ssm/*.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+#[derive(Debug, ShaderType)]
 struct SsmUniform {
-    occluder_window: [f32; 4],
+    occluder_window: Vec4,
     /// near, far, N, depth of an empty texel.
-    occluder_depth: [f32; 4],
-    ssm_window: [f32; 4],
+    occluder_depth: Vec4,
+    ssm_window: Vec4,
     /// near, far, R, farthest receiver depth.
-    ssm_depth: [f32; 4],
+    ssm_depth: Vec4,
     /// a, b, bias_texels, two_pass.
-    light: [f32; 4],
+    light: Vec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -426,8 +424,8 @@ impl Ssm {
                 .repeat(Slot::FLOAT, 2)
                 .storage_rw()
                 .compute("count")?,
-            params_front: uniform_buffer(gpu, "ssm/params", &SsmUniform::zeroed()),
-            params_back: uniform_buffer(gpu, "ssm/params back", &SsmUniform::zeroed()),
+            params_front: zeroed_uniform_buffer::<SsmUniform>(gpu, "ssm/params"),
+            params_back: zeroed_uniform_buffer::<SsmUniform>(gpu, "ssm/params back"),
             counters: gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("ssm/counters"),
                 size: 16,
@@ -549,20 +547,20 @@ impl Ssm {
         let half = inputs.light.half_extent();
         let params = |empty_depth: f32| SsmUniform {
             occluder_window: window(&w.occluder),
-            occluder_depth: [w.occluder.near, w.occluder.far, n as f32, empty_depth],
+            occluder_depth: Vec4::new(w.occluder.near, w.occluder.far, n as f32, empty_depth),
             ssm_window: window(&w.ssm),
-            ssm_depth: [w.ssm.near, w.ssm.far, r as f32, w.z_far],
-            light: [
+            ssm_depth: Vec4::new(w.ssm.near, w.ssm.far, r as f32, w.z_far),
+            light: Vec4::new(
                 half.x,
                 half.y,
                 s.bias_texels,
                 if s.two_pass { 1.0 } else { 0.0 },
-            ],
+            ),
         };
         gpu.queue
-            .write_buffer(&self.params_front, 0, bytemuck::bytes_of(&params(1.0)));
+            .write_buffer(&self.params_front, 0, &uniform_bytes(&params(1.0)));
         gpu.queue
-            .write_buffer(&self.params_back, 0, bytemuck::bytes_of(&params(0.0)));
+            .write_buffer(&self.params_back, 0, &uniform_bytes(&params(0.0)));
     }
 
     /// 1. The occluder map(s): nearest surfaces and, for two passes, the farthest (section 3.5).
@@ -752,8 +750,8 @@ impl Ssm {
     }
 }
 
-fn window(f: &SlopeFrustum) -> [f32; 4] {
-    [f.s_min, f.s_max, f.t_min, f.t_max]
+fn window(f: &SlopeFrustum) -> Vec4 {
+    Vec4::new(f.s_min, f.s_max, f.t_min, f.t_max)
 }
 
 impl ShadowTechnique for Ssm {

@@ -2,11 +2,11 @@
 //! buffers, G-buffer receiver flags) become one gamma-space RGBA8 texture that egui shows
 //! directly (registered with `egui_wgpu::Renderer::register_native_texture`, no CPU copy).
 
-use bytemuck::{Pod, Zeroable};
+use encase::{ShaderType, StorageBuffer};
 use softshadow_core::{
     frame::{texture_entry, uniform_entry},
-    fullscreen::uniform_buffer,
     shader::{self, DefValue},
+    uniform::{storage_bytes, uniform_bytes, uniform_size, zeroed_uniform_buffer},
     wgpu, Gpu, GpuError, Renderer,
 };
 
@@ -67,9 +67,7 @@ impl ViewMode {
 /// Format of the textures handed to egui (it samples them as gamma-space `Rgba8Unorm`).
 pub const DISPLAY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
-/// Mirrors `DisplayParams` in `shaders/viewer/display.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct DisplayParams {
     mode: u32,
     reference_ready: u32,
@@ -77,16 +75,14 @@ struct DisplayParams {
     full_scale: f32,
 }
 
-/// Mirrors `DebugParams` in `shaders/viewer/debug_view.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(ShaderType)]
 struct DebugParams {
     /// 0: grey over the value range, 1: the texture's own colours.
     mode: u32,
-    _pad: [u32; 3],
 }
 
-/// The display passes' uniforms against their WGSL structs (tests/shaders.rs).
+/// The display passes' uniforms, and the value range they read back, against their WGSL structs
+/// (tests/shaders.rs).
 pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![
         softshadow_core::uniform_mirror!(
@@ -95,19 +91,24 @@ pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::
             } => "viewer/display.wgsl", DisplayParams
         ),
         softshadow_core::uniform_mirror!(
-            DebugParams { mode, _pad } => "viewer/debug_view.wgsl", DebugParams
+            DebugParams { mode } => "viewer/debug_view.wgsl", DebugParams
+        ),
+        softshadow_core::uniform_mirror!(
+            RangeKeys { lo, hi, count } => "viewer/debug_range.wgsl", Range
+        ),
+        softshadow_core::uniform_mirror!(
+            RangeKeys { lo, hi, count } => "viewer/debug_view.wgsl", Range
         ),
     ]
 }
 
-/// Mirrors `Range` in `shaders/viewer/debug_range.wgsl` (order-preserving u32 keys).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+/// The value range of a debug texture as order-preserving u32 keys (`Range` in
+/// `shaders/viewer/debug_range.wgsl`, which reduces it, and `debug_view.wgsl`, which reads it).
+#[derive(ShaderType)]
 struct RangeKeys {
     lo: u32,
     hi: u32,
     count: u32,
-    _pad: u32,
 }
 
 impl RangeKeys {
@@ -116,7 +117,6 @@ impl RangeKeys {
         lo: u32::MAX,
         hi: 0,
         count: 0,
-        _pad: 0,
     };
 }
 
@@ -252,7 +252,7 @@ impl DisplayPass {
         let range_depth_layout =
             range_layout("viewer/debug_range_depth", wgpu::TextureSampleType::Depth);
         let range_float_layout = range_layout("viewer/debug_range_float", float);
-        let range_size = std::mem::size_of::<RangeKeys>() as u64;
+        let range_size = uniform_size::<RangeKeys>();
         Ok(Self {
             debug_depth: pipeline(
                 gpu,
@@ -270,8 +270,8 @@ impl DisplayPass {
             )?,
             pipeline: display,
             layout,
-            params: uniform_buffer(gpu, "viewer/display", &DisplayParams::zeroed()),
-            debug_params: uniform_buffer(gpu, "viewer/debug", &DebugParams::zeroed()),
+            params: zeroed_uniform_buffer::<DisplayParams>(gpu, "viewer/display"),
+            debug_params: zeroed_uniform_buffer::<DebugParams>(gpu, "viewer/debug"),
             debug_depth_layout,
             debug_float_layout,
             range_depth: compute_pipeline(
@@ -320,7 +320,7 @@ impl DisplayPass {
         gpu.queue.write_buffer(
             &self.params,
             0,
-            bytemuck::bytes_of(&DisplayParams {
+            &uniform_bytes(&DisplayParams {
                 mode: mode.shader_code(),
                 reference_ready: u32::from(reference.is_some()),
                 split: split.clamp(0.0, 1.0),
@@ -390,13 +390,12 @@ impl DisplayPass {
         gpu.queue.write_buffer(
             &self.debug_params,
             0,
-            bytemuck::bytes_of(&DebugParams {
+            &uniform_bytes(&DebugParams {
                 mode: u32::from(kind == DebugKind::Colour),
-                _pad: [0; 3],
             }),
         );
         gpu.queue
-            .write_buffer(&self.range, 0, bytemuck::bytes_of(&RangeKeys::EMPTY));
+            .write_buffer(&self.range, 0, &storage_bytes(&RangeKeys::EMPTY));
         let view = source.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2),
             aspect,
@@ -520,7 +519,9 @@ impl DisplayPass {
             let data = slice
                 .get_mapped_range()
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
-            bytemuck::pod_read_unaligned(&data[..std::mem::size_of::<RangeKeys>()])
+            StorageBuffer::new(&data[..])
+                .create()
+                .map_err(|e| GpuError::Readback(e.to_string()))?
         };
         self.range_readback.unmap();
         let (lo, hi, count) = if keys.count == 0 {

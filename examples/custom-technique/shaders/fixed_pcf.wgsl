@@ -8,8 +8,6 @@
 struct FixedPcfParams {
     kernel_radius: i32,
     bias_texels: f32,
-    _pad0: f32,
-    _pad1: f32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

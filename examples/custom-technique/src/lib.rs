@@ -9,15 +9,15 @@
 //! stiff cases and two paper scenes. `src/main.rs` is then the whole workbench plus this
 //! technique: `cargo run -p custom-technique -- bench --technique fixed-pcf ...`.
 
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use softshadow_core::{
     cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    fullscreen::uniform_buffer,
     pass::FullscreenPass,
     shader::ShaderSpec,
     shader_file,
     shadow_map::CentreShadowMap,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, Cost, CostModel, DebugView, Expectations, Frame, Gpu, ShadowInputs, ShadowTechnique,
     TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -44,13 +44,11 @@ softshadow_core::technique_settings! {
     }
 }
 
-/// Mirrors `FixedPcfParams` in `shaders/fixed_pcf.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+/// `FixedPcfParams` in `shaders/fixed_pcf.wgsl`, laid out as WGSL lays it out.
+#[derive(ShaderType)]
 struct FixedPcfUniform {
     kernel_radius: i32,
     bias_texels: f32,
-    _pad: [f32; 2],
 }
 
 /// The descriptor: everything the workbench knows about the technique.
@@ -157,7 +155,7 @@ impl FixedPcf {
             // fixed_pcf.wgsl: the map's ShadowView, the map, FixedPcfParams.
             lookup: CentreShadowMap::lookup_pass(gpu, "fixed-pcf/lookup", &SHADERS[0])
                 .fullscreen(None)?,
-            params_buffer: uniform_buffer(gpu, "fixed-pcf/params", &FixedPcfUniform::zeroed()),
+            params_buffer: zeroed_uniform_buffer::<FixedPcfUniform>(gpu, "fixed-pcf/params"),
             settings,
             stats: TechniqueStats::new(),
         })
@@ -197,10 +195,9 @@ impl ShadowTechnique for FixedPcf {
         gpu.queue.write_buffer(
             &self.params_buffer,
             0,
-            bytemuck::bytes_of(&FixedPcfUniform {
+            &uniform_bytes(&FixedPcfUniform {
                 kernel_radius: self.settings.kernel_radius as i32,
                 bias_texels: self.settings.bias_texels,
-                _pad: [0.0; 2],
             }),
         );
         let (map, params) = (&self.shadow_map, &self.params_buffer);

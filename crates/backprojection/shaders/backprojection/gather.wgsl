@@ -46,7 +46,6 @@ struct GatherParams {
     // width in screen pixels from which a pixel is interpolated from the coarse pass.
     adaptive_factor: u32,
     adaptive_pixels: f32,
-    _pad0: u32,
 }
 
 struct Counters {
@@ -59,7 +58,6 @@ struct Counters {
     primitives_hi: atomic<u32>,
     // Pixels interpolated from the coarse pass (adaptive screen resolution).
     upsampled: atomic<u32>,
-    _pad0: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

@@ -7,14 +7,15 @@
 use std::collections::BTreeSet;
 
 use anyhow::{ensure, Context, Result};
+use encase::ShaderType;
 use softshadow_bench::{
     results::{FrameKind, Run},
     Bench, BenchOptions, RunSpec, Status,
 };
 use softshadow_core::{
-    bytemuck,
-    fullscreen::{uniform_buffer, FullscreenPipeline},
+    fullscreen::FullscreenPipeline,
     shader::ShaderSpec,
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, Frame, Gpu, ParamValue, Registry, Requirements, ShadowInputs, ShadowTechnique,
     TechniqueError, TechniqueInfo, TechniqueSettings, TechniqueStats, VisibilityBuffer,
     YARDSTICK_TECHNIQUE,
@@ -135,8 +136,6 @@ const NOISE_WGSL: &str = r#"
 struct NoiseParams {
     amplitude: f32,
     frame: u32,
-    _pad0: u32,
-    _pad1: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: NoiseParams;
@@ -186,6 +185,13 @@ softshadow_core::technique_settings! {
     }
 }
 
+/// `NoiseParams` of `NOISE_WGSL`.
+#[derive(ShaderType)]
+struct NoiseParams {
+    amplitude: f32,
+    frame: u32,
+}
+
 struct Noisy {
     settings: NoisySettings,
     inner: Box<dyn ShadowTechnique>,
@@ -232,7 +238,7 @@ impl Noisy {
             settings: NoisySettings::default(),
             inner: hard.create(gpu)?,
             pipeline,
-            buffer: uniform_buffer(gpu, "noisy/params", &[0u32; 4]),
+            buffer: zeroed_uniform_buffer::<NoiseParams>(gpu, "noisy/params"),
             layout,
             frame: 0,
         })
@@ -268,11 +274,14 @@ impl ShadowTechnique for Noisy {
     ) -> Result<(), TechniqueError> {
         self.inner.render(frame, inputs, out)?;
         self.frame += 1;
-        let words = [self.settings.amplitude.to_bits(), self.frame, 0, 0];
+        let params = NoiseParams {
+            amplitude: self.settings.amplitude,
+            frame: self.frame,
+        };
         frame
             .gpu
             .queue
-            .write_buffer(&self.buffer, 0, bytemuck::cast_slice(&words));
+            .write_buffer(&self.buffer, 0, &uniform_bytes(&params));
         let bind_group = frame
             .gpu
             .device

@@ -54,7 +54,6 @@ struct GatherParams {
     // width in screen pixels from which a pixel is interpolated from the coarse pass.
     adaptive_factor: u32,
     adaptive_pixels: f32,
-    _pad0: u32,
 }
 
 struct Counters {
@@ -71,8 +70,6 @@ struct Counters {
     set_bits_hi: atomic<u32>,
     // Pixels interpolated from the coarse pass (adaptive screen resolution).
     upsampled: atomic<u32>,
-    _pad0: u32,
-    _pad1: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

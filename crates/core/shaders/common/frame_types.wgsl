@@ -1,6 +1,6 @@
 #define_import_path softshadow::frame_types
 
-// Per-frame constants shared by every pass (mirrors `softshadow_core::frame::FrameUniforms`).
+// Per-frame constants shared by every pass.
 struct FrameUniforms {
     view_proj: mat4x4<f32>,
     // World space to light space: light centre at the origin, light facing +z,

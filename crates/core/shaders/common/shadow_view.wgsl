@@ -1,8 +1,7 @@
 #define_import_path softshadow::shadow_view
 
-// A perspective shadow map rendered from an eye on the light plane (mirrors
-// `softshadow_core::shadow_map::ShadowViewUniform`). Everything is in slope space:
-// a light-space point (x, y, z) has slopes s = (x - eye.x) / z, t = (y - eye.y) / z.
+// A perspective shadow map rendered from an eye on the light plane. Everything is in slope
+// space: a light-space point (x, y, z) has slopes s = (x - eye.x) / z, t = (y - eye.y) / z.
 struct ShadowView {
     light_view_proj: mat4x4<f32>,
     // s_min, s_max, t_min, t_max of the map window.

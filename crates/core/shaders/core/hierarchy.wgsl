@@ -10,9 +10,6 @@
 
 struct LevelParams {
     level: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> view: ShadowView;

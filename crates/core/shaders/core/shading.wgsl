@@ -5,9 +5,6 @@
 struct ShadingParams {
     // 0 = shaded, 1 = visibility as grey.
     mode: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 @group(1) @binding(0) var albedo_texture: texture_2d<f32>;

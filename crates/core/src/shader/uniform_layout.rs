@@ -1,16 +1,20 @@
-//! The layout of a WGSL uniform struct and of its Rust mirror, for the test that keeps the two in
-//! step (`tests/shaders.rs`, `every_uniform_struct_matches_its_rust_mirror`).
+//! The layout of a WGSL uniform struct and of the Rust struct that fills it, for the test that
+//! keeps the two in step (`tests/shaders.rs`, `every_uniform_struct_matches_its_rust_mirror`).
 //!
-//! Every uniform is written twice: a `#[repr(C)]` Pod struct in Rust and a struct in WGSL. Nothing
-//! ties them together at build time, and a field added on one side only does not fail validation:
-//! the shader just reads the wrong bytes. So each crate lists its mirrors with
+//! A uniform is declared once in Rust with `#[derive(encase::ShaderType)]` ([`crate::uniform`]),
+//! which lays it out by WGSL's rules; the shader declares the same fields. Nothing ties the two
+//! lists together at build time, and a field added on one side only does not fail validation:
+//! the shader just reads the wrong bytes. So each crate lists its structs with
 //! [`uniform_mirror!`](crate::uniform_mirror) in a `#[doc(hidden)] pub fn uniform_mirrors()` (the
 //! structs are private to their crates, and a unit-test binary per crate would link wgpu once
 //! each), and the workspace test compares each with the struct naga lays out from the composed
-//! shader: total size, and every field's offset and size by name. Fields whose name starts with
-//! `_pad` are skipped on both sides (the two sides spell padding differently: `_pad: [u32; 3]`
-//! against `_pad0`, `_pad1`, `_pad2`); the total size still has to match.
+//! shader: total size, and every field's offset and size by name. Storage structs the CPU writes
+//! or reads back (counters) are listed the same way.
 
+use encase::{
+    internal::{CreateFrom, WriteInto},
+    ShaderType, StorageBuffer,
+};
 use naga::{proc::Layouter, AddressSpace, Handle, Module, Type, TypeInner};
 use naga_oil::compose::Composer;
 
@@ -36,7 +40,7 @@ pub struct StructLayout {
     pub name: String,
     /// Size in bytes, trailing padding included.
     pub size: u32,
-    /// Every field, padding included.
+    /// Every field (padding is none: it lies between them).
     pub fields: Vec<FieldLayout>,
 }
 
@@ -79,11 +83,11 @@ impl UniformMirror {
 }
 
 /// Lists a Rust uniform struct's fields for [`UniformMirror`]:
-/// `uniform_mirror!(HardParams { bias_texels, _pad } => "hard/hard.wgsl", HardParams)`.
+/// `uniform_mirror!(HardParams { bias_texels } => "hard/hard.wgsl", HardParams)`.
 ///
-/// Every field of the Rust struct must be listed, padding included, or the call does not compile
-/// (it destructures the struct without `..`; rustc then says "pattern requires `..`"). The struct must be `Zeroable` (every Pod uniform
-/// is): a zeroed value gives each field's size.
+/// Every field of the Rust struct must be listed, or the call does not compile (it destructures
+/// the struct without `..`; rustc then says "pattern requires `..`"). The struct derives
+/// `encase::ShaderType`; each field's offset and size are encase's ([`probe`], [`probed_field`]).
 #[doc(hidden)]
 #[macro_export]
 macro_rules! uniform_mirror {
@@ -93,17 +97,13 @@ macro_rules! uniform_mirror {
         fn every_field_is_listed(value: &$rust) {
             let $rust { $($field: _),+ } = value;
         }
-        let zeroed: $rust = $crate::bytemuck::Zeroable::zeroed();
+        let probe: $rust = $crate::shader::uniform_layout::probe();
         $crate::shader::uniform_layout::UniformMirror {
             rust: $crate::shader::uniform_layout::StructLayout {
                 name: stringify!($rust).to_string(),
-                size: ::std::mem::size_of::<$rust>() as u32,
+                size: $crate::uniform::uniform_size::<$rust>() as u32,
                 fields: vec![$(
-                    $crate::shader::uniform_layout::FieldLayout {
-                        name: stringify!($field).to_string(),
-                        offset: ::std::mem::offset_of!($rust, $field) as u32,
-                        size: ::std::mem::size_of_val(&zeroed.$field) as u32,
-                    }
+                    $crate::shader::uniform_layout::probed_field(stringify!($field), &probe.$field)
                 ),+],
             },
             wgsl_file: $file,
@@ -112,9 +112,30 @@ macro_rules! uniform_mirror {
     }};
 }
 
-/// Whether a field is padding, skipped by [`compare`].
-pub fn is_padding(name: &str) -> bool {
-    name.starts_with("_pad")
+/// A `T` read from bytes whose every 4-byte word holds its own index, so that each field holds
+/// the index of the word it starts at ([`probed_field`]).
+///
+/// encase exposes its offsets by field index only (`ShaderType::METADATA`, hidden), which would
+/// tie the test to the order of [`uniform_mirror!`](crate::uniform_mirror)'s list; reading the
+/// probe names each field's offset whatever that order.
+pub fn probe<T: ShaderType + CreateFrom>() -> T {
+    let words = (crate::uniform::uniform_size::<T>() / 4) as u32;
+    let bytes: Vec<u8> = (0..words).flat_map(u32::to_le_bytes).collect();
+    StorageBuffer::new(bytes)
+        .create()
+        .expect("the bytes are the struct's size")
+}
+
+/// The layout of one field of a [`probe`]: its offset is the index its first word holds (times
+/// 4), its size the field type's.
+pub fn probed_field<F: ShaderType + WriteInto>(name: &str, field: &F) -> FieldLayout {
+    let bytes = crate::uniform::storage_bytes(field);
+    let first_word = u32::from_le_bytes(bytes[..4].try_into().expect("every field has 4 bytes"));
+    FieldLayout {
+        name: name.to_string(),
+        offset: 4 * first_word,
+        size: F::min_size().get() as u32,
+    }
 }
 
 /// The `#define_import_path` of a common module given by its file (`common/frame.wgsl`), or
@@ -186,11 +207,25 @@ fn layouter(module: &Module) -> Result<Layouter, GpuError> {
 /// Every struct a `var<uniform>` of `module` holds: the variable's own type, the element of an
 /// array, and the structs nested in those, each once. Names are naga's (see [`display_name`]).
 pub fn uniform_structs(module: &Module) -> Result<Vec<StructLayout>, GpuError> {
+    structs_held(module, |space| space == AddressSpace::Uniform)
+}
+
+/// Every struct a `var<storage>` of `module` holds, found as [`uniform_structs`] finds them.
+pub fn storage_structs(module: &Module) -> Result<Vec<StructLayout>, GpuError> {
+    structs_held(module, |space| {
+        matches!(space, AddressSpace::Storage { .. })
+    })
+}
+
+fn structs_held(
+    module: &Module,
+    in_space: impl Fn(AddressSpace) -> bool,
+) -> Result<Vec<StructLayout>, GpuError> {
     let layouter = layouter(module)?;
     let mut pending: Vec<Handle<Type>> = module
         .global_variables
         .iter()
-        .filter(|(_, var)| var.space == AddressSpace::Uniform)
+        .filter(|(_, var)| in_space(var.space))
         .map(|(_, var)| var.ty)
         .collect();
     let mut seen = Vec::new();
@@ -232,7 +267,7 @@ pub fn wgsl_struct_layout(
 
 /// Every difference between a Rust struct and the WGSL struct it mirrors, one line each naming
 /// both structs and the field: the total size, a field on one side only, a field at another
-/// offset or of another size. Empty when they agree. Padding fields are skipped.
+/// offset or of another size. Empty when they agree.
 pub fn compare(rust: &StructLayout, wgsl: &StructLayout) -> Vec<String> {
     let pair = format!("Rust `{}` / WGSL `{}`", rust.name, wgsl.name);
     let mut errors = Vec::new();
@@ -242,16 +277,8 @@ pub fn compare(rust: &StructLayout, wgsl: &StructLayout) -> Vec<String> {
             rust.size, wgsl.size
         ));
     }
-    let real = |s: &'_ StructLayout| -> Vec<FieldLayout> {
-        s.fields
-            .iter()
-            .filter(|f| !is_padding(&f.name))
-            .cloned()
-            .collect()
-    };
-    let (rust_fields, wgsl_fields) = (real(rust), real(wgsl));
-    for w in &wgsl_fields {
-        match rust_fields.iter().find(|r| r.name == w.name) {
+    for w in &wgsl.fields {
+        match rust.fields.iter().find(|r| r.name == w.name) {
             None => errors.push(format!(
                 "{pair}: field `{}` (offset {}, {} bytes) is in WGSL only",
                 w.name, w.offset, w.size
@@ -272,8 +299,8 @@ pub fn compare(rust: &StructLayout, wgsl: &StructLayout) -> Vec<String> {
             }
         }
     }
-    for r in &rust_fields {
-        if !wgsl_fields.iter().any(|w| w.name == r.name) {
+    for r in &rust.fields {
+        if !wgsl.fields.iter().any(|w| w.name == r.name) {
             errors.push(format!(
                 "{pair}: field `{}` (offset {}, {} bytes) is in Rust only",
                 r.name, r.offset, r.size

@@ -6,9 +6,6 @@
 
 struct HardParams {
     bias_texels: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

@@ -8,7 +8,6 @@
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, linear_depth}
 
-// Mirrors `MsmUniform` in crates/msm/src/lib.rs.
 struct MsmParams {
     // Light-space depth that maps to 0 (the map's near plane) and to 1 (beyond every receiver).
     depth_range: vec2<f32>,
@@ -21,7 +20,6 @@ struct MsmParams {
     min_filter_texels: f32,
     filter_taps: u32,
     levels: u32,
-    _pad: u32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

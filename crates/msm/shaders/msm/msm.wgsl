@@ -20,7 +20,6 @@
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, texel_slope}
 
-// Mirrors `MsmUniform` in crates/msm/src/lib.rs.
 struct MsmParams {
     depth_range: vec2<f32>,
     exponents: vec2<f32>,
@@ -31,7 +30,6 @@ struct MsmParams {
     min_filter_texels: f32,
     filter_taps: u32,
     levels: u32,
-    _pad: u32,
 }
 
 const MAX_FILTER_TAPS: u32 = 8u;

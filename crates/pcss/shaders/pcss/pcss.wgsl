@@ -24,11 +24,8 @@ struct PcssParams {
     filter_samples: u32,
     // Frame index of the temporal mode (read by the TEMPORAL permutation only).
     frame_index: u32,
-    _pad1: u32,
     bias_texels: f32,
     min_filter_texels: f32,
-    _pad2: f32,
-    _pad3: f32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

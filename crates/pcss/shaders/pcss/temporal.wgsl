@@ -26,7 +26,6 @@ struct TemporalParams {
     max_history: u32,
     // Half width of the clipping box in standard deviations of the neighbourhood.
     clamp_sigma: f32,
-    _pad: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: TemporalParams;

@@ -9,8 +9,6 @@ struct TraceParams {
     light_to_world: mat4x4<f32>,
     rays: u32,
     frame_index: u32,
-    _pad0: u32,
-    _pad1: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: TraceParams;

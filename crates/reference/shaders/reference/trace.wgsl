@@ -13,8 +13,6 @@ struct TraceParams {
     row: u32,
     count: u32,
     seed: u32,
-    _pad0: u32,
-    _pad1: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: TraceParams;

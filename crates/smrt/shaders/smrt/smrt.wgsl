@@ -41,17 +41,12 @@ const GOLDEN: f32 = 0.6180339887498949;
 struct SmrtParams {
     ray_count: u32,
     samples_per_ray: u32,
-    _pad0: u32,
-    _pad1: u32,
     bias_texels: f32,
     extrapolate_max_slope: f32,
     ray_length_scale: f32,
     texel_dither: f32,
     // tan of the largest angle a ray spans as seen from the light (1e30: no limit).
     max_ray_tan: f32,
-    _pad2: f32,
-    _pad3: f32,
-    _pad4: f32,
 }
 
 @group(1) @binding(0) var<uniform> view: ShadowView;

@@ -8,7 +8,7 @@
 #import softshadow::frame::{load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 
-// Mirrors `SsmUniform` in crates/ssm/src/lib.rs (same struct in every ssm shader).
+// The same struct in every ssm shader.
 struct SsmParams {
     occluder_window: vec4<f32>,
     occluder_depth: vec4<f32>,

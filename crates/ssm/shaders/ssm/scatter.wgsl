@@ -10,7 +10,7 @@
 // Slope space from the light centre: a light-space point (x, y, z) has slopes (x / z, y / z);
 // texel row 0 of every map is at t_max.
 
-// Mirrors `SsmUniform` in crates/ssm/src/lib.rs (same struct in every ssm shader).
+// The same struct in every ssm shader.
 struct SsmParams {
     // s_min, s_max, t_min, t_max of the occluder map.
     occluder_window: vec4<f32>,

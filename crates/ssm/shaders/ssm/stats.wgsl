@@ -2,7 +2,7 @@
 // occluder-map texels, over both maps in two-pass mode) and soft-shadow-map texels with some
 // occlusion. One atomic add per workgroup after a workgroup-local count.
 
-// Mirrors `SsmUniform` in crates/ssm/src/lib.rs (same struct in every ssm shader).
+// The same struct in every ssm shader.
 struct SsmParams {
     occluder_window: vec4<f32>,
     occluder_depth: vec4<f32>,

@@ -7,7 +7,6 @@ struct Range {
     lo: atomic<u32>,
     hi: atomic<u32>,
     count: atomic<u32>,
-    _pad: u32,
 }
 
 #ifdef DEPTH

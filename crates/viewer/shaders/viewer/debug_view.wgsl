@@ -7,16 +7,12 @@
 struct DebugParams {
     // 0: grey over the range, 1: the texture's own colours.
     mode: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 struct Range {
     lo: u32,
     hi: u32,
     count: u32,
-    _pad: u32,
 }
 
 #ifdef DEPTH
