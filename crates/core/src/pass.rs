@@ -1,5 +1,5 @@
 //! The pass builder: a pass is declared by what its shader reads and writes, and its layout,
-//! pipeline and bind groups are made (and the bind groups cached) from that declaration.
+//! pipeline and bind groups are made from that declaration.
 //!
 //! ```ignore
 //! // Once, when the technique is built:
@@ -15,9 +15,6 @@
 //! A pass's own bindings are one bind group, in binding order from 0. With
 //! [`PassBuilder::after_frame_group`] that group is group 1 and group 0 is the core frame group
 //! (`shaders/common/frame.wgsl`), as for every per-pixel pass; without it, group 0.
-
-use std::hash::{Hash, Hasher};
-use std::sync::Mutex;
 
 use crate::{shader, shader::DefValue, shader::ShaderSpec, Frame, Gpu, GpuError};
 
@@ -216,30 +213,16 @@ impl Resource<'_> {
             Resource::Tlas(_) => slot == Slot::AccelerationStructure,
         }
     }
-
-    /// Hashes what is bound: wgpu's handles hash by identity (an id with an epoch, never
-    /// reused), and a cached bind group holds its resources, so equal hashes mean equal groups.
-    fn hash_into(&self, hasher: &mut impl Hasher) {
-        std::mem::discriminant(self).hash(hasher);
-        match *self {
-            Resource::Buffer(b) => b.hash(hasher),
-            Resource::BufferRange(b, offset, size) => (b, offset, size).hash(hasher),
-            Resource::View(v) => v.hash(hasher),
-            Resource::Sampler(s) => s.hash(hasher),
-            Resource::Tlas(t) => t.hash(hasher),
-        }
-    }
 }
 
-/// How many bind groups a pass keeps (ping-pong passes alternate between a few).
-const CACHED_GROUPS: usize = 8;
-
-/// A pass's own bind group layout, and the bind groups made for it, cached by what they bind.
+/// A pass's own bind group layout, and the bind groups made for it from what a run binds. They
+/// are not kept between runs: a bind group holds its resources alive, and a kept group of
+/// resources a technique has since replaced (a rebuilt precompute, a resized target) would hold
+/// their memory.
 pub struct PassGroup {
     label: String,
     slots: Vec<Slot>,
     layout: wgpu::BindGroupLayout,
-    cache: Mutex<Vec<(u64, wgpu::BindGroup)>>,
 }
 
 impl PassGroup {
@@ -249,7 +232,6 @@ impl PassGroup {
             label: label.to_string(),
             slots: slots.to_vec(),
             layout: group_layout(gpu, label, slots, stages),
-            cache: Mutex::new(Vec::new()),
         }
     }
 
@@ -258,19 +240,12 @@ impl PassGroup {
         &self.layout
     }
 
-    /// The bind group of `resources` (one per slot, in order), made once and then reused.
+    /// The bind group of `resources` (one per slot, in order).
     ///
     /// # Panics
     /// When the resources do not match the declared slots: a mistake in the technique's code.
     pub fn bind(&self, gpu: &Gpu, resources: &[Resource<'_>]) -> wgpu::BindGroup {
         self.check(resources);
-        let mut hasher = std::collections::hash_map::DefaultHasher::new();
-        resources.iter().for_each(|r| r.hash_into(&mut hasher));
-        let key = hasher.finish();
-        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, group)) = cache.iter().find(|(k, _)| *k == key) {
-            return group.clone();
-        }
         let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
             .iter()
             .enumerate()
@@ -279,16 +254,11 @@ impl PassGroup {
                 resource: resource.binding(),
             })
             .collect();
-        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(&self.label),
             layout: &self.layout,
             entries: &entries,
-        });
-        if cache.len() == CACHED_GROUPS {
-            cache.remove(0);
-        }
-        cache.push((key, group.clone()));
-        group
+        })
     }
 
     fn check(&self, resources: &[Resource<'_>]) {
