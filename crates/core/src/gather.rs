@@ -1,10 +1,9 @@
 //! What the gather techniques (`backprojection`, `bitmask`) share on the CPU beside the depth
-//! hierarchies: their bind-group entries, the per-pass counters a gather adds up on the GPU and
-//! reads back after the frame, and the targets of the view-dependent adaptive screen resolution
-//! (`shaders/common/gather.wgsl`, docs/TECHNIQUES.md, `backprojection`, "Large penumbrae"). The
-//! shaders' own scaffold is `softshadow::gather`.
+//! hierarchies: their settings (`GatherSettings`), the per-pass counters a gather adds up on the
+//! GPU and reads back after the frame, and the targets of the view-dependent adaptive screen
+//! resolution (`shaders/common/gather.wgsl`, docs/TECHNIQUES.md, `backprojection`, "Large
+//! penumbrae"). The shaders' own scaffold is `softshadow::gather`.
 
-pub use crate::frame::storage_texture_entry;
 use crate::gbuffer::create_texture;
 use crate::hierarchy::HierarchyKind;
 use crate::pass::Slot;
@@ -116,23 +115,6 @@ impl AdaptiveResolution {
     }
 }
 
-/// A compute-stage entry for a non-filterable float texture of `dimension`.
-pub fn float_texture_entry(
-    binding: u32,
-    dimension: wgpu::TextureViewDimension,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: dimension,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
 /// Counters of type `T` (a `ShaderType` struct of `u32`s, `atomic<u32>` in WGSL) that a gather
 /// pass adds up per workgroup, and their copy the CPU reads after the frame.
 pub struct GatherCounters<T> {
@@ -167,28 +149,9 @@ impl<T: ShaderSize + WriteInto + CreateFrom + Default> GatherCounters<T> {
         }
     }
 
-    /// The bind-group layout entry of the counters (read-write storage).
-    pub fn layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-        wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: false },
-                has_dynamic_offset: false,
-                min_binding_size: wgpu::BufferSize::new(Self::SIZE),
-            },
-            count: None,
-        }
-    }
-
     /// The counters' buffer (a `var<storage, read_write>` of the gather).
     pub fn buffer(&self) -> &wgpu::Buffer {
         &self.buffer
-    }
-
-    /// The counters' binding resource.
-    pub fn binding(&self) -> wgpu::BindingResource<'_> {
-        self.buffer.as_entire_binding()
     }
 
     /// Sets every counter to zero (before the pass).
@@ -262,14 +225,6 @@ impl AdaptiveTargets {
         }
     }
 
-    /// The two layout entries, `first` (read) and `first + 1` (write).
-    pub fn layout_entries(first: u32) -> [wgpu::BindGroupLayoutEntry; 2] {
-        [
-            float_texture_entry(first, wgpu::TextureViewDimension::D2),
-            storage_texture_entry(first + 1, Self::FORMAT),
-        ]
-    }
-
     /// Coarse pixels per axis for a `width` x `height` image at `factor`, or `None` when off.
     pub fn coarse_size(width: u32, height: u32, factor: u32) -> Option<(u32, u32)> {
         (factor > 1).then(|| (width.div_ceil(factor), height.div_ceil(factor)))
@@ -313,20 +268,5 @@ impl AdaptiveTargets {
             (AdaptivePass::Full, Some(c)) => (c, &self.stand_in_write),
             (_, None) => (&self.stand_in_read, &self.stand_in_write),
         }
-    }
-
-    /// The bind-group entries `first` and `first + 1` for `pass`.
-    pub fn entries(&self, first: u32, pass: AdaptivePass) -> [wgpu::BindGroupEntry<'_>; 2] {
-        let (read, write) = self.views(pass);
-        [
-            wgpu::BindGroupEntry {
-                binding: first,
-                resource: wgpu::BindingResource::TextureView(read),
-            },
-            wgpu::BindGroupEntry {
-                binding: first + 1,
-                resource: wgpu::BindingResource::TextureView(write),
-            },
-        ]
     }
 }
