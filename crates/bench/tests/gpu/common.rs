@@ -6,7 +6,7 @@ use softshadow_bench::{
     results::Run,
     Bench, BenchOptions, RunSpec, Status,
 };
-use softshadow_core::{glam::Vec3, Gpu, ParamValue, Scene};
+use softshadow_core::{glam::Vec3, scene::Fnv1a, Gpu, ParamValue, Scene};
 use softshadow_metrics::ErrorReport;
 
 /// The GPU, or an error that says what to install (tests fail, never skip, without one).
@@ -168,4 +168,11 @@ pub fn run_path(bench: &mut Bench, spec: &RunSpec) -> Result<(Run, Vec<FrameReco
     let frames = read_frames(&dir.path().join(&motion.frames_file))?;
     ensure!(frames.len() == motion.frames as usize);
     Ok((run, frames))
+}
+
+/// FNV-1a over the bits of every value (core's cache-key hasher): an image's checksum.
+pub fn checksum(v: &[f32]) -> u64 {
+    let mut hasher = Fnv1a::default();
+    hasher.write_f32s(v);
+    hasher.finish()
 }

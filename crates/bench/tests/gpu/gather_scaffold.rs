@@ -5,7 +5,7 @@
 //! bit.
 //! Another driver compiles the shaders differently, so the comparison runs on that driver only.
 
-use crate::common::gpu;
+use crate::common::{checksum, gpu};
 use anyhow::{ensure, Result};
 use softshadow::backprojection::{Backprojection, BackprojectionSettings};
 use softshadow::bitmask::{Bitmask, BitmaskSettings};
@@ -13,18 +13,6 @@ use softshadow_core::gather::GatherSettings;
 use softshadow_core::{Renderer, SceneGpu, ShadowTechnique};
 
 const SIZE: u32 = 64;
-
-/// FNV-1a over the bits of every value.
-fn checksum(v: &[f32]) -> u64 {
-    let mut h: u64 = 0xcbf29ce484222325;
-    for x in v {
-        for b in x.to_bits().to_le_bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x100000001b3);
-        }
-    }
-    h
-}
 
 /// bitmask's defaults before issue 30 (it now has depth bands and edge refinement).
 const BITMASK_OLD: &[&str] = &["depth_bands=1", "edge_refine=0"];

@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use crate::common::gpu;
+use crate::common::{checksum, gpu};
 use anyhow::{ensure, Context, Result};
 use softshadow_core::{Renderer, SceneGpu};
 
@@ -18,18 +18,6 @@ const SCENES: &[&str] = &["stiff-large-light", "blob-floating:triangles=2000"];
 const WGSL_EXAMPLES: &[&str] = &["one_tap.wgsl", "pcf.wgsl", "pcss_like.wgsl"];
 /// Settings beside the defaults whose passes the defaults leave out (technique, settings).
 const VARIANTS: &[(&str, &[&str])] = &[("pcss", &["temporal=true"])];
-
-/// FNV-1a over the bits of every value.
-fn checksum(v: &[f32]) -> u64 {
-    let mut h: u64 = 0xcbf29ce484222325;
-    for x in v {
-        for b in x.to_bits().to_le_bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x100000001b3);
-        }
-    }
-    h
-}
 
 /// The checksums before the restructuring, as "scene technique frame checksum" lines.
 const BEFORE: &str = include_str!("image_checksums.txt");
