@@ -159,11 +159,12 @@ fn atty_params() -> Vec<ParamInfo> {
 }
 
 /// Polygon-count scenes: id and total triangle count.
-const POLYCOUNTS: [(&str, u32); 4] = [
+const POLYCOUNTS: [(&str, u32); 5] = [
     ("polycount-1k", 1_000),
     ("polycount-10k", 10_000),
     ("polycount-100k", 100_000),
     ("polycount-1m", 1_000_000),
+    ("polycount-5m", 5_000_000),
 ];
 
 /// Every builtin scene with its description and parameters.
@@ -212,11 +213,13 @@ pub fn builtin_scenes() -> Vec<BuiltinInfo> {
                 1_000 => "2x2 blobs + ground, about 1k triangles in total (scaling series)",
                 10_000 => "2x2 blobs + ground, about 10k triangles in total (scaling series)",
                 100_000 => "2x2 blobs + ground, about 100k triangles in total (scaling series)",
-                _ => "2x2 blobs + ground, about 1M triangles in total (scaling series)",
+                1_000_000 => "2x2 blobs + ground, about 1M triangles in total (scaling series)",
+                _ => "2x2 blobs + ground, about 5M triangles in total (scaling series)",
             },
             params: vec![light_width(1.2)],
         });
     }
+    list.extend(crate::engine::infos());
     list.extend(crate::stiff::infos());
     list
 }
@@ -329,7 +332,8 @@ pub fn build(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> {
         _ if id.starts_with(crate::stiff::PREFIX) => crate::stiff::build(id, &value),
         _ => match POLYCOUNTS.iter().find(|(pid, _)| *pid == id) {
             Some(&(_, total)) => Ok(polycount(id, total, width)),
-            None => Err(SceneError::UnknownScene { spec: id.into() }),
+            None => crate::engine::build(id, &value)
+                .ok_or_else(|| SceneError::UnknownScene { spec: id.into() }),
         },
     }
 }

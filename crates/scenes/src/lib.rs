@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 pub mod builtin;
+pub mod engine;
 mod error;
 pub mod file;
 pub mod gltf_import;
@@ -20,6 +21,7 @@ pub mod limits;
 pub mod path;
 pub mod primitives;
 pub mod stiff;
+pub mod textures;
 
 use std::path::Path;
 

@@ -162,6 +162,36 @@ pub fn blob(radius: f32, triangles: u32, seed: u64) -> Mesh {
     mesh
 }
 
+/// SplitMix64: a tiny, well-mixed, dependency-free generator; every procedural scene draws from
+/// one, so the scenes are the same on every machine.
+pub(crate) struct SplitMix64(u64);
+
+impl SplitMix64 {
+    pub(crate) fn new(seed: u64) -> Self {
+        Self(seed ^ 0x9e37_79b9_7f4a_7c15)
+    }
+
+    /// A uniform number in [0, 1) with 24 random bits.
+    pub(crate) fn next_f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        (z >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A uniform point in the unit ball (rejection sampling).
+    pub(crate) fn in_unit_ball(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.next_f32(), self.next_f32(), self.next_f32()) * 2.0 - 1.0;
+            if v.length_squared() <= 1.0 {
+                return v;
+            }
+        }
+    }
+}
+
 /// A sum of a few random plane waves over the unit sphere, normalised to [-1, 1] and mapped to a
 /// radius scale in [0.85, 1.15]. Always positive, so the displaced surface stays star-shaped and
 /// cannot self-intersect.
@@ -174,16 +204,8 @@ impl Bumps {
     const AMPLITUDE: f32 = 0.15;
 
     fn new(seed: u64) -> Self {
-        let mut state = seed ^ 0x9e37_79b9_7f4a_7c15;
-        let mut next = move || {
-            // SplitMix64: a tiny, well-mixed, dependency-free generator.
-            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^= z >> 31;
-            (z >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = SplitMix64::new(seed);
+        let mut next = move || rng.next_f32();
         let waves: Vec<_> = (0..7)
             .map(|k| {
                 let axis = loop {
