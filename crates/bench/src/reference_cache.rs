@@ -342,6 +342,8 @@ mod tests {
 
     fn softshadow_scenes_free_scene() -> Scene {
         Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: "empty".into(),
             meshes: Vec::new(),
             instances: Vec::new(),

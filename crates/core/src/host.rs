@@ -84,6 +84,8 @@ impl SceneGpu {
     pub fn from_host(gpu: &Gpu, name: &str, geometry: &HostGeometry<'_>) -> Result<Self, GpuError> {
         // Light and camera are not read by the upload.
         let mut scene = Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: name.to_string(),
             meshes: Vec::new(),
             instances: Vec::new(),
@@ -149,6 +151,7 @@ fn read_host_mesh(gpu: &Gpu, host: &HostMesh<'_>, number: usize) -> Result<Mesh,
             .collect(),
     };
     let mut mesh = Mesh {
+        texcoords: Vec::new(),
         name: format!("host mesh {number}"),
         positions,
         normals: Vec::new(),

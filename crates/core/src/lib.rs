@@ -22,6 +22,7 @@ pub mod gpu;
 pub mod hierarchy;
 pub mod host;
 pub mod light;
+pub mod material;
 pub mod memory;
 pub mod params;
 pub mod pass;
@@ -50,6 +51,7 @@ pub use frame::{
 pub use gpu::Gpu;
 pub use hierarchy::{DepthHierarchy, HierarchyKind, Visibility};
 pub use light::{AreaLight, SlopeFrustum};
+pub use material::{AlphaMode, Material, Texture, TextureFilter, TextureWrap};
 pub use memory::MemoryUse;
 pub use params::{
     ParamChoice, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, TechniqueSettings,

@@ -3,9 +3,13 @@
 //! Everything is in world space with +y up. Techniques never read this directly; they read
 //! [`crate::SceneGpu`] (the uploaded form) and the light-space helpers in [`crate::light`].
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
-use crate::{camera::Camera, light::AreaLight};
+use crate::{
+    camera::Camera,
+    light::AreaLight,
+    material::{Material, Texture},
+};
 
 /// A triangle mesh in object space.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
@@ -18,6 +22,9 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Triangle list, three indices per triangle.
     pub indices: Vec<u32>,
+    /// Texcoord set 0, one per position, or empty (a mesh whose material has no texture).
+    #[serde(default)]
+    pub texcoords: Vec<Vec2>,
 }
 
 /// What [`Mesh::repair`] removed, so callers can warn with counts.
@@ -81,6 +88,11 @@ impl Mesh {
                 *p = Vec3::ZERO;
             }
         }
+        for t in &mut self.texcoords {
+            if !t.is_finite() {
+                *t = Vec2::ZERO;
+            }
+        }
         if self.normals.len() == self.positions.len()
             && self
                 .normals
@@ -128,6 +140,10 @@ pub struct Instance {
     pub receives_shadow: bool,
     /// Moves between frames. Static instances let techniques cache scene-only work (PDSM).
     pub dynamic: bool,
+    /// Index into [`Scene::materials`]; `None` draws the flat `albedo`, opaque, as before
+    /// materials existed. With a material its base colour replaces `albedo`.
+    #[serde(default)]
+    pub material: Option<usize>,
 }
 
 impl Instance {
@@ -140,6 +156,7 @@ impl Instance {
             casts_shadow: true,
             receives_shadow: true,
             dynamic: false,
+            material: None,
         }
     }
 }
@@ -157,6 +174,12 @@ pub struct Scene {
     pub light: AreaLight,
     /// The camera the scene was set up with.
     pub camera: Camera,
+    /// Materials instances refer to by index ([`Instance::material`]).
+    #[serde(default)]
+    pub materials: Vec<Material>,
+    /// Textures materials refer to by index ([`Material::base_color_texture`]).
+    #[serde(default)]
+    pub textures: Vec<Texture>,
 }
 
 /// Axis-aligned bounding box.
@@ -260,6 +283,7 @@ impl Scene {
                 ));
             }
         }
+        self.validate_materials()?;
         if !self.instances.iter().any(|i| i.receives_shadow) {
             return Err(format!(
                 "scene `{}` has no shadow receiver: mark at least one instance `receives_shadow = true`",
@@ -268,6 +292,102 @@ impl Scene {
         }
         self.light.validate()?;
         self.camera.validate()?;
+        Ok(())
+    }
+
+    /// The material of `instance`, if it has one in range.
+    pub fn material_of(&self, instance: &Instance) -> Option<&Material> {
+        instance.material.and_then(|m| self.materials.get(m))
+    }
+
+    /// The alpha cut-off `instance` is drawn with, or `None` when it is opaque (no material, or
+    /// an opaque one). A mask without texture still cuts where its factor's alpha is below it.
+    pub fn alpha_cutoff_of(&self, instance: &Instance) -> Option<f32> {
+        self.material_of(instance)
+            .and_then(|m| m.alpha_mode.effective_cutoff())
+    }
+
+    /// Some shadow caster has a masked (or blended, cast as masked) material: the light-space
+    /// passes must test alpha ([`crate::material`]). Without one every pass runs as it did
+    /// before materials existed.
+    pub fn has_masked_casters(&self) -> bool {
+        self.instances
+            .iter()
+            .any(|i| i.casts_shadow && self.alpha_cutoff_of(i).is_some())
+    }
+
+    /// Some instance has a masked material (caster or not): the G-buffer must test alpha.
+    pub fn has_masked_instances(&self) -> bool {
+        self.instances
+            .iter()
+            .any(|i| self.alpha_cutoff_of(i).is_some())
+    }
+
+    /// Some instance's material has a base colour texture: the G-buffer samples it.
+    pub fn has_textured_instances(&self) -> bool {
+        self.instances.iter().any(|i| {
+            self.material_of(i)
+                .is_some_and(|m| m.base_color_texture.is_some())
+        })
+    }
+
+    /// Checks materials, textures and texcoords: indices in range, cut-offs in [0, 1], colours
+    /// finite, texel bytes matching the size, one texcoord per position on textured meshes.
+    fn validate_materials(&self) -> Result<(), String> {
+        let name = &self.name;
+        for (k, t) in self.textures.iter().enumerate() {
+            if t.width == 0 || t.height == 0 || t.rgba8.len() != t.byte_len() {
+                return Err(format!(
+                    "scene `{name}`: texture {k} (`{}`) is {}x{} but holds {} bytes, not width*height*4: re-export the image as RGBA8",
+                    t.name, t.width, t.height, t.rgba8.len()
+                ));
+            }
+        }
+        for (k, m) in self.materials.iter().enumerate() {
+            if !m.base_color.is_finite() {
+                return Err(format!(
+                    "scene `{name}`: material {k} (`{}`) has a non-finite base_color: give four numbers in [0, 1]",
+                    m.name
+                ));
+            }
+            if let Some(cutoff) = m.alpha_mode.effective_cutoff() {
+                if !(0.0..=1.0).contains(&cutoff) {
+                    return Err(format!(
+                        "scene `{name}`: material {k} (`{}`) has alpha_cutoff {cutoff}: give a value in [0, 1] (0.5 is usual)",
+                        m.name
+                    ));
+                }
+            }
+            if let Some(t) = m.base_color_texture {
+                if t >= self.textures.len() {
+                    return Err(format!(
+                        "scene `{name}`: material {k} (`{}`) refers to texture {t} but there are only {} textures",
+                        m.name,
+                        self.textures.len()
+                    ));
+                }
+            }
+        }
+        for (k, instance) in self.instances.iter().enumerate() {
+            let Some(m) = instance.material else { continue };
+            let Some(material) = self.materials.get(m) else {
+                return Err(format!(
+                    "scene `{name}`: instance {k} refers to material {m} but there are only {} materials",
+                    self.materials.len()
+                ));
+            };
+            let mesh = &self.meshes[instance.mesh];
+            if material.base_color_texture.is_some() && mesh.texcoords.len() != mesh.positions.len()
+            {
+                return Err(format!(
+                    "scene `{name}`: mesh `{}` has {} texcoords for {} positions but its material `{}` has a texture: give one texcoord per vertex (glTF TEXCOORD_0)",
+                    mesh.name,
+                    mesh.texcoords.len(),
+                    mesh.positions.len(),
+                    material.name
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -288,6 +408,11 @@ impl Scene {
                     | (inst.receives_shadow as u64) << 1
                     | (inst.dynamic as u64) << 2,
             );
+            // Hashed only when present, so a scene without materials keeps its old hash (and
+            // its cached references).
+            if let Some(material) = self.material_of(inst) {
+                h.write_material(material, &self.textures);
+            }
         }
         h.write_u64(self.light.content_hash());
         h.write_u64(self.camera.content_hash());
@@ -303,6 +428,10 @@ impl Scene {
             h.write_mesh(&self.meshes[inst.mesh]);
             h.write_f32s(&inst.transform.to_cols_array());
             h.write_u64(inst.casts_shadow as u64 | (inst.receives_shadow as u64) << 1);
+            // A masked caster's holes are part of its shadow.
+            if let Some(material) = self.material_of(inst) {
+                h.write_material(material, &self.textures);
+            }
         }
         h.finish()
     }
@@ -345,6 +474,30 @@ impl Fnv1a {
         for i in &mesh.indices {
             self.write_u64(*i as u64);
         }
+        // Only when present, so meshes without texcoords keep their old hashes.
+        if !mesh.texcoords.is_empty() {
+            self.write_u64(mesh.texcoords.len() as u64);
+            for t in &mesh.texcoords {
+                self.write_f32s(&t.to_array());
+            }
+        }
+    }
+    /// What of `material` a shadow or an image depends on: colour, alpha mode, texture texels,
+    /// and the texcoords are hashed with the mesh ([`Fnv1a::write_mesh`]).
+    pub fn write_material(&mut self, material: &Material, textures: &[Texture]) {
+        self.write_f32s(&material.base_color.to_array());
+        let (mode, cutoff) = match material.alpha_mode {
+            crate::material::AlphaMode::Opaque => (0, 0.0),
+            crate::material::AlphaMode::Mask { cutoff } => (1, cutoff),
+            crate::material::AlphaMode::Blend => (2, 0.0),
+        };
+        self.write_u64(mode | (material.double_sided as u64) << 8);
+        self.write_f32s(&[cutoff]);
+        if let Some(t) = material.base_color_texture.and_then(|t| textures.get(t)) {
+            self.write_u64(t.width as u64 | (t.height as u64) << 32);
+            self.write_u64(t.filter as u64 | (t.wrap[0] as u64) << 8 | (t.wrap[1] as u64) << 16);
+            self.write_bytes(&t.rgba8);
+        }
     }
     /// Hashes a string (with its length, so concatenations differ).
     pub fn write_str(&mut self, s: &str) {
@@ -367,6 +520,7 @@ mod tests {
             positions,
             normals: Vec::new(),
             indices,
+            texcoords: Vec::new(),
         }
     }
 

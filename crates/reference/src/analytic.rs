@@ -854,6 +854,8 @@ mod tests {
     #[test]
     fn a_light_without_area_is_refused() {
         let scene = Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: "t".into(),
             meshes: Vec::new(),
             instances: Vec::new(),
@@ -928,6 +930,7 @@ mod tests {
     #[test]
     fn the_irradiance_under_a_parallel_occluder_equals_the_closed_form() {
         let square = softshadow_core::Mesh {
+            texcoords: Vec::new(),
             name: "square".into(),
             positions: vec![
                 Vec3::new(-0.2, 2.0, -0.2),
@@ -939,6 +942,8 @@ mod tests {
             indices: vec![0, 1, 2, 0, 2, 3],
         };
         let scene = Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: "t".into(),
             meshes: vec![square],
             instances: vec![softshadow_core::Instance::new(

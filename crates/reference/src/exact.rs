@@ -293,6 +293,7 @@ mod tests {
             .map(|p| centre + x * p.x + y * p.y + z * p.z)
             .collect();
         scene.meshes.push(softshadow_core::Mesh {
+            texcoords: Vec::new(),
             name: "quad".into(),
             positions: world,
             normals: Vec::new(),
@@ -303,6 +304,7 @@ mod tests {
             instance.casts_shadow = false;
         }
         scene.instances.push(softshadow_core::Instance {
+            material: None,
             mesh,
             transform: softshadow_core::glam::Mat4::IDENTITY,
             albedo: Vec3::ONE,

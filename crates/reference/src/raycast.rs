@@ -705,6 +705,7 @@ mod tests {
     #[test]
     fn from_scene_collects_world_space_caster_triangles() {
         let mesh = Mesh {
+            texcoords: Vec::new(),
             name: "m".into(),
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(f32::NAN, 0.0, 0.0)],
             normals: Vec::new(),
@@ -713,6 +714,8 @@ mod tests {
         };
         let shift = Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0));
         let scene = Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: "t".into(),
             meshes: vec![mesh],
             instances: vec![

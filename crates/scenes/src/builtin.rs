@@ -613,6 +613,8 @@ impl Builder {
 
     pub(crate) fn finish(self, light: AreaLight, camera: Camera) -> Scene {
         Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: self.name,
             meshes: self.meshes,
             instances: self.instances,

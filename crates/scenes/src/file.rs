@@ -338,6 +338,8 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
             .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
     });
     let mut scene = Scene {
+        materials: Vec::new(),
+        textures: Vec::new(),
         name,
         meshes: Vec::new(),
         instances: Vec::new(),

@@ -523,6 +523,7 @@ fn read_primitive(
         ));
     }
     let mut mesh = Mesh {
+        texcoords: Vec::new(),
         name: name.into(),
         positions,
         normals,

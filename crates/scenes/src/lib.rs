@@ -204,6 +204,8 @@ pub fn wrap_gltf(path: &Path, mut meshes: Vec<Mesh>, instances: &[(usize, Mat4)]
         .file_stem()
         .map_or_else(|| "gltf".into(), |s| s.to_string_lossy().into_owned());
     let mut scene = Scene {
+        materials: Vec::new(),
+        textures: Vec::new(),
         name,
         meshes: Vec::new(),
         instances: instances
@@ -341,6 +343,7 @@ mod tests {
     #[test]
     fn wrap_gltf_sizes_ground_light_and_camera_from_the_model_bounds() {
         let mesh = Mesh {
+            texcoords: Vec::new(),
             name: "model".into(),
             positions: vec![
                 Vec3::new(1.0, 2.0, 3.0),

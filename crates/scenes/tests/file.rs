@@ -222,6 +222,8 @@ fn procedural_mesh_with_bad_triangles_is_repaired_with_a_warning() {
     mesh.positions.push(Vec3::new(f32::NAN, 0.0, 0.0));
     mesh.indices.extend_from_slice(&[0, 1, n, 0, 0, 1, 0, 2, 2]);
     let scene = Scene {
+        materials: Vec::new(),
+        textures: Vec::new(),
         name: "patched-scene".into(),
         meshes: vec![mesh, Mesh::default()],
         instances: vec![Instance::new(0, glam::Mat4::IDENTITY)],

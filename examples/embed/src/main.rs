@@ -598,6 +598,8 @@ mod tests {
     /// The same scene as the host's, as a workbench `Scene`.
     fn workbench_scene() -> Scene {
         let mut scene = Scene {
+            materials: Vec::new(),
+            textures: Vec::new(),
             name: "embed".into(),
             meshes: Vec::new(),
             instances: Vec::new(),
@@ -613,6 +615,7 @@ mod tests {
         };
         for (k, mesh) in super::scene().into_iter().enumerate() {
             scene.meshes.push(Mesh {
+                texcoords: Vec::new(),
                 name: format!("mesh {k}"),
                 positions: mesh.vertices.iter().map(|v| v.position.into()).collect(),
                 normals: mesh.vertices.iter().map(|v| v.normal.into()).collect(),

@@ -160,12 +160,15 @@ fn the_ray_cast_converges_to_it_within_its_stated_error() -> Result<()> {
 /// A down-facing 1 x 1 light at height 2 over the origin and `triangles` as one caster.
 fn scene_of(triangles: &[[Vec3; 3]]) -> Scene {
     let mesh = Mesh {
+        texcoords: Vec::new(),
         name: "casters".into(),
         positions: triangles.iter().flatten().copied().collect(),
         normals: Vec::new(),
         indices: (0..3 * triangles.len() as u32).collect(),
     };
     Scene {
+        materials: Vec::new(),
+        textures: Vec::new(),
         name: "degenerate".into(),
         meshes: vec![mesh],
         instances: vec![Instance::new(0, Mat4::IDENTITY)],

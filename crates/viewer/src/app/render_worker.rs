@@ -69,6 +69,8 @@ pub(super) struct FrameRequest {
 /// The scene of a request read from a pipe until the worker sets the one it was sent.
 fn no_scene() -> Arc<Scene> {
     Arc::new(Scene {
+        materials: Vec::new(),
+        textures: Vec::new(),
         name: String::new(),
         meshes: Vec::new(),
         instances: Vec::new(),
