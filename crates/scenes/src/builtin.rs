@@ -6,9 +6,13 @@
 //! light plane.
 
 use glam::{Mat4, Quat, Vec3};
-use softshadow_core::{AreaLight, Camera, Instance, Mesh, Scene};
+use softshadow_core::{
+    AlphaMode, AreaLight, Camera, Instance, Material, Mesh, Scene, Texture, TextureFilter,
+    TextureWrap,
+};
 
 use crate::primitives;
+use crate::textures::Image;
 use crate::SceneError;
 
 /// A builtin scene as a CLI lists it.
@@ -565,6 +569,8 @@ pub(crate) struct Builder {
     name: String,
     meshes: Vec<Mesh>,
     instances: Vec<Instance>,
+    materials: Vec<Material>,
+    textures: Vec<Texture>,
 }
 
 impl Builder {
@@ -573,6 +579,8 @@ impl Builder {
             name: name.into(),
             meshes: Vec::new(),
             instances: Vec::new(),
+            materials: Vec::new(),
+            textures: Vec::new(),
         }
     }
 
@@ -611,10 +619,44 @@ impl Builder {
         });
     }
 
+    /// A procedural texture (tiling, bilinear), by index.
+    pub(crate) fn texture(&mut self, image: Image, name: &str) -> usize {
+        self.textures.push(Texture {
+            name: name.into(),
+            width: image.width,
+            height: image.height,
+            rgba8: image.rgba8,
+            wrap: [TextureWrap::Repeat; 2],
+            filter: TextureFilter::Linear,
+        });
+        self.textures.len() - 1
+    }
+
+    /// A double-sided material of colour `colour` (linear) times `texture`, its texels with alpha
+    /// below one half cut away (glTF's default cut-off), by index.
+    pub(crate) fn masked_material(&mut self, name: &str, colour: Vec3, texture: usize) -> usize {
+        self.materials.push(Material {
+            name: name.into(),
+            base_color: colour.extend(1.0),
+            base_color_texture: Some(texture),
+            alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+            double_sided: true,
+        });
+        self.materials.len() - 1
+    }
+
+    /// A caster with `material` (an alpha-tested one: leaves, a fence, a cloth), also a receiver.
+    pub(crate) fn masked_caster(&mut self, mesh: usize, transform: Mat4, material: usize) {
+        self.instances.push(Instance {
+            material: Some(material),
+            ..Instance::new(mesh, transform)
+        });
+    }
+
     pub(crate) fn finish(self, light: AreaLight, camera: Camera) -> Scene {
         Scene {
-            materials: Vec::new(),
-            textures: Vec::new(),
+            materials: self.materials,
+            textures: self.textures,
             name: self.name,
             meshes: self.meshes,
             instances: self.instances,

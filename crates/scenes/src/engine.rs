@@ -8,7 +8,7 @@
 use glam::{Mat4, Quat, Vec2, Vec3};
 use softshadow_core::{AreaLight, Mesh, Scene};
 
-use crate::builtin::{camera, down_light, light_width, Builder, BuiltinInfo, ParamInfo};
+use crate::builtin::{camera, light_width, Builder, BuiltinInfo, ParamInfo};
 use crate::primitives::{self, SplitMix64};
 use crate::textures;
 
@@ -188,7 +188,7 @@ fn fence(light_width: f32, cells: f32, wire: f32) -> Scene {
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(2.8, 1.7, 4.2), Vec3::new(-0.2, 0.7, -0.8)))
+    b.finish(light, camera(Vec3::new(3.4, 2.2, 5.4), Vec3::new(-0.3, 0.6, -0.8)))
 }
 
 /// Courtyard half-size (the column lines), gallery depth and storey height of `atrium`.
@@ -231,10 +231,15 @@ fn atrium(light_width: f32, bays: u32) -> Scene {
             b.masked_caster(cloth, Mat4::from_rotation_y(side) * hang, lace);
         }
     }
-    b.finish(
-        down_light(Vec3::new(0.4, 7.5, 0.2), light_width),
-        camera(Vec3::new(2.4, 1.6, 2.5), Vec3::new(-1.2, 1.6, -1.6)),
-    )
+    // Oblique, as the sun through Sponza's opening: the roof's rim, the arcades and the cloths
+    // shadow the courtyard floor the camera looks across.
+    let light = AreaLight::looking_at(
+        Vec3::new(2.0, 8.0, 1.2),
+        Vec3::new(-0.8, 0.0, -0.5),
+        light_width,
+        light_width,
+    );
+    b.finish(light, camera(Vec3::new(2.3, 1.7, 2.3), Vec3::new(-1.5, 1.0, -1.5)))
 }
 
 /// One side's arcade of one storey (the side facing -z... +z at z = COURT): square piers and,

@@ -7,7 +7,7 @@ use glam::Vec3;
 use softshadow_core::Scene;
 use softshadow_scenes::{builtin, builtin_scenes, load, AttySquare, SceneError};
 
-const IDS: [&str; 11] = [
+const IDS: [&str; 15] = [
     "atty-square",
     "blob-floating",
     "blob-contact",
@@ -19,6 +19,10 @@ const IDS: [&str; 11] = [
     "polycount-10k",
     "polycount-100k",
     "polycount-1m",
+    "polycount-5m",
+    "foliage",
+    "fence",
+    "atrium",
 ];
 
 /// Allowed total triangle count (instances included) per id.
@@ -34,6 +38,10 @@ fn band(id: &str) -> (usize, usize) {
         "polycount-10k" => around(1e4),
         "polycount-100k" => around(1e5),
         "polycount-1m" => around(1e6),
+        "polycount-5m" => around(5e6),
+        "foliage" => (8_000, 9_000),
+        "fence" => (100, 120),
+        "atrium" => (1_500, 3_000),
         other => panic!("no band for {other}"),
     }
 }

@@ -82,6 +82,10 @@ fn list_json_names_every_technique_and_scene() -> Result<()> {
         "polycount-10k",
         "polycount-100k",
         "polycount-1m",
+        "polycount-5m",
+        "foliage",
+        "fence",
+        "atrium",
     ] {
         ensure!(scenes.contains(&s.to_string()), "missing scene {s}");
     }
