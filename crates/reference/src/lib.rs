@@ -381,6 +381,21 @@ pub(crate) fn stratified_samples(
     })
 }
 
+/// `n x n` stratified points of the unit square `[0, 1)^2`, row by row, jittered inside their
+/// strata when `jitter_seed` is given (else the strata centres): what `AreaLight::sample`
+/// (softshadow_core) maps onto each light shape.
+pub(crate) fn stratified_unit(n: u32, jitter_seed: Option<u64>) -> impl Iterator<Item = Vec2> {
+    let mut rng = jitter_seed.map(SplitMix64);
+    (0..n * n).map(move |k| {
+        let (i, j) = (k % n, k / n);
+        let (ju, jv) = match rng.as_mut() {
+            Some(rng) => (rng.next_f32(), rng.next_f32()),
+            None => (0.5, 0.5),
+        };
+        Vec2::new((i as f32 + ju) / n as f32, (j as f32 + jv) / n as f32)
+    })
+}
+
 /// Small deterministic generator for the jitter (splitmix64).
 pub(crate) struct SplitMix64(pub(crate) u64);
 

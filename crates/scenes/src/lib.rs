@@ -243,7 +243,7 @@ pub fn wrap_gltf(path: &Path, mut meshes: Vec<Mesh>, instances: &[(usize, Mat4)]
         up: Vec3::Z,
         width: 0.3 * extent,
         height: 0.3 * extent,
-        intensity: 1.0,
+        ..AreaLight::default()
     };
     scene.camera = Camera {
         eye: center + Vec3::new(0.0, 1.2, 2.0) * extent,

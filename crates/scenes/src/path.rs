@@ -108,6 +108,28 @@ pub struct LightKey {
     pub width: f32,
     /// Extent along light space y.
     pub height: f32,
+    /// Radius of a disk, sphere or spot light (`None`: the scene's).
+    pub radius: Option<f32>,
+    /// The sun's angular diameter, degrees (`None`: the scene's).
+    pub angular_diameter_degrees: Option<f32>,
+}
+
+impl LightKey {
+    /// The light at this key: `scene_light` (its kind, cone and intensity) placed and sized here.
+    fn light(&self, scene_light: &AreaLight) -> AreaLight {
+        AreaLight {
+            center: self.center,
+            direction: self.orientation * Vec3::Z,
+            up: self.orientation * Vec3::Y,
+            width: self.width,
+            height: self.height,
+            radius: self.radius.unwrap_or(scene_light.radius),
+            angular_diameter_degrees: self
+                .angular_diameter_degrees
+                .unwrap_or(scene_light.angular_diameter_degrees),
+            ..*scene_light
+        }
+    }
 }
 
 /// Keyframes of one instance's transform.
@@ -225,13 +247,18 @@ impl Path {
             let (a, b, f) = segment(&times, t);
             let (a, b) = (self.light[a], self.light[b]);
             let orientation = a.orientation.slerp(b.orientation, f).normalize();
+            let (la, lb) = (a.light(&scene.light), b.light(&scene.light));
+            // Every kind's size interpolates (a sun's angular diameter, a disk's radius).
             AreaLight {
                 center: a.center.lerp(b.center, f),
                 direction: orientation * Vec3::Z,
                 up: orientation * Vec3::Y,
                 width: a.width + (b.width - a.width) * f,
                 height: a.height + (b.height - a.height) * f,
-                intensity: scene.light.intensity,
+                radius: la.radius + (lb.radius - la.radius) * f,
+                angular_diameter_degrees: la.angular_diameter_degrees
+                    + (lb.angular_diameter_degrees - la.angular_diameter_degrees) * f,
+                ..scene.light
             }
         };
         let transforms = self
@@ -344,14 +371,7 @@ impl Path {
         }
         self.check_times("the light", self.light.iter().map(|k| k.time).collect())?;
         for (k, key) in self.light.iter().enumerate() {
-            let light = AreaLight {
-                center: key.center,
-                direction: key.orientation * Vec3::Z,
-                up: key.orientation * Vec3::Y,
-                width: key.width,
-                height: key.height,
-                intensity: scene.light.intensity,
-            };
+            let light = key.light(&scene.light);
             if !key.orientation.is_finite() {
                 return Err(self.fail(format!(
                     "light keyframe {}: its orientation is not finite",
@@ -428,10 +448,6 @@ pub struct PathDef {
     pub object: Vec<ObjectTrackDef>,
 }
 
-fn one() -> f32 {
-    1.0
-}
-
 /// `[[camera]]` keyframe of a path.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -460,10 +476,19 @@ pub struct LightKeyDef {
     pub target: Option<[f32; 3]>,
     /// Light +y hint (default as in a scene file's `[light]`).
     pub up: Option<[f32; 3]>,
-    /// Extent along light x.
+    /// Extent along light x (a rect light; default 1).
+    #[serde(default = "one")]
     pub width: f32,
     /// Extent along light y (default `width`).
     pub height: Option<f32>,
+    /// Radius of a disk, sphere or spot light (default: the scene's).
+    pub radius: Option<f32>,
+    /// The sun's angular diameter in degrees (default: the scene's).
+    pub angular_diameter_degrees: Option<f32>,
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 /// `[[object]]` of a path: one dynamic instance's keyframes.
@@ -555,7 +580,7 @@ impl PathDef {
                 up,
                 width: key.width,
                 height: key.height.unwrap_or(key.width),
-                intensity: 1.0,
+                ..AreaLight::default()
             };
             light.push(LightKey {
                 time: key.time,
@@ -563,6 +588,8 @@ impl PathDef {
                 orientation: light_orientation(&frame),
                 width: frame.width,
                 height: frame.height,
+                radius: key.radius,
+                angular_diameter_degrees: key.angular_diameter_degrees,
             });
         }
         let objects = self
@@ -689,6 +716,8 @@ fn light_sweep_keys(scene: &Scene) -> Vec<LightKey> {
         orientation: light_orientation(l),
         width: light.width * grow.0,
         height: light.height * grow.1,
+        radius: Some(light.radius * grow.0),
+        angular_diameter_degrees: Some(light.angular_diameter_degrees * grow.0),
     };
     let d = BUILTIN_DURATION;
     vec![

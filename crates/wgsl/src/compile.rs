@@ -13,6 +13,7 @@ use crate::{
 /// `#define_import_path` / `#import` lines are dropped: concatenated, they are plain WGSL).
 const CONTRACT_MODULES: &[&str] = &[
     "common/frame_types.wgsl",
+    "common/light.wgsl",
     "common/frame.wgsl",
     "common/shadow_view.wgsl",
     "common/sampling.wgsl",
