@@ -224,6 +224,7 @@ pub fn builtin_scenes() -> Vec<BuiltinInfo> {
         });
     }
     list.extend(crate::engine::infos());
+    list.push(crate::outdoor::info());
     list.extend(crate::stiff::infos());
     list
 }
@@ -333,6 +334,7 @@ pub fn build(id: &str, params: &[(String, f64)]) -> Result<Scene, SceneError> {
         "single-silhouette" => Ok(single_silhouette(width)),
         "pdsm-cylinder" => Ok(pdsm_cylinder(width)),
         "pdsm-quads" => Ok(pdsm_quads(width)),
+        "outdoor" => Ok(crate::outdoor::build(&value)),
         _ if id.starts_with(crate::stiff::PREFIX) => crate::stiff::build(id, &value),
         _ => match POLYCOUNTS.iter().find(|(pid, _)| *pid == id) {
             Some(&(_, total)) => Ok(polycount(id, total, width)),

@@ -91,7 +91,7 @@ pub fn card(width: f32, height: f32, repeat: Vec2) -> Mesh {
 }
 
 /// Appends `part` placed by `transform` to `mesh` (positions, normals, texture coordinates).
-fn append(mesh: &mut Mesh, part: &Mesh, transform: Mat4) {
+pub(crate) fn append(mesh: &mut Mesh, part: &Mesh, transform: Mat4) {
     let base = mesh.positions.len() as u32;
     let normal_matrix = transform.inverse().transpose();
     mesh.positions
@@ -107,7 +107,7 @@ fn append(mesh: &mut Mesh, part: &Mesh, transform: Mat4) {
 
 /// The transform that places a unit-height primitive centred on the origin along y (a
 /// [`primitives::cylinder`] of height 1) as the segment from `a` to `b`.
-fn along(a: Vec3, b: Vec3) -> Mat4 {
+pub(crate) fn along(a: Vec3, b: Vec3) -> Mat4 {
     let axis = b - a;
     let rotation = Quat::from_rotation_arc(Vec3::Y, axis.normalize_or(Vec3::Y));
     Mat4::from_scale_rotation_translation(

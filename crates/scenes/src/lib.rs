@@ -18,6 +18,7 @@ mod error;
 pub mod file;
 pub mod gltf_import;
 pub mod limits;
+pub mod outdoor;
 pub mod path;
 pub mod primitives;
 pub mod stiff;
