@@ -6,7 +6,7 @@
 //! pass has to turn off back-face culling for them.
 
 use glam::{Mat4, Quat, Vec2, Vec3};
-use softshadow_core::{AreaLight, Mesh, Scene};
+use softshadow_core::{AlphaMode, AreaLight, Mesh, Scene};
 
 use crate::builtin::{camera, light_width, Builder, BuiltinInfo, ParamInfo};
 use crate::primitives::{self, SplitMix64};
@@ -23,6 +23,7 @@ pub fn infos() -> Vec<BuiltinInfo> {
                 ParamInfo::new("leaves", 2000.0, 50.0, 20000.0, "number of leaf cards"),
                 ParamInfo::new("leaf_size", 0.22, 0.02, 1.0, "side of a leaf card, world units")
                     .min_exclusive(),
+                alpha_test(),
             ],
         },
         BuiltinInfo {
@@ -32,6 +33,7 @@ pub fn infos() -> Vec<BuiltinInfo> {
                 light_width(0.8),
                 ParamInfo::new("cells", 32.0, 2.0, 256.0, "chain-link cells across the fence's 4-unit width"),
                 ParamInfo::new("wire", 0.12, 0.02, 0.8, "wire width as a fraction of a cell"),
+                alpha_test(),
             ],
         },
         BuiltinInfo {
@@ -40,20 +42,33 @@ pub fn infos() -> Vec<BuiltinInfo> {
             params: vec![
                 light_width(2.0),
                 ParamInfo::new("bays", 3.0, 2.0, 8.0, "arches per side and storey"),
+                alpha_test(),
             ],
         },
     ]
 }
 
+/// `alpha_test`: 1 cuts the masks' holes; 0 draws the same scene with every material opaque, the
+/// baseline the alpha test's cost is measured against (docs/BENCHMARKS.md).
+fn alpha_test() -> ParamInfo {
+    ParamInfo::new("alpha_test", 1.0, 0.0, 1.0, "1: the masked materials cut holes; 0: the same scene, every material opaque (the alpha test's cost baseline)")
+}
+
 /// Builds engine-like scene `id` from its parameter lookup, or `None` when `id` is not one.
 pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Option<Scene> {
     let width = value("light_width") as f32;
-    Some(match id {
+    let mut scene = match id {
         "foliage" => foliage(width, value("leaves") as u32, value("leaf_size") as f32),
         "fence" => fence(width, value("cells") as f32, value("wire") as f32),
         "atrium" => atrium(width, value("bays") as u32),
         _ => return None,
-    })
+    };
+    if value("alpha_test") < 0.5 {
+        for material in &mut scene.materials {
+            material.alpha_mode = AlphaMode::Opaque;
+        }
+    }
+    Some(scene)
 }
 
 /// A `width` x `height` card in the plane z = 0, centred on the origin, x across and y up, seen
@@ -94,8 +109,11 @@ pub fn card(width: f32, height: f32, repeat: Vec2) -> Mesh {
 pub(crate) fn append(mesh: &mut Mesh, part: &Mesh, transform: Mat4) {
     let base = mesh.positions.len() as u32;
     let normal_matrix = transform.inverse().transpose();
-    mesh.positions
-        .extend(part.positions.iter().map(|&p| transform.transform_point3(p)));
+    mesh.positions.extend(
+        part.positions
+            .iter()
+            .map(|&p| transform.transform_point3(p)),
+    );
     mesh.normals.extend(
         part.normals
             .iter()
@@ -123,14 +141,22 @@ fn foliage(light_width: f32, leaves: u32, leaf_size: f32) -> Scene {
     let mut rng = SplitMix64::new(40);
     let mut wood = Mesh::default();
     let trunk_top = Vec3::Y * 1.5;
-    append(&mut wood, &primitives::cylinder(0.1, 1.0, 12), along(Vec3::ZERO, trunk_top));
+    append(
+        &mut wood,
+        &primitives::cylinder(0.1, 1.0, 12),
+        along(Vec3::ZERO, trunk_top),
+    );
     let mut tips = Vec::new();
     for k in 0..6 {
         let azimuth = k as f32 * std::f32::consts::TAU / 6.0 + 0.4 * rng.next_f32();
         let start = Vec3::Y * (0.9 + 0.1 * k as f32);
         let out = Vec3::new(azimuth.cos(), 0.0, azimuth.sin());
         let end = start + out * 0.8 + Vec3::Y * (0.5 + 0.3 * rng.next_f32());
-        append(&mut wood, &primitives::cylinder(0.035, 1.0, 8), along(start, end));
+        append(
+            &mut wood,
+            &primitives::cylinder(0.035, 1.0, 8),
+            along(start, end),
+        );
         tips.push((start, end));
     }
     let cluster = card(leaf_size, leaf_size, Vec2::ONE);
@@ -162,7 +188,10 @@ fn foliage(light_width: f32, leaves: u32, leaf_size: f32) -> Scene {
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(0.0, 2.4, 5.4), Vec3::new(0.0, 0.9, 0.0)))
+    b.finish(
+        light,
+        camera(Vec3::new(0.0, 2.4, 5.4), Vec3::new(0.0, 0.9, 0.0)),
+    )
 }
 
 /// `fence`: a 4 x 1.6 chain-link quad (its mask repeated `cells` times across) 0.1 above the
@@ -181,14 +210,21 @@ fn fence(light_width: f32, cells: f32, wire: f32) -> Scene {
     let mesh = b.mesh(mesh, "chain-link fence");
     let texture = b.texture(textures::chain_link(64, wire), "chain link");
     let material = b.masked_material("chain link", Vec3::splat(0.6), texture);
-    b.masked_caster(mesh, Mat4::from_translation(Vec3::new(0.0, 0.9, 0.0)), material);
+    b.masked_caster(
+        mesh,
+        Mat4::from_translation(Vec3::new(0.0, 0.9, 0.0)),
+        material,
+    );
     let light = AreaLight::looking_at(
         Vec3::new(1.5, 3.5, 3.5),
         Vec3::new(0.0, 0.6, -1.0),
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(3.4, 2.2, 5.4), Vec3::new(-0.3, 0.6, -0.8)))
+    b.finish(
+        light,
+        camera(Vec3::new(3.4, 2.2, 5.4), Vec3::new(-0.3, 0.6, -0.8)),
+    )
 }
 
 /// Courtyard half-size (the column lines), gallery depth and storey height of `atrium`.
@@ -239,7 +275,10 @@ fn atrium(light_width: f32, bays: u32) -> Scene {
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(2.3, 1.7, 2.3), Vec3::new(-1.5, 1.0, -1.5)))
+    b.finish(
+        light,
+        camera(Vec3::new(2.3, 1.7, 2.3), Vec3::new(-1.5, 1.0, -1.5)),
+    )
 }
 
 /// One side's arcade of one storey (the side facing -z... +z at z = COURT): square piers and,
@@ -258,7 +297,11 @@ fn arcade(bays: u32, y: f32) -> Mesh {
     for k in 0..bays {
         let x0 = -COURT + bay * k as f32 + 0.15;
         let x1 = x0 + bay - 0.3;
-        append(&mut mesh, &arch(x0, x1, y + spring, y + STOREY), Mat4::from_translation(Vec3::Z * COURT));
+        append(
+            &mut mesh,
+            &arch(x0, x1, y + spring, y + STOREY),
+            Mat4::from_translation(Vec3::Z * COURT),
+        );
     }
     mesh
 }
@@ -285,7 +328,11 @@ fn arch(x0: f32, x1: f32, spring: f32, top: f32) -> Mesh {
                 Vec3::new(q.x, top, z),
                 Vec3::new(p.x, top, z),
             ];
-            let strip = if z > 0.0 { strip } else { [strip[1], strip[0], strip[3], strip[2]] };
+            let strip = if z > 0.0 {
+                strip
+            } else {
+                [strip[1], strip[0], strip[3], strip[2]]
+            };
             primitives::push_quad(&mut mesh, strip, normal);
         }
         let inward = (Vec2::new(centre, spring) - (p + q) * 0.5).normalize_or_zero();
@@ -336,13 +383,38 @@ mod tests {
     fn engine_scenes_are_valid_and_deterministic() {
         for info in infos() {
             let scene = defaults(info.id);
-            scene.validate().unwrap_or_else(|e| panic!("{}: {e}", info.id));
-            assert!(scene.has_masked_casters(), "{} has no masked caster", info.id);
+            scene
+                .validate()
+                .unwrap_or_else(|e| panic!("{}: {e}", info.id));
+            assert!(
+                scene.has_masked_casters(),
+                "{} has no masked caster",
+                info.id
+            );
             let again = defaults(info.id);
             assert_eq!(scene.triangle_count(), again.triangle_count());
             for (a, b) in scene.meshes.iter().zip(&again.meshes) {
                 assert_eq!(a.positions, b.positions, "{}: {}", info.id, a.name);
             }
+        }
+    }
+
+    #[test]
+    fn alpha_test_off_keeps_the_scene_and_drops_the_masks() {
+        for info in infos() {
+            let masked = defaults(info.id);
+            let value = |name: &str| {
+                let p = info.params.iter().find(|p| p.name == name).unwrap();
+                if name == "alpha_test" {
+                    0.0
+                } else {
+                    p.default
+                }
+            };
+            let opaque = build(info.id, &value).unwrap();
+            assert!(!opaque.has_masked_casters(), "{}", info.id);
+            assert_eq!(opaque.triangle_count(), masked.triangle_count());
+            assert_eq!(opaque.textures, masked.textures);
         }
     }
 
@@ -353,7 +425,11 @@ mod tests {
             let bounds = scene.bounds(|i| i.casts_shadow);
             for corner in bounds.corners() {
                 let z = scene.light.to_light_space(corner).z;
-                assert!(z > 0.0, "{}: caster corner {corner} at light z {z}", info.id);
+                assert!(
+                    z > 0.0,
+                    "{}: caster corner {corner} at light z {z}",
+                    info.id
+                );
             }
         }
     }
