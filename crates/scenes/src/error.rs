@@ -95,6 +95,15 @@ pub enum SceneError {
         message: String,
     },
 
+    /// A file could not be written ([`crate::gltf_export`]).
+    #[error("cannot write `{path}`: {message}")]
+    Write {
+        /// The file.
+        path: String,
+        /// What failed, and what to do.
+        message: String,
+    },
+
     /// A file with an extension this crate does not read.
     #[error(
         "`{path}` is not a supported scene file: give a .toml scene file or a .gltf/.glb model"

@@ -16,6 +16,7 @@ pub mod builtin;
 pub mod engine;
 mod error;
 pub mod file;
+pub mod gltf_export;
 pub mod gltf_import;
 pub mod limits;
 pub mod outdoor;
