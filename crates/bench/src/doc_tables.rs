@@ -92,6 +92,10 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("reference_vs_exact", "reference vs exact (mae_shadowed)"),
     ("all_lit_vs_exact", "no shadow vs exact (mae_shadowed)"),
     ("status", "status"),
+    ("triangles", "triangles"),
+    ("load_s", "load s"),
+    ("upload_s", "upload s"),
+    ("load_peak_mib", "load peak MiB"),
 ];
 
 fn problem(file: &Path, line: usize, message: impl std::fmt::Display) -> BenchError {
@@ -499,6 +503,19 @@ fn runs_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
     Ok(t)
 }
 
+/// A scene-load cell (`triangles`, `load_s`, `upload_s`, `load_peak_mib`) of `run`.
+fn load_cell(column: &str, run: &Run) -> String {
+    let Some(load) = run.scene_load else {
+        return "-".into();
+    };
+    match column {
+        "triangles" => load.triangles.to_string(),
+        "load_s" => format!("{:.2}", load.load_s),
+        "upload_s" => format!("{:.2}", load.upload_s),
+        _ => load.load_peak_mib.map_or("-".into(), |m| format!("{m:.0}")),
+    }
+}
+
 /// The `column` cell of `run` in a `runs` table (its cost floor from `runs`).
 fn run_cell(column: &str, run: &Run, runs: &[Run]) -> String {
     match column {
@@ -507,6 +524,7 @@ fn run_cell(column: &str, run: &Run, runs: &[Run]) -> String {
         "params" => params_text(run),
         "size" => format!("{}x{}", run.width, run.height),
         "frame_ms" => frame_time_ms(run).map_or("-".into(), ms),
+        "triangles" | "load_s" | "upload_s" | "load_peak_mib" => load_cell(column, run),
         "cold_frame_ms" => cold_frame_ms(run).map_or("-".into(), ms),
         "camera_only_ms" => run
             .timing_camera_only

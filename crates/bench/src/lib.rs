@@ -290,6 +290,16 @@ struct LoadedScene {
     warnings: Vec<String>,
     /// Paths its scene file declares.
     paths: Vec<softshadow_scenes::path::Path>,
+    /// What loading it cost (every run on it reports this).
+    load: results::SceneLoad,
+}
+
+/// A `/proc/self/status` memory line (`VmRSS`, `VmHWM`) in MiB; `None` off Linux.
+fn resident_mib(field: &str) -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with(field))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
 }
 
 struct ReferenceResult {
@@ -454,8 +464,19 @@ impl Bench {
     /// Loads `spec`'s scene (once per benchmark) and makes a renderer of its size (once per size).
     fn load_scene_and_renderer(&mut self, spec: &RunSpec) -> Result<(), BenchError> {
         if !self.scenes.contains_key(&spec.scene) {
+            let resident_before = resident_mib("VmRSS");
+            let start = std::time::Instant::now();
             let loaded = softshadow_scenes::load(&spec.scene)?;
+            let load_s = start.elapsed().as_secs_f64();
+            let load_peak_mib = resident_mib("VmHWM").zip(resident_before).map(|(p, b)| p - b);
+            let start = std::time::Instant::now();
             let gpu_scene = SceneGpu::upload(&self.gpu, &loaded.scene);
+            let load = results::SceneLoad {
+                triangles: loaded.scene.triangle_count(),
+                load_s,
+                upload_s: start.elapsed().as_secs_f64(),
+                load_peak_mib,
+            };
             self.scenes.insert(
                 spec.scene.clone(),
                 LoadedScene {
@@ -463,6 +484,7 @@ impl Bench {
                     gpu: gpu_scene,
                     warnings: loaded.warnings,
                     paths: loaded.paths,
+                    load,
                 },
             );
         }
@@ -490,6 +512,7 @@ impl Bench {
         self.faults.in_the_middle(index, &self.gpu);
         let scene = &self.scenes[&spec.scene];
         run.warnings = scene.warnings.clone();
+        run.scene_load = Some(scene.load);
         let renderer = self
             .renderers
             .get_mut(&(spec.width, spec.height))

@@ -236,6 +236,25 @@ pub struct Run {
     /// An isolated run's process: wall time, time limit, and the signal that ended it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub process: Option<ProcessRecord>,
+    /// Loading the run's scene (file or procedure, repair, validation) and uploading it, in
+    /// the process that made the run (docs/BENCHMARKS.md, "Loading").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_load: Option<SceneLoad>,
+}
+
+/// What loading a run's scene cost.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneLoad {
+    /// Triangles over every instance.
+    pub triangles: usize,
+    /// Wall time of `softshadow_scenes::load`: reading, parsing, repairing and validating.
+    pub load_s: f64,
+    /// Wall time of uploading it (`SceneGpu::upload`, acceleration structures not included).
+    pub upload_s: f64,
+    /// The process's peak resident memory after loading, less its resident memory before
+    /// (`VmHWM` and `VmRSS`, Linux only): what the load itself took at its peak, in MiB.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_peak_mib: Option<f64>,
 }
 
 impl Run {
@@ -266,6 +285,7 @@ impl Run {
             memory: None,
             settled: None,
             process: None,
+            scene_load: None,
         }
     }
 

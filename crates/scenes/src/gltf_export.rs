@@ -69,6 +69,35 @@ impl Binary {
     }
 }
 
+/// Builtin scene `spec` (`id` or `id:key=value,...`) written as
+/// `<temp>/softshadow-glb/<spec>.glb`, unless that file is already there; returns its path. The
+/// scenes are deterministic, so a file once written is reused (delete the folder to rewrite).
+pub fn builtin_as_glb(spec: &str) -> Result<std::path::PathBuf, SceneError> {
+    let folder = std::env::temp_dir().join("softshadow-glb");
+    let stem: String = spec
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let path = folder.join(format!("{stem}.glb"));
+    if path.is_file() {
+        return Ok(path);
+    }
+    let (id, params) = crate::builtin::parse_spec(spec)?;
+    let scene = crate::builtin::build(&id, &params)?;
+    std::fs::create_dir_all(&folder).map_err(|e| write_error(&folder, &e.to_string()))?;
+    // Written to a temporary name and renamed, so a killed run leaves no half file to reuse.
+    let partial = path.with_extension("glb.partial");
+    write_glb(&scene, &partial)?;
+    std::fs::rename(&partial, &path).map_err(|e| write_error(&path, &e.to_string()))?;
+    Ok(path)
+}
+
 /// Writes `scene` to `path` as a `.glb`.
 pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     let mut binary = Binary::default();

@@ -46,10 +46,20 @@ pub struct Loaded {
     pub paths: Vec<path::Path>,
 }
 
-/// Loads a scene from a builtin id (`id` or `id:key=value,...`), a `.toml` scene file or a
-/// `.gltf` / `.glb` model.
+/// A scene spec `glb:SPEC` is builtin scene `SPEC` written as a `.glb`
+/// ([`gltf_export::builtin_as_glb`]) and read back through the glTF loader: how the load
+/// benchmark times real glTF files of millions of triangles without committing them.
+pub const GLB_PREFIX: &str = "glb:";
+
+/// Loads a scene from a builtin id (`id` or `id:key=value,...`), a `.toml` scene file, a
+/// `.gltf` / `.glb` model or `glb:` and a builtin id ([`GLB_PREFIX`]).
 pub fn load(spec: &str) -> Result<Loaded, SceneError> {
     let spec = spec.trim();
+    if let Some(builtin_spec) = spec.strip_prefix(GLB_PREFIX) {
+        let path = gltf_export::builtin_as_glb(builtin_spec)?;
+        let geometry = load_gltf(&path)?;
+        return load_gltf_geometry(&path, geometry);
+    }
     let path = Path::new(spec);
     let extension = path
         .extension()

@@ -30,7 +30,11 @@ fn exported_scenes_load_back_with_the_same_triangles() {
         assert_eq!(back.triangle_count(), scene.triangle_count() + 2, "{id}");
         let (a, b) = (world_corners(&scene), world_corners(&back));
         assert_eq!(b.len(), a.len() + 6, "{id}");
-        let worst = a.iter().zip(&b).map(|(p, q)| p.distance(*q)).fold(0.0, f32::max);
+        let worst = a
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| p.distance(*q))
+            .fold(0.0, f32::max);
         assert!(worst < 1e-4, "{id}: corners moved by up to {worst}");
     }
 }
@@ -42,4 +46,13 @@ fn an_unwritable_path_is_one_line_naming_it() {
     let message = write_glb(&scene, path).unwrap_err().to_string();
     assert!(message.contains("/nonexistent-folder/x.glb"), "{message}");
     assert!(!message.contains('\n'), "{message}");
+}
+
+#[test]
+fn a_glb_spec_loads_the_builtin_through_the_gltf_loader() {
+    let direct = builtin("polycount-1k", &[]).unwrap();
+    let loaded = load("glb:polycount-1k").unwrap().scene;
+    assert_eq!(loaded.triangle_count(), direct.triangle_count() + 2);
+    let message = load("glb:no-such-scene").unwrap_err().to_string();
+    assert!(message.contains("no-such-scene"), "{message}");
 }
