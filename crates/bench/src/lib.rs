@@ -468,7 +468,9 @@ impl Bench {
             let start = std::time::Instant::now();
             let loaded = softshadow_scenes::load(&spec.scene)?;
             let load_s = start.elapsed().as_secs_f64();
-            let load_peak_mib = resident_mib("VmHWM").zip(resident_before).map(|(p, b)| p - b);
+            let load_peak_mib = resident_mib("VmHWM")
+                .zip(resident_before)
+                .map(|(p, b)| p - b);
             let start = std::time::Instant::now();
             let gpu_scene = SceneGpu::upload(&self.gpu, &loaded.scene);
             let load = results::SceneLoad {

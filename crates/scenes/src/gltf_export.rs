@@ -107,7 +107,11 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         .iter()
         .map(|i| json!({ "mesh": mesh_index(scene, i), "matrix": i.transform.to_cols_array() }))
         .collect();
-    let (images, textures, samplers) = scene_textures(scene, &mut binary, path)?;
+    let TextureArrays {
+        images,
+        textures,
+        samplers,
+    } = scene_textures(scene, &mut binary, path)?;
     let materials: Vec<Value> = scene.materials.iter().map(material_json).collect();
     let mut root = json!({
         "asset": { "version": "2.0", "generator": "softshadow-scenes gltf_export" },
@@ -206,13 +210,25 @@ fn material_json(material: &softshadow_core::Material) -> Value {
     value
 }
 
+/// The glTF arrays `images`, `textures` and `samplers`.
+#[derive(Default)]
+struct TextureArrays {
+    images: Vec<Value>,
+    textures: Vec<Value>,
+    samplers: Vec<Value>,
+}
+
 /// Images (PNG in the binary chunk), textures and one sampler per texture.
 fn scene_textures(
     scene: &Scene,
     binary: &mut Binary,
     path: &Path,
-) -> Result<(Vec<Value>, Vec<Value>, Vec<Value>), SceneError> {
-    let (mut images, mut textures, mut samplers) = (Vec::new(), Vec::new(), Vec::new());
+) -> Result<TextureArrays, SceneError> {
+    let TextureArrays {
+        mut images,
+        mut textures,
+        mut samplers,
+    } = TextureArrays::default();
     for (k, texture) in scene.textures.iter().enumerate() {
         let png = encode_png(texture).map_err(|e| write_error(path, &e))?;
         let view = binary.view(&png, None);
@@ -220,7 +236,11 @@ fn scene_textures(
         textures.push(json!({ "source": k, "sampler": k }));
         samplers.push(sampler_json(texture));
     }
-    Ok((images, textures, samplers))
+    Ok(TextureArrays {
+        images,
+        textures,
+        samplers,
+    })
 }
 
 fn sampler_json(texture: &Texture) -> Value {
