@@ -15,8 +15,7 @@
 
 use softshadow_core::{
     gather::{
-        AdaptiveTargets, GatherBindings, GatherCounters, GatherCounts, GatherExtras, GatherPass,
-        GatherSettings, GatherUniform,
+        GatherBindings, GatherBuffers, GatherExtras, GatherPass, GatherSettings, GatherUniform,
     },
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
@@ -24,7 +23,6 @@ use softshadow_core::{
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
-    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -88,9 +86,7 @@ pub struct Backprojection {
     shadow_map: CentreShadowMap,
     hierarchy: DepthHierarchy,
     gather: GatherPass,
-    params_buffer: wgpu::Buffer,
-    counters: GatherCounters<GatherCounts>,
-    adaptive: AdaptiveTargets,
+    buffers: GatherBuffers,
     debug: Option<DebugTargets>,
     /// Stats known when recording; the GPU counters are added by `stats()`.
     stats: TechniqueStats,
@@ -117,9 +113,7 @@ impl Backprojection {
                 1,
                 Slot::StorageTexture(wgpu::TextureFormat::Rgba8Unorm),
             )?,
-            params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "backprojection/params"),
-            counters: GatherCounters::new(gpu, "backprojection/counters"),
-            adaptive: AdaptiveTargets::new(gpu, "backprojection"),
+            buffers: GatherBuffers::new(gpu, "backprojection"),
             debug: None,
             stats: TechniqueStats::new(),
             gathered: false,
@@ -215,15 +209,13 @@ impl Backprojection {
         let bindings = GatherBindings {
             frame_group: inputs.frame_bind_group,
             view: &self.shadow_map.view_buffer,
-            params: &self.params_buffer,
             visibility: &out.view,
             level: &debug.level_view,
-            counters: self.counters.buffer(),
             own: &debug.classification_view,
             layers: vec![(hsm, self.hierarchy.mssm_view())],
         };
         let size = (inputs.width, inputs.height);
-        Ok((self.gather).run(frame, &self.adaptive, &bindings, size)?)
+        Ok((self.gather).run(frame, &self.buffers, &bindings, size)?)
     }
 }
 
@@ -264,14 +256,9 @@ impl ShadowTechnique for Backprojection {
         let (levels, search) = self.build_hierarchy(frame, inputs, &frustum, map_size);
         let extras = gather_extras(&self.settings);
         let uniform = GatherUniform::new(&self.settings.gather, levels, &extras);
-        gpu.queue
-            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
-        self.counters.clear(gpu);
-        let factor = self.settings.gather.adaptive_factor();
-        (self.adaptive).prepare(gpu, inputs.width, inputs.height, factor);
+        (self.buffers).prepare(gpu, &uniform, inputs.width, inputs.height);
         self.ensure_debug_targets(inputs.width, inputs.height);
         self.gather(frame, inputs, out)?;
-        self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
@@ -295,7 +282,7 @@ impl ShadowTechnique for Backprojection {
         if !self.gathered {
             return stats;
         }
-        if let Some(c) = self.counters.read(&self.gpu) {
+        if let Some(c) = self.buffers.counts(&self.gpu) {
             c.insert_stats(&mut stats);
         }
         if self.hierarchy_built {

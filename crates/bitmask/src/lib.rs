@@ -18,8 +18,7 @@
 
 use softshadow_core::{
     gather::{
-        AdaptiveTargets, GatherBindings, GatherCounters, GatherCounts, GatherExtras, GatherPass,
-        GatherSettings, GatherUniform,
+        GatherBindings, GatherBuffers, GatherExtras, GatherPass, GatherSettings, GatherUniform,
     },
     gbuffer::create_texture,
     hierarchy::{
@@ -30,7 +29,6 @@ use softshadow_core::{
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{create_depth_maps, CentreShadowMap},
-    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -209,9 +207,7 @@ pub struct Bitmask {
     /// The gather pass per entry of `MASK_WORD_COUNTS`, compiled when first used.
     gather_passes: [Option<GatherPass>; 3],
     filter: ComputePass,
-    params_buffer: wgpu::Buffer,
-    counters: GatherCounters<GatherCounts>,
-    adaptive: AdaptiveTargets,
+    buffers: GatherBuffers,
     targets: Option<ScreenTargets>,
     kept: Option<LightSpaceKey>,
     /// Stats known when recording; the GPU counters are added by `stats()`.
@@ -241,9 +237,7 @@ impl Bitmask {
             hierarchies: Vec::new(),
             gather_passes: [None, None, None],
             filter,
-            params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "bitmask/params"),
-            counters: GatherCounters::new(gpu, "bitmask/counters"),
-            adaptive: AdaptiveTargets::new(gpu, "bitmask"),
+            buffers: GatherBuffers::new(gpu, "bitmask"),
             targets: None,
             kept: None,
             stats: TechniqueStats::new(),
@@ -361,8 +355,6 @@ struct Plan {
     filter_passes: u32,
     map_size: u32,
     pattern: PatternLayout,
-    /// The adaptive resolution's factor (1: off).
-    adaptive: u32,
 }
 
 impl Plan {
@@ -379,7 +371,6 @@ impl Plan {
             filter_passes: s.filter_passes.min(8),
             map_size: (g.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d),
             pattern: s.pattern.layout(),
-            adaptive: g.adaptive_factor(),
         }
     }
 }
@@ -455,7 +446,6 @@ impl Bitmask {
         let bindings = GatherBindings {
             frame_group: inputs.frame_bind_group,
             view: &self.shadow_map.view_buffer,
-            params: &self.params_buffer,
             // Without filtering the bitmask result is the output; with it, B has its own image.
             visibility: if plan.filter_passes > 0 {
                 &targets.bitmask.1
@@ -463,7 +453,6 @@ impl Bitmask {
                 &out.view
             },
             level: &targets.level.1,
-            counters: self.counters.buffer(),
             own: &targets.area.1,
             layers: (0..MAX_LAYERS as usize)
                 .map(|k| (hsm(k), layer(k).mssm_view()))
@@ -471,7 +460,7 @@ impl Bitmask {
         };
         let pass = self.gather_passes[index].as_mut().expect("compiled above");
         let size = (inputs.width, inputs.height);
-        Ok(pass.run(frame, &self.adaptive, &bindings, size)?)
+        Ok(pass.run(frame, &self.buffers, &bindings, size)?)
     }
 
     /// The post filter (paper section 3.1): B -> ping -> pong -> ... -> out.
@@ -548,14 +537,10 @@ impl ShadowTechnique for Bitmask {
             });
         }
         let uniform = gather_uniform(&self.settings, &plan, key.levels, built_layers);
-        gpu.queue
-            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
-        self.counters.clear(gpu);
-        (self.adaptive).prepare(gpu, inputs.width, inputs.height, plan.adaptive);
+        (self.buffers).prepare(gpu, &uniform, inputs.width, inputs.height);
         self.ensure_targets(inputs.width, inputs.height);
         self.gather(frame, inputs, out, &plan, built_layers)?;
         self.filter(frame, inputs, out, plan.filter_passes);
-        self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), built_layers as f64),
@@ -583,7 +568,7 @@ impl ShadowTechnique for Bitmask {
         if !self.gathered {
             return stats;
         }
-        if let Some(c) = self.counters.read(&self.gpu) {
+        if let Some(c) = self.buffers.counts(&self.gpu) {
             c.insert_stats(&mut stats);
             let backprojected = c.backprojected.max(1) as f64;
             let set_bits = c.set_bits() as f64;

@@ -263,7 +263,10 @@ impl GatherCounts {
         );
         insert("lit_pixel_fraction", self.lit as f64 / receivers);
         insert("umbra_pixel_fraction", self.umbra as f64 / receivers);
-        insert("upsampled_pixel_fraction", self.upsampled as f64 / receivers);
+        insert(
+            "upsampled_pixel_fraction",
+            self.upsampled as f64 / receivers,
+        );
         insert("mean_primitives_per_pixel", primitives / receivers);
         insert(
             "mean_primitives_per_backprojected_pixel",
@@ -462,21 +465,53 @@ impl AdaptiveTargets {
     }
 }
 
-/// What the gather pass binds in one frame (`softshadow::gather_pass`), beside the adaptive
-/// targets.
+/// What a technique's gather passes share from frame to frame: the uniform's buffer, the
+/// counters and the coarse image of adaptive resolution.
+pub struct GatherBuffers {
+    params: wgpu::Buffer,
+    counters: GatherCounters<GatherCounts>,
+    adaptive: AdaptiveTargets,
+}
+
+impl GatherBuffers {
+    /// The buffers, labelled `<label>/params`, `<label>/counters` and under `label`.
+    pub fn new(gpu: &Gpu, label: &str) -> Self {
+        Self {
+            params: crate::uniform::zeroed_uniform_buffer::<GatherUniform>(
+                gpu,
+                &format!("{label}/params"),
+            ),
+            counters: GatherCounters::new(gpu, &format!("{label}/counters")),
+            adaptive: AdaptiveTargets::new(gpu, label),
+        }
+    }
+
+    /// Before the frame's gather: writes its uniform, clears the counters and sizes the coarse
+    /// image for a `width` x `height` image at the uniform's adaptive factor.
+    pub fn prepare(&mut self, gpu: &Gpu, uniform: &GatherUniform, width: u32, height: u32) {
+        let bytes = crate::uniform::uniform_bytes(uniform);
+        gpu.queue.write_buffer(&self.params, 0, &bytes);
+        self.counters.clear(gpu);
+        (self.adaptive).prepare(gpu, width, height, uniform.adaptive_factor);
+    }
+
+    /// The counts of the last gather (waits for the GPU); `None` if the read failed.
+    pub fn counts(&self, gpu: &Gpu) -> Option<GatherCounts> {
+        self.counters.read(gpu)
+    }
+}
+
+/// What the gather pass binds in one frame (`softshadow::gather_pass`), beside
+/// [`GatherBuffers`].
 pub struct GatherBindings<'a> {
     /// The core frame group (group 0).
     pub frame_group: &'a wgpu::BindGroup,
     /// The centre map's `ShadowView`.
     pub view: &'a wgpu::Buffer,
-    /// The [`GatherUniform`].
-    pub params: &'a wgpu::Buffer,
     /// Where V goes.
     pub visibility: &'a wgpu::TextureView,
     /// The gather level per pixel (`R32Float`).
     pub level: &'a wgpu::TextureView,
-    /// The [`GatherCounts`] buffer.
-    pub counters: &'a wgpu::Buffer,
     /// The technique's own image (binding 7, the slot given to [`GatherPass::new`]).
     pub own: &'a wgpu::TextureView,
     /// Each bound layer's (HSM, MSSM), as many as the pass's layers.
@@ -551,17 +586,17 @@ impl GatherPass {
         pass.compute(entry)
     }
 
-    /// Runs the gather into a `width` x `height` image: first, when `adaptive` holds a coarse
-    /// image this frame ([`AdaptiveTargets::prepare`]), the coarse pass writing it, then the
-    /// full-resolution pass reading it.
+    /// Runs the gather into a `width` x `height` image: first, when `buffers` hold a coarse
+    /// image this frame ([`GatherBuffers::prepare`]), the coarse pass writing it, then the
+    /// full-resolution pass reading it; then the counters' copy for [`GatherBuffers::counts`].
     pub fn run(
         &mut self,
         frame: &mut Frame<'_>,
-        adaptive: &AdaptiveTargets,
+        buffers: &GatherBuffers,
         bindings: &GatherBindings<'_>,
         (width, height): (u32, u32),
     ) -> Result<(), GpuError> {
-        if let Some(((w, h), _)) = adaptive.coarse {
+        if let Some(((w, h), _)) = buffers.adaptive.coarse {
             if self.coarse.is_none() {
                 let label = format!("{}_coarse", self.label);
                 let coarse = Self::declare(
@@ -576,29 +611,31 @@ impl GatherPass {
                 self.coarse = Some(coarse);
             }
             let coarse = self.coarse.as_ref().expect("compiled above");
-            Self::dispatch(frame, coarse, adaptive, AdaptivePass::Coarse, bindings, (w, h));
+            let which = AdaptivePass::Coarse;
+            Self::dispatch(frame, coarse, buffers, which, bindings, (w, h));
         }
         let full = AdaptivePass::Full;
-        Self::dispatch(frame, &self.full, adaptive, full, bindings, (width, height));
+        Self::dispatch(frame, &self.full, buffers, full, bindings, (width, height));
+        buffers.counters.copy_out(frame);
         Ok(())
     }
 
     fn dispatch(
         frame: &mut Frame<'_>,
         pass: &ComputePass,
-        adaptive: &AdaptiveTargets,
+        buffers: &GatherBuffers,
         which: AdaptivePass,
         b: &GatherBindings<'_>,
         (w, h): (u32, u32),
     ) {
-        let (coarse_read, coarse_write) = adaptive.views(which);
+        let (coarse_read, coarse_write) = buffers.adaptive.views(which);
         let mut run = (pass.run(frame))
             .frame_group(b.frame_group)
             .read(b.view)
-            .read(b.params)
+            .read(&buffers.params)
             .write(b.visibility)
             .write(b.level)
-            .write(b.counters)
+            .write(buffers.counters.buffer())
             .read(coarse_read)
             .write(coarse_write)
             .write(b.own);
