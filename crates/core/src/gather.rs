@@ -651,3 +651,43 @@ const FLOAT_ARRAY: Slot = Slot::Texture {
     sample: wgpu::TextureSampleType::Float { filterable: false },
     dimension: wgpu::TextureViewDimension::D2Array,
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_uniform_takes_the_full_search_count_only_without_a_hierarchy() {
+        let extras = GatherExtras {
+            full_search: 99,
+            ..Default::default()
+        };
+        let mssm = GatherSettings::default();
+        let uniform = GatherUniform::new(&mssm, 5, &extras);
+        assert_eq!((uniform.max_patches, uniform.per_axis), (16, 16));
+        let none = GatherSettings {
+            hierarchy: HierarchyKind::None,
+            ..Default::default()
+        };
+        let uniform = GatherUniform::new(&none, 5, &extras);
+        assert_eq!((uniform.max_patches, uniform.per_axis), (16, 99));
+        assert_eq!(uniform.max_level, 5);
+    }
+
+    #[test]
+    fn the_uniform_range_checks_what_a_library_user_may_set() {
+        let wild = GatherSettings {
+            max_patches: 1000,
+            bias_texels: f32::NAN,
+            adaptive_pixels: f32::INFINITY,
+            depth_bands: 0,
+            edge_refine: 9,
+            ..Default::default()
+        };
+        let u = GatherUniform::new(&wild, 0, &GatherExtras::default());
+        assert_eq!((u.max_patches, u.per_axis), (32, 32));
+        assert_eq!((u.bias_texels, u.adaptive_pixels), (1.5, 8.0));
+        assert_eq!((u.depth_bands, u.edge_refine), (1, 3));
+        assert_eq!(GatherExtras::default().full_search, 240);
+    }
+}
