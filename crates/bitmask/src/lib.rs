@@ -88,7 +88,8 @@ softshadow_core::param_choice! {
     }
 }
 
-/// How a pattern's samples are laid out in the mask (`GatherParams` in `gather.wgsl`).
+/// How a pattern's samples are laid out in the mask (`rows`, `columns`, `jittered` of core's
+/// `GatherUniform`, read by `gather.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PatternLayout {
     /// Rows of samples across the light's height.
