@@ -13,16 +13,16 @@
 
 #![warn(missing_docs)]
 
-use encase::ShaderType;
 use softshadow_core::{
-    gather::{AdaptivePass, AdaptiveTargets, GatherCounters, GatherSettings},
+    gather::{
+        GatherBindings, GatherBuffers, GatherExtras, GatherPass, GatherSettings, GatherUniform,
+    },
     gbuffer::create_texture,
     hierarchy::{max_search_texels, needed_levels, DepthHierarchy, HierarchyKind, Visibility},
-    pass::{ComputePass, Pass, Slot},
-    shader::ShaderSpec,
+    pass::Slot,
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
-    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -33,16 +33,17 @@ pub use info::info;
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "backprojection";
 
-/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
+/// The technique's WGSL entry files and their permutations (validated by the workspace's naga test):
+/// its gather over the shared gather pass with one layer of hierarchy (`GATHER_LAYERS`).
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "backprojection/gather.wgsl",
     source: shader_file!("backprojection/gather.wgsl").1,
-    permutations: &[&[]],
+    permutations: &[&[("GATHER_LAYERS", DefValue::UInt(1))]],
 }];
 
 /// Micro-patches per axis a full search (`hierarchy = none`) gathers before it must use coarser
 /// blocks: [`softshadow_core::hierarchy::full_search_patches`] of one pass (docs/DEVICES.md,
-/// "Lavapipe's loop budget"; `FULL_SEARCH_PATCHES` in `gather.wgsl`, the same number).
+/// "Lavapipe's loop budget").
 pub const FULL_SEARCH_PATCHES: u32 = 240;
 
 /// How a shadow-map texel becomes an occluder (shared with `bitmask`).
@@ -61,50 +62,11 @@ softshadow_core::technique_settings! {
     }
 }
 
-#[derive(ShaderType)]
-struct GatherUniform {
-    hierarchy: u32,
-    primitive: u32,
-    gap_filling: u32,
-    max_patches: u32,
-    bias_texels: f32,
-    max_level: i32,
-    visibility: u32,
-    depth_bands: u32,
-    edge_refine: u32,
-    adaptive_factor: u32,
-    adaptive_pixels: f32,
-}
-
-/// This crate's uniform structs, and the counters it reads back, with the WGSL structs they
-/// fill, for the layout test in tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+/// This crate's uniform structs with the WGSL structs they fill, for the layout test in
+/// tests/shaders.rs: none of its own (the gather's uniform and counters are core's).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
-    vec![
-        softshadow_core::uniform_mirror!(
-            GatherUniform {
-                hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, visibility,
-                depth_bands, edge_refine, adaptive_factor, adaptive_pixels
-            } => "backprojection/gather.wgsl", GatherParams
-        ),
-        softshadow_core::uniform_mirror!(
-            Counters {
-                receivers, lit, umbra, backprojected, primitives_lo, primitives_hi, upsampled
-            } => "backprojection/gather.wgsl", Counters
-        ),
-    ]
-}
-
-/// What the gather adds up per frame (`atomic<u32>`s in WGSL).
-#[derive(Clone, Copy, Debug, Default, ShaderType)]
-struct Counters {
-    receivers: u32,
-    lit: u32,
-    umbra: u32,
-    backprojected: u32,
-    primitives_lo: u32,
-    primitives_hi: u32,
-    upsampled: u32,
+    Vec::new()
 }
 
 /// Per-pixel debug images, reallocated with the screen size.
@@ -123,13 +85,8 @@ pub struct Backprojection {
     gpu: Gpu,
     shadow_map: CentreShadowMap,
     hierarchy: DepthHierarchy,
-    gather: ComputePass,
-    /// The coarse pass of adaptive screen resolution (entry `gather_coarse`), compiled when first
-    /// used (llvmpipe compiles a pipeline when it is created: not for every technique made).
-    coarse: Option<ComputePass>,
-    params_buffer: wgpu::Buffer,
-    counters: GatherCounters<Counters>,
-    adaptive: AdaptiveTargets,
+    gather: GatherPass,
+    buffers: GatherBuffers,
     debug: Option<DebugTargets>,
     /// Stats known when recording; the GPU counters are added by `stats()`.
     stats: TechniqueStats,
@@ -147,11 +104,16 @@ impl Backprojection {
             gpu: gpu.clone(),
             shadow_map: CentreShadowMap::new(gpu)?,
             hierarchy: DepthHierarchy::new(gpu)?,
-            gather: gather_pass(gpu, "gather")?,
-            coarse: None,
-            params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "backprojection/params"),
-            counters: GatherCounters::new(gpu, "backprojection/counters"),
-            adaptive: AdaptiveTargets::new(gpu, "backprojection"),
+            // The gather pass with one layer; its own image is the classification.
+            gather: GatherPass::new(
+                gpu,
+                "backprojection/gather",
+                &SHADERS[0],
+                &[],
+                1,
+                Slot::StorageTexture(wgpu::TextureFormat::Rgba8Unorm),
+            )?,
+            buffers: GatherBuffers::new(gpu, "backprojection"),
             debug: None,
             stats: TechniqueStats::new(),
             gathered: false,
@@ -192,49 +154,12 @@ impl Backprojection {
     }
 }
 
-/// The pass of `gather.wgsl`'s entry `entry`: the map's `ShadowView`, the HSM, the MSSM,
-/// `GatherParams`, the visibility, the classification and level images, the counters, the coarse
-/// adaptive result read and written.
-fn gather_pass(gpu: &Gpu, entry: &str) -> Result<ComputePass, TechniqueError> {
-    let label = if entry == "gather" {
-        "backprojection/gather"
-    } else {
-        "backprojection/gather_coarse"
-    };
-    let r32 = wgpu::TextureFormat::R32Float;
-    Ok(Pass::new(gpu, label, &SHADERS[0])
-        .after_frame_group()
-        .uniform()
-        .texture(Slot::FLOAT)
-        .texture(Slot::Texture {
-            sample: wgpu::TextureSampleType::Float { filterable: false },
-            dimension: wgpu::TextureViewDimension::D2Array,
-        })
-        .uniform()
-        .storage_texture(r32)
-        .storage_texture(wgpu::TextureFormat::Rgba8Unorm)
-        .storage_texture(r32)
-        .storage_rw()
-        .slot(AdaptiveTargets::SLOTS[0])
-        .slot(AdaptiveTargets::SLOTS[1])
-        .compute(entry)?)
-}
-
-/// The gather's uniform for `levels` hierarchy levels.
-fn gather_uniform(s: &BackprojectionSettings, levels: u32) -> GatherUniform {
-    let g = &s.gather;
-    GatherUniform {
-        hierarchy: g.hierarchy.shader_value(),
-        primitive: g.primitive.shader_value(),
-        gap_filling: u32::from(g.gap_filling),
-        max_patches: g.max_patches.clamp(4, 32),
-        bias_texels: g.bias_texels.max(0.0),
-        max_level: levels as i32,
-        visibility: s.visibility.shader_value(),
-        depth_bands: g.depth_bands.clamp(1, 8),
-        edge_refine: g.edge_refine.min(3),
-        adaptive_factor: g.adaptive_factor(),
-        adaptive_pixels: g.adaptive_pixels_value(),
+/// The gather's extras: the one layer, the full search's count and the visibility.
+fn gather_extras(s: &BackprojectionSettings) -> GatherExtras {
+    GatherExtras {
+        full_search: FULL_SEARCH_PATCHES,
+        visibility: s.visibility,
+        ..Default::default()
     }
 }
 
@@ -253,10 +178,9 @@ impl Backprojection {
         let extent = frustum.s_max - frustum.s_min;
         let half = inputs.light.half_extent();
         let search = max_search_texels(half, frustum.near, extent, map_size);
-        let levels = match s.hierarchy {
-            HierarchyKind::None => needed_levels(map_size, search, FULL_SEARCH_PATCHES, false),
-            _ => needed_levels(map_size, search, s.max_patches.clamp(4, 32), true),
-        };
+        let per_axis = s.per_axis(FULL_SEARCH_PATCHES);
+        let refine = s.hierarchy != HierarchyKind::None;
+        let levels = needed_levels(map_size, search, per_axis, refine);
         self.hierarchy_built = self.shadow_map.rebuilt();
         if self.hierarchy_built {
             let depth = self.shadow_map.map_view().expect("rendered above");
@@ -275,35 +199,23 @@ impl Backprojection {
 
     /// The gather (and first its coarse pass with adaptive resolution) into `out`.
     fn gather(
-        &self,
+        &mut self,
         frame: &mut Frame<'_>,
         inputs: &ShadowInputs<'_>,
         out: &VisibilityBuffer,
-        coarse_size: Option<(u32, u32)>,
-    ) {
+    ) -> Result<(), TechniqueError> {
         let debug = self.debug.as_ref().expect("allocated above");
         let hsm = self.hierarchy.hsm_view().expect("built above");
-        let run = |frame: &mut Frame<'_>, pass: &ComputePass, adaptive, (w, h): (u32, u32)| {
-            let (coarse_read, coarse_write) = self.adaptive.views(adaptive);
-            pass.run(frame)
-                .frame_group(inputs.frame_bind_group)
-                .read(&self.shadow_map.view_buffer)
-                .read(hsm)
-                .read(self.hierarchy.mssm_view())
-                .read(&self.params_buffer)
-                .write(&out.view)
-                .write(&debug.classification_view)
-                .write(&debug.level_view)
-                .write(self.counters.buffer())
-                .read(coarse_read)
-                .write(coarse_write)
-                .dispatch([w.div_ceil(8), h.div_ceil(8), 1]);
+        let bindings = GatherBindings {
+            frame_group: inputs.frame_bind_group,
+            view: &self.shadow_map.view_buffer,
+            visibility: &out.view,
+            level: &debug.level_view,
+            own: &debug.classification_view,
+            layers: vec![(hsm, self.hierarchy.mssm_view())],
         };
-        if let (Some(size), Some(coarse)) = (coarse_size, &self.coarse) {
-            run(frame, coarse, AdaptivePass::Coarse, size);
-        }
         let size = (inputs.width, inputs.height);
-        run(frame, &self.gather, AdaptivePass::Full, size);
+        Ok((self.gather).run(frame, &self.buffers, &bindings, size)?)
     }
 }
 
@@ -342,18 +254,11 @@ impl ShadowTechnique for Backprojection {
             return Ok(());
         };
         let (levels, search) = self.build_hierarchy(frame, inputs, &frustum, map_size);
-        let uniform = gather_uniform(&self.settings, levels);
-        gpu.queue
-            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
-        self.counters.clear(gpu);
-        let factor = self.settings.gather.adaptive_factor();
-        let coarse_size = (self.adaptive).prepare(gpu, inputs.width, inputs.height, factor);
-        if coarse_size.is_some() && self.coarse.is_none() {
-            self.coarse = Some(gather_pass(gpu, "gather_coarse")?);
-        }
+        let extras = gather_extras(&self.settings);
+        let uniform = GatherUniform::new(&self.settings.gather, levels, &extras);
+        (self.buffers).prepare(gpu, &uniform, inputs.width, inputs.height);
         self.ensure_debug_targets(inputs.width, inputs.height);
-        self.gather(frame, inputs, out, coarse_size);
-        self.counters.copy_out(frame);
+        self.gather(frame, inputs, out)?;
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), 1.0),
@@ -377,25 +282,8 @@ impl ShadowTechnique for Backprojection {
         if !self.gathered {
             return stats;
         }
-        if let Some(c) = self.counters.read(&self.gpu) {
-            let receivers = c.receivers.max(1) as f64;
-            let primitives = (((c.primitives_hi as u64) << 32) | c.primitives_lo as u64) as f64;
-            stats.insert("receiver_pixels".into(), c.receivers as f64);
-            stats.insert(
-                "backprojected_pixel_fraction".into(),
-                c.backprojected as f64 / receivers,
-            );
-            stats.insert("lit_pixel_fraction".into(), c.lit as f64 / receivers);
-            stats.insert("umbra_pixel_fraction".into(), c.umbra as f64 / receivers);
-            stats.insert(
-                "upsampled_pixel_fraction".into(),
-                c.upsampled as f64 / receivers,
-            );
-            stats.insert("mean_primitives_per_pixel".into(), primitives / receivers);
-            stats.insert(
-                "mean_primitives_per_backprojected_pixel".into(),
-                primitives / c.backprojected.max(1) as f64,
-            );
+        if let Some(c) = self.buffers.counts(&self.gpu) {
+            c.insert_stats(&mut stats);
         }
         if self.hierarchy_built {
             if let Some(ms) = self.hierarchy.last_build_ms(&self.gpu) {

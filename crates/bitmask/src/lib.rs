@@ -16,18 +16,19 @@
 
 #![warn(missing_docs)]
 
-use encase::ShaderType;
 use softshadow_core::{
-    gather::{AdaptivePass, AdaptiveTargets, GatherCounters, GatherSettings},
+    gather::{
+        GatherBindings, GatherBuffers, GatherExtras, GatherPass, GatherSettings, GatherUniform,
+    },
     gbuffer::create_texture,
     hierarchy::{
         full_search_patches, max_search_texels, needed_levels, DepthHierarchy, HierarchyKind,
+        Visibility,
     },
     pass::{ComputePass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{create_depth_maps, CentreShadowMap},
-    uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
     TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -38,7 +39,7 @@ pub use info::info;
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "bitmask";
 
-/// Most depth layers (`layers`); the gather pass binds this many hierarchies.
+/// Most depth layers (`layers`); the gather pass binds this many hierarchies (`GATHER_LAYERS`).
 pub const MAX_LAYERS: u32 = 4;
 
 /// The gather's mask sizes in 32-bit words: one pipeline each (`MASK_WORDS` in `gather.wgsl`).
@@ -50,9 +51,9 @@ pub const SHADERS: &[ShaderSpec] = &[
         path: "bitmask/gather.wgsl",
         source: shader_file!("bitmask/gather.wgsl").1,
         permutations: &[
-            &[("MASK_WORDS", DefValue::UInt(2))],
-            &[("MASK_WORDS", DefValue::UInt(8))],
-            &[("MASK_WORDS", DefValue::UInt(32))],
+            &[("MASK_WORDS", DefValue::UInt(2)), LAYERS_DEF],
+            &[("MASK_WORDS", DefValue::UInt(8)), LAYERS_DEF],
+            &[("MASK_WORDS", DefValue::UInt(32)), LAYERS_DEF],
         ],
     },
     ShaderSpec {
@@ -66,6 +67,9 @@ pub const SHADERS: &[ShaderSpec] = &[
         permutations: &[&[]],
     },
 ];
+
+/// The shared gather pass binds [`MAX_LAYERS`] hierarchies.
+const LAYERS_DEF: (&str, DefValue) = ("GATHER_LAYERS", DefValue::UInt(MAX_LAYERS));
 
 /// How a shadow-map texel becomes an occluder (shared with `backprojection`).
 pub use softshadow_core::gather::Primitive;
@@ -84,7 +88,8 @@ softshadow_core::param_choice! {
     }
 }
 
-/// How a pattern's samples are laid out in the mask (`GatherParams` in `gather.wgsl`).
+/// How a pattern's samples are laid out in the mask (`rows`, `columns`, `jittered` of core's
+/// `GatherUniform`, read by `gather.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PatternLayout {
     /// Rows of samples across the light's height.
@@ -140,59 +145,11 @@ softshadow_core::technique_settings! {
     }
 }
 
-#[derive(ShaderType)]
-struct GatherUniform {
-    hierarchy: u32,
-    primitive: u32,
-    gap_filling: u32,
-    max_patches: u32,
-    bias_texels: f32,
-    max_level: i32,
-    layers: u32,
-    with_area: u32,
-    rows: u32,
-    columns: u32,
-    jittered: u32,
-    edge_refine: u32,
-    depth_bands: u32,
-    adaptive_factor: u32,
-    adaptive_pixels: f32,
-}
-
-/// This crate's uniform structs, and the counters it reads back, with the WGSL structs they
-/// fill, for the layout test in tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
+/// This crate's uniform structs with the WGSL structs they fill, for the layout test in
+/// tests/shaders.rs: none of its own (the gather's uniform and counters are core's).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
-    vec![
-        softshadow_core::uniform_mirror!(
-            GatherUniform {
-                hierarchy, primitive, gap_filling, max_patches, bias_texels, max_level, layers,
-                with_area, rows, columns, jittered, edge_refine, depth_bands, adaptive_factor,
-                adaptive_pixels
-            } => "bitmask/gather.wgsl", GatherParams
-        ),
-        softshadow_core::uniform_mirror!(
-            Counters {
-                receivers, lit, umbra, backprojected, primitives_lo, primitives_hi, primitives_max,
-                set_bits_lo, set_bits_hi, upsampled
-            } => "bitmask/gather.wgsl", Counters
-        ),
-    ]
-}
-
-/// What the gather adds up per frame (`atomic<u32>`s in WGSL).
-#[derive(Clone, Copy, Debug, Default, ShaderType)]
-struct Counters {
-    receivers: u32,
-    lit: u32,
-    umbra: u32,
-    backprojected: u32,
-    primitives_lo: u32,
-    primitives_hi: u32,
-    primitives_max: u32,
-    set_bits_lo: u32,
-    set_bits_hi: u32,
-    upsampled: u32,
+    Vec::new()
 }
 
 /// Screen-sized images, reallocated with the screen size: the bitmask result B before filtering,
@@ -248,14 +205,10 @@ pub struct Bitmask {
     peel: PeelMaps,
     /// One hierarchy per layer, created when a layer is first needed.
     hierarchies: Vec<DepthHierarchy>,
-    /// Per entry of `MASK_WORD_COUNTS`, compiled when first used: the gather and the coarse pass
-    /// of adaptive screen resolution (entry `gather_coarse`, compiled only when asked for:
-    /// llvmpipe compiles a pipeline when it is created).
-    gather_passes: [Option<(ComputePass, Option<ComputePass>)>; 3],
+    /// The gather pass per entry of `MASK_WORD_COUNTS`, compiled when first used.
+    gather_passes: [Option<GatherPass>; 3],
     filter: ComputePass,
-    params_buffer: wgpu::Buffer,
-    counters: GatherCounters<Counters>,
-    adaptive: AdaptiveTargets,
+    buffers: GatherBuffers,
     targets: Option<ScreenTargets>,
     kept: Option<LightSpaceKey>,
     /// Stats known when recording; the GPU counters are added by `stats()`.
@@ -267,36 +220,6 @@ pub struct Bitmask {
     /// The last frame filtered (the `bitmask` and `area` debug views hold its B and A).
     filtered: bool,
 }
-
-/// The gather pass of `gather.wgsl` with `words` mask words, entry `entry`: the centre map's
-/// `ShadowView`, `GatherParams`, each layer's HSM and MSSM, the bitmask result B, the area
-/// estimate A and the level image, the counters, the coarse adaptive result read and written.
-fn gather_pass(gpu: &Gpu, words: u32, entry: &str) -> Result<ComputePass, TechniqueError> {
-    let label = if entry == "gather" {
-        "bitmask/gather"
-    } else {
-        "bitmask/gather_coarse"
-    };
-    let r32 = wgpu::TextureFormat::R32Float;
-    Ok(Pass::new(gpu, label, &SHADERS[0])
-        .defs(&[("MASK_WORDS", DefValue::UInt(words))])
-        .after_frame_group()
-        .uniform()
-        .uniform()
-        .repeat(Slot::FLOAT, MAX_LAYERS as usize)
-        .repeat(FLOAT_ARRAY, MAX_LAYERS as usize)
-        .repeat(Slot::StorageTexture(r32), 3)
-        .storage_rw()
-        .slot(AdaptiveTargets::SLOTS[0])
-        .slot(AdaptiveTargets::SLOTS[1])
-        .compute(entry)?)
-}
-
-/// A `texture_2d_array<f32>` read with `textureLoad` (the MSSM levels).
-const FLOAT_ARRAY: Slot = Slot::Texture {
-    sample: wgpu::TextureSampleType::Float { filterable: false },
-    dimension: wgpu::TextureViewDimension::D2Array,
-};
 
 impl Bitmask {
     /// Builds the technique's pipelines on `gpu` with `settings`.
@@ -315,9 +238,7 @@ impl Bitmask {
             hierarchies: Vec::new(),
             gather_passes: [None, None, None],
             filter,
-            params_buffer: zeroed_uniform_buffer::<GatherUniform>(gpu, "bitmask/params"),
-            counters: GatherCounters::new(gpu, "bitmask/counters"),
-            adaptive: AdaptiveTargets::new(gpu, "bitmask"),
+            buffers: GatherBuffers::new(gpu, "bitmask"),
             targets: None,
             kept: None,
             stats: TechniqueStats::new(),
@@ -327,26 +248,25 @@ impl Bitmask {
         })
     }
 
-    /// The gather passes for a mask of `words` 32-bit words (compiled on first use; the coarse
-    /// one when `coarse` asks for it).
-    fn gather_passes(
-        &mut self,
-        words: u32,
-        coarse: bool,
-    ) -> Result<&(ComputePass, Option<ComputePass>), TechniqueError> {
+    /// The index in `gather_passes` of the pass for a mask of `words` 32-bit words, compiled on
+    /// first use: the shared gather pass over every layer's hierarchy, its own image the area
+    /// estimate A.
+    fn gather_pass(&mut self, words: u32) -> Result<usize, TechniqueError> {
         let index = MASK_WORD_COUNTS
             .iter()
             .position(|&w| w == words)
             .expect("every pattern has 2, 8 or 32 words");
-        let (gather, kept_coarse) = match self.gather_passes[index].take() {
-            Some(passes) => passes,
-            None => (gather_pass(&self.gpu, words, "gather")?, None),
-        };
-        let coarse = match kept_coarse {
-            None if coarse => Some(gather_pass(&self.gpu, words, "gather_coarse")?),
-            kept => kept,
-        };
-        Ok(self.gather_passes[index].insert((gather, coarse)))
+        if self.gather_passes[index].is_none() {
+            self.gather_passes[index] = Some(GatherPass::new(
+                &self.gpu,
+                "bitmask/gather",
+                &SHADERS[0],
+                &[("MASK_WORDS", DefValue::UInt(words))],
+                MAX_LAYERS,
+                Slot::StorageTexture(wgpu::TextureFormat::R32Float),
+            )?);
+        }
+        Ok(index)
     }
 
     fn ensure_targets(&mut self, width: u32, height: u32) {
@@ -431,12 +351,11 @@ struct Plan {
     layers: u32,
     /// The micro-patches per axis of a full search over `layers` layers.
     full_search: u32,
-    max_patches: u32,
+    /// Most blocks per axis of one gather (`GatherSettings::per_axis`).
+    per_axis: u32,
     filter_passes: u32,
     map_size: u32,
     pattern: PatternLayout,
-    /// The adaptive resolution's factor (1: off).
-    adaptive: u32,
 }
 
 impl Plan {
@@ -449,45 +368,26 @@ impl Plan {
         Self {
             layers,
             full_search,
-            max_patches: match g.hierarchy {
-                HierarchyKind::None => full_search,
-                _ => g.max_patches.clamp(4, 32),
-            },
+            per_axis: g.per_axis(full_search),
             filter_passes: s.filter_passes.min(8),
             map_size: (g.shadow_map_size).clamp(1, gpu.device.limits().max_texture_dimension_2d),
             pattern: s.pattern.layout(),
-            adaptive: g.adaptive_factor(),
         }
     }
 }
 
 /// The gather's uniform for a frame of `plan` over `layers` built layers of `levels` levels.
 fn gather_uniform(s: &BitmaskSettings, plan: &Plan, levels: u32, layers: usize) -> GatherUniform {
-    let s = &s.gather;
-    let finite_or = |value: f32, default: f32| {
-        if value.is_finite() {
-            value.max(0.0)
-        } else {
-            default
-        }
-    };
-    GatherUniform {
-        hierarchy: s.hierarchy.shader_value(),
-        primitive: s.primitive.shader_value(),
-        gap_filling: u32::from(s.gap_filling),
-        max_patches: plan.max_patches,
-        bias_texels: finite_or(s.bias_texels, 1.5),
-        max_level: levels as i32,
+    let extras = GatherExtras {
         layers: layers as u32,
-        with_area: u32::from(plan.filter_passes > 0),
+        full_search: plan.full_search,
+        visibility: Visibility::Sum,
         rows: plan.pattern.rows,
         columns: plan.pattern.columns,
-        jittered: u32::from(plan.pattern.jittered),
-        edge_refine: s.edge_refine.min(3),
-        depth_bands: s.depth_bands.clamp(1, 8),
-        adaptive_factor: plan.adaptive,
-        adaptive_pixels: s.adaptive_pixels_value(),
-    }
+        jittered: plan.pattern.jittered,
+        with_area: plan.filter_passes > 0,
+    };
+    GatherUniform::new(&s.gather, levels, &extras)
 }
 
 impl Bitmask {
@@ -507,10 +407,8 @@ impl Bitmask {
         let extent = frustum.s_max - frustum.s_min;
         let half = inputs.light.half_extent();
         let search = max_search_texels(half, frustum.near, extent, map_size);
-        let levels = match s.hierarchy {
-            HierarchyKind::None => needed_levels(map_size, search, plan.full_search, false),
-            _ => needed_levels(map_size, search, plan.max_patches, true),
-        };
+        let refine = s.hierarchy != HierarchyKind::None;
+        let levels = needed_levels(map_size, search, plan.per_axis, refine);
         let key = LightSpaceKey {
             map_size,
             layers: plan.layers,
@@ -540,54 +438,30 @@ impl Bitmask {
         out: &VisibilityBuffer,
         plan: &Plan,
         built_layers: usize,
-        coarse_size: Option<(u32, u32)>,
     ) -> Result<(), TechniqueError> {
-        self.gather_passes(plan.pattern.words(), coarse_size.is_some())?;
-        let index = MASK_WORD_COUNTS
-            .iter()
-            .position(|&w| w == plan.pattern.words())
-            .expect("compiled above");
-        let (gather, coarse) = self.gather_passes[index].as_ref().expect("compiled above");
+        let index = self.gather_pass(plan.pattern.words())?;
         let targets = self.targets.as_ref().expect("allocated above");
+        // Layers past those built bind the last one (the shader reads only `layers`).
         let layer = |k: usize| &self.hierarchies[k.min(built_layers - 1)];
         let hsm = |k: usize| layer(k).hsm_view().expect("built with the map");
-        // Without filtering the bitmask result is the output; with it, B goes to its own image.
-        let b_view = if plan.filter_passes > 0 {
-            &targets.bitmask.1
-        } else {
-            &out.view
+        let bindings = GatherBindings {
+            frame_group: inputs.frame_bind_group,
+            view: &self.shadow_map.view_buffer,
+            // Without filtering the bitmask result is the output; with it, B has its own image.
+            visibility: if plan.filter_passes > 0 {
+                &targets.bitmask.1
+            } else {
+                &out.view
+            },
+            level: &targets.level.1,
+            own: &targets.area.1,
+            layers: (0..MAX_LAYERS as usize)
+                .map(|k| (hsm(k), layer(k).mssm_view()))
+                .collect(),
         };
-        let run = |frame: &mut Frame<'_>, pass: &ComputePass, adaptive, (w, h): (u32, u32)| {
-            let (coarse_read, coarse_write) = self.adaptive.views(adaptive);
-            let mut run = pass
-                .run(frame)
-                .frame_group(inputs.frame_bind_group)
-                .read(&self.shadow_map.view_buffer)
-                .read(&self.params_buffer);
-            for k in 0..MAX_LAYERS as usize {
-                run = run.read(hsm(k));
-            }
-            for k in 0..MAX_LAYERS as usize {
-                run = run.read(layer(k).mssm_view());
-            }
-            run.write(b_view)
-                .write(&targets.area.1)
-                .write(&targets.level.1)
-                .write(self.counters.buffer())
-                .read(coarse_read)
-                .write(coarse_write)
-                .dispatch([w.div_ceil(8), h.div_ceil(8), 1]);
-        };
-        if let (Some(size), Some(coarse)) = (coarse_size, coarse) {
-            run(frame, coarse, AdaptivePass::Coarse, size);
-        }
-        run(
-            frame,
-            gather,
-            AdaptivePass::Full,
-            (inputs.width, inputs.height),
-        );
-        Ok(())
+        let pass = self.gather_passes[index].as_mut().expect("compiled above");
+        let size = (inputs.width, inputs.height);
+        Ok(pass.run(frame, &self.buffers, &bindings, size)?)
     }
 
     /// The post filter (paper section 3.1): B -> ping -> pong -> ... -> out.
@@ -664,14 +538,10 @@ impl ShadowTechnique for Bitmask {
             });
         }
         let uniform = gather_uniform(&self.settings, &plan, key.levels, built_layers);
-        gpu.queue
-            .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
-        self.counters.clear(gpu);
-        let coarse_size = (self.adaptive).prepare(gpu, inputs.width, inputs.height, plan.adaptive);
+        (self.buffers).prepare(gpu, &uniform, inputs.width, inputs.height);
         self.ensure_targets(inputs.width, inputs.height);
-        self.gather(frame, inputs, out, &plan, built_layers, coarse_size)?;
+        self.gather(frame, inputs, out, &plan, built_layers)?;
         self.filter(frame, inputs, out, plan.filter_passes);
-        self.counters.copy_out(frame);
         self.gathered = true;
         self.stats = TechniqueStats::from([
             ("shadow_maps".into(), built_layers as f64),
@@ -699,29 +569,12 @@ impl ShadowTechnique for Bitmask {
         if !self.gathered {
             return stats;
         }
-        if let Some(c) = self.counters.read(&self.gpu) {
-            let receivers = c.receivers.max(1) as f64;
+        if let Some(c) = self.buffers.counts(&self.gpu) {
+            c.insert_stats(&mut stats);
             let backprojected = c.backprojected.max(1) as f64;
-            let primitives = (((c.primitives_hi as u64) << 32) | c.primitives_lo as u64) as f64;
-            let set_bits = (((c.set_bits_hi as u64) << 32) | c.set_bits_lo as u64) as f64;
+            let set_bits = c.set_bits() as f64;
             let samples = self.settings.pattern.layout().samples() as f64;
-            stats.insert("receiver_pixels".into(), c.receivers as f64);
-            stats.insert(
-                "backprojected_pixel_fraction".into(),
-                c.backprojected as f64 / receivers,
-            );
-            stats.insert("lit_pixel_fraction".into(), c.lit as f64 / receivers);
-            stats.insert("umbra_pixel_fraction".into(), c.umbra as f64 / receivers);
-            stats.insert(
-                "upsampled_pixel_fraction".into(),
-                c.upsampled as f64 / receivers,
-            );
-            stats.insert("mean_primitives_per_pixel".into(), primitives / receivers);
             stats.insert("max_primitives_per_pixel".into(), c.primitives_max as f64);
-            stats.insert(
-                "mean_primitives_per_backprojected_pixel".into(),
-                primitives / backprojected,
-            );
             stats.insert("mean_set_bits".into(), set_bits / backprojected);
             stats.insert(
                 "mean_set_bit_fraction".into(),

@@ -1,16 +1,20 @@
 //! What the gather techniques (`backprojection`, `bitmask`) share on the CPU beside the depth
-//! hierarchies: their settings (`GatherSettings`), the per-pass counters a gather adds up on the
-//! GPU and reads back after the frame, and the targets of the view-dependent adaptive screen
-//! resolution (`shaders/common/gather.wgsl`, docs/TECHNIQUES.md, `backprojection`, "Large
-//! penumbrae"). The shaders' own scaffold is `softshadow::gather`.
+//! hierarchies: their settings (`GatherSettings`), the gather pass's uniform (`GatherUniform`),
+//! the pass itself (`GatherPass`: its bindings and the coarse-then-full sequence of adaptive
+//! screen resolution), the counters it adds up on the GPU and reads back after the frame
+//! (`GatherCounts`), and the targets of the view-dependent adaptive screen resolution
+//! (docs/TECHNIQUES.md, `backprojection`, "Large penumbrae"). The shaders' side is
+//! `softshadow::gather` (the scaffold) and `softshadow::gather_pass` (the pass a technique's
+//! gather file configures).
 
 use crate::gbuffer::create_texture;
-use crate::hierarchy::HierarchyKind;
-use crate::pass::Slot;
-use crate::{uniform::storage_bytes, wgpu, Frame, Gpu};
+use crate::hierarchy::{HierarchyKind, Visibility};
+use crate::pass::{ComputePass, Pass, Slot};
+use crate::shader::{DefValue, ShaderSpec};
+use crate::{uniform::storage_bytes, wgpu, Frame, Gpu, GpuError, TechniqueStats};
 use encase::{
     internal::{CreateFrom, WriteInto},
-    ShaderSize, StorageBuffer,
+    ShaderSize, ShaderType, StorageBuffer,
 };
 use std::marker::PhantomData;
 
@@ -83,11 +87,201 @@ impl GatherSettings {
 
     /// `adaptive_pixels` as the shaders read it (8 when not finite).
     pub fn adaptive_pixels_value(&self) -> f32 {
-        if self.adaptive_pixels.is_finite() {
-            self.adaptive_pixels.max(0.0)
-        } else {
-            8.0
+        finite_or(self.adaptive_pixels, 8.0)
+    }
+
+    /// `bias_texels` as the shaders read it (1.5 when not finite).
+    pub fn bias_texels_value(&self) -> f32 {
+        finite_or(self.bias_texels, 1.5)
+    }
+
+    /// Most blocks per axis of one gather: `max_patches` (range-checked: a library user may set
+    /// any value), or `full_search` without a hierarchy (the technique's full-search count,
+    /// [`crate::hierarchy::full_search_patches`]).
+    pub fn per_axis(&self, full_search: u32) -> u32 {
+        match self.hierarchy {
+            HierarchyKind::None => full_search,
+            _ => self.max_patches.clamp(4, 32),
         }
+    }
+}
+
+/// `value` if finite (at least 0), else `default`.
+fn finite_or(value: f32, default: f32) -> f32 {
+    if value.is_finite() {
+        value.max(0.0)
+    } else {
+        default
+    }
+}
+
+/// What a technique adds to [`GatherSettings`] in the gather's uniform.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GatherExtras {
+    /// Depth layers gathered, each over its own hierarchy (backprojection: 1; bitmask: 1 to 4).
+    pub layers: u32,
+    /// Blocks per axis of a full search (`hierarchy = none`; [`GatherSettings::per_axis`]).
+    pub full_search: u32,
+    /// How the occluded area is found (backprojection's setting; bitmask sums).
+    pub visibility: Visibility,
+    /// Used by bitmask only: the light samples' rows and columns, the rotated-grid offsets, and
+    /// whether the area estimate is written (its post filter is on).
+    pub rows: u32,
+    /// See `rows`.
+    pub columns: u32,
+    /// See `rows`.
+    pub jittered: bool,
+    /// See `rows`.
+    pub with_area: bool,
+}
+
+impl Default for GatherExtras {
+    /// One layer, the full search of one pass, summed areas, no light samples.
+    fn default() -> Self {
+        Self {
+            layers: 1,
+            full_search: crate::hierarchy::full_search_patches(1),
+            visibility: Visibility::Sum,
+            rows: 0,
+            columns: 0,
+            jittered: false,
+            with_area: false,
+        }
+    }
+}
+
+/// The gather pass's uniform, `GatherParams` in `softshadow::gather`: the shared settings, then
+/// the fields only bitmask reads. Made by [`GatherUniform::new`].
+#[derive(Clone, Copy, Debug, PartialEq, ShaderType)]
+pub struct GatherUniform {
+    hierarchy: u32,
+    primitive: u32,
+    gap_filling: u32,
+    max_patches: u32,
+    per_axis: u32,
+    bias_texels: f32,
+    max_level: i32,
+    depth_bands: u32,
+    edge_refine: u32,
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
+    layers: u32,
+    visibility: u32,
+    with_area: u32,
+    rows: u32,
+    columns: u32,
+    jittered: u32,
+}
+
+impl GatherUniform {
+    /// The uniform of a frame with `settings` and `extras` over hierarchies of `max_level`
+    /// levels, every value range-checked (a library user may set any).
+    pub fn new(settings: &GatherSettings, max_level: u32, extras: &GatherExtras) -> Self {
+        let s = settings;
+        Self {
+            hierarchy: s.hierarchy.shader_value(),
+            primitive: s.primitive.shader_value(),
+            gap_filling: u32::from(s.gap_filling),
+            max_patches: s.max_patches.clamp(4, 32),
+            per_axis: s.per_axis(extras.full_search),
+            bias_texels: s.bias_texels_value(),
+            max_level: max_level as i32,
+            depth_bands: s.depth_bands.clamp(1, 8),
+            edge_refine: s.edge_refine.min(3),
+            adaptive_factor: s.adaptive_factor(),
+            adaptive_pixels: s.adaptive_pixels_value(),
+            layers: extras.layers,
+            visibility: extras.visibility.shader_value(),
+            with_area: u32::from(extras.with_area),
+            rows: extras.rows,
+            columns: extras.columns,
+            jittered: u32::from(extras.jittered),
+        }
+    }
+
+    /// Its layout against `GatherParams`, for the layout test (`crate::uniform_mirrors`).
+    pub(crate) fn uniform_mirror() -> crate::shader::uniform_layout::UniformMirror {
+        crate::uniform_mirror!(
+            GatherUniform {
+                hierarchy, primitive, gap_filling, max_patches, per_axis, bias_texels, max_level,
+                depth_bands, edge_refine, adaptive_factor, adaptive_pixels, layers, visibility,
+                with_area, rows, columns, jittered
+            } => "common/gather.wgsl", GatherParams
+        )
+    }
+}
+
+/// What the gather pass adds up per frame (`Counters` in `softshadow::gather_pass`,
+/// `atomic<u32>`s there), read back through [`GatherCounters`].
+#[derive(Clone, Copy, Debug, Default, ShaderType)]
+pub struct GatherCounts {
+    /// Receiver pixels.
+    pub receivers: u32,
+    /// Receiver pixels lit by the early outs.
+    pub lit: u32,
+    /// Receiver pixels in umbra by the early outs.
+    pub umbra: u32,
+    /// Pixels that backprojected anything.
+    pub backprojected: u32,
+    /// Micro-primitives processed, low word.
+    pub primitives_lo: u32,
+    /// Micro-primitives processed, high word.
+    pub primitives_hi: u32,
+    /// Most micro-primitives in one pixel.
+    pub primitives_max: u32,
+    /// Set bits of bitmask's masks over the backprojected pixels, low word (0 elsewhere).
+    pub set_bits_lo: u32,
+    /// Set bits, high word.
+    pub set_bits_hi: u32,
+    /// Pixels interpolated from the coarse pass (adaptive screen resolution).
+    pub upsampled: u32,
+}
+
+impl GatherCounts {
+    /// Micro-primitives processed.
+    pub fn primitives(&self) -> u64 {
+        (u64::from(self.primitives_hi) << 32) | u64::from(self.primitives_lo)
+    }
+
+    /// Set bits over the backprojected pixels.
+    pub fn set_bits(&self) -> u64 {
+        (u64::from(self.set_bits_hi) << 32) | u64::from(self.set_bits_lo)
+    }
+
+    /// The stats both gather techniques report: `receiver_pixels`,
+    /// `backprojected_pixel_fraction` (paper Fig. 8), `lit_pixel_fraction` and
+    /// `umbra_pixel_fraction` (early outs), `upsampled_pixel_fraction`,
+    /// `mean_primitives_per_pixel` and `mean_primitives_per_backprojected_pixel`.
+    pub fn insert_stats(&self, stats: &mut TechniqueStats) {
+        let receivers = self.receivers.max(1) as f64;
+        let primitives = self.primitives() as f64;
+        let mut insert = |key: &str, value: f64| stats.insert(key.into(), value);
+        insert("receiver_pixels", self.receivers as f64);
+        insert(
+            "backprojected_pixel_fraction",
+            self.backprojected as f64 / receivers,
+        );
+        insert("lit_pixel_fraction", self.lit as f64 / receivers);
+        insert("umbra_pixel_fraction", self.umbra as f64 / receivers);
+        insert(
+            "upsampled_pixel_fraction",
+            self.upsampled as f64 / receivers,
+        );
+        insert("mean_primitives_per_pixel", primitives / receivers);
+        insert(
+            "mean_primitives_per_backprojected_pixel",
+            primitives / self.backprojected.max(1) as f64,
+        );
+    }
+
+    /// Its layout against `Counters`, for the layout test (`crate::uniform_mirrors`).
+    pub(crate) fn uniform_mirror() -> crate::shader::uniform_layout::UniformMirror {
+        crate::uniform_mirror!(
+            GatherCounts {
+                receivers, lit, umbra, backprojected, primitives_lo, primitives_hi, primitives_max,
+                set_bits_lo, set_bits_hi, upsampled
+            } => "common/gather_pass.wgsl", Counters
+        )
     }
 }
 
@@ -268,5 +462,232 @@ impl AdaptiveTargets {
             (AdaptivePass::Full, Some(c)) => (c, &self.stand_in_write),
             (_, None) => (&self.stand_in_read, &self.stand_in_write),
         }
+    }
+}
+
+/// What a technique's gather passes share from frame to frame: the uniform's buffer, the
+/// counters and the coarse image of adaptive resolution.
+pub struct GatherBuffers {
+    params: wgpu::Buffer,
+    counters: GatherCounters<GatherCounts>,
+    adaptive: AdaptiveTargets,
+}
+
+impl GatherBuffers {
+    /// The buffers, labelled `<label>/params`, `<label>/counters` and under `label`.
+    pub fn new(gpu: &Gpu, label: &str) -> Self {
+        Self {
+            params: crate::uniform::zeroed_uniform_buffer::<GatherUniform>(
+                gpu,
+                &format!("{label}/params"),
+            ),
+            counters: GatherCounters::new(gpu, &format!("{label}/counters")),
+            adaptive: AdaptiveTargets::new(gpu, label),
+        }
+    }
+
+    /// Before the frame's gather: writes its uniform, clears the counters and sizes the coarse
+    /// image for a `width` x `height` image at the uniform's adaptive factor.
+    pub fn prepare(&mut self, gpu: &Gpu, uniform: &GatherUniform, width: u32, height: u32) {
+        let bytes = crate::uniform::uniform_bytes(uniform);
+        gpu.queue.write_buffer(&self.params, 0, &bytes);
+        self.counters.clear(gpu);
+        (self.adaptive).prepare(gpu, width, height, uniform.adaptive_factor);
+    }
+
+    /// The counts of the last gather (waits for the GPU); `None` if the read failed.
+    pub fn counts(&self, gpu: &Gpu) -> Option<GatherCounts> {
+        self.counters.read(gpu)
+    }
+}
+
+/// What the gather pass binds in one frame (`softshadow::gather_pass`), beside
+/// [`GatherBuffers`].
+pub struct GatherBindings<'a> {
+    /// The core frame group (group 0).
+    pub frame_group: &'a wgpu::BindGroup,
+    /// The centre map's `ShadowView`.
+    pub view: &'a wgpu::Buffer,
+    /// Where V goes.
+    pub visibility: &'a wgpu::TextureView,
+    /// The gather level per pixel (`R32Float`).
+    pub level: &'a wgpu::TextureView,
+    /// The technique's own image (binding 7, the slot given to [`GatherPass::new`]).
+    pub own: &'a wgpu::TextureView,
+    /// Each bound layer's (HSM, MSSM), as many as the pass's layers.
+    pub layers: Vec<(&'a wgpu::TextureView, &'a wgpu::TextureView)>,
+}
+
+/// The gather pass of one technique's gather file over `softshadow::gather_pass`: its
+/// full-resolution entry `gather` and, compiled when adaptive resolution first asks for it
+/// (llvmpipe compiles a pipeline when it is created: not for every technique made), the coarse
+/// entry `gather_coarse`.
+pub struct GatherPass {
+    label: String,
+    spec: &'static ShaderSpec,
+    defs: Vec<(&'static str, DefValue)>,
+    own: Slot,
+    layers: u32,
+    full: ComputePass,
+    coarse: Option<ComputePass>,
+}
+
+impl GatherPass {
+    /// The pass labelled `label` (`<label>_coarse` for the coarse one) of `spec` with `defs`,
+    /// binding `layers` hierarchies (the def `GATHER_LAYERS`, 1 or 4) and the technique's own
+    /// image as `own`.
+    pub fn new(
+        gpu: &Gpu,
+        label: &str,
+        spec: &'static ShaderSpec,
+        defs: &[(&'static str, DefValue)],
+        layers: u32,
+        own: Slot,
+    ) -> Result<Self, GpuError> {
+        let mut defs = defs.to_vec();
+        defs.push(("GATHER_LAYERS", DefValue::UInt(layers)));
+        let full = Self::declare(gpu, label, spec, &defs, layers, own, "gather")?;
+        Ok(Self {
+            label: label.to_string(),
+            spec,
+            defs,
+            own,
+            layers,
+            full,
+            coarse: None,
+        })
+    }
+
+    /// The bindings of `softshadow::gather_pass`, entry `entry`.
+    fn declare(
+        gpu: &Gpu,
+        label: &str,
+        spec: &'static ShaderSpec,
+        defs: &[(&'static str, DefValue)],
+        layers: u32,
+        own: Slot,
+        entry: &str,
+    ) -> Result<ComputePass, GpuError> {
+        let r32 = wgpu::TextureFormat::R32Float;
+        let mut pass = Pass::new(gpu, label, spec)
+            .defs(defs)
+            .after_frame_group()
+            .uniform()
+            .uniform()
+            .storage_texture(r32)
+            .storage_texture(r32)
+            .storage_rw()
+            .slot(AdaptiveTargets::SLOTS[0])
+            .slot(AdaptiveTargets::SLOTS[1])
+            .slot(own);
+        for _ in 0..layers {
+            pass = pass.texture(Slot::FLOAT).texture(FLOAT_ARRAY);
+        }
+        pass.compute(entry)
+    }
+
+    /// Runs the gather into a `width` x `height` image: first, when `buffers` hold a coarse
+    /// image this frame ([`GatherBuffers::prepare`]), the coarse pass writing it, then the
+    /// full-resolution pass reading it; then the counters' copy for [`GatherBuffers::counts`].
+    pub fn run(
+        &mut self,
+        frame: &mut Frame<'_>,
+        buffers: &GatherBuffers,
+        bindings: &GatherBindings<'_>,
+        (width, height): (u32, u32),
+    ) -> Result<(), GpuError> {
+        if let Some(((w, h), _)) = buffers.adaptive.coarse {
+            if self.coarse.is_none() {
+                let label = format!("{}_coarse", self.label);
+                let coarse = Self::declare(
+                    frame.gpu,
+                    &label,
+                    self.spec,
+                    &self.defs,
+                    self.layers,
+                    self.own,
+                    "gather_coarse",
+                )?;
+                self.coarse = Some(coarse);
+            }
+            let coarse = self.coarse.as_ref().expect("compiled above");
+            let which = AdaptivePass::Coarse;
+            Self::dispatch(frame, coarse, buffers, which, bindings, (w, h));
+        }
+        let full = AdaptivePass::Full;
+        Self::dispatch(frame, &self.full, buffers, full, bindings, (width, height));
+        buffers.counters.copy_out(frame);
+        Ok(())
+    }
+
+    fn dispatch(
+        frame: &mut Frame<'_>,
+        pass: &ComputePass,
+        buffers: &GatherBuffers,
+        which: AdaptivePass,
+        b: &GatherBindings<'_>,
+        (w, h): (u32, u32),
+    ) {
+        let (coarse_read, coarse_write) = buffers.adaptive.views(which);
+        let mut run = (pass.run(frame))
+            .frame_group(b.frame_group)
+            .read(b.view)
+            .read(&buffers.params)
+            .write(b.visibility)
+            .write(b.level)
+            .write(buffers.counters.buffer())
+            .read(coarse_read)
+            .write(coarse_write)
+            .write(b.own);
+        for (hsm, mssm) in &b.layers {
+            run = run.read(*hsm).read(*mssm);
+        }
+        run.dispatch([w.div_ceil(8), h.div_ceil(8), 1]);
+    }
+}
+
+/// A `texture_2d_array<f32>` read with `textureLoad` (the MSSM levels).
+const FLOAT_ARRAY: Slot = Slot::Texture {
+    sample: wgpu::TextureSampleType::Float { filterable: false },
+    dimension: wgpu::TextureViewDimension::D2Array,
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_uniform_takes_the_full_search_count_only_without_a_hierarchy() {
+        let extras = GatherExtras {
+            full_search: 99,
+            ..Default::default()
+        };
+        let mssm = GatherSettings::default();
+        let uniform = GatherUniform::new(&mssm, 5, &extras);
+        assert_eq!((uniform.max_patches, uniform.per_axis), (16, 16));
+        let none = GatherSettings {
+            hierarchy: HierarchyKind::None,
+            ..Default::default()
+        };
+        let uniform = GatherUniform::new(&none, 5, &extras);
+        assert_eq!((uniform.max_patches, uniform.per_axis), (16, 99));
+        assert_eq!(uniform.max_level, 5);
+    }
+
+    #[test]
+    fn the_uniform_range_checks_what_a_library_user_may_set() {
+        let wild = GatherSettings {
+            max_patches: 1000,
+            bias_texels: f32::NAN,
+            adaptive_pixels: f32::INFINITY,
+            depth_bands: 0,
+            edge_refine: 9,
+            ..Default::default()
+        };
+        let u = GatherUniform::new(&wild, 0, &GatherExtras::default());
+        assert_eq!((u.max_patches, u.per_axis), (32, 32));
+        assert_eq!((u.bias_texels, u.adaptive_pixels), (1.5, 8.0));
+        assert_eq!((u.depth_bands, u.edge_refine), (1, 3));
+        assert_eq!(GatherExtras::default().full_search, 240);
     }
 }

@@ -101,5 +101,7 @@ pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
         shading::uniform_mirror(),
         hierarchy::uniform_mirror(),
         host::uniform_mirror(),
+        gather::GatherUniform::uniform_mirror(),
+        gather::GatherCounts::uniform_mirror(),
     ]
 }

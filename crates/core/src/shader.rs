@@ -75,6 +75,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/sampling.wgsl"),
     shader_file!("common/search_area.wgsl"),
     shader_file!("common/gather.wgsl"),
+    shader_file!("common/gather_pass.wgsl"),
     shader_file!("common/reprojection.wgsl"),
 ];
 

@@ -15,108 +15,17 @@
 // r * columns of the mask (one word holds 32 / columns rows). Patterns: 8x8, 16x16 and 32x32 are
 // regular (offset 0.5); 16x16-jittered is the 8x8 tiling of the 2x2 rotated-grid pattern (sec. 3):
 // 32 rows of 8 samples, offsets 3/8, 7/8, 1/8, 5/8 of a tile repeating every four rows.
-// Counters (receivers, lit, umbra, backprojected pixels, primitives, most primitives in a pixel,
-// set bits) are summed per workgroup and added to a storage buffer that the CPU reads.
-#import softshadow::frame::frame
-#import softshadow::shadow_view::{ShadowView, texel_slope}
-#import softshadow::search_area::{SEARCH_LIT, SEARCH_UMBRA, VISIBILITY_SUM, refine_search}
-#import softshadow::gather::{
-    Gather, GatherSettings, gather_setup, gather_search_area, ADAPTIVE_INVALID, ADAPTIVE_SKIP, ADAPTIVE_UPSAMPLED,
-    Receiver, adaptive_choice, receiver_at, RECEIVER_NONE, RECEIVER_BEHIND, RECEIVER_LIT,
-}
+// The per-pixel loop over the layers, the adaptive screen resolution, the counters and the
+// entry points' bodies are the shared gather pass's (softshadow::gather_pass, GATHER_LAYERS = 4).
+#import softshadow::gather::Gather
+#import softshadow::gather_pass::{PixelResult, gather_pixels, gather_coarse_pixels, params}
 
 // Words of the occlusion bitmask: 2 (8x8), 8 (16x16, 16x16-jittered) or 32 (32x32). One pipeline
 // per size keeps the small masks in few registers (paper sec. 6).
 const MASK_WORDS: u32 = #{MASK_WORDS}u;
 
-const MAX_LAYERS: u32 = 4u;
-
-struct GatherParams {
-    hierarchy: u32,
-    primitive: u32,
-    gap_filling: u32,
-    max_patches: u32,
-    bias_texels: f32,
-    // Highest hierarchy level built (the same for every layer).
-    max_level: i32,
-    layers: u32,
-    // Accumulate and write the area estimate A (post filtering is on).
-    with_area: u32,
-    rows: u32,
-    columns: u32,
-    // 1: rows take the rotated-grid offsets; 0: every sample sits at the centre of its cell.
-    jittered: u32,
-    // Levels a partly occluding micro-patch block is split down (0: none; issue 30).
-    edge_refine: u32,
-    // Depth bands, each gathered at its own level (issue 30; 1: one level per layer).
-    depth_bands: u32,
-    // Adaptive screen resolution: 1 (off), 2 or 4 (coarse pixels per axis), and the penumbra
-    // width in screen pixels from which a pixel is interpolated from the coarse pass.
-    adaptive_factor: u32,
-    adaptive_pixels: f32,
-}
-
-struct Counters {
-    receivers: atomic<u32>,
-    lit: atomic<u32>,
-    umbra: atomic<u32>,
-    backprojected: atomic<u32>,
-    // Micro-primitives processed, as a 64-bit count (low word, high word).
-    primitives_lo: atomic<u32>,
-    primitives_hi: atomic<u32>,
-    primitives_max: atomic<u32>,
-    // Set bits over the backprojected pixels, as a 64-bit count.
-    set_bits_lo: atomic<u32>,
-    set_bits_hi: atomic<u32>,
-    // Pixels interpolated from the coarse pass (adaptive screen resolution).
-    upsampled: atomic<u32>,
-}
-
-@group(1) @binding(0) var<uniform> view: ShadowView;
-@group(1) @binding(1) var<uniform> params: GatherParams;
-@group(1) @binding(2) var hsm0: texture_2d<f32>;
-@group(1) @binding(3) var hsm1: texture_2d<f32>;
-@group(1) @binding(4) var hsm2: texture_2d<f32>;
-@group(1) @binding(5) var hsm3: texture_2d<f32>;
-@group(1) @binding(6) var mssm0: texture_2d_array<f32>;
-@group(1) @binding(7) var mssm1: texture_2d_array<f32>;
-@group(1) @binding(8) var mssm2: texture_2d_array<f32>;
-@group(1) @binding(9) var mssm3: texture_2d_array<f32>;
-@group(1) @binding(10) var visibility: texture_storage_2d<r32float, write>;
-@group(1) @binding(11) var area_map: texture_storage_2d<r32float, write>;
-@group(1) @binding(12) var level_map: texture_storage_2d<r32float, write>;
-@group(1) @binding(13) var<storage, read_write> counters: Counters;
-// Adaptive screen resolution: the coarse pass's (V, A) per coarse pixel, read by the
-// full-resolution pass; written by the coarse pass (each pass binds a stand-in for the other).
-@group(1) @binding(14) var coarse_in: texture_2d<f32>;
-@group(1) @binding(15) var coarse_out: texture_storage_2d<rg32float, write>;
-
-var<workgroup> group_receivers: atomic<u32>;
-var<workgroup> group_lit: atomic<u32>;
-var<workgroup> group_umbra: atomic<u32>;
-var<workgroup> group_backprojected: atomic<u32>;
-var<workgroup> group_primitives: atomic<u32>;
-var<workgroup> group_primitives_max: atomic<u32>;
-var<workgroup> group_set_bits: atomic<u32>;
-var<workgroup> group_upsampled: atomic<u32>;
-
-const CLASS_NONE: u32 = 0u;
-const CLASS_LIT: u32 = 1u;
-const CLASS_UMBRA: u32 = 2u;
-const CLASS_BACKPROJECTED: u32 = 3u;
-// Adaptive screen resolution: interpolated from the coarse pass, or left to the full pass.
-const CLASS_UPSAMPLED: u32 = 4u;
-const CLASS_SKIPPED: u32 = 5u;
-
-struct PixelResult {
-    v: f32,
-    // Area estimate A (visibility from the summed areas, unclamped).
-    area_v: f32,
-    kind: u32,
-    level: i32,
-    primitives: u32,
-    set_bits: u32,
-}
+// The area estimate A for the post filter (filter.wgsl), the gather pass's binding 7.
+@group(1) @binding(7) var area_map: texture_storage_2d<r32float, write>;
 
 // What one pixel accumulates over its layers.
 struct Accumulator {
@@ -267,63 +176,10 @@ override fn softshadow::gather::emit_quad(g: Gather, top_left: vec2<f32>, top_ri
     );
 }
 
-// What one layer did.
-struct LayerResult {
-    kind: u32,
-    level: i32,
-    primitives: u32,
-}
-
-// The (V, A) interpolated from the coarse pass when layer 0 returned CLASS_UPSAMPLED.
-var<private> upsampled: vec2<f32>;
-
-// Search, classify and gather one depth layer into `acc`. Layer 0 decides adaptive screen
-// resolution from its nearest blocker (`coarse`: this is the coarse pass).
-fn gather_layer(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, receiver: Receiver, pixel: vec2<i32>, first: bool, coarse: bool) -> LayerResult {
-    let p = receiver.s.light;
-    let half_light = receiver.half_light;
-    let bias = receiver.bias;
-    var out: LayerResult;
-    out.kind = CLASS_LIT;
-    out.level = -1;
-    out.primitives = 0u;
-    let search = refine_search(view, hsm, mssm, params.hierarchy, params.max_level, p, half_light, p.z - bias);
-    if search.kind == SEARCH_LIT {
-        return out;
-    }
-    if search.kind == SEARCH_UMBRA {
-        out.kind = CLASS_UMBRA;
-        return out;
-    }
-    if first {
-        let adaptive = adaptive_choice(coarse_in, receiver, pixel, search.z_range.x, params.adaptive_factor, params.adaptive_pixels, coarse);
-        if adaptive.x == ADAPTIVE_SKIP {
-            out.kind = CLASS_SKIPPED;
-            return out;
-        }
-        if adaptive.x == ADAPTIVE_UPSAMPLED {
-            upsampled = adaptive.yz;
-            out.kind = CLASS_UPSAMPLED;
-            return out;
-        }
-    }
-    // With `hierarchy = none` the CPU passes the full-search block count in max_patches
-    // (softshadow_core::hierarchy::full_search_patches(layers)).
-    let settings = GatherSettings(
-        params.hierarchy,
-        params.primitive,
-        params.gap_filling,
-        VISIBILITY_SUM,
-        params.max_level,
-        i32(params.max_patches),
-        params.depth_bands,
-        params.edge_refine,
-    );
-    let gathered = gather_search_area(hsm, mssm, gather_setup(view, settings, p, half_light, bias), search);
-    out.kind = CLASS_BACKPROJECTED;
-    out.level = gathered.level;
-    out.primitives = gathered.primitives;
-    return out;
+override fn softshadow::gather_pass::begin_pixel() {
+    // The area estimate restarts with every pixel (the mask starts empty: one pixel per
+    // invocation).
+    acc.area = 0.0;
 }
 
 fn set_bits() -> u32 {
@@ -334,69 +190,10 @@ fn set_bits() -> u32 {
     return n;
 }
 
-// `coarse`: the coarse pass of adaptive screen resolution.
-fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
-    var r: PixelResult;
-    r.v = 1.0;
-    r.area_v = 1.0;
-    r.kind = CLASS_NONE;
-    r.level = -1;
-    r.primitives = 0u;
-    r.set_bits = 0u;
-    let receiver = receiver_at(view, pixel, params.bias_texels);
-    if receiver.kind == RECEIVER_NONE {
-        return r;
-    }
-    if receiver.kind == RECEIVER_BEHIND {
-        r.v = 0.0;
-        r.area_v = 0.0;
-        r.kind = CLASS_UMBRA;
-        return r;
-    }
-    r.kind = CLASS_LIT;
-    if receiver.kind == RECEIVER_LIT {
-        return r;
-    }
-    let half_light = receiver.half_light;
-    acc.area = 0.0;
-    // Every layer ORs into the one mask (sec. 3.2); an umbra layer decides the pixel alone.
-    var layer = LayerResult(CLASS_LIT, -1, 0u);
-    for (var k = 0u; k < MAX_LAYERS; k = k + 1u) {
-        if k >= params.layers {
-            break;
-        }
-        switch k {
-            case 0u: { layer = gather_layer(hsm0, mssm0, receiver, pixel, k == 0u, coarse); }
-            case 1u: { layer = gather_layer(hsm1, mssm1, receiver, pixel, k == 0u, coarse); }
-            case 2u: { layer = gather_layer(hsm2, mssm2, receiver, pixel, k == 0u, coarse); }
-            default: { layer = gather_layer(hsm3, mssm3, receiver, pixel, false, coarse); }
-        }
-        r.primitives += layer.primitives;
-        r.level = max(r.level, layer.level);
-        if layer.kind == CLASS_UMBRA {
-            r.v = 0.0;
-            r.area_v = 0.0;
-            r.kind = CLASS_UMBRA;
-            return r;
-        }
-        if layer.kind == CLASS_SKIPPED {
-            r.v = ADAPTIVE_INVALID;
-            r.kind = CLASS_SKIPPED;
-            return r;
-        }
-        if layer.kind == CLASS_UPSAMPLED {
-            r.v = clamp(upsampled.x, 0.0, 1.0);
-            r.area_v = upsampled.y;
-            r.kind = CLASS_UPSAMPLED;
-            return r;
-        }
-        if layer.kind == CLASS_BACKPROJECTED {
-            r.kind = CLASS_BACKPROJECTED;
-        }
-    }
-    if r.kind != CLASS_BACKPROJECTED {
-        return r;
-    }
+override fn softshadow::gather_pass::finish_pixel(r0: PixelResult, half_light: vec2<f32>, area: f32) -> PixelResult {
+    // V = 1 - set bits / samples (sec. 3); the area estimate from the summed rectangles (`acc`:
+    // `area`, the sum of what cover_rect returned, is 0).
+    var r = r0;
     let samples = params.rows * params.columns;
     r.set_bits = set_bits();
     r.v = 1.0 - f32(r.set_bits) / f32(samples);
@@ -412,79 +209,23 @@ fn shade_pixel(pixel: vec2<i32>, coarse: bool) -> PixelResult {
     return r;
 }
 
+override fn softshadow::gather_pass::store_pixel(pixel: vec2<i32>, r: PixelResult) {
+    // The area estimate for the post filter (filter.wgsl), only while it is on.
+    if params.with_area != 0u {
+        textureStore(area_map, pixel, vec4<f32>(r.area_v, 0.0, 0.0, 0.0));
+    }
+}
+
 @compute @workgroup_size(8, 8)
 fn gather(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(local_invocation_index) local: u32,
 ) {
-    if local == 0u {
-        atomicStore(&group_receivers, 0u);
-        atomicStore(&group_lit, 0u);
-        atomicStore(&group_umbra, 0u);
-        atomicStore(&group_backprojected, 0u);
-        atomicStore(&group_primitives, 0u);
-        atomicStore(&group_primitives_max, 0u);
-        atomicStore(&group_set_bits, 0u);
-        atomicStore(&group_upsampled, 0u);
-    }
-    workgroupBarrier();
-    let size = vec2<u32>(frame.screen.xy);
-    if all(id.xy < size) {
-        let pixel = vec2<i32>(id.xy);
-        let r = shade_pixel(pixel, false);
-        textureStore(visibility, pixel, vec4<f32>(r.v, 0.0, 0.0, 0.0));
-        if params.with_area != 0u {
-            textureStore(area_map, pixel, vec4<f32>(r.area_v, 0.0, 0.0, 0.0));
-        }
-        textureStore(level_map, pixel, vec4<f32>(f32(r.level), 0.0, 0.0, 0.0));
-        if r.kind != CLASS_NONE {
-            atomicAdd(&group_receivers, 1u);
-        }
-        if r.kind == CLASS_LIT {
-            atomicAdd(&group_lit, 1u);
-        }
-        if r.kind == CLASS_UMBRA {
-            atomicAdd(&group_umbra, 1u);
-        }
-        if r.kind == CLASS_BACKPROJECTED {
-            atomicAdd(&group_backprojected, 1u);
-            atomicAdd(&group_set_bits, r.set_bits);
-        }
-        if r.kind == CLASS_UPSAMPLED {
-            atomicAdd(&group_upsampled, 1u);
-        }
-        atomicAdd(&group_primitives, r.primitives);
-        atomicMax(&group_primitives_max, r.primitives);
-    }
-    workgroupBarrier();
-    if local == 0u {
-        atomicAdd(&counters.receivers, atomicLoad(&group_receivers));
-        atomicAdd(&counters.lit, atomicLoad(&group_lit));
-        atomicAdd(&counters.umbra, atomicLoad(&group_umbra));
-        atomicAdd(&counters.backprojected, atomicLoad(&group_backprojected));
-        atomicAdd(&counters.upsampled, atomicLoad(&group_upsampled));
-        atomicMax(&counters.primitives_max, atomicLoad(&group_primitives_max));
-        let added = atomicLoad(&group_primitives);
-        let before = atomicAdd(&counters.primitives_lo, added);
-        if before > 0xffffffffu - added {
-            atomicAdd(&counters.primitives_hi, 1u);
-        }
-        let bits = atomicLoad(&group_set_bits);
-        let bits_before = atomicAdd(&counters.set_bits_lo, bits);
-        if bits_before > 0xffffffffu - bits {
-            atomicAdd(&counters.set_bits_hi, 1u);
-        }
-    }
+    gather_pixels(id, local);
 }
 
-// The coarse pass of adaptive screen resolution: pixel id * factor of the full image, its (V, A)
-// where it is lit, umbra or has a wide penumbra, ADAPTIVE_INVALID elsewhere.
+// The coarse pass of adaptive screen resolution.
 @compute @workgroup_size(8, 8)
 fn gather_coarse(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(coarse_out);
-    let pixel = vec2<i32>(id.xy * max(params.adaptive_factor, 1u));
-    if all(id.xy < dims) && all(pixel < vec2<i32>(frame.screen.xy)) {
-        let r = shade_pixel(pixel, true);
-        textureStore(coarse_out, id.xy, vec4<f32>(r.v, r.area_v, 0.0, 0.0));
-    }
+    gather_coarse_pixels(id);
 }

@@ -23,6 +23,39 @@ const MAX_DEPTH_BANDS: u32 = 8u;
 const PRIMITIVE_MICROPATCH: u32 = 0u;
 const PRIMITIVE_MICROQUAD: u32 = 1u;
 
+// The gather pass's uniform (softshadow::gather_pass), filled by softshadow_core::gather::
+// GatherUniform: the shared settings, then the fields only bitmask reads.
+struct GatherParams {
+    hierarchy: u32,
+    primitive: u32,
+    gap_filling: u32,
+    // The max_patches setting (backprojection's debug colours).
+    max_patches: u32,
+    // Most blocks per axis of one gather: max_patches, or the full search's count.
+    per_axis: u32,
+    bias_texels: f32,
+    // Highest hierarchy level built this frame (the same for every layer).
+    max_level: i32,
+    // Depth bands, each gathered at its own level (1: one level for the whole area).
+    depth_bands: u32,
+    // Levels a partly occluding block is split down (0: none).
+    edge_refine: u32,
+    // Adaptive screen resolution: 1 (off), 2 or 4 (coarse pixels per axis), and the penumbra
+    // width in screen pixels from which a pixel is interpolated from the coarse pass.
+    adaptive_factor: u32,
+    adaptive_pixels: f32,
+    // Depth layers gathered (backprojection: 1; bitmask: 1 to 4).
+    layers: u32,
+    // VISIBILITY_SUM or VISIBILITY_CONTOUR (backprojection's setting; bitmask: sum).
+    visibility: u32,
+    // Used by bitmask only: accumulate and write the area estimate A (post filtering is on), the
+    // light samples' rows and columns, and 1 when rows take the rotated-grid offsets.
+    with_area: u32,
+    rows: u32,
+    columns: u32,
+    jittered: u32,
+}
+
 // What a technique's uniforms say about the gather.
 struct GatherSettings {
     // HIERARCHY_NONE (full search), HIERARCHY_HSM or HIERARCHY_MSSM.
