@@ -31,6 +31,19 @@ pub const DEPTH_ALPHA_TEST: crate::shader::Permutation = &[
     ),
 ];
 
+/// The defs of a ray-query shader's alpha-tested permutation with the material group at
+/// `group` (`ALPHA_TEST`, `MATERIAL_TRIANGLES`, `MATERIAL_GROUP`).
+#[macro_export]
+macro_rules! ray_alpha_test_defs {
+    ($group:expr) => {
+        &[
+            ("ALPHA_TEST", $crate::shader::DefValue::Bool(true)),
+            ("MATERIAL_TRIANGLES", $crate::shader::DefValue::Bool(true)),
+            ("MATERIAL_GROUP", $crate::shader::DefValue::UInt($group)),
+        ]
+    };
+}
+
 /// A scene needs [`MaterialGpu`]: some instance's material is masked (cuts holes) or textured.
 pub fn needed(scene: &Scene) -> bool {
     scene.has_masked_instances() || scene.has_textured_instances()
@@ -107,6 +120,16 @@ impl MaterialGpu {
     /// The bind group layout of `softshadow::material` (binding 0 the table, 1 the texels;
     /// fragment and compute stages).
     pub fn layout_of(gpu: &Gpu) -> wgpu::BindGroupLayout {
+        Self::layout_with(gpu, 2)
+    }
+
+    /// The layout of `softshadow::material` with `MATERIAL_TRIANGLES` (ray queries): bindings 2
+    /// to 4 the material vertices and the static and dynamic caster indices.
+    pub fn triangles_layout_of(gpu: &Gpu) -> wgpu::BindGroupLayout {
+        Self::layout_with(gpu, 5)
+    }
+
+    fn layout_with(gpu: &Gpu, bindings: u32) -> wgpu::BindGroupLayout {
         let entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
@@ -120,7 +143,7 @@ impl MaterialGpu {
         gpu.device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("core/material"),
-                entries: &[entry(0), entry(1)],
+                entries: &(0..bindings).map(entry).collect::<Vec<_>>(),
             })
     }
 
@@ -231,6 +254,40 @@ impl MaterialGpu {
     /// Its layout.
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
         &self.layout
+    }
+
+    /// The `MATERIAL_TRIANGLES` group ([`Self::triangles_layout_of`]) over `scene`'s caster
+    /// lists: what a ray query's candidate loop reads to test alpha at a hit.
+    pub fn triangles_group(&self, gpu: &Gpu, scene: &crate::SceneGpu) -> wgpu::BindGroup {
+        // An empty list is never read (no BLAS refers to it): any buffer stands in.
+        let static_list = scene
+            .static_casters
+            .as_ref()
+            .map_or(&self.texels, |l| &l.buffer);
+        let dynamic_list = scene
+            .dynamic_casters
+            .as_ref()
+            .map_or(&self.texels, |l| &l.buffer);
+        let resources = [
+            self.table.as_entire_binding(),
+            self.texels.as_entire_binding(),
+            self.vertices.as_entire_binding(),
+            static_list.as_entire_binding(),
+            dynamic_list.as_entire_binding(),
+        ];
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+            .into_iter()
+            .enumerate()
+            .map(|(k, resource)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource,
+            })
+            .collect();
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("core/material triangles"),
+            layout: &Self::triangles_layout_of(gpu),
+            entries: &entries,
+        })
     }
 }
 

@@ -17,6 +17,7 @@ mod error;
 pub mod file;
 pub mod gltf_import;
 pub mod limits;
+pub mod materials;
 pub mod path;
 pub mod primitives;
 pub mod stiff;

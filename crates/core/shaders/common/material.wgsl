@@ -90,3 +90,37 @@ fn alpha_passes(index: u32, uv: vec2<f32>) -> bool {
     }
     return base_color(index, uv).a >= m.cutoff;
 }
+
+#ifdef MATERIAL_TRIANGLES
+// For ray queries (SceneGpu::material_triangles_group): a candidate hit's triangle, found by its
+// primitive index in the caster list its BLAS was built from (the TLAS instance's custom data,
+// softshadow_core::accel::BLAS_STATIC / BLAS_DYNAMIC), its texcoords interpolated with the hit's
+// barycentrics, and the alpha test of its material there.
+// Per scene vertex: texcoord u, v (f32 bits) and the material row (MaterialVertex).
+@group(#{MATERIAL_GROUP}) @binding(2) var<storage, read> material_vertices: array<u32>;
+@group(#{MATERIAL_GROUP}) @binding(3) var<storage, read> static_casters: array<u32>;
+@group(#{MATERIAL_GROUP}) @binding(4) var<storage, read> dynamic_casters: array<u32>;
+
+fn caster_index(custom_data: u32, k: u32) -> u32 {
+    if custom_data == 0u {
+        return static_casters[k];
+    }
+    return dynamic_casters[k];
+}
+
+fn vertex_uv(v: u32) -> vec2<f32> {
+    return vec2<f32>(bitcast<f32>(material_vertices[3u * v]), bitcast<f32>(material_vertices[3u * v + 1u]));
+}
+
+// Whether the surface is there at a candidate hit: `barycentrics` are the weights of the
+// triangle's second and third vertex.
+fn candidate_solid(custom_data: u32, primitive: u32, barycentrics: vec2<f32>) -> bool {
+    let i0 = caster_index(custom_data, 3u * primitive);
+    let i1 = caster_index(custom_data, 3u * primitive + 1u);
+    let i2 = caster_index(custom_data, 3u * primitive + 2u);
+    let material = material_vertices[3u * i0 + 2u];
+    let w = vec3<f32>(1.0 - barycentrics.x - barycentrics.y, barycentrics);
+    let uv = vertex_uv(i0) * w.x + vertex_uv(i1) * w.y + vertex_uv(i2) * w.z;
+    return alpha_passes(material, uv);
+}
+#endif

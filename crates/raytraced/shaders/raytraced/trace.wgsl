@@ -17,6 +17,15 @@ struct TraceParams {
 
 // Segment ends as the CPU ray cast's (crates/reference/src/raycast.rs): occluders within 1e-4
 // of the segment at the receiver end and 1e-6 at the light end are ignored.
+#ifdef ALPHA_TEST
+// Masked casters (issue 40): their triangles are non-opaque in the BLAS, every candidate hit is
+// tested against its material's alpha (softshadow::material) and confirmed only where solid.
+#import softshadow::material::candidate_solid
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+#else
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE;
+#endif
+
 const SEGMENT_EPSILON: f32 = 1e-4;
 const LIGHT_END_EPSILON: f32 = 1e-6;
 
@@ -65,8 +74,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let on_light = vec2<f32>((2.0 * u.x - 1.0) * frame.light_half.x, (2.0 * u.y - 1.0) * frame.light_half.y);
         let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
         let dir = light_point - s.world;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, s.world, dir));
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAGS, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, s.world, dir));
+#ifdef ALPHA_TEST
+        while rayQueryProceed(&rq) {
+            let c = rayQueryGetCandidateIntersection(&rq);
+            if candidate_solid(c.instance_custom_data, c.primitive_index, c.barycentrics) {
+                rayQueryConfirmIntersection(&rq);
+            }
+        }
+#else
         rayQueryProceed(&rq);
+#endif
         let hit = rayQueryGetCommittedIntersection(&rq);
         if hit.kind == RAY_QUERY_INTERSECTION_NONE {
             lit += 1u;

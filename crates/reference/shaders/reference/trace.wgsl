@@ -25,6 +25,15 @@ struct TraceParams {
 // collapsed-strata estimate of the sampling error (raycast.rs, `visibility_and_error`).
 @group(0) @binding(4) var<storage, read_write> disagree: array<f32>;
 
+#ifdef ALPHA_TEST
+// Masked casters (issue 40): their triangles are non-opaque in the BLAS, every candidate hit is
+// tested against its material's alpha (softshadow::material) and confirmed only where solid.
+#import softshadow::material::candidate_solid
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+#else
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE;
+#endif
+
 const SEGMENT_EPSILON: f32 = 1e-4;
 const LIGHT_END_EPSILON: f32 = 1e-6;
 
@@ -66,8 +75,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let u = (vec2<f32>(f32(i), f32(params.row)) + jitter(k, i, params.row)) / f32(n);
         let on_light = vec2<f32>((2.0 * u.x - 1.0) * params.half.x, (2.0 * u.y - 1.0) * params.half.y);
         let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, light_point - p));
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAGS, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, light_point - p));
+#ifdef ALPHA_TEST
+        while rayQueryProceed(&rq) {
+            let c = rayQueryGetCandidateIntersection(&rq);
+            if candidate_solid(c.instance_custom_data, c.primitive_index, c.barycentrics) {
+                rayQueryConfirmIntersection(&rq);
+            }
+        }
+#else
         rayQueryProceed(&rq);
+#endif
         let hit = rayQueryGetCommittedIntersection(&rq).kind != RAY_QUERY_INTERSECTION_NONE;
         if !hit {
             count += 1u;
