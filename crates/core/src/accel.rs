@@ -229,14 +229,18 @@ impl SceneAccel {
         ];
         let kept_blas = kept
             .into_iter()
-            .flatten()
-            .flatten()
-            .filter_map(|(_, b)| b.as_ref().map(|b| &b.blas));
+            .zip([true, false])
+            .filter_map(|(b, is_static)| Some((is_static, b?.as_ref()?.1.as_ref()?)))
+            .map(|(is_static, b)| (is_static, &b.blas));
         let new_blas = made
             .iter()
-            .filter_map(|(_, b, _)| b.as_ref().map(|(b, _)| &b.blas));
-        for (slot, blas) in kept_blas.chain(new_blas).enumerate() {
-            tlas[slot] = Some(wgpu::TlasInstance::new(blas, IDENTITY, 0, 0xff));
+            .filter_map(|(is_static, b, _)| b.as_ref().map(|(b, _)| (*is_static, &b.blas)));
+        // The custom data says which caster list the instance's primitive indices count in
+        // (`BLAS_STATIC` / `BLAS_DYNAMIC`): the alpha test reads the hit triangle's texcoords
+        // through it.
+        for (slot, (is_static, blas)) in kept_blas.chain(new_blas).enumerate() {
+            let which = if is_static { BLAS_STATIC } else { BLAS_DYNAMIC };
+            tlas[slot] = Some(wgpu::TlasInstance::new(blas, IDENTITY, which, 0xff));
         }
         encoder.build_acceleration_structures(build_entries.iter(), std::iter::once(&tlas));
         drop(build_entries);
@@ -258,6 +262,11 @@ impl SceneAccel {
         Ok(())
     }
 }
+
+/// TLAS custom data of the BLAS over [`SceneGpu::static_casters`].
+pub const BLAS_STATIC: u32 = 0;
+/// TLAS custom data of the BLAS over [`SceneGpu::dynamic_casters`].
+pub const BLAS_DYNAMIC: u32 = 1;
 
 /// Refuses a scene whose casters exceed the adapter's `max_blas_primitive_count` (wgpu checks the
 /// vertex count of a geometry against it, too: the whole vertex buffer is one geometry's).
@@ -306,8 +315,13 @@ fn make_blas(
         vertex_count,
         index_format: Some(wgpu::IndexFormat::Uint32),
         index_count: Some(list.count),
-        // Opaque: a hit ends the shadow ray (no any-hit shader to run).
-        flags: wgpu::AccelerationStructureGeometryFlags::OPAQUE,
+        // Opaque: a hit ends the shadow ray (no any-hit shader to run). With a masked caster
+        // every triangle is a candidate the shader tests alpha on (rayQueryConfirmIntersection).
+        flags: if scene.materials.as_ref().is_some_and(|m| m.masked_casters) {
+            wgpu::AccelerationStructureGeometryFlags::empty()
+        } else {
+            wgpu::AccelerationStructureGeometryFlags::OPAQUE
+        },
     };
     let blas = gpu.device.create_blas(
         &wgpu::CreateBlasDescriptor {

@@ -100,7 +100,22 @@ impl GBuffer {
 /// The G-buffer pass.
 pub struct GBufferPass {
     pipeline: wgpu::RenderPipeline,
+    /// The `MATERIALS` variant (textured albedo, alpha test), made on first use by a scene with
+    /// materials on the device ([`SceneGpu::materials`]).
+    materials: std::sync::OnceLock<Option<wgpu::RenderPipeline>>,
 }
+
+/// The G-buffer's material group (group 0 is the frame uniform).
+pub const GBUFFER_MATERIAL_GROUP: u32 = 1;
+
+/// The G-buffer's material permutation (`shaders/core/gbuffer.wgsl`).
+pub const GBUFFER_MATERIALS: crate::shader::Permutation = &[
+    ("MATERIALS", crate::shader::DefValue::Bool(true)),
+    (
+        "MATERIAL_GROUP",
+        crate::shader::DefValue::UInt(GBUFFER_MATERIAL_GROUP),
+    ),
+];
 
 impl GBufferPass {
     /// Builds the pipeline (`shaders/core/gbuffer.wgsl`).
@@ -113,6 +128,57 @@ impl GBufferPass {
                 bind_group_layouts: &[Some(&gpu.layouts.frame_uniform)],
                 immediate_size: 0,
             });
+        let pipeline = Self::pipeline(gpu, &module, &layout, false);
+        Ok(Self {
+            pipeline,
+            materials: Default::default(),
+        })
+    }
+
+    /// The `MATERIALS` pipeline; `None` (logged) if it does not compose, a bug the shader
+    /// tests catch.
+    fn material_pipeline(&self, gpu: &Gpu) -> Option<&wgpu::RenderPipeline> {
+        self.materials
+            .get_or_init(|| {
+                let module =
+                    shader::create_module(gpu, &shader::CORE_SHADERS[0], GBUFFER_MATERIALS)
+                        .map_err(|e| log::error!("the G-buffer's material variant: {e}"))
+                        .ok()?;
+                let material = crate::material_gpu::MaterialGpu::layout_of(gpu);
+                let layout = gpu
+                    .device
+                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("core/gbuffer (materials)"),
+                        bind_group_layouts: &[Some(&gpu.layouts.frame_uniform), Some(&material)],
+                        immediate_size: 0,
+                    });
+                Some(Self::pipeline(gpu, &module, &layout, true))
+            })
+            .as_ref()
+    }
+
+    /// The pipeline of `module`: `vs_main` / `fs_main`, or with `materials` `vs_material` /
+    /// `fs_material` and the material vertices in slot 1.
+    fn pipeline(
+        gpu: &Gpu,
+        module: &wgpu::ShaderModule,
+        layout: &wgpu::PipelineLayout,
+        materials: bool,
+    ) -> wgpu::RenderPipeline {
+        let (vs, fs) = if materials {
+            ("vs_material", "fs_material")
+        } else {
+            ("vs_main", "fs_main")
+        };
+        let all_buffers = [
+            Some(Vertex::layout()),
+            Some(crate::material_gpu::MaterialVertex::layout()),
+        ];
+        let buffers = if materials {
+            &all_buffers[..]
+        } else {
+            &all_buffers[..1]
+        };
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -120,16 +186,15 @@ impl GBufferPass {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let pipeline = gpu
-            .device
+        gpu.device
             .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("core/gbuffer"),
-                layout: Some(&layout),
+                layout: Some(layout),
                 vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
+                    module,
+                    entry_point: Some(vs),
                     compilation_options: Default::default(),
-                    buffers: &[Some(Vertex::layout())],
+                    buffers,
                 },
                 primitive: wgpu::PrimitiveState {
                     cull_mode: None,
@@ -144,8 +209,8 @@ impl GBufferPass {
                 }),
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
+                    module,
+                    entry_point: Some(fs),
                     compilation_options: Default::default(),
                     targets: &[
                         target(POSITION_FORMAT),
@@ -155,8 +220,7 @@ impl GBufferPass {
                 }),
                 multiview_mask: None,
                 cache: None,
-            });
-        Ok(Self { pipeline })
+            })
     }
 
     /// Records the pass (`gbuffer`) drawing every instance of `scene` into `gbuffer`.
@@ -167,6 +231,7 @@ impl GBufferPass {
         uniform_bind_group: &wgpu::BindGroup,
         scene: &SceneGpu,
     ) {
+        let frame_gpu = frame.gpu;
         let clear = |view| {
             Some(wgpu::RenderPassColorAttachment {
                 view,
@@ -200,7 +265,18 @@ impl GBufferPass {
                 multiview_mask: None,
             },
             |pass| {
-                pass.set_pipeline(&self.pipeline);
+                let material = scene.materials.as_ref().and_then(|m| {
+                    let pipeline = self.material_pipeline(frame_gpu)?;
+                    Some((m, pipeline))
+                });
+                match material {
+                    Some((m, pipeline)) => {
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(GBUFFER_MATERIAL_GROUP, m.group(), &[]);
+                        pass.set_vertex_buffer(1, m.vertices.slice(..));
+                    }
+                    None => pass.set_pipeline(&self.pipeline),
+                }
                 pass.set_bind_group(0, uniform_bind_group, &[]);
                 scene.draw_all(pass);
             },

@@ -24,6 +24,7 @@ pub mod host;
 pub mod light;
 pub mod light_shape;
 pub mod material;
+pub mod material_gpu;
 pub mod memory;
 pub mod params;
 pub mod pass;
@@ -77,6 +78,7 @@ pub use {bytemuck, encase, glam, puffin, wgpu};
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
     use frame::FrameUniforms;
+    use material_gpu::MaterialEntry;
     use shadow_map::{DepthView, ShadowViewUniform};
     vec![
         uniform_mirror!(
@@ -98,6 +100,19 @@ pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
                 => "common/shadow_view.wgsl", ShadowView
         ),
         uniform_mirror!(DepthView { light_view_proj } => "core/depth.wgsl", DepthView),
+        uniform_mirror!(
+            MaterialEntry {
+                base_color,
+                cutoff,
+                texel_offset,
+                width,
+                height,
+                wrap_u,
+                wrap_v,
+                filtering,
+                pad,
+            } => "common/material.wgsl", MaterialEntry
+        ),
         shading::uniform_mirror(),
         hierarchy::uniform_mirror(),
         host::uniform_mirror(),

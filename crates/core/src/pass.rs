@@ -289,6 +289,7 @@ pub struct PassBuilder<'a> {
     defs: Vec<(&'a str, DefValue)>,
     slots: Vec<Slot>,
     after_frame_group: bool,
+    material_triangles: bool,
 }
 
 /// Where a pass's shader comes from.
@@ -313,6 +314,7 @@ impl Pass {
             defs: Vec::new(),
             slots: Vec::new(),
             after_frame_group: false,
+            material_triangles: false,
         }
     }
 
@@ -325,6 +327,7 @@ impl Pass {
             defs: Vec::new(),
             slots: Vec::new(),
             after_frame_group: false,
+            material_triangles: false,
         }
     }
 }
@@ -339,6 +342,14 @@ impl<'a> PassBuilder<'a> {
     /// Group 0 is the core frame group (frame uniforms, G-buffer); the pass's own is group 1.
     pub fn after_frame_group(mut self) -> Self {
         self.after_frame_group = true;
+        self
+    }
+
+    /// A ray-query pass's alpha-tested variant: the group after the pass's own is
+    /// `softshadow::material` with `MATERIAL_TRIANGLES` (`crate::material_gpu`), and the module
+    /// is composed with `ALPHA_TEST`. Run it with [`PassRun::materials`].
+    pub fn material_triangles(mut self) -> Self {
+        self.material_triangles = true;
         self
     }
 
@@ -379,9 +390,21 @@ impl<'a> PassBuilder<'a> {
         self
     }
 
+    /// The material group's index, for a pass built [`Self::material_triangles`].
+    fn material_group(&self) -> Option<u32> {
+        self.material_triangles
+            .then_some(if self.after_frame_group { 2 } else { 1 })
+    }
+
     fn module(&self) -> Result<wgpu::ShaderModule, GpuError> {
         match &self.source {
-            PassSource::Spec(spec) => shader::create_module(self.gpu, spec, &self.defs),
+            PassSource::Spec(spec) => {
+                let mut defs = self.defs.clone();
+                if let Some(group) = self.material_group() {
+                    defs.extend_from_slice(crate::ray_alpha_test_defs!(group));
+                }
+                shader::create_module(self.gpu, spec, &defs)
+            }
             PassSource::Module(module) => {
                 Ok(self
                     .gpu
@@ -399,11 +422,17 @@ impl<'a> PassBuilder<'a> {
     fn pipeline_layout(&self, group: &PassGroup) -> wgpu::PipelineLayout {
         let frame = Some(&self.gpu.layouts.frame);
         let own = Some(group.layout());
-        let groups = if self.after_frame_group {
+        let mut groups = if self.after_frame_group {
             vec![frame, own]
         } else {
             vec![own]
         };
+        let material = self
+            .material_triangles
+            .then(|| crate::material_gpu::MaterialGpu::triangles_layout_of(self.gpu));
+        if material.is_some() {
+            groups.push(material.as_ref());
+        }
         self.gpu
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -434,6 +463,7 @@ impl<'a> PassBuilder<'a> {
                 cache: None,
             });
         Ok(ComputePass {
+            material_group: self.material_group(),
             label: self.label,
             group,
             pipeline,
@@ -483,6 +513,8 @@ pub struct ComputePass {
     group: PassGroup,
     pipeline: wgpu::ComputePipeline,
     after_frame_group: bool,
+    /// The material group's index ([`PassBuilder::material_triangles`]).
+    material_group: Option<u32>,
 }
 
 /// A fullscreen-triangle pass: its pipeline and its own group.
@@ -504,6 +536,7 @@ pub struct PassRun<'f, 'g, 'r, P> {
     dynamic_offsets: Vec<u32>,
     label: Option<&'r str>,
     instances: std::ops::Range<u32>,
+    materials: Option<&'r wgpu::BindGroup>,
 }
 
 impl<'f, 'g, 'r, P: HasGroup> PassRun<'f, 'g, 'r, P> {
@@ -536,6 +569,13 @@ impl<'f, 'g, 'r, P: HasGroup> PassRun<'f, 'g, 'r, P> {
     /// Draws these instances of the fullscreen triangle (the shader reads `instance_index`).
     pub fn instances(mut self, instances: std::ops::Range<u32>) -> Self {
         self.instances = instances;
+        self
+    }
+
+    /// The material group of a pass built [`PassBuilder::material_triangles`]
+    /// ([`crate::material_gpu::MaterialGpu::triangles_group`]).
+    pub fn materials(mut self, group: &'r wgpu::BindGroup) -> Self {
+        self.materials = Some(group);
         self
     }
 
@@ -582,6 +622,14 @@ impl PassRun<'_, '_, '_, ComputePass> {
                 index = 1;
             }
             cpass.set_bind_group(index, &own, &self.dynamic_offsets);
+            assert_eq!(
+                self.materials.is_some(),
+                pass.material_group.is_some(),
+                "{label}: the material group is given if and only if the pass was built material_triangles"
+            );
+            if let (Some(materials), Some(group)) = (self.materials, pass.material_group) {
+                cpass.set_bind_group(group, materials, &[]);
+            }
             cpass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
         });
     }
@@ -668,6 +716,7 @@ macro_rules! built_pass {
                     dynamic_offsets: Vec::new(),
                     label: None,
                     instances: 0..1,
+                    materials: None,
                 }
             }
 

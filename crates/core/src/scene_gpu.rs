@@ -9,6 +9,7 @@ use wgpu::util::DeviceExt;
 
 use crate::{
     light::AreaLight,
+    material_gpu::{MaterialGpu, MaterialVertex},
     scene::{Aabb, Instance, Mesh},
     Gpu, Scene,
 };
@@ -110,6 +111,9 @@ pub struct SceneGpu {
     pub triangle_count: usize,
     /// Triangles in [`SceneGpu::casters`].
     pub caster_triangle_count: usize,
+    /// Texcoords, material rows, the material table and texels: only for a scene with a masked
+    /// or textured material ([`crate::material_gpu::needed`]); `None` keeps every pass as it was.
+    pub materials: Option<MaterialGpu>,
     /// World positions of every vertex and the caster and receiver triangles over them (for
     /// tight light-space bounds, [`LightBounds::of_triangles`]).
     positions: Vec<Vec3>,
@@ -194,6 +198,8 @@ fn clipped_bounds(light_space: &[Vec3], indices: &[u32]) -> Option<Aabb> {
 /// the bounds and positions it keeps.
 struct Baked {
     vertices: Vec<Vertex>,
+    /// Per vertex texcoord and material row, filled only when the scene needs them.
+    material_vertices: Option<Vec<MaterialVertex>>,
     /// Index lists into `vertices`.
     all: Vec<u32>,
     casters: Vec<u32>,
@@ -210,9 +216,10 @@ struct Baked {
 }
 
 impl Baked {
-    fn new() -> Self {
+    fn new(with_materials: bool) -> Self {
         Self {
             vertices: Vec::new(),
+            material_vertices: with_materials.then(Vec::new),
             all: Vec::new(),
             casters: Vec::new(),
             static_casters: Vec::new(),
@@ -229,10 +236,17 @@ impl Baked {
 
     /// Adds `mesh` placed by `instance`: its vertices in world space with the instance's albedo
     /// and flags, its triangles in the index lists it belongs to, its points in the bounds.
-    fn add(&mut self, instance: &Instance, mesh: &Mesh) {
+    fn add(&mut self, instance: &Instance, mesh: &Mesh, albedo: Vec3) {
         let base = self.vertices.len() as u32;
         let normal_matrix = instance.transform.inverse().transpose();
-        let color_flags = color_flags(instance);
+        let color_flags = color_flags(instance, albedo);
+        if let Some(material_vertices) = &mut self.material_vertices {
+            let material = instance.material.map_or(0, |m| m as u32 + 1);
+            material_vertices.extend((0..mesh.positions.len()).map(|k| MaterialVertex {
+                uv: mesh.texcoords.get(k).map_or([0.0; 2], |t| t.to_array()),
+                material,
+            }));
+        }
         for (k, p) in mesh.positions.iter().enumerate() {
             let world = instance.transform.transform_point3(*p);
             let n = mesh.normals.get(k).copied().unwrap_or(Vec3::Y);
@@ -273,10 +287,10 @@ impl Baked {
     }
 }
 
-/// A vertex's `color_flags` for `instance`: its albedo as RGB8, and whether it casts and
-/// receives shadows.
-fn color_flags(instance: &Instance) -> u32 {
-    let albedo = instance.albedo.clamp(Vec3::ZERO, Vec3::ONE);
+/// A vertex's `color_flags` for `instance`: `albedo` (its own, or its material's base colour)
+/// as RGB8, and whether it casts and receives shadows.
+fn color_flags(instance: &Instance, albedo: Vec3) -> u32 {
+    let albedo = albedo.clamp(Vec3::ZERO, Vec3::ONE);
     let mut color_flags = (albedo.x * 255.0).round() as u32
         | ((albedo.y * 255.0).round() as u32) << 8
         | ((albedo.z * 255.0).round() as u32) << 16;
@@ -293,14 +307,22 @@ impl SceneGpu {
     /// Uploads a scene. Instances are baked into world space (one vertex buffer, no per-draw state).
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Self {
         puffin::profile_function!();
-        let mut baked = Baked::new();
+        let mut baked = Baked::new(crate::material_gpu::needed(scene));
         for instance in &scene.instances {
             if let Some(mesh) = scene.meshes.get(instance.mesh) {
-                baked.add(instance, mesh);
+                let albedo = scene
+                    .material_of(instance)
+                    .map_or(instance.albedo, |m| m.base_color.truncate());
+                baked.add(instance, mesh, albedo);
             }
         }
+        let materials = baked
+            .material_vertices
+            .take()
+            .map(|v| MaterialGpu::upload(gpu, scene, &v));
         let Baked {
             vertices,
+            material_vertices: _,
             all,
             casters,
             static_casters,
@@ -347,6 +369,7 @@ impl SceneGpu {
             vertices: vertex_buffer,
             triangle_count: all.len() / 3,
             caster_triangle_count: casters.len() / 3,
+            materials,
             all: make("scene indices (all)", &all),
             casters: make("scene indices (casters)", &casters),
             static_casters: make("scene indices (static casters)", &static_casters),

@@ -77,6 +77,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/gather.wgsl"),
     shader_file!("common/gather_pass.wgsl"),
     shader_file!("common/reprojection.wgsl"),
+    shader_file!("common/material.wgsl"),
 ];
 
 /// The core crate's own entry shaders.
@@ -84,12 +85,12 @@ pub const CORE_SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "core/gbuffer.wgsl",
         source: shader_file!("core/gbuffer.wgsl").1,
-        permutations: &[&[]],
+        permutations: &[&[], crate::gbuffer::GBUFFER_MATERIALS],
     },
     ShaderSpec {
         path: "core/depth.wgsl",
         source: shader_file!("core/depth.wgsl").1,
-        permutations: &[&[]],
+        permutations: &[&[], crate::material_gpu::DEPTH_ALPHA_TEST],
     },
     ShaderSpec {
         path: "core/shading.wgsl",

@@ -8,6 +8,7 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use crate::{
     frame::{uniform_entry, Frame},
     light::{AreaLight, SlopeFrustum},
+    material_gpu::MaterialGpu,
     pass::{FullscreenPass, Pass, PassBuilder, PassGroup, Slot},
     scene_gpu::{IndexList, SceneGpu, Vertex},
     shader,
@@ -127,6 +128,9 @@ pub struct DepthMapRenderer {
     /// The peeling pass: its group (the peeled map's `ShadowView`, the previous layer) and
     /// pipeline, made on first use.
     peel: std::sync::OnceLock<(PassGroup, wgpu::RenderPipeline)>,
+    /// The alpha-tested variants (`ALPHA_TEST`), made on first use by a scene with a masked
+    /// caster: one per [`CasterDraw`] and the peeling one.
+    masked: std::sync::OnceLock<MaskedPipelines>,
     layout: wgpu::BindGroupLayout,
     buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -156,6 +160,7 @@ impl DepthMapRenderer {
             pipeline_layout,
             pipelines: Default::default(),
             peel: Default::default(),
+            masked: Default::default(),
             layout,
             buffer,
             bind_group,
@@ -193,6 +198,53 @@ impl DepthMapRenderer {
         (group, pipeline)
     }
 
+    /// The alpha-tested pipelines over the masked module; `None` when it does not compose (a
+    /// bug tests/shaders.rs catches).
+    fn masked(&self, gpu: &Gpu) -> Option<&MaskedPipelines> {
+        if let Some(m) = self.masked.get() {
+            return Some(m);
+        }
+        let module = shader::create_module(
+            gpu,
+            &shader::CORE_SHADERS[1],
+            crate::material_gpu::DEPTH_ALPHA_TEST,
+        )
+        .map_err(|e| log::error!("the alpha-tested depth pass does not compose: {e}"))
+        .ok()?;
+        let material = crate::material_gpu::MaterialGpu::layout_of(gpu);
+        let peel_group = PassGroup::new(
+            gpu,
+            "core/depth peel",
+            &[Slot::Uniform, Slot::DEPTH],
+            wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+        );
+        let pipeline_layout = |peel: Option<&wgpu::BindGroupLayout>| {
+            gpu.device
+                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("core/depth (alpha test)"),
+                    bind_group_layouts: &[Some(&self.layout), peel, Some(&material)],
+                    immediate_size: 0,
+                })
+        };
+        let plain = pipeline_layout(None);
+        let peeling = pipeline_layout(Some(peel_group.layout()));
+        let make = |draw, layout, fragment| {
+            self.depth_pipeline_from(&gpu.device, &module, draw, layout, fragment)
+        };
+        let pipelines = [
+            CasterDraw::Nearest,
+            CasterDraw::Farthest,
+            CasterDraw::ReceiversOnly,
+        ]
+        .map(|draw| make(draw, &plain, "fs_masked"));
+        let peel = make(CasterDraw::Nearest, &peeling, "fs_peel_masked");
+        Some(self.masked.get_or_init(|| MaskedPipelines {
+            pipelines,
+            peel_group,
+            peel,
+        }))
+    }
+
     fn depth_pipeline(
         &self,
         device: &wgpu::Device,
@@ -217,15 +269,90 @@ impl DepthMapRenderer {
                 wgpu::CompareFunction::Less,
             ),
         };
+        let buffers = [Some(vertex)];
+        let vertex = wgpu::VertexState {
+            module: &self.module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            buffers: &buffers,
+        };
+        let fragment = fragment.map(|entry| wgpu::FragmentState {
+            module: &self.module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            targets: &[],
+        });
+        depth_pipeline_descriptor(device, layout, vertex, fragment, compare)
+    }
+
+    /// A pipeline of the alpha-tested module: `vs_masked` (or `vs_receiver_masked`) with the
+    /// material vertex buffer in slot 1, and `fragment`.
+    fn depth_pipeline_from(
+        &self,
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        draw: CasterDraw,
+        layout: &wgpu::PipelineLayout,
+        fragment: &str,
+    ) -> wgpu::RenderPipeline {
+        let (entry, vertex, compare) = match draw {
+            CasterDraw::Nearest => (
+                "vs_masked",
+                Vertex::position_layout(),
+                wgpu::CompareFunction::Less,
+            ),
+            CasterDraw::Farthest => (
+                "vs_masked",
+                Vertex::position_layout(),
+                wgpu::CompareFunction::Greater,
+            ),
+            CasterDraw::ReceiversOnly => (
+                "vs_receiver_masked",
+                Vertex::position_and_flags_layout(),
+                wgpu::CompareFunction::Less,
+            ),
+        };
+        let buffers = [
+            Some(vertex),
+            Some(crate::material_gpu::MaterialVertex::layout()),
+        ];
+        let vertex = wgpu::VertexState {
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            buffers: &buffers,
+        };
+        let fragment = Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fragment),
+            compilation_options: Default::default(),
+            targets: &[],
+        });
+        depth_pipeline_descriptor(device, layout, vertex, fragment, compare)
+    }
+}
+
+/// The alpha-tested pipelines of [`DepthMapRenderer`].
+struct MaskedPipelines {
+    /// One per [`CasterDraw`].
+    pipelines: [wgpu::RenderPipeline; 3],
+    peel_group: PassGroup,
+    peel: wgpu::RenderPipeline,
+}
+
+/// A depth-only pipeline: both faces, depth written with `compare`.
+fn depth_pipeline_descriptor(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    vertex: wgpu::VertexState<'_>,
+    fragment: Option<wgpu::FragmentState<'_>>,
+    compare: wgpu::CompareFunction,
+) -> wgpu::RenderPipeline {
+    {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("core/depth"),
             layout: Some(layout),
-            vertex: wgpu::VertexState {
-                module: &self.module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex)],
-            },
+            vertex,
             primitive: wgpu::PrimitiveState {
                 // Both faces: zero-thickness occluders must cast from either side, and the
                 // nearest / farthest surface is chosen by the depth test alone.
@@ -240,17 +367,14 @@ impl DepthMapRenderer {
                 bias: Default::default(),
             }),
             multisample: Default::default(),
-            fragment: fragment.map(|entry| wgpu::FragmentState {
-                module: &self.module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                targets: &[],
-            }),
+            fragment,
             multiview_mask: None,
             cache: None,
         })
     }
+}
 
+impl DepthMapRenderer {
     fn allocate(
         gpu: &Gpu,
         layout: &wgpu::BindGroupLayout,
@@ -340,14 +464,24 @@ impl DepthMapRenderer {
         slot: u32,
         target: &wgpu::TextureView,
     ) {
-        let pipeline = self.pipeline(&frame.gpu.device, draw);
+        // A masked caster (or, for the receiver map, a masked receiver) takes the alpha-tested
+        // variant; every other scene the plain pipeline, as before materials existed.
+        let masked = scene.materials.as_ref().filter(|m| match draw {
+            CasterDraw::ReceiversOnly => m.masked,
+            _ => m.masked_casters,
+        });
+        let variant = masked.and_then(|m| Some((self.masked(frame.gpu)?, m)));
+        let (pipeline, material) = match variant {
+            Some((pipelines, m)) => (&pipelines.pipelines[draw.index()], Some(m)),
+            None => (self.pipeline(&frame.gpu.device, draw), None),
+        };
         self.record_pass(
             frame,
             label,
             scene,
             list,
             pipeline,
-            None,
+            (None, material),
             (slot, draw.clear()),
             target,
         );
@@ -367,25 +501,34 @@ impl DepthMapRenderer {
         previous: &wgpu::TextureView,
         target: &wgpu::TextureView,
     ) {
-        let (group, pipeline) = self.peel.get_or_init(|| self.make_peel(frame.gpu));
+        let masked = scene.materials.as_ref().filter(|m| m.masked_casters);
+        let variant = masked.and_then(|m| Some((self.masked(frame.gpu)?, m)));
+        let (group, pipeline, material) = match variant {
+            Some((p, m)) => (&p.peel_group, &p.peel, Some(m)),
+            None => {
+                let (group, pipeline) = self.peel.get_or_init(|| self.make_peel(frame.gpu));
+                (group, pipeline, None)
+            }
+        };
         let peel_group = group.bind(frame.gpu, &[peel_view.into(), previous.into()]);
         let casters = scene.casters.as_ref();
         let clear = CasterDraw::Nearest.clear();
-        let extra = Some(&peel_group);
+        let groups = (Some(&peel_group), material);
         self.record_pass(
             frame,
             label,
             scene,
             casters,
             pipeline,
-            extra,
+            groups,
             (slot, clear),
             target,
         );
     }
 
     /// Records one depth pass: `list` drawn with `pipeline` into `target` cleared to the
-    /// `(slot, clear)` pair's depth, through view slot `slot`, with `extra` as group 1.
+    /// `(slot, clear)` pair's depth, through view slot `slot`, with `extra` as group 1 and, for
+    /// the alpha-tested variants, the material group as group 2 and its vertices in slot 1.
     #[allow(clippy::too_many_arguments)]
     fn record_pass(
         &self,
@@ -394,7 +537,7 @@ impl DepthMapRenderer {
         scene: &SceneGpu,
         list: Option<&IndexList>,
         pipeline: &wgpu::RenderPipeline,
-        extra: Option<&wgpu::BindGroup>,
+        (extra, material): (Option<&wgpu::BindGroup>, Option<&MaterialGpu>),
         (slot, clear): (u32, f32),
         target: &wgpu::TextureView,
     ) {
@@ -418,6 +561,11 @@ impl DepthMapRenderer {
             pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
             if let Some(extra) = extra {
                 pass.set_bind_group(1, extra, &[]);
+            }
+            if let Some(material) = material {
+                let group = crate::material_gpu::DEPTH_MATERIAL_GROUP;
+                pass.set_bind_group(group, material.group(), &[]);
+                pass.set_vertex_buffer(1, material.vertices.slice(..));
             }
             if let Some(list) = list {
                 pass.set_vertex_buffer(0, scene.vertices.slice(..));

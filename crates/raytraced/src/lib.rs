@@ -45,7 +45,7 @@ pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "raytraced/trace.wgsl",
         source: shader_file!("raytraced/trace.wgsl").1,
-        permutations: &[&[]],
+        permutations: &[&[], softshadow_core::ray_alpha_test_defs!(2)],
     },
     ShaderSpec {
         path: "raytraced/denoise.wgsl",
@@ -149,6 +149,8 @@ pub struct Raytraced {
     pub settings: RaytracedSettings,
     accel: SceneAccel,
     trace: ComputePass,
+    /// The alpha-tested trace, made by the first frame of a scene with a masked caster.
+    trace_masked: Option<ComputePass>,
     temporal: ComputePass,
     penumbra: ComputePass,
     filter: ComputePass,
@@ -183,13 +185,7 @@ impl Raytraced {
     /// what to install on a device without ray queries.
     pub fn new(gpu: &Gpu, settings: RaytracedSettings) -> Result<Self, TechniqueError> {
         softshadow_core::technique::check_requirements(gpu, ID, &Self::requirements_static())?;
-        // trace.wgsl: TraceParams, the scene, the raw result.
-        let trace = Pass::new(gpu, "raytraced/trace", &SHADERS[0])
-            .after_frame_group()
-            .uniform()
-            .slot(Slot::AccelerationStructure)
-            .storage_texture(wgpu::TextureFormat::Rg32Float)
-            .compute("trace")?;
+        let trace = trace_pass(gpu, false)?;
         // denoise.wgsl, one layout for its three entries: DenoiseParams, three inputs, then
         // three outputs (Rg32, Rgba32, R32).
         let denoise = |label, entry| {
@@ -217,6 +213,7 @@ impl Raytraced {
             penumbra: denoise("raytraced/penumbra", "penumbra")?,
             filter: denoise("raytraced/filter", "spatial_filter")?,
             trace,
+            trace_masked: Default::default(),
             trace_params: zeroed_uniform_buffer::<TraceParams>(gpu, "raytraced/trace params"),
             denoise_params: zeroed_uniform_buffer::<DenoiseParams>(gpu, "raytraced/denoise params"),
             dummies: Dummies {
@@ -258,9 +255,15 @@ impl Raytraced {
             }),
         );
         let tlas = self.accel.tlas().expect("updated by render");
-        self.trace
-            .run(frame)
-            .frame_group(inputs.frame_bind_group)
+        // Masked casters: the alpha-tested trace (made on first use), with the material group.
+        let masked = inputs.scene.materials.as_ref().filter(|m| m.masked_casters);
+        let materials = masked.map(|m| m.triangles_group(frame.gpu, inputs.scene));
+        let masked_pass = materials.as_ref().and(self.trace_masked.as_ref());
+        let run = match (masked_pass, &materials) {
+            (Some(pass), Some(group)) => pass.run(frame).materials(group),
+            _ => self.trace.run(frame),
+        };
+        run.frame_group(inputs.frame_bind_group)
             .read(&self.trace_params)
             .read(tlas)
             .write(&targets.raw_view)
@@ -386,6 +389,14 @@ impl ShadowTechnique for Raytraced {
             self.invalidate_history();
         }
         let rays = self.settings.rays_per_pixel.clamp(1, 16);
+        let masked = inputs
+            .scene
+            .materials
+            .as_ref()
+            .is_some_and(|m| m.masked_casters);
+        if masked && self.trace_masked.is_none() {
+            self.trace_masked = Some(trace_pass(frame.gpu, true)?);
+        }
         self.trace(frame, inputs, rays);
         self.denoise(frame, inputs, out);
         let temporal = self.settings.temporal;
@@ -458,4 +469,20 @@ impl ShadowTechnique for Raytraced {
             ),
         ]
     }
+}
+
+/// The trace pass (trace.wgsl: TraceParams, the scene, the raw result); with `masked` its
+/// alpha-tested variant, whose candidate loop tests each hit's material (issue 40).
+fn trace_pass(gpu: &Gpu, masked: bool) -> Result<ComputePass, TechniqueError> {
+    let builder = Pass::new(gpu, "raytraced/trace", &SHADERS[0])
+        .after_frame_group()
+        .uniform()
+        .slot(Slot::AccelerationStructure)
+        .storage_texture(wgpu::TextureFormat::Rg32Float);
+    let builder = if masked {
+        builder.material_triangles()
+    } else {
+        builder
+    };
+    Ok(builder.compute("trace")?)
 }

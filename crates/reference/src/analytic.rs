@@ -94,6 +94,13 @@ pub enum AnalyticError {
         /// The light's height.
         height: f32,
     },
+    /// A caster has an alpha-masked material: the union of the casters' projections cannot see
+    /// the holes its texture cuts (a sampled answer, which tests alpha at each hit, is used).
+    #[error("scene `{scene}` has alpha-masked casters: the analytic exact answer cannot see their holes (the ray-traced or ray-cast answer is used)")]
+    MaskedCasters {
+        /// The scene's name.
+        scene: String,
+    },
     /// The work was cancelled (its `BuildControl`) before every pixel was done.
     #[error("the analytic exact answer was cancelled before it finished")]
     Cancelled,
@@ -127,6 +134,11 @@ impl AnalyticCasters {
     /// Vertices enter light space as the closed form takes them (`AreaLight::to_light_space`, the
     /// scene's own f32 precision); everything after that is f64.
     pub fn new(scene: &Scene, light: &AreaLight) -> Result<Self, AnalyticError> {
+        if scene.has_masked_casters() {
+            return Err(AnalyticError::MaskedCasters {
+                scene: scene.name.clone(),
+            });
+        }
         let half = light.half_extent();
         if !(half.x > 0.0 && half.y > 0.0) {
             return Err(AnalyticError::NoArea {

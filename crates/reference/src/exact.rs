@@ -101,8 +101,13 @@ pub fn union_area(rects: &[[f64; 4]]) -> f64 {
 /// all its referenced vertices share one light-space depth (within 1e-5 relative) and sit on the
 /// corners of its light-space bounding rectangle, and its triangles cover that rectangle a whole
 /// number of times (1 for a quad, 2 for a two-sided quad or a flattened box). `None` when any
-/// caster is something else: use the ray-cast reference then. `Some(vec![])` without casters.
+/// caster is something else (or has an alpha mask): use the ray-cast reference then.
+/// `Some(vec![])` without casters.
 pub fn parallel_rects(scene: &Scene) -> Option<Vec<ParallelRect>> {
+    // A masked caster is a rectangle with holes: no closed form.
+    if scene.has_masked_casters() {
+        return None;
+    }
     let mut rects = Vec::new();
     for instance in scene.instances.iter().filter(|i| i.casts_shadow) {
         let mesh = scene.meshes.get(instance.mesh)?;

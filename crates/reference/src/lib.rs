@@ -259,7 +259,10 @@ pub fn exact_answer(
 ) -> Result<ExactAnswer, analytic::AnalyticError> {
     if method.analytic {
         match analytic_answer(scene, positions, normals, receiver, control) {
-            Err(analytic::AnalyticError::NoArea { .. }) => {}
+            Err(
+                analytic::AnalyticError::NoArea { .. }
+                | analytic::AnalyticError::MaskedCasters { .. },
+            ) => {}
             answer => return answer,
         }
     }

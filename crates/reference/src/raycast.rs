@@ -94,17 +94,73 @@ struct Node {
 pub struct CasterBvh {
     triangles: Vec<[Vec3; 3]>,
     nodes: Vec<Node>,
+    /// The alpha masks of a scene with masked casters (`None` otherwise: every hit counts).
+    masks: Option<AlphaMasks>,
+}
+
+/// What the alpha test at a hit needs: per triangle (in `triangles`' order) its material's
+/// index in `materials` (`u32::MAX`: opaque) and its three texcoords.
+#[derive(Clone, Debug)]
+struct AlphaMasks {
+    triangles: Vec<(u32, [Vec2; 3])>,
+    materials: Vec<MaskedMaterial>,
+}
+
+/// A masked material: its base colour alpha, cut-off and texture.
+#[derive(Clone, Debug)]
+struct MaskedMaterial {
+    alpha: f32,
+    cutoff: f32,
+    texture: Option<softshadow_core::Texture>,
+}
+
+impl AlphaMasks {
+    /// Whether the surface of triangle `k` is there at barycentrics `(u, v)` (weights of its
+    /// second and third vertex): the alpha test of `softshadow::material` (the same sampling,
+    /// [`softshadow_core::Texture::sample`]; alpha at or above the cut-off is solid).
+    fn solid(&self, k: usize, u: f32, v: f32) -> bool {
+        let (material, uv) = &self.triangles[k];
+        let Some(m) = self.materials.get(*material as usize) else {
+            return true;
+        };
+        let at = uv[0] * (1.0 - u - v) + uv[1] * u + uv[2] * v;
+        let alpha = match &m.texture {
+            Some(t) => m.alpha * t.sample(at).w,
+            None => m.alpha,
+        };
+        alpha >= m.cutoff
+    }
 }
 
 impl CasterBvh {
     /// Collects the triangles of every `casts_shadow` instance in world space (instance transform
     /// applied; triangles with a non-finite vertex or an out-of-range index are skipped) and builds
     /// the hierarchy.
+    /// A masked caster's triangles keep its texcoords and material, and a ray passes through
+    /// its holes (alpha tested at the hit, [`softshadow_core::Texture::sample`]).
     pub fn from_scene(scene: &Scene) -> Self {
         let mut triangles = Vec::new();
+        let masked = scene.has_masked_casters();
+        let mut mask_of = Vec::new();
+        let materials: Vec<MaskedMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| MaskedMaterial {
+                alpha: m.base_color.w,
+                cutoff: m.alpha_mode.effective_cutoff().unwrap_or(f32::NEG_INFINITY),
+                texture: m
+                    .base_color_texture
+                    .and_then(|t| scene.textures.get(t))
+                    .cloned(),
+            })
+            .collect();
         for instance in scene.instances.iter().filter(|i| i.casts_shadow) {
             let Some(mesh) = scene.meshes.get(instance.mesh) else {
                 continue;
+            };
+            let material = match scene.alpha_cutoff_of(instance) {
+                Some(_) => instance.material.map_or(u32::MAX, |m| m as u32),
+                None => u32::MAX,
             };
             for tri in mesh.indices.chunks_exact(3) {
                 let mut v = [Vec3::ZERO; 3];
@@ -117,19 +173,36 @@ impl CasterBvh {
                 }
                 if ok && v.iter().all(|p| p.is_finite()) {
                     triangles.push(v);
+                    if masked {
+                        let uv = |k: usize| {
+                            let index = tri[k] as usize;
+                            mesh.texcoords.get(index).copied().unwrap_or(Vec2::ZERO)
+                        };
+                        mask_of.push((material, [uv(0), uv(1), uv(2)]));
+                    }
                 }
             }
         }
-        Self::from_triangles(triangles)
+        let masks = masked.then_some(AlphaMasks {
+            triangles: mask_of,
+            materials,
+        });
+        Self::build_with(triangles, masks)
     }
 
     /// Builds the hierarchy over world-space triangles (binned SAH over centroids, median split
     /// as fallback). Triangles with a non-finite vertex are dropped.
     pub fn from_triangles(mut triangles: Vec<[Vec3; 3]>) -> Self {
         triangles.retain(|t| t.iter().all(|p| p.is_finite()));
+        Self::build_with(triangles, None)
+    }
+
+    /// The hierarchy over finite `triangles` with their masks (one per triangle).
+    fn build_with(triangles: Vec<[Vec3; 3]>, masks: Option<AlphaMasks>) -> Self {
         let mut bvh = Self {
             triangles,
             nodes: Vec::new(),
+            masks,
         };
         bvh.build();
         bvh
@@ -212,6 +285,9 @@ impl CasterBvh {
         }
         let triangles = order.iter().map(|&i| self.triangles[i]).collect();
         self.triangles = triangles;
+        if let Some(masks) = &mut self.masks {
+            masks.triangles = order.iter().map(|&i| masks.triangles[i]).collect();
+        }
     }
 
     /// Whether any triangle is hit by `origin + t * dir` with `t_min < t < t_max` (two-sided).
@@ -232,7 +308,19 @@ impl CasterBvh {
             }
             if node.count > 0 {
                 let first = node.first as usize;
-                for tri in &self.triangles[first..first + node.count as usize] {
+                let leaf = first..first + node.count as usize;
+                if let Some(masks) = &self.masks {
+                    // Masked scenes: a hit in a hole is no hit; the ray goes on.
+                    for k in leaf {
+                        if let Some((t, u, v)) = ray_triangle_uv(origin, dir, &self.triangles[k]) {
+                            if t > t_min && t < t_max && masks.solid(k, u, v) {
+                                return true;
+                            }
+                        }
+                    }
+                    continue;
+                }
+                for tri in &self.triangles[leaf] {
                     if let Some(t) = ray_triangle(origin, dir, tri) {
                         if t > t_min && t < t_max {
                             return true;
@@ -250,9 +338,11 @@ impl CasterBvh {
 
     /// [`Self::any_hit`] by testing every triangle (for validation; `O(T)` per ray).
     pub fn any_hit_brute_force(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> bool {
-        self.triangles
-            .iter()
-            .any(|tri| ray_triangle(origin, dir, tri).is_some_and(|t| t > t_min && t < t_max))
+        self.triangles.iter().enumerate().any(|(k, tri)| {
+            ray_triangle_uv(origin, dir, tri).is_some_and(|(t, u, v)| {
+                t > t_min && t < t_max && self.masks.as_ref().is_none_or(|m| m.solid(k, u, v))
+            })
+        })
     }
 }
 
@@ -345,6 +435,13 @@ fn slab_test(b: &Bounds, origin: Vec3, inv: Vec3, t_min: f32, t_max: f32) -> boo
 /// for degenerate triangles). `t` may be negative.
 #[inline]
 pub fn ray_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3; 3]) -> Option<f32> {
+    ray_triangle_uv(origin, dir, tri).map(|(t, _, _)| t)
+}
+
+/// [`ray_triangle`] with the hit's barycentrics: `(t, u, v)`, `u` and `v` the weights of the
+/// triangle's second and third vertex.
+#[inline]
+pub fn ray_triangle_uv(origin: Vec3, dir: Vec3, tri: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
     let e1 = tri[1] - tri[0];
     let e2 = tri[2] - tri[0];
     let pv = dir.cross(e2);
@@ -363,7 +460,7 @@ pub fn ray_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3; 3]) -> Option<f32> {
     if v < 0.0 || u + v > 1.0 {
         return None;
     }
-    Some(e2.dot(qv) * inv_det)
+    Some((e2.dot(qv) * inv_det, u, v))
 }
 
 /// Visible fraction of `light` from the world-space `point`, estimated with

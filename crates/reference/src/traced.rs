@@ -31,8 +31,11 @@ use wgpu::util::DeviceExt;
 pub const SHADER: ShaderSpec = ShaderSpec {
     path: "reference/trace.wgsl",
     source: shader_file!("reference/trace.wgsl").1,
-    permutations: &[&[]],
+    permutations: &[&[], ALPHA_TEST],
 };
+
+/// The alpha-tested permutation (a scene with masked casters): the material group is group 1.
+const ALPHA_TEST: softshadow_core::shader::Permutation = softshadow_core::ray_alpha_test_defs!(1);
 
 /// Jitter seed of [`visibility_image`].
 pub const IMAGE_SEED: u32 = 1;
@@ -107,7 +110,10 @@ pub fn visibility_image_and_error(
     accel.build(gpu, &mut encoder, &scene_gpu)?;
     gpu.queue.submit([encoder.finish()]);
 
-    let (layout, pipeline) = trace_pipeline(gpu)?;
+    // Masked casters: the candidate loop tests alpha (group 1, the material triangles).
+    let masked = scene_gpu.materials.as_ref().filter(|m| m.masked_casters);
+    let material_group = masked.map(|m| m.triangles_group(gpu, &scene_gpu));
+    let (layout, pipeline) = trace_pipeline(gpu, masked.is_some())?;
     let points_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("reference/trace points"),
         contents: bytemuck::cast_slice(&points),
@@ -173,6 +179,9 @@ pub fn visibility_image_and_error(
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &group, &[]);
+            if let Some(material_group) = &material_group {
+                pass.set_bind_group(1, material_group, &[]);
+            }
             pass.dispatch_workgroups(gx, gy, 1);
         }
         gpu.queue.submit([encoder.finish()]);
@@ -237,6 +246,7 @@ fn without_casters(scene: &Scene, points: &[[f32; 4]]) -> (Vec<f32>, Vec<f32>) {
 /// structure, the points, the lit and disagreeing sample counts) and its compute pipeline.
 fn trace_pipeline(
     gpu: &Gpu,
+    masked: bool,
 ) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), TracedError> {
     let device = &gpu.device;
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -257,10 +267,13 @@ fn trace_pipeline(
             softshadow_core::frame::uniform_entry(5, wgpu::ShaderStages::COMPUTE, false),
         ],
     });
-    let module = shader::create_module(gpu, &SHADER, &[])?;
+    let defs: &[_] = if masked { ALPHA_TEST } else { &[] };
+    let module = shader::create_module(gpu, &SHADER, defs)?;
+    let material =
+        masked.then(|| softshadow_core::material_gpu::MaterialGpu::triangles_layout_of(gpu));
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("reference/trace"),
-        bind_group_layouts: &[Some(&layout)],
+        bind_group_layouts: &[Some(&layout), material.as_ref()],
         immediate_size: 0,
     });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

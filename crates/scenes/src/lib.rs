@@ -19,6 +19,7 @@ pub mod file;
 pub mod gltf_export;
 pub mod gltf_import;
 pub mod limits;
+pub mod materials;
 pub mod outdoor;
 pub mod path;
 pub mod primitives;

@@ -11,6 +11,7 @@ mod contract;
 mod gather_scaffold;
 mod image_checksums;
 mod light_space_cache;
+mod materials;
 mod memory;
 mod motion;
 mod msm;

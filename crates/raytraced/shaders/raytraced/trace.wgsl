@@ -18,6 +18,14 @@ struct TraceParams {
 // Segment ends as the CPU ray cast's (crates/reference/src/raycast.rs): occluders within 1e-4
 // of the segment at the receiver end and 1e-6 at the light end are ignored (`light_sample`, which
 // samples every light kind's shape).
+#ifdef ALPHA_TEST
+// Masked casters (issue 40): their triangles are non-opaque in the BLAS, every candidate hit is
+// tested against its material's alpha (softshadow::material) and confirmed only where solid.
+#import softshadow::material::candidate_solid
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+#else
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE;
+#endif
 
 // A per-pixel rotation of the sequence (Cranley-Patterson): a hash of the pixel.
 fn hash2(p: vec2<u32>) -> vec2<f32> {
@@ -63,8 +71,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let u = fract(rotation + index * R2);
         let ray = light_sample(u, s.world);
         let dir = ray.to_light;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, ray.t_min, ray.t_max, s.world, dir));
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAGS, 0xffu, ray.t_min, ray.t_max, s.world, dir));
+#ifdef ALPHA_TEST
+        while rayQueryProceed(&rq) {
+            let c = rayQueryGetCandidateIntersection(&rq);
+            if candidate_solid(c.instance_custom_data, c.primitive_index, c.barycentrics) {
+                rayQueryConfirmIntersection(&rq);
+            }
+        }
+#else
         rayQueryProceed(&rq);
+#endif
         let hit = rayQueryGetCommittedIntersection(&rq);
         if hit.kind == RAY_QUERY_INTERSECTION_NONE {
             lit += 1u;

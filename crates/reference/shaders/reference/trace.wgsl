@@ -27,6 +27,15 @@ struct TraceParams {
 // The light (only its fields are read).
 @group(0) @binding(5) var<uniform> light: FrameUniforms;
 
+#ifdef ALPHA_TEST
+// Masked casters (issue 40): their triangles are non-opaque in the BLAS, every candidate hit is
+// tested against its material's alpha (softshadow::material) and confirmed only where solid.
+#import softshadow::material::candidate_solid
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+#else
+const RAY_FLAGS: u32 = RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE;
+#endif
+
 // A hash of three integers to [0, 1)^2: the jitter of one sample of one point.
 fn jitter(a: u32, b: u32, c: u32) -> vec2<f32> {
     var h = a * 0x9e3779b9u ^ (b * 0x85ebca6bu) ^ (c * 0xc2b2ae35u) ^ params.seed;
@@ -64,8 +73,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var i = 0u; i < n; i++) {
         let u = (vec2<f32>(f32(i), f32(params.row)) + jitter(k, i, params.row)) / f32(n);
         let ray = sample_light(light, u, p);
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, ray.t_min, ray.t_max, p, ray.to_light));
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAGS, 0xffu, ray.t_min, ray.t_max, p, ray.to_light));
+#ifdef ALPHA_TEST
+        while rayQueryProceed(&rq) {
+            let c = rayQueryGetCandidateIntersection(&rq);
+            if candidate_solid(c.instance_custom_data, c.primitive_index, c.barycentrics) {
+                rayQueryConfirmIntersection(&rq);
+            }
+        }
+#else
         rayQueryProceed(&rq);
+#endif
         let hit = rayQueryGetCommittedIntersection(&rq).kind != RAY_QUERY_INTERSECTION_NONE;
         if !hit {
             count += 1u;
