@@ -263,21 +263,21 @@ fn atrium(light_width: f32, bays: u32) -> Scene {
     for side in [0.0, std::f32::consts::PI] {
         for k in 0..bays {
             let x = -COURT + bay * (k as f32 + 0.5);
-            let hang = Mat4::from_translation(Vec3::new(x, STOREY + 1.6, COURT - 0.25));
+            let hang = Mat4::from_translation(Vec3::new(x, STOREY + 1.6, COURT - 0.8));
             b.masked_caster(cloth, Mat4::from_rotation_y(side) * hang, lace);
         }
     }
     // Oblique, as the sun through Sponza's opening: the roof's rim, the arcades and the cloths
     // shadow the courtyard floor the camera looks across.
     let light = AreaLight::looking_at(
-        Vec3::new(2.0, 8.0, 1.2),
-        Vec3::new(-0.8, 0.0, -0.5),
+        Vec3::new(3.5, 8.0, 2.5),
+        Vec3::new(-1.0, 0.0, -0.8),
         light_width,
         light_width,
     );
     b.finish(
         light,
-        camera(Vec3::new(2.3, 1.7, 2.3), Vec3::new(-1.5, 1.0, -1.5)),
+        camera(Vec3::new(2.6, 2.4, 2.6), Vec3::new(-1.0, 0.4, -1.0)),
     )
 }
 
