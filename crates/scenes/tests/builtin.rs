@@ -7,7 +7,7 @@ use glam::Vec3;
 use softshadow_core::Scene;
 use softshadow_scenes::{builtin, builtin_scenes, load, AttySquare, SceneError};
 
-const IDS: [&str; 15] = [
+const IDS: [&str; 16] = [
     "atty-square",
     "blob-floating",
     "blob-contact",
@@ -23,6 +23,7 @@ const IDS: [&str; 15] = [
     "foliage",
     "fence",
     "atrium",
+    "outdoor",
 ];
 
 /// Allowed total triangle count (instances included) per id.
@@ -42,6 +43,7 @@ fn band(id: &str) -> (usize, usize) {
         "foliage" => (8_000, 9_000),
         "fence" => (100, 120),
         "atrium" => (1_500, 3_000),
+        "outdoor" => (34_000, 38_000),
         other => panic!("no band for {other}"),
     }
 }
