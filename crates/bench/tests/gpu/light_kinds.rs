@@ -42,8 +42,8 @@ fn mean_error(v: &[f32], error: &[f32], mask: &[bool]) -> f64 {
 }
 
 /// Per kind: the 32 x 32 ray-traced answer within twice the summed sampling errors of the
-/// 16 x 16 CPU ray cast. Measured (mae_shadowed / twice the summed error): rect 0.0063 / 0.0226,
-/// disk 0.0057 / 0.0212, sphere 0.0061 / 0.0223, spot 0.0057 / 0.0212, sun 0.0067 / 0.0236.
+/// 16 x 16 CPU ray cast. Measured (mae_shadowed / twice the summed error): rect 0.0046 / 0.0199,
+/// disk 0.0046 / 0.0201, sphere 0.0045 / 0.0190, spot 0.0046 / 0.0201, sun 0.0025 / 0.0111.
 #[test]
 fn the_ray_traced_answer_agrees_with_the_ray_cast_for_every_kind() -> Result<()> {
     let gpu = gpu()?;
@@ -118,24 +118,27 @@ fn spec(technique: &str) -> RunSpec {
 /// Bounds on mae_shadowed against the exact answer per technique and kind, at defaults, 64²,
 /// with the value measured beside each (`None`: the kind is not supported).
 const BOUNDS: &[(&str, [Option<(f64, f64)>; 5])] = &[
-    // (bound, measured) for rect, disk, sphere, spot, sun.
+    // (bound, measured) for rect, disk, sphere, spot, sun; the bounds are about 1.55 times the
+    // measured values, as the crates' own (raytraced's atty-square bound is 0.134 for 0.0860,
+    // the rect value here: the rect light renders as before). `hard` measured 0.206 (rect),
+    // 0.185 (disk, spot), 0.156 (sphere); all lit 0.434, 0.451, 0.326, 0.451, 0.749 (sun).
     (
         "raytraced",
         [
-            Some((0.06, 0.0285)),
-            Some((0.06, 0.0262)),
-            Some((0.06, 0.0275)),
-            Some((0.06, 0.0262)),
-            Some((0.06, 0.0297)),
+            Some((0.134, 0.0860)),
+            Some((0.128, 0.0821)),
+            Some((0.136, 0.0877)),
+            Some((0.128, 0.0821)),
+            Some((0.083, 0.0531)),
         ],
     ),
     (
         "reference",
         [
-            Some((0.03, 0.0101)),
-            Some((0.03, 0.0098)),
+            Some((0.01, 0.0016)),
+            Some((0.01, 0.0021)),
             None,
-            Some((0.03, 0.0098)),
+            Some((0.01, 0.0021)),
             None,
         ],
     ),
@@ -145,6 +148,7 @@ const BOUNDS: &[(&str, [Option<(f64, f64)>; 5])] = &[
 /// the light's centre) and an all-lit answer outside every bound.
 #[test]
 fn supporting_techniques_stay_within_their_bounds_per_kind() -> Result<()> {
+    let mut failures: Vec<String> = Vec::new();
     for (k, kind) in LightKind::ALL.into_iter().enumerate() {
         let mut bench = bench_lit_by(light_of(kind)?)?;
         let run = bench.run(0, &spec("hard"), tempfile::tempdir()?.path());
@@ -178,22 +182,24 @@ fn supporting_techniques_stay_within_their_bounds_per_kind() -> Result<()> {
             let mae = vs_exact(&run)?.mae_shadowed;
             let lit = *all_lit.get_or_insert(all_lit_vs_exact(&run)?.mae_shadowed);
             eprintln!("{technique} / {kind}: mae_shadowed {mae:.4} (bound {bound}, measured {measured}); hard {hard:?}, all lit {lit:.4}");
-            ensure!(
-                mae <= bound,
-                "{technique} / {kind}: {mae:.4} over its bound {bound}"
-            );
-            ensure!(
-                lit > bound,
-                "{technique} / {kind}: all lit ({lit:.4}) passes {bound}"
-            );
-            if let Some(hard) = hard {
-                ensure!(
-                    hard > bound,
-                    "{technique} / {kind}: hard ({hard:.4}) passes {bound}"
-                );
+            if mae > bound {
+                failures.push(format!(
+                    "{technique} / {kind}: {mae:.4} over its bound {bound}"
+                ));
+            }
+            if lit <= bound {
+                failures.push(format!(
+                    "{technique} / {kind}: all lit ({lit:.4}) passes {bound}"
+                ));
+            }
+            if hard.is_some_and(|hard| hard <= bound) {
+                failures.push(format!(
+                    "{technique} / {kind}: hard ({hard:?}) passes {bound}"
+                ));
             }
         }
     }
+    ensure!(failures.is_empty(), "{}", failures.join("; "));
     Ok(())
 }
 
