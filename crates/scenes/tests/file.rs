@@ -432,7 +432,10 @@ fn light_kinds_load_and_bad_values_are_refused() {
     for (light, words) in [
         (
             "kind = \"lamp\"",
-            &["`lamp`", "rect | disk | sphere | spot | sun"][..],
+            &[
+                "\"lamp\" is not a light kind",
+                "rect | disk | sphere | spot | sun",
+            ][..],
         ),
         ("kind = \"disk\"\nradius = -0.5", &["radius", ">= 0"]),
         (
