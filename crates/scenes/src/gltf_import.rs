@@ -26,7 +26,7 @@ pub struct GltfGeometry {
     pub instances: Vec<(usize, Mat4)>,
     /// Skipped primitives, repaired triangles and similar, one line each.
     pub warnings: Vec<String>,
-    /// The lights its nodes carry (`KHR_lights_punctual`, [`crate::gltf_lights`]), in node
+    /// The lights its nodes carry (`KHR_lights_punctual`, as docs/SCENES.md says), in node
     /// order: a model loaded alone is lit by the first.
     pub lights: Vec<softshadow_core::AreaLight>,
 }
