@@ -701,7 +701,7 @@ pub fn random_light(scene: &Scene, rng: &mut Rng) -> (LightKind, AreaLight) {
         up,
         width,
         height,
-        intensity: 1.0,
+        ..AreaLight::default()
     };
     (kind, light)
 }

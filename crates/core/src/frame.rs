@@ -25,6 +25,14 @@ pub struct FrameUniforms {
     pub light_half: Vec4,
     /// Width, height, 1 / width, 1 / height of the frame.
     pub screen: Vec4,
+    /// Light space to world (the inverse of `world_to_light`).
+    pub light_to_world: Mat4,
+    /// x: the light's kind ([`crate::LightKind`] as a number); y: radius of a disk, sphere or
+    /// spot source; z, w: cosines of a spot's inner and outer cone angles.
+    pub light_shape: Vec4,
+    /// The sun: x = sin of a quarter of its angular diameter (its sampling), y = tan of half
+    /// of it (its penumbra per unit of distance), z = cos of half of it; w unused.
+    pub light_sun: Vec4,
 }
 
 /// Ambient term of the shading pass (fraction of albedo visible in full shadow).
@@ -47,21 +55,36 @@ impl FrameUniforms {
         height: u32,
     ) -> Self {
         let half = light.half_extent();
+        let half_alpha = light.angular_diameter_degrees.to_radians() * 0.5;
+        let world_to_light = light.view();
         Self {
             view_proj,
-            world_to_light: light.view(),
+            world_to_light,
             camera_pos: eye.extend(1.0),
             light_center: light.center.extend(light.intensity),
             light_dir: light
                 .direction
                 .normalize_or(glam::Vec3::NEG_Y)
                 .extend(AMBIENT),
-            light_half: Vec4::new(half.x, half.y, 4.0 * half.x * half.y, 0.0),
+            light_half: Vec4::new(half.x, half.y, light.area(), 0.0),
             screen: Vec4::new(
                 width as f32,
                 height as f32,
                 1.0 / width as f32,
                 1.0 / height as f32,
+            ),
+            light_to_world: world_to_light.inverse(),
+            light_shape: Vec4::new(
+                light.kind as u32 as f32,
+                light.radius,
+                light.cone_inner_degrees.to_radians().cos(),
+                light.cone_outer_degrees.to_radians().cos(),
+            ),
+            light_sun: Vec4::new(
+                (half_alpha * 0.5).sin(),
+                half_alpha.tan(),
+                half_alpha.cos(),
+                0.0,
             ),
         }
     }

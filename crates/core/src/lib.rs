@@ -22,6 +22,7 @@ pub mod gpu;
 pub mod hierarchy;
 pub mod host;
 pub mod light;
+pub mod light_shape;
 pub mod memory;
 pub mod params;
 pub mod pass;
@@ -49,7 +50,7 @@ pub use frame::{
 };
 pub use gpu::Gpu;
 pub use hierarchy::{DepthHierarchy, HierarchyKind, Visibility};
-pub use light::{AreaLight, SlopeFrustum};
+pub use light::{AreaLight, LightKind, SlopeFrustum};
 pub use memory::MemoryUse;
 pub use params::{
     ParamChoice, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, TechniqueSettings,
@@ -61,8 +62,9 @@ pub use scene_gpu::SceneGpu;
 pub use shading::ShadingMode;
 pub use stage::ShadowStage;
 pub use technique::{
-    BuildControl, BuildProgress, DebugLegend, DebugView, MinLimits, Requirements, ShadowTechnique,
-    TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE,
+    BuildControl, BuildProgress, DebugLegend, DebugView, LightSupport, MinLimits, Requirements,
+    ShadowTechnique, TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, LIGHT_KIND_SCENE,
+    YARDSTICK_TECHNIQUE,
 };
 pub use visibility::VisibilityBuffer;
 
@@ -85,6 +87,9 @@ pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
                 light_dir,
                 light_half,
                 screen,
+                light_to_world,
+                light_shape,
+                light_sun,
             } => "common/frame_types.wgsl", FrameUniforms
         ),
         uniform_mirror!(

@@ -1,17 +1,26 @@
-//! The rectangular area light and light space.
+//! The area light (a rectangle, a disk, a sphere, a spot or the sun: [`LightKind`]) and light
+//! space.
 //!
 //! Light space (the convention of every paper implemented here): the light
 //! centre is the origin, the light faces +z, and the light is the rectangle
-//! `[-a, a] x [-b, b]` in the plane z = 0 with `a = width / 2`, `b = height / 2`.
+//! `[-a, a] x [-b, b]` in the plane z = 0 with `a = width / 2`, `b = height / 2`
+//! (a disk or a spot's source: the disk of `radius` in that plane; a sphere: centred at the
+//! origin; the sun: +z is the direction its light travels).
 //! A point's light-space z is therefore its distance in front of the light plane ("linear depth"),
 //! which is the same for every sample point on the light.
 
 use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
 use serde::{Deserialize, Serialize};
 
-/// A one-sided, uniformly emitting rectangular light.
+pub use crate::light_shape::{LightKind, LightSample, SunView};
+
+/// A one-sided, uniformly emitting light of one of the [`LightKind`]s (a rectangle by default).
+/// The fields a kind does not use are ignored (and kept, so switching kinds loses nothing).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AreaLight {
+    /// Its shape ([`LightKind::Rect`] unless a scene says otherwise).
+    #[serde(default)]
+    pub kind: LightKind,
     /// Centre of the rectangle, world space.
     pub center: Vec3,
     /// Unit direction the light faces (its normal); light space +z.
@@ -24,6 +33,32 @@ pub struct AreaLight {
     pub height: f32,
     /// Radiant intensity scale used by the shading pass.
     pub intensity: f32,
+    /// Radius of a disk, a sphere or a spot's source disk, world units. 0: a point light.
+    #[serde(default = "default_radius")]
+    pub radius: f32,
+    /// A spot's inner cone angle from its axis, degrees: full intensity inside it.
+    #[serde(default = "default_cone_inner")]
+    pub cone_inner_degrees: f32,
+    /// A spot's outer cone angle from its axis, degrees: no light outside it (shading only: the
+    /// visibility V is still the fraction of the source seen).
+    #[serde(default = "default_cone_outer")]
+    pub cone_outer_degrees: f32,
+    /// The sun's angular diameter, degrees (0.53 for the real one). 0: a hard directional light.
+    #[serde(default = "default_angular_diameter")]
+    pub angular_diameter_degrees: f32,
+}
+
+fn default_radius() -> f32 {
+    0.5
+}
+fn default_cone_inner() -> f32 {
+    30.0
+}
+fn default_cone_outer() -> f32 {
+    45.0
+}
+fn default_angular_diameter() -> f32 {
+    0.53
 }
 
 impl Default for AreaLight {
@@ -35,6 +70,11 @@ impl Default for AreaLight {
             width: 1.0,
             height: 1.0,
             intensity: 1.0,
+            kind: LightKind::Rect,
+            radius: default_radius(),
+            cone_inner_degrees: default_cone_inner(),
+            cone_outer_degrees: default_cone_outer(),
+            angular_diameter_degrees: default_angular_diameter(),
         }
     }
 }
@@ -58,9 +98,42 @@ impl AreaLight {
         }
     }
 
-    /// Half extents `(a, b)` of the rectangle.
+    /// Half extents `(a, b)` of the rectangle; for a disk, a sphere or a spot `(radius, radius)`
+    /// (the square around the disk: a planar light's size for techniques that take one); for the
+    /// sun 0 (it has no extent in light space: [`Self::sun_tan_half_angle`]).
     pub fn half_extent(&self) -> Vec2 {
-        Vec2::new(self.width, self.height) * 0.5
+        match self.kind {
+            LightKind::Rect => Vec2::new(self.width, self.height) * 0.5,
+            LightKind::Disk | LightKind::Sphere | LightKind::Spot => Vec2::splat(self.radius),
+            LightKind::Sun => Vec2::ZERO,
+        }
+    }
+
+    /// Area of the emitting surface a receiver sees (rect: width x height; disk, spot, sphere:
+    /// pi r^2, the sphere's disk seen from far away; sun: 0).
+    pub fn area(&self) -> f32 {
+        match self.kind {
+            LightKind::Rect => self.width * self.height,
+            LightKind::Disk | LightKind::Sphere | LightKind::Spot => {
+                std::f32::consts::PI * self.radius * self.radius
+            }
+            LightKind::Sun => 0.0,
+        }
+    }
+
+    /// Tangent of the sun's angular radius (half its angular diameter).
+    pub fn sun_tan_half_angle(&self) -> f32 {
+        (self.angular_diameter_degrees.to_radians() * 0.5).tan()
+    }
+
+    /// Whether the light has no size (a point light or a hard directional light): one sample
+    /// is the exact answer.
+    pub fn is_point(&self) -> bool {
+        match self.kind {
+            LightKind::Rect => self.width <= 0.0 && self.height <= 0.0,
+            LightKind::Disk | LightKind::Sphere | LightKind::Spot => self.radius <= 0.0,
+            LightKind::Sun => self.angular_diameter_degrees <= 0.0,
+        }
     }
 
     /// Orthonormal basis `(x, y, z)` of light space in world coordinates.
@@ -124,7 +197,7 @@ impl AreaLight {
                 self.width, self.height
             ));
         }
-        Ok(())
+        crate::light_shape::validate_shape(self)
     }
 
     /// Hash of every field (for caches keyed by the light).
@@ -134,6 +207,16 @@ impl AreaLight {
         h.write_f32s(&self.direction.to_array());
         h.write_f32s(&self.up.to_array());
         h.write_f32s(&[self.width, self.height, self.intensity]);
+        // A rect light hashes as before the kinds existed (caches on disk stay valid).
+        if self.kind != LightKind::Rect {
+            h.write_u64(self.kind as u64);
+            h.write_f32s(&[
+                self.radius,
+                self.cone_inner_degrees,
+                self.cone_outer_degrees,
+                self.angular_diameter_degrees,
+            ]);
+        }
         h.finish()
     }
 }
@@ -656,7 +739,7 @@ mod tests {
             up: Vec3::Y,
             width: 0.2,
             height: 0.2,
-            intensity: 1.0,
+            ..AreaLight::default()
         };
         let (mut positions, mut receivers, mut casters) = (Vec::new(), Vec::new(), Vec::new());
         rectangle(

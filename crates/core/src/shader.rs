@@ -68,6 +68,7 @@ pub struct ShaderSpec {
 /// The importable modules, under the core's `shaders/common/`.
 pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/frame_types.wgsl"),
+    shader_file!("common/light.wgsl"),
     shader_file!("common/frame.wgsl"),
     shader_file!("common/fullscreen.wgsl"),
     shader_file!("common/shadow_view.wgsl"),

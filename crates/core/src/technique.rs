@@ -18,7 +18,7 @@ use crate::{
     params::{ParamSet, ParamSpec, ParamValue, TechniqueSettings},
     shader::ShaderSpec,
     visibility::VisibilityBuffer,
-    Gpu,
+    Gpu, LightKind,
 };
 
 /// Device limits a technique needs beyond nothing at all. Every technique of the workspace fits in
@@ -385,6 +385,81 @@ pub struct TechniqueInfo {
     /// renders that many still frames and reports the settled error beside the first frame's.
     /// Read it through [`Self::settle_frames_at`].
     pub settle_frames_param: Option<Cow<'static, str>>,
+    /// The light kinds it supports, with one line of why for each it does not.
+    pub light_kinds: LightSupport,
+    /// Its bound per light kind on [`LIGHT_KIND_SCENE`] with the scene's light made that kind
+    /// ([`AreaLight::as_kind`](crate::AreaLight::as_kind)), at its defaults, 64², against the
+    /// exact answer, with the value measured beside each (the GPU test `light_kinds` holds it).
+    pub light_kind_bounds: Vec<(LightKind, crate::expectations::Expect)>,
+}
+
+/// The scene of [`TechniqueInfo::light_kind_bounds`].
+pub const LIGHT_KIND_SCENE: &str = "atty-square";
+
+/// Why a technique made for the seed papers' light supports no other kind until its crate says so.
+pub const RECT_ONLY: &str =
+    "its light-space passes assume the seed papers' rectangle light and have not been extended to this kind";
+
+/// The light kinds a technique supports ([`TechniqueInfo::light_kinds`]), and for each kind it
+/// does not, one line of why (shown by `list`, the viewer and the benchmark's refusal).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightSupport {
+    unsupported: Vec<(LightKind, Cow<'static, str>)>,
+}
+
+impl LightSupport {
+    /// Every kind.
+    pub fn all() -> Self {
+        Self {
+            unsupported: Vec::new(),
+        }
+    }
+
+    /// The rectangle only; every other kind for `why`.
+    pub fn rect_only(why: &'static str) -> Self {
+        Self {
+            unsupported: LightKind::ALL[1..]
+                .iter()
+                .map(|k| (*k, Cow::Borrowed(why)))
+                .collect(),
+        }
+    }
+
+    /// Without `kind`, for `why`.
+    pub fn except(mut self, kind: LightKind, why: &'static str) -> Self {
+        self.unsupported.retain(|(k, _)| *k != kind);
+        self.unsupported.push((kind, Cow::Borrowed(why)));
+        self
+    }
+
+    /// Whether `kind` is supported.
+    pub fn supports(&self, kind: LightKind) -> bool {
+        self.why_not(kind).is_none()
+    }
+
+    /// Why `kind` is not supported, or `None` where it is.
+    pub fn why_not(&self, kind: LightKind) -> Option<&str> {
+        self.unsupported
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, why)| why.as_ref())
+    }
+
+    /// The supported kinds, in [`LightKind::ALL`]'s order.
+    pub fn supported(&self) -> Vec<LightKind> {
+        LightKind::ALL
+            .into_iter()
+            .filter(|k| self.supports(*k))
+            .collect()
+    }
+
+    /// The unsupported kinds with their reasons, in [`LightKind::ALL`]'s order.
+    pub fn unsupported(&self) -> Vec<(LightKind, &str)> {
+        LightKind::ALL
+            .into_iter()
+            .filter_map(|k| self.why_not(k).map(|why| (k, why)))
+            .collect()
+    }
 }
 
 impl TechniqueInfo {
@@ -415,6 +490,34 @@ impl TechniqueInfo {
             varies_per_frame: None,
             varies_per_frame_when: None,
             settle_frames_param: None,
+            light_kinds: LightSupport::rect_only(RECT_ONLY),
+            light_kind_bounds: Vec::new(),
+        }
+    }
+
+    /// With these bounds per light kind ([`Self::light_kind_bounds`]).
+    pub fn with_light_kind_bounds(
+        mut self,
+        bounds: &[(LightKind, crate::expectations::Expect)],
+    ) -> Self {
+        self.light_kind_bounds = bounds.to_vec();
+        self
+    }
+
+    /// With these supported light kinds.
+    pub fn with_light_kinds(mut self, light_kinds: LightSupport) -> Self {
+        self.light_kinds = light_kinds;
+        self
+    }
+
+    /// `Ok` where it supports `kind`, else the one line a user sees: technique, kind and why.
+    pub fn check_light(&self, kind: LightKind) -> Result<(), String> {
+        match self.light_kinds.why_not(kind) {
+            None => Ok(()),
+            Some(why) => Err(format!(
+                "technique `{}` does not support the `{kind}` light: {why}; pick a light kind it lists in `workbench list` (light kinds) or another technique",
+                self.id
+            )),
         }
     }
 

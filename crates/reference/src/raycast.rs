@@ -1,8 +1,11 @@
 //! CPU ray-cast visibility reference for any scene.
 //!
 //! **What it computes.** For a world-space receiver point `p`, the fraction of `N x N` stratified,
-//! jittered sample points `s` on the rectangular area light for which the open segment `p -> s`
-//! meets no triangle of a shadow-casting instance. This is a Monte Carlo estimate of the visible
+//! jittered sample points `s` on the light for which the open segment `p -> s`
+//! meets no triangle of a shadow-casting instance. The unit square's strata are mapped onto each
+//! kind's shape by `AreaLight::sample` (softshadow_core::light_shape): the rectangle, a disk
+//! through the concentric map, a sphere's silhouette disk from `p`, the sun's cone of directions
+//! (then the ray is unbounded). This is a Monte Carlo estimate of the visible
 //! fraction of the (uniformly emitting) light, the quantity every technique in the workbench
 //! approximates. Unlike [`crate::exact`] it works for arbitrary triangle geometry; unlike
 //! [`crate::Reference`] it has no depth-map resolution or bias error.
@@ -23,21 +26,18 @@
 //! 2 cores for ground points under `blob-floating:triangles=5000` (so about 7 s for that image).
 
 use rayon::prelude::*;
-use softshadow_core::{
-    glam::{Vec2, Vec3},
-    AreaLight, Scene,
-};
+use softshadow_core::{glam::Vec3, AreaLight, Scene};
 
 /// Relative epsilon at the receiver end of every shadow segment: hits with segment parameter
 /// `t <= SEGMENT_EPSILON` (within `SEGMENT_EPSILON` times the segment length of the receiver) are
 /// ignored. It keeps the receiver's own surface from shadowing the receiver through rounding.
-pub const SEGMENT_EPSILON: f32 = 1e-4;
+pub const SEGMENT_EPSILON: f32 = softshadow_core::light_shape::SEGMENT_EPSILON;
 
 /// Relative epsilon at the light end: hits with `t >= 1 - LIGHT_END_EPSILON` are ignored. Much
 /// smaller than [`SEGMENT_EPSILON`] because nothing sits on the light but occluders may come
 /// within 1e-4 of the light's distance (the `stiff-near-light` and `stiff-depth-range` cases);
 /// 1e-6 is about 8 f32 ulps of t = 1.
-pub const LIGHT_END_EPSILON: f32 = 1e-6;
+pub const LIGHT_END_EPSILON: f32 = softshadow_core::light_shape::LIGHT_END_EPSILON;
 
 /// Seed of the jitter used by [`visibility_image`].
 pub const IMAGE_SEED: u64 = 1;
@@ -405,27 +405,25 @@ pub fn visibility_and_error(
     point: Vec3,
     seed: u64,
 ) -> (f64, f64) {
-    let (x, y, z) = light.basis();
-    let depth = (point - light.center).dot(z);
-    if !point.is_finite() || depth.is_nan() || depth <= 0.0 {
+    if !light.reaches(point) {
         return (0.0, 0.0);
     }
     if bvh.nodes.is_empty() {
         return (1.0, 0.0);
     }
-    let half: Vec2 = light.half_extent();
-    let n = if half.x > 0.0 || half.y > 0.0 {
-        samples_per_axis.max(1)
-    } else {
+    let n = if light.is_point() {
         1
+    } else {
+        samples_per_axis.max(1)
     };
     let mut visible = 0u32;
     let mut disagree = 0u32;
     let mut even = false;
-    for (k, s) in crate::stratified_samples(n, half, Some(seed ^ hash_point(point))).enumerate() {
-        let sample = light.center + x * s.x + y * s.y;
-        let dir = sample - point;
-        let lit = !bvh.any_hit(point, dir, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON);
+    // Stratified, jittered points of the unit square, mapped onto the light's shape by
+    // `AreaLight::sample` (the rectangle as before; a disk through the concentric map).
+    for (k, u) in crate::stratified_unit(n, Some(seed ^ hash_point(point))).enumerate() {
+        let ray = light.sample(u, point);
+        let lit = !bvh.any_hit(point, ray.to_light, ray.t_min, ray.t_max);
         visible += lit as u32;
         let column = k as u32 % n;
         if column % 2 == 0 {
@@ -836,7 +834,7 @@ mod tests {
             up: Vec3::Y,
             width,
             height,
-            intensity: 1.0,
+            ..AreaLight::default()
         }
     }
 

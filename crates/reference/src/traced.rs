@@ -2,7 +2,8 @@
 //! device with ray queries (`Features::EXPERIMENTAL_RAY_QUERY`), so it affords more samples.
 //!
 //! **What it computes.** For each receiver point, the fraction of `N x N` stratified, jittered
-//! points of the light for which the open segment from the point meets no caster triangle (the
+//! points of the light (each kind's shape, sampled by core's `sample_light` in
+//! `shaders/common/light.wgsl`, the twin of the ray cast's `AreaLight::sample`) for which the open segment from the point meets no caster triangle (the
 //! same segment epsilons as the CPU ray cast). Per sample it is exact on any triangle mesh: no
 //! depth map, no bias; its only error is the sampling error of `N x N` strata (`O(1/N)` at a
 //! penumbra point, see [`crate::raycast`]). Points behind the light are 0, points that see no
@@ -15,12 +16,13 @@
 use encase::ShaderType;
 use softshadow_core::{
     accel::AccelError,
-    glam::{Mat4, Vec2, Vec3},
+    frame::FrameUniforms,
+    glam::Vec3,
     readback::read_buffer,
     shader::{self, ShaderSpec},
     shader_file,
     uniform::uniform_bytes,
-    wgpu, Gpu, GpuError, Scene, SceneAccel, SceneGpu,
+    wgpu, Camera, Gpu, GpuError, Scene, SceneAccel, SceneGpu,
 };
 use thiserror::Error;
 use wgpu::util::DeviceExt;
@@ -51,9 +53,6 @@ pub enum TracedError {
 
 #[derive(ShaderType)]
 struct Params {
-    world_to_light: Mat4,
-    light_to_world: Mat4,
-    half: Vec2,
     samples_per_axis: u32,
     row: u32,
     count: u32,
@@ -64,7 +63,7 @@ struct Params {
 pub(crate) fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
     vec![softshadow_core::uniform_mirror!(
         Params {
-            world_to_light, light_to_world, half, samples_per_axis, row, count, seed
+            samples_per_axis, row, count, seed
         } => "reference/trace.wgsl", TraceParams
     )]
 }
@@ -116,17 +115,19 @@ pub fn visibility_image_and_error(
     });
     let lit_buffer = zeroed_counts(device, "reference/trace lit", count);
     let disagree_buffer = zeroed_counts(device, "reference/trace disagree", count);
-    let half = scene.light.half_extent();
-    let view = scene.light.view();
+    // The light's shape as every pass reads it (`FrameUniforms`; only its light fields count).
+    let light_uniforms = FrameUniforms::new(&Camera::default(), &scene.light, 1, 1);
+    let light_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("reference/trace light"),
+        contents: &uniform_bytes(&light_uniforms),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
     // One uniform buffer per row: rows are dispatched in one submission.
     let groups = (count as u32).div_ceil(64);
     let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
     let tlas = accel.tlas().expect("built above");
     for row in 0..samples_per_axis {
         let params = Params {
-            world_to_light: view,
-            light_to_world: view.inverse(),
-            half,
             samples_per_axis,
             row,
             count: count as u32,
@@ -160,6 +161,10 @@ pub fn visibility_image_and_error(
                 wgpu::BindGroupEntry {
                     binding: 4,
                     resource: disagree_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: light_buffer.as_entire_binding(),
                 },
             ],
         });
@@ -216,13 +221,7 @@ fn without_casters(scene: &Scene, points: &[[f32; 4]]) -> (Vec<f32>, Vec<f32>) {
     let lit: Vec<f32> = points
         .iter()
         .map(|p| {
-            let lit = p[3] < 0.5
-                || scene
-                    .light
-                    .view()
-                    .transform_point3(Vec3::new(p[0], p[1], p[2]))
-                    .z
-                    > 0.0;
+            let lit = p[3] < 0.5 || scene.light.reaches(Vec3::new(p[0], p[1], p[2]));
             if lit {
                 1.0
             } else {
@@ -255,6 +254,7 @@ fn trace_pipeline(
             storage_entry(2, true),
             storage_entry(3, false),
             storage_entry(4, false),
+            softshadow_core::frame::uniform_entry(5, wgpu::ShaderStages::COMPUTE, false),
         ],
     });
     let module = shader::create_module(gpu, &SHADER, &[])?;

@@ -540,7 +540,7 @@ pub(crate) fn down_light(center: Vec3, width: f32) -> AreaLight {
         up: Vec3::Z,
         width,
         height: width,
-        intensity: 1.0,
+        ..AreaLight::default()
     }
 }
 

@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3};
 use serde::Deserialize;
-use softshadow_core::{AreaLight, Camera, Instance, Scene};
+use softshadow_core::{AreaLight, Camera, Instance, LightKind, Scene};
 
 use crate::builtin::trs;
 use crate::{primitives, SceneError};
@@ -48,8 +48,9 @@ pub struct SceneFile {
     pub paths: Vec<crate::path::PathDef>,
 }
 
-/// `[light]`: a rectangular area light. Give `direction` or `target`, not both (default: facing
-/// straight down).
+/// `[light]`: an area light of one of the kinds (`kind`, default `rect`; docs/SCENES.md,
+/// "Light kinds"). Give `direction` or `target`, not both (default: facing straight down; the
+/// sun's `direction` is the direction its light travels and its `center` is ignored).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightDef {
@@ -71,6 +72,16 @@ pub struct LightDef {
     /// Radiant scale of the light (default 1).
     #[serde(default = "one")]
     pub intensity: f32,
+    /// `rect` (default), `disk`, `sphere`, `spot` or `sun`.
+    pub kind: Option<String>,
+    /// Radius of a disk, sphere or spot source (default 0.5; 0 is a point light).
+    pub radius: Option<f32>,
+    /// A spot's inner cone angle from its axis, degrees (default 30).
+    pub cone_inner_degrees: Option<f32>,
+    /// A spot's outer cone angle from its axis, degrees (default 45).
+    pub cone_outer_degrees: Option<f32>,
+    /// The sun's angular diameter, degrees (default 0.53; below 180).
+    pub angular_diameter_degrees: Option<f32>,
 }
 
 impl LightDef {
@@ -104,6 +115,7 @@ impl LightDef {
             } else {
                 Vec3::Y
             });
+        let defaults = AreaLight::default();
         Ok(AreaLight {
             center,
             direction,
@@ -111,6 +123,32 @@ impl LightDef {
             width: self.width,
             height: self.height.unwrap_or(self.width),
             intensity: self.intensity,
+            kind: self.kind(path)?,
+            radius: self.radius.unwrap_or(defaults.radius),
+            cone_inner_degrees: self
+                .cone_inner_degrees
+                .unwrap_or(defaults.cone_inner_degrees),
+            cone_outer_degrees: self
+                .cone_outer_degrees
+                .unwrap_or(defaults.cone_outer_degrees),
+            angular_diameter_degrees: self
+                .angular_diameter_degrees
+                .unwrap_or(defaults.angular_diameter_degrees),
+        })
+    }
+
+    /// The `kind` key (default `rect`); an unknown name names the kinds.
+    fn kind(&self, path: &str) -> Result<LightKind, SceneError> {
+        let Some(name) = self.kind.as_deref() else {
+            return Ok(LightKind::Rect);
+        };
+        LightKind::from_name(name).ok_or_else(|| SceneError::SceneFile {
+            path: path.into(),
+            line: None,
+            message: format!(
+                "[light] kind = \"{name}\" is not a light kind: give one of {}",
+                LightKind::names()
+            ),
         })
     }
 }
@@ -125,6 +163,11 @@ impl Default for LightDef {
             width: 1.0,
             height: None,
             intensity: 1.0,
+            kind: None,
+            radius: None,
+            cone_inner_degrees: None,
+            cone_outer_degrees: None,
+            angular_diameter_degrees: None,
         }
     }
 }

@@ -16,6 +16,7 @@ pub mod builtin;
 mod error;
 pub mod file;
 pub mod gltf_import;
+mod gltf_lights;
 pub mod limits;
 pub mod path;
 pub mod primitives;
@@ -94,7 +95,11 @@ pub fn load_gltf_bytes(
 }
 
 fn load_gltf_geometry(path: &Path, geometry: GltfGeometry) -> Result<Loaded, SceneError> {
-    let scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    let mut scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    // A model with lights (`KHR_lights_punctual`) is lit by its first, not the one made for it.
+    if let Some(light) = geometry.lights.first() {
+        scene.light = *light;
+    }
     let mut loaded = finalize(scene, &format!("glTF file `{}`", path.display()))?;
     let mut warnings = geometry.warnings;
     warnings.append(&mut loaded.warnings);
@@ -239,7 +244,7 @@ pub fn wrap_gltf(path: &Path, mut meshes: Vec<Mesh>, instances: &[(usize, Mat4)]
         up: Vec3::Z,
         width: 0.3 * extent,
         height: 0.3 * extent,
-        intensity: 1.0,
+        ..AreaLight::default()
     };
     scene.camera = Camera {
         eye: center + Vec3::new(0.0, 1.2, 2.0) * extent,

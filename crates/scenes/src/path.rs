@@ -108,6 +108,28 @@ pub struct LightKey {
     pub width: f32,
     /// Extent along light space y.
     pub height: f32,
+    /// Radius of a disk, sphere or spot light (`None`: the scene's).
+    pub radius: Option<f32>,
+    /// The sun's angular diameter, degrees (`None`: the scene's).
+    pub angular_diameter_degrees: Option<f32>,
+}
+
+impl LightKey {
+    /// The light at this key: `scene_light` (its kind, cone and intensity) placed and sized here.
+    fn light(&self, scene_light: &AreaLight) -> AreaLight {
+        AreaLight {
+            center: self.center,
+            direction: self.orientation * Vec3::Z,
+            up: self.orientation * Vec3::Y,
+            width: self.width,
+            height: self.height,
+            radius: self.radius.unwrap_or(scene_light.radius),
+            angular_diameter_degrees: self
+                .angular_diameter_degrees
+                .unwrap_or(scene_light.angular_diameter_degrees),
+            ..*scene_light
+        }
+    }
 }
 
 /// Keyframes of one instance's transform.
@@ -225,13 +247,18 @@ impl Path {
             let (a, b, f) = segment(&times, t);
             let (a, b) = (self.light[a], self.light[b]);
             let orientation = a.orientation.slerp(b.orientation, f).normalize();
+            let (la, lb) = (a.light(&scene.light), b.light(&scene.light));
+            // Every kind's size interpolates (a sun's angular diameter, a disk's radius).
             AreaLight {
                 center: a.center.lerp(b.center, f),
                 direction: orientation * Vec3::Z,
                 up: orientation * Vec3::Y,
                 width: a.width + (b.width - a.width) * f,
                 height: a.height + (b.height - a.height) * f,
-                intensity: scene.light.intensity,
+                radius: la.radius + (lb.radius - la.radius) * f,
+                angular_diameter_degrees: la.angular_diameter_degrees
+                    + (lb.angular_diameter_degrees - la.angular_diameter_degrees) * f,
+                ..scene.light
             }
         };
         let transforms = self
@@ -344,14 +371,7 @@ impl Path {
         }
         self.check_times("the light", self.light.iter().map(|k| k.time).collect())?;
         for (k, key) in self.light.iter().enumerate() {
-            let light = AreaLight {
-                center: key.center,
-                direction: key.orientation * Vec3::Z,
-                up: key.orientation * Vec3::Y,
-                width: key.width,
-                height: key.height,
-                intensity: scene.light.intensity,
-            };
+            let light = key.light(&scene.light);
             if !key.orientation.is_finite() {
                 return Err(self.fail(format!(
                     "light keyframe {}: its orientation is not finite",
@@ -428,10 +448,6 @@ pub struct PathDef {
     pub object: Vec<ObjectTrackDef>,
 }
 
-fn one() -> f32 {
-    1.0
-}
-
 /// `[[camera]]` keyframe of a path.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -460,10 +476,67 @@ pub struct LightKeyDef {
     pub target: Option<[f32; 3]>,
     /// Light +y hint (default as in a scene file's `[light]`).
     pub up: Option<[f32; 3]>,
-    /// Extent along light x.
+    /// Extent along light x (a rect light; default 1).
+    #[serde(default = "one")]
     pub width: f32,
     /// Extent along light y (default `width`).
     pub height: Option<f32>,
+    /// Radius of a disk, sphere or spot light (default: the scene's).
+    pub radius: Option<f32>,
+    /// The sun's angular diameter in degrees (default: the scene's).
+    pub angular_diameter_degrees: Option<f32>,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+impl LightKeyDef {
+    /// The keyframe this table describes; the error (keyframe `number`, from 1) says what to fix.
+    fn to_key(&self, number: usize) -> Result<LightKey, String> {
+        let center = Vec3::from(self.center);
+        let direction = match (self.direction, self.target) {
+            (Some(_), Some(_)) => {
+                return Err(format!(
+                    "light keyframe {number}: give `direction` or `target`, not both"
+                ))
+            }
+            (Some(d), None) => Vec3::from(d),
+            (None, Some(target)) => Vec3::from(target) - center,
+            (None, None) => Vec3::NEG_Y,
+        };
+        if !(direction.length_squared() > 1e-12 && direction.is_finite()) {
+            return Err(format!(
+                "light keyframe {number}: the direction is zero or not finite"
+            ));
+        }
+        let direction = direction.normalize();
+        let up = self.up.map_or(
+            if direction.y.abs() > 0.9 {
+                Vec3::Z
+            } else {
+                Vec3::Y
+            },
+            Vec3::from,
+        );
+        let frame = AreaLight {
+            center,
+            direction,
+            up,
+            width: self.width,
+            height: self.height.unwrap_or(self.width),
+            ..AreaLight::default()
+        };
+        Ok(LightKey {
+            time: self.time,
+            center,
+            orientation: light_orientation(&frame),
+            width: frame.width,
+            height: frame.height,
+            radius: self.radius,
+            angular_diameter_degrees: self.angular_diameter_degrees,
+        })
+    }
 }
 
 /// `[[object]]` of a path: one dynamic instance's keyframes.
@@ -520,51 +593,9 @@ impl PathDef {
                     .collect(),
             ),
         };
-        let mut light = Vec::new();
-        for (k, key) in self.light.iter().enumerate() {
-            let center = Vec3::from(key.center);
-            let direction = match (key.direction, key.target) {
-                (Some(_), Some(_)) => {
-                    return Err(fail(format!(
-                        "light keyframe {}: give `direction` or `target`, not both",
-                        k + 1
-                    )))
-                }
-                (Some(d), None) => Vec3::from(d),
-                (None, Some(target)) => Vec3::from(target) - center,
-                (None, None) => Vec3::NEG_Y,
-            };
-            if !(direction.length_squared() > 1e-12 && direction.is_finite()) {
-                return Err(fail(format!(
-                    "light keyframe {}: the direction is zero or not finite",
-                    k + 1
-                )));
-            }
-            let direction = direction.normalize();
-            let up = key.up.map_or(
-                if direction.y.abs() > 0.9 {
-                    Vec3::Z
-                } else {
-                    Vec3::Y
-                },
-                Vec3::from,
-            );
-            let frame = AreaLight {
-                center,
-                direction,
-                up,
-                width: key.width,
-                height: key.height.unwrap_or(key.width),
-                intensity: 1.0,
-            };
-            light.push(LightKey {
-                time: key.time,
-                center,
-                orientation: light_orientation(&frame),
-                width: frame.width,
-                height: frame.height,
-            });
-        }
+        let light = (self.light.iter().enumerate())
+            .map(|(k, key)| key.to_key(k + 1).map_err(&fail))
+            .collect::<Result<Vec<_>, _>>()?;
         let objects = self
             .object
             .iter()
@@ -689,6 +720,8 @@ fn light_sweep_keys(scene: &Scene) -> Vec<LightKey> {
         orientation: light_orientation(l),
         width: light.width * grow.0,
         height: light.height * grow.1,
+        radius: Some(light.radius * grow.0),
+        angular_diameter_degrees: Some(light.angular_diameter_degrees * grow.0),
     };
     let d = BUILTIN_DURATION;
     vec![
@@ -754,6 +787,7 @@ fn sliding_track(scene: &Scene, index: usize) -> ObjectTrack {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use softshadow_core::LightKind;
 
     fn scene() -> Scene {
         crate::builtin("atty-square", &[]).unwrap()
@@ -779,6 +813,31 @@ mod tests {
         let half = s.light.direction.angle_between(mid.direction);
         assert!((full - 0.3f32.atan()).abs() < 1e-4, "{full}");
         assert!((half - 0.5 * full).abs() < 1e-4, "{half} {full}");
+    }
+
+    #[test]
+    fn every_kinds_size_interpolates_and_the_kind_stays_the_scenes() {
+        let mut s = scene();
+        for kind in [LightKind::Disk, LightKind::Sun] {
+            s.light = s.light.as_kind(kind);
+            let path = builtin_path("light-sweep", &mut s).unwrap();
+            path.check(&s).unwrap();
+            // light-sweep grows the first size 1.25 times: a radius, an angular diameter.
+            let (start, mid, end) = (
+                path.pose(&s, 0.0).light,
+                path.pose(&s, 0.8).light,
+                path.pose(&s, path.duration).light,
+            );
+            assert!([start.kind, mid.kind, end.kind].iter().all(|k| *k == kind));
+            let size = |l: &AreaLight| match kind {
+                LightKind::Sun => l.angular_diameter_degrees,
+                _ => l.radius,
+            };
+            let base = size(&s.light);
+            assert!((size(&end) - 1.25 * base).abs() < 1e-5 * base.max(1.0));
+            assert!((size(&mid) - 1.125 * base).abs() < 1e-5 * base.max(1.0));
+            assert_eq!(mid.cone_outer_degrees, s.light.cone_outer_degrees);
+        }
     }
 
     #[test]

@@ -1,5 +1,5 @@
 // Shading pass: albedo * (ambient + intensity * V * cos), or a view of V itself.
-#import softshadow::frame::{frame, load_surface}
+#import softshadow::frame::{frame, load_surface, light_direction, light_reaches, light_cone}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 
 struct ShadingParams {
@@ -31,10 +31,11 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
         return vec4<f32>(BACKGROUND, 1.0);
     }
     let albedo = textureLoad(albedo_texture, pixel, 0).rgb;
-    let to_light = normalize(frame.light_center.xyz - s.world);
-    // Only the side the light faces is lit (one-sided emitter).
-    let facing = select(0.0, 1.0, s.light.z > 0.0);
-    let cosine = max(dot(s.normal, to_light), 0.0) * facing;
+    let to_light = light_direction(s.world);
+    // Only the side the light faces is lit (one-sided emitter; the sun reaches everything), and
+    // a spot only inside its cone.
+    let facing = select(0.0, 1.0, light_reaches(s));
+    let cosine = max(dot(s.normal, to_light), 0.0) * facing * light_cone(s.world);
     let ambient = frame.light_dir.w;
     let radiance = albedo * (ambient + frame.light_center.w * v * cosine);
     return vec4<f32>(radiance, 1.0);

@@ -3,7 +3,7 @@
 // reprojection and history rejection, a penumbra-width estimate from the hit distance and the
 // light size, and a spatial filter sized by it and guided by depth and normal. One entry point
 // per pass; every pass reads group 0 (the receiver surface) and its own group 1.
-#import softshadow::frame::{frame, load_surface}
+#import softshadow::frame::{load_surface, light_reaches, light_penumbra_width}
 #import softshadow::reprojection::{in_frame, pixel_footprint, previous_pixel, saw_same_point}
 
 struct DenoiseParams {
@@ -71,7 +71,7 @@ fn penumbra(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let s = load_surface(pixel);
-    if !s.is_receiver || s.light.z <= 0.0 {
+    if !s.is_receiver || !light_reaches(s) {
         textureStore(output_v, pixel, vec4<f32>(0.0));
         return;
     }
@@ -96,9 +96,7 @@ fn penumbra(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let d = sum / count;
-    let to_light = length(frame.light_center.xyz - s.world);
-    let light_width = 2.0 * max(frame.light_half.x, frame.light_half.y);
-    let width = light_width * d / max(to_light - d, 1e-4 * to_light);
+    let width = light_penumbra_width(s.world, d);
     let footprint = pixel_footprint(pixel, s.world);
     let radius = select(params.max_radius, 0.5 * width / footprint, footprint > 0.0);
     textureStore(output_v, pixel, vec4<f32>(clamp(radius, 0.0, params.max_radius)));
@@ -117,7 +115,7 @@ fn spatial_filter(@builtin(global_invocation_id) id: vec3<u32>) {
     let centre = textureLoad(input_a, pixel, 0);
     let s = load_surface(pixel);
     var radius = 0.0;
-    if params.spatial == 1u && s.is_receiver && s.light.z > 0.0 {
+    if params.spatial == 1u && s.is_receiver && light_reaches(s) {
         radius = textureLoad(input_b, pixel, 0).x / sqrt(max(centre.y, 1.0));
     }
     // Pixel-level classification (FidelityFX's tile classification, per pixel): where the 5 x 5

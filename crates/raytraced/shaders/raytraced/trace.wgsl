@@ -3,7 +3,7 @@
 // Writes the raw visible fraction and the mean distance to the first hit (-1 where no ray hit).
 enable wgpu_ray_query;
 
-#import softshadow::frame::{frame, load_surface}
+#import softshadow::frame::{frame, load_surface, light_reaches, light_sample}
 
 struct TraceParams {
     light_to_world: mat4x4<f32>,
@@ -16,9 +16,8 @@ struct TraceParams {
 @group(1) @binding(2) var raw_out: texture_storage_2d<rg32float, write>;
 
 // Segment ends as the CPU ray cast's (crates/reference/src/raycast.rs): occluders within 1e-4
-// of the segment at the receiver end and 1e-6 at the light end are ignored.
-const SEGMENT_EPSILON: f32 = 1e-4;
-const LIGHT_END_EPSILON: f32 = 1e-6;
+// of the segment at the receiver end and 1e-6 at the light end are ignored (`light_sample`, which
+// samples every light kind's shape).
 
 // A per-pixel rotation of the sequence (Cranley-Patterson): a hash of the pixel.
 fn hash2(p: vec2<u32>) -> vec2<f32> {
@@ -46,7 +45,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(raw_out, pixel, vec4<f32>(1.0, -1.0, 0.0, 0.0));
         return;
     }
-    if s.light.z <= 0.0 {
+    if !light_reaches(s) {
         // Behind the one-sided light.
         textureStore(raw_out, pixel, vec4<f32>(0.0, -1.0, 0.0, 0.0));
         return;
@@ -62,10 +61,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         // Frame k continues the sequence where frame k - 1 ended.
         let index = f32(params.frame_index * params.rays + i);
         let u = fract(rotation + index * R2);
-        let on_light = vec2<f32>((2.0 * u.x - 1.0) * frame.light_half.x, (2.0 * u.y - 1.0) * frame.light_half.y);
-        let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
-        let dir = light_point - s.world;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, s.world, dir));
+        let ray = light_sample(u, s.world);
+        let dir = ray.to_light;
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, ray.t_min, ray.t_max, s.world, dir));
         rayQueryProceed(&rq);
         let hit = rayQueryGetCommittedIntersection(&rq);
         if hit.kind == RAY_QUERY_INTERSECTION_NONE {

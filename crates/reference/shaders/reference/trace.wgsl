@@ -1,14 +1,14 @@
 // The ray-traced exact answer (crates/reference/src/traced.rs): for each receiver point, one row
 // of N stratified, jittered light samples per dispatch (row `params.row` of the N x N grid), each
 // an exact segment test against the casters' triangles with a ray query; the lit count is added
-// to the point's running sum. Segment ends as the CPU ray cast's (raycast.rs).
+// to the point's running sum. Segment ends as the CPU ray cast's (raycast.rs); the light's shape
+// sampled by core's `sample_light` (the frame uniforms of the light, `light`).
 enable wgpu_ray_query;
 
+#import softshadow::frame_types::FrameUniforms
+#import softshadow::light::{sample_light, light_reaches_point}
+
 struct TraceParams {
-    world_to_light: mat4x4<f32>,
-    light_to_world: mat4x4<f32>,
-    // Half width and height of the light.
-    half: vec2<f32>,
     samples_per_axis: u32,
     row: u32,
     count: u32,
@@ -24,9 +24,8 @@ struct TraceParams {
 // Pairs of strata (columns 2k and 2k + 1 of a row) whose samples disagree, summed over rows: the
 // collapsed-strata estimate of the sampling error (raycast.rs, `visibility_and_error`).
 @group(0) @binding(4) var<storage, read_write> disagree: array<f32>;
-
-const SEGMENT_EPSILON: f32 = 1e-4;
-const LIGHT_END_EPSILON: f32 = 1e-6;
+// The light (only its fields are read).
+@group(0) @binding(5) var<uniform> light: FrameUniforms;
 
 // A hash of three integers to [0, 1)^2: the jitter of one sample of one point.
 fn jitter(a: u32, b: u32, c: u32) -> vec2<f32> {
@@ -51,7 +50,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = point.xyz;
-    if (params.world_to_light * vec4<f32>(p, 1.0)).z <= 0.0 {
+    if !light_reaches_point(light, p, (light.world_to_light * vec4<f32>(p, 1.0)).xyz) {
         // Behind the one-sided light: never lit.
         return;
     }
@@ -64,9 +63,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     var rq: ray_query;
     for (var i = 0u; i < n; i++) {
         let u = (vec2<f32>(f32(i), f32(params.row)) + jitter(k, i, params.row)) / f32(n);
-        let on_light = vec2<f32>((2.0 * u.x - 1.0) * params.half.x, (2.0 * u.y - 1.0) * params.half.y);
-        let light_point = (params.light_to_world * vec4<f32>(on_light, 0.0, 1.0)).xyz;
-        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, SEGMENT_EPSILON, 1.0 - LIGHT_END_EPSILON, p, light_point - p));
+        let ray = sample_light(light, u, p);
+        rayQueryInitialize(&rq, casters, RayDesc(RAY_FLAG_TERMINATE_ON_FIRST_HIT | RAY_FLAG_FORCE_OPAQUE, 0xffu, ray.t_min, ray.t_max, p, ray.to_light));
         rayQueryProceed(&rq);
         let hit = rayQueryGetCommittedIntersection(&rq).kind != RAY_QUERY_INTERSECTION_NONE;
         if !hit {
