@@ -101,6 +101,13 @@ pub enum AnalyticError {
         /// The scene's name.
         scene: String,
     },
+    /// The light is not a rectangle: the union of the casters' projections is clipped to a
+    /// rectangle here (a disk's or a sphere's answer is sampled instead).
+    #[error("the light is a `{kind}`: the analytic exact answer is for rectangle lights (a sampled answer is used)")]
+    NotRect {
+        /// The light's kind.
+        kind: softshadow_core::LightKind,
+    },
     /// The work was cancelled (its `BuildControl`) before every pixel was done.
     #[error("the analytic exact answer was cancelled before it finished")]
     Cancelled,
@@ -138,6 +145,9 @@ impl AnalyticCasters {
             return Err(AnalyticError::MaskedCasters {
                 scene: scene.name.clone(),
             });
+        }
+        if light.kind != softshadow_core::LightKind::Rect {
+            return Err(AnalyticError::NotRect { kind: light.kind });
         }
         let half = light.half_extent();
         if !(half.x > 0.0 && half.y > 0.0) {
