@@ -10,6 +10,7 @@
 pub mod accel;
 pub mod background;
 pub mod camera;
+pub mod cascades;
 pub mod cost;
 pub mod disk_cache;
 pub mod error;
@@ -65,8 +66,7 @@ pub use shading::ShadingMode;
 pub use stage::ShadowStage;
 pub use technique::{
     BuildControl, BuildProgress, DebugLegend, DebugView, LightSupport, MinLimits, Requirements,
-    ShadowTechnique,
-    TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE,
+    ShadowTechnique, TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE,
 };
 pub use visibility::VisibilityBuffer;
 
@@ -77,6 +77,7 @@ pub use {bytemuck, encase, glam, puffin, wgpu};
 /// tests/shaders.rs ([`shader::uniform_layout`]).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
+    use cascades::CascadeUniform;
     use frame::FrameUniforms;
     use shadow_map::{DepthView, ShadowViewUniform};
     vec![
@@ -99,6 +100,11 @@ pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
                 => "common/shadow_view.wgsl", ShadowView
         ),
         uniform_mirror!(DepthView { light_view_proj } => "core/depth.wgsl", DepthView),
+        uniform_mirror!(
+            CascadeUniform {
+                view_proj, split_far, texel_world, near, depth_range, camera_forward, info
+            } => "common/cascades.wgsl", Cascades
+        ),
         shading::uniform_mirror(),
         hierarchy::uniform_mirror(),
         host::uniform_mirror(),

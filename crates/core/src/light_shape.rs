@@ -328,7 +328,11 @@ mod tests {
 
     #[test]
     fn basis_is_orthonormal() {
-        for n in [Vec3::X, Vec3::NEG_Z, Vec3::new(0.3, -0.4, 0.866).normalize()] {
+        for n in [
+            Vec3::X,
+            Vec3::NEG_Z,
+            Vec3::new(0.3, -0.4, 0.866).normalize(),
+        ] {
             let (a, b) = orthonormal_basis(n);
             for (p, q) in [(a, b), (a, n), (b, n)] {
                 assert!(p.dot(q).abs() < 1e-6);
@@ -352,7 +356,10 @@ mod tests {
             let u = Vec2::new((k % 4) as f32 + 0.5, (k / 4) as f32 + 0.5) / 4.0;
             let disk = light(LightKind::Disk).sample(u, p);
             let q = p + disk.to_light;
-            assert!((q.y - 4.0).abs() < 1e-5 && q.x.hypot(q.z) <= 0.5 + 1e-5, "{q}");
+            assert!(
+                (q.y - 4.0).abs() < 1e-5 && q.x.hypot(q.z) <= 0.5 + 1e-5,
+                "{q}"
+            );
             let sphere = light(LightKind::Sphere).sample(u, p);
             let q = p + sphere.to_light;
             // On the sphere's circle of contact (or inside its disk): within the radius of the
@@ -398,7 +405,10 @@ mod tests {
         let v = SunView::fit(&sun, &points).unwrap();
         for p in points {
             let c = v.view_projection().project_point3(p);
-            assert!(c.x.abs() <= 1.0 && c.y.abs() <= 1.0 && (0.0..=1.0).contains(&c.z), "{c}");
+            assert!(
+                c.x.abs() <= 1.0 && c.y.abs() <= 1.0 && (0.0..=1.0).contains(&c.z),
+                "{c}"
+            );
         }
     }
 }

@@ -26,10 +26,7 @@
 //! 2 cores for ground points under `blob-floating:triangles=5000` (so about 7 s for that image).
 
 use rayon::prelude::*;
-use softshadow_core::{
-    glam::Vec3,
-    AreaLight, Scene,
-};
+use softshadow_core::{glam::Vec3, AreaLight, Scene};
 
 /// Relative epsilon at the receiver end of every shadow segment: hits with segment parameter
 /// `t <= SEGMENT_EPSILON` (within `SEGMENT_EPSILON` times the segment length of the receiver) are

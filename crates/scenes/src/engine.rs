@@ -94,8 +94,11 @@ pub fn card(width: f32, height: f32, repeat: Vec2) -> Mesh {
 pub(crate) fn append(mesh: &mut Mesh, part: &Mesh, transform: Mat4) {
     let base = mesh.positions.len() as u32;
     let normal_matrix = transform.inverse().transpose();
-    mesh.positions
-        .extend(part.positions.iter().map(|&p| transform.transform_point3(p)));
+    mesh.positions.extend(
+        part.positions
+            .iter()
+            .map(|&p| transform.transform_point3(p)),
+    );
     mesh.normals.extend(
         part.normals
             .iter()
@@ -123,14 +126,22 @@ fn foliage(light_width: f32, leaves: u32, leaf_size: f32) -> Scene {
     let mut rng = SplitMix64::new(40);
     let mut wood = Mesh::default();
     let trunk_top = Vec3::Y * 1.5;
-    append(&mut wood, &primitives::cylinder(0.1, 1.0, 12), along(Vec3::ZERO, trunk_top));
+    append(
+        &mut wood,
+        &primitives::cylinder(0.1, 1.0, 12),
+        along(Vec3::ZERO, trunk_top),
+    );
     let mut tips = Vec::new();
     for k in 0..6 {
         let azimuth = k as f32 * std::f32::consts::TAU / 6.0 + 0.4 * rng.next_f32();
         let start = Vec3::Y * (0.9 + 0.1 * k as f32);
         let out = Vec3::new(azimuth.cos(), 0.0, azimuth.sin());
         let end = start + out * 0.8 + Vec3::Y * (0.5 + 0.3 * rng.next_f32());
-        append(&mut wood, &primitives::cylinder(0.035, 1.0, 8), along(start, end));
+        append(
+            &mut wood,
+            &primitives::cylinder(0.035, 1.0, 8),
+            along(start, end),
+        );
         tips.push((start, end));
     }
     let cluster = card(leaf_size, leaf_size, Vec2::ONE);
@@ -162,7 +173,10 @@ fn foliage(light_width: f32, leaves: u32, leaf_size: f32) -> Scene {
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(0.0, 2.4, 5.4), Vec3::new(0.0, 0.9, 0.0)))
+    b.finish(
+        light,
+        camera(Vec3::new(0.0, 2.4, 5.4), Vec3::new(0.0, 0.9, 0.0)),
+    )
 }
 
 /// `fence`: a 4 x 1.6 chain-link quad (its mask repeated `cells` times across) 0.1 above the
@@ -181,14 +195,21 @@ fn fence(light_width: f32, cells: f32, wire: f32) -> Scene {
     let mesh = b.mesh(mesh, "chain-link fence");
     let texture = b.texture(textures::chain_link(64, wire), "chain link");
     let material = b.masked_material("chain link", Vec3::splat(0.6), texture);
-    b.masked_caster(mesh, Mat4::from_translation(Vec3::new(0.0, 0.9, 0.0)), material);
+    b.masked_caster(
+        mesh,
+        Mat4::from_translation(Vec3::new(0.0, 0.9, 0.0)),
+        material,
+    );
     let light = AreaLight::looking_at(
         Vec3::new(1.5, 3.5, 3.5),
         Vec3::new(0.0, 0.6, -1.0),
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(3.4, 2.2, 5.4), Vec3::new(-0.3, 0.6, -0.8)))
+    b.finish(
+        light,
+        camera(Vec3::new(3.4, 2.2, 5.4), Vec3::new(-0.3, 0.6, -0.8)),
+    )
 }
 
 /// Courtyard half-size (the column lines), gallery depth and storey height of `atrium`.
@@ -239,7 +260,10 @@ fn atrium(light_width: f32, bays: u32) -> Scene {
         light_width,
         light_width,
     );
-    b.finish(light, camera(Vec3::new(2.3, 1.7, 2.3), Vec3::new(-1.5, 1.0, -1.5)))
+    b.finish(
+        light,
+        camera(Vec3::new(2.3, 1.7, 2.3), Vec3::new(-1.5, 1.0, -1.5)),
+    )
 }
 
 /// One side's arcade of one storey (the side facing -z... +z at z = COURT): square piers and,
@@ -258,7 +282,11 @@ fn arcade(bays: u32, y: f32) -> Mesh {
     for k in 0..bays {
         let x0 = -COURT + bay * k as f32 + 0.15;
         let x1 = x0 + bay - 0.3;
-        append(&mut mesh, &arch(x0, x1, y + spring, y + STOREY), Mat4::from_translation(Vec3::Z * COURT));
+        append(
+            &mut mesh,
+            &arch(x0, x1, y + spring, y + STOREY),
+            Mat4::from_translation(Vec3::Z * COURT),
+        );
     }
     mesh
 }
@@ -285,7 +313,11 @@ fn arch(x0: f32, x1: f32, spring: f32, top: f32) -> Mesh {
                 Vec3::new(q.x, top, z),
                 Vec3::new(p.x, top, z),
             ];
-            let strip = if z > 0.0 { strip } else { [strip[1], strip[0], strip[3], strip[2]] };
+            let strip = if z > 0.0 {
+                strip
+            } else {
+                [strip[1], strip[0], strip[3], strip[2]]
+            };
             primitives::push_quad(&mut mesh, strip, normal);
         }
         let inward = (Vec2::new(centre, spring) - (p + q) * 0.5).normalize_or_zero();
@@ -336,8 +368,14 @@ mod tests {
     fn engine_scenes_are_valid_and_deterministic() {
         for info in infos() {
             let scene = defaults(info.id);
-            scene.validate().unwrap_or_else(|e| panic!("{}: {e}", info.id));
-            assert!(scene.has_masked_casters(), "{} has no masked caster", info.id);
+            scene
+                .validate()
+                .unwrap_or_else(|e| panic!("{}: {e}", info.id));
+            assert!(
+                scene.has_masked_casters(),
+                "{} has no masked caster",
+                info.id
+            );
             let again = defaults(info.id);
             assert_eq!(scene.triangle_count(), again.triangle_count());
             for (a, b) in scene.meshes.iter().zip(&again.meshes) {
@@ -353,7 +391,11 @@ mod tests {
             let bounds = scene.bounds(|i| i.casts_shadow);
             for corner in bounds.corners() {
                 let z = scene.light.to_light_space(corner).z;
-                assert!(z > 0.0, "{}: caster corner {corner} at light z {z}", info.id);
+                assert!(
+                    z > 0.0,
+                    "{}: caster corner {corner} at light z {z}",
+                    info.id
+                );
             }
         }
     }

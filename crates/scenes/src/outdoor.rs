@@ -89,7 +89,10 @@ fn terrain(extent: f32) -> Mesh {
     let step = extent / n as f32;
     for j in 0..=n {
         for i in 0..=n {
-            let (x, z) = (-extent * 0.5 + i as f32 * step, -extent * 0.5 + j as f32 * step);
+            let (x, z) = (
+                -extent * 0.5 + i as f32 * step,
+                -extent * 0.5 + j as f32 * step,
+            );
             mesh.positions.push(Vec3::new(x, height(x, z), z));
         }
     }
@@ -188,7 +191,11 @@ mod tests {
         for (instance, sunk) in [(1, 2.0), (2, 1.0)] {
             let mesh = &scene.meshes[scene.instances[instance].mesh];
             for p in &mesh.positions {
-                assert!(p.y >= height(p.x, p.z) - sunk - 0.01, "{}: {p} below ground", mesh.name);
+                assert!(
+                    p.y >= height(p.x, p.z) - sunk - 0.01,
+                    "{}: {p} below ground",
+                    mesh.name
+                );
             }
         }
     }
