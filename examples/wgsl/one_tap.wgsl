@@ -1,4 +1,5 @@
 // hard's lookup, line for line, as a file technique: the framework's tax alone.
+// @contract 2
 // @param bias_texels: f32 = 1.5 in 0.0..=16.0, Depth bias in texel footprints
 // @fit receivers
 fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {

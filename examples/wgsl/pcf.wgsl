@@ -1,5 +1,6 @@
 // Percentage-closer filtering (Reeves et al. 1987) over a square of texels of the centre shadow map.
 // With radius 0 it is one tap: the hard shadow of `hard`, bit for bit.
+// @contract 2
 // @param radius: u32 = 1 in 0..=8, Half width of the square kernel in texels (0: one tap, a hard shadow)
 // @param bias_texels: f32 = 1.5 in 0.0..=16.0, Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
 // @fit receivers

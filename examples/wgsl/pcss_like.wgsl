@@ -2,6 +2,7 @@
 // In slope space (docs/ARCHITECTURE.md, "Search area"): the light [-a, a] x [-b, b] seen from a
 // receiver at depth z_r covers, at depth z, slopes of half extent a (z_r - z) / (z_r z) around
 // the receiver's own slope.
+// @contract 2
 // @param search_grid: u32 = 6 in 1..=16, Blocker-search samples per axis (a regular grid over the search area)
 // @param filter_grid: u32 = 8 in 1..=16, Filter samples per axis (a regular grid over the penumbra)
 // @param bias_texels: f32 = 1.5 in 0.0..=16.0, Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)

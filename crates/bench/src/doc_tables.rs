@@ -617,7 +617,9 @@ fn grid_table(runs: &[Run], options: &BTreeMap<&str, &str>) -> Result<String, St
         mine.iter()
             .find(|r| r.scene == scene && setting_of(r) == setting)
             .map_or("-".to_string(), |r| match (&r.status, &r.motion) {
-                (Status::Error | Status::Timeout | Status::Crashed, _) => r.status.to_string(),
+                (Status::Error | Status::Timeout | Status::Crashed | Status::Unsupported, _) => {
+                    r.status.to_string()
+                }
                 // Along a path: the mean error over its frames / the last frame's.
                 (Status::Ok, Some(m)) => format!(
                     "{:.4} / {}",

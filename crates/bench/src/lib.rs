@@ -25,7 +25,7 @@ use std::{
 };
 
 use softshadow_core::{
-    disk_cache::DiskCache, AreaLight, BuildControl, Camera, FrameOutput, Gpu, MemoryUse,
+    disk_cache::DiskCache, AreaLight, BuildControl, Camera, FrameOutput, Gpu, LightKind, MemoryUse,
     ParamError, ParamValue, Registry, RegistryError, RenderError, Renderer, Scene, SceneGpu,
     ShadingMode, ShadowTechnique, TechniqueError, TechniqueInfo, TimingSource, YARDSTICK_TECHNIQUE,
 };
@@ -270,6 +270,22 @@ pub fn validate(registry: &Registry, spec: &RunSpec) -> Result<(), BenchError> {
     Ok(())
 }
 
+/// The kind of light `spec` would run under (`light`, a sweep's `[light]`, else its scene's)
+/// and, when its technique does not support it, the one line refusing the run, naming technique
+/// and kind. Reads the scene file only (no GPU work).
+pub fn light_refusal(
+    registry: &Registry,
+    spec: &RunSpec,
+    light: Option<&AreaLight>,
+) -> Result<(LightKind, Option<String>), BenchError> {
+    let info = resolve_technique(registry, &spec.technique)?;
+    let kind = match light {
+        Some(light) => light.kind,
+        None => softshadow_scenes::load(&spec.scene)?.scene.light.kind,
+    };
+    Ok((kind, info.check_light(kind).err()))
+}
+
 /// Checks options before any run: frames, and the reference's settings (so a typo fails before
 /// the first run).
 fn check_options(registry: &Registry, options: &BenchOptions) -> Result<(), BenchError> {
@@ -416,6 +432,21 @@ impl Bench {
     pub fn run(&mut self, index: usize, spec: &RunSpec, out_dir: &Path) -> Run {
         puffin::profile_function!();
         let mut run = Run::new(index, spec);
+        // A light kind the technique does not support: recorded, no GPU work, the sweep goes on.
+        match light_refusal(&self.registry, spec, self.light.as_ref()) {
+            Ok((kind, None)) => run.light_kind = Some(kind.to_string()),
+            Ok((kind, Some(why))) => {
+                run.light_kind = Some(kind.to_string());
+                run.status = Status::Unsupported;
+                run.message = why;
+                return run;
+            }
+            Err(e) => {
+                run.status = Status::Error;
+                run.message = e.to_string();
+                return run;
+            }
+        }
         let result = self.faults.at_start(index, &self.gpu).and_then(|()| {
             match spec.path.clone().or_else(|| self.options.path.clone()) {
                 Some(path) => self.run_path(index, spec, &path, out_dir, &mut run),

@@ -142,6 +142,9 @@ pub enum Status {
     Timeout,
     /// Isolated: its process ended without a result (a signal, an abort, a panic).
     Crashed,
+    /// Not made: the technique does not support the scene's light kind (its `message` says
+    /// why, from the technique's descriptor); no GPU work was done.
+    Unsupported,
 }
 
 impl std::fmt::Display for Status {
@@ -152,6 +155,7 @@ impl std::fmt::Display for Status {
             Status::Error => "error",
             Status::Timeout => "timeout",
             Status::Crashed => "crashed",
+            Status::Unsupported => "unsupported",
         })
     }
 }
@@ -182,6 +186,9 @@ pub struct Run {
     pub width: u32,
     pub height: u32,
     pub status: Status,
+    /// The kind of the light it ran under (`rect`, `disk`, `sphere`, `spot`, `sun`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_kind: Option<String>,
     /// What went wrong when `status` is not `ok` (one line); empty otherwise.
     pub message: String,
     /// Full cost: every frame rebuilds everything (`invalidate_cache` before each).
@@ -249,6 +256,7 @@ impl Run {
             width: spec.width,
             height: spec.height,
             status: Status::Ok,
+            light_kind: None,
             message: String::new(),
             timing: None,
             timing_camera_only: None,

@@ -4,7 +4,7 @@
 use softshadow_core::{
     cost::rates::PIXEL_ITERATION,
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, TechniqueInfo,
+    Cost, CostModel, Expectations, LightSupport, TechniqueInfo,
 };
 
 use crate::{Raytraced, RaytracedSettings, Targets, ID, SHADERS};
@@ -23,6 +23,8 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(Raytraced::requirements_static())
     .with_shaders(SHADERS)
+    // Its rays sample each kind's shape (core's `light_sample`).
+    .with_light_kinds(LightSupport::all())
     .with_cost(CostModel::new(&["rays_per_pixel"], |q| {
         let rays = 2.0 * q.pixels * q.number("rays_per_pixel") * RAY;
         // The filter's 7 x 7 taps and the penumbra estimate's 9 x 9.

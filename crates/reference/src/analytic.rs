@@ -94,6 +94,13 @@ pub enum AnalyticError {
         /// The light's height.
         height: f32,
     },
+    /// The light is not a rectangle: the union of the casters' projections is clipped to a
+    /// rectangle here (a disk's or a sphere's answer is sampled instead).
+    #[error("the light is a `{kind}`: the analytic exact answer is for rectangle lights (a sampled answer is used)")]
+    NotRect {
+        /// The light's kind.
+        kind: softshadow_core::LightKind,
+    },
     /// The work was cancelled (its `BuildControl`) before every pixel was done.
     #[error("the analytic exact answer was cancelled before it finished")]
     Cancelled,
@@ -127,6 +134,9 @@ impl AnalyticCasters {
     /// Vertices enter light space as the closed form takes them (`AreaLight::to_light_space`, the
     /// scene's own f32 precision); everything after that is f64.
     pub fn new(scene: &Scene, light: &AreaLight) -> Result<Self, AnalyticError> {
+        if light.kind != softshadow_core::LightKind::Rect {
+            return Err(AnalyticError::NotRect { kind: light.kind });
+        }
         let half = light.half_extent();
         if !(half.x > 0.0 && half.y > 0.0) {
             return Err(AnalyticError::NoArea {

@@ -167,6 +167,10 @@ pub fn visibility_image(
     positions: &[Option<Vec3>],
     receiver_mask: &[bool],
 ) -> Option<Vec<f32>> {
+    // The closed form clips to the light rectangle; other kinds are sampled.
+    if scene.light.kind != softshadow_core::LightKind::Rect {
+        return None;
+    }
     let rects = parallel_rects(scene)?;
     let half = scene.light.half_extent();
     Some(

@@ -4,7 +4,7 @@
 use softshadow_core::{
     cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, TechniqueInfo,
+    Cost, CostModel, Expectations, LightKind, LightSupport, TechniqueInfo,
 };
 
 use crate::{Reference, ReferenceSettings, ID, SHADERS};
@@ -20,6 +20,17 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(Reference::requirements_static())
     .with_shaders(SHADERS)
+    .with_light_kinds(
+        LightSupport::all()
+            .except(
+                LightKind::Sphere,
+                "its depth maps are drawn from fixed points of a light plane, but a sphere shows each receiver a different disk: the exact answers (ray cast, ray-traced) sample it",
+            )
+            .except(
+                LightKind::Sun,
+                "its depth maps are perspective views from points of a light plane; the sun needs orthographic maps over its cone of directions",
+            ),
+    )
     .with_cost(CostModel::new(
         &["samples_per_axis", "shadow_map_size"],
         // Both frames redo every map (nothing is kept when the camera moves) and look each up

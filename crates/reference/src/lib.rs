@@ -38,8 +38,8 @@ use softshadow_core::{
         ShadowViewUniform,
     },
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, Frame, Gpu, Requirements, ShadowInputs, ShadowTechnique, TechniqueError,
-    TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, AreaLight, Frame, Gpu, LightKind, Requirements, ShadowInputs, ShadowTechnique,
+    TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
@@ -259,7 +259,9 @@ pub fn exact_answer(
 ) -> Result<ExactAnswer, analytic::AnalyticError> {
     if method.analytic {
         match analytic_answer(scene, positions, normals, receiver, control) {
-            Err(analytic::AnalyticError::NoArea { .. }) => {}
+            Err(
+                analytic::AnalyticError::NoArea { .. } | analytic::AnalyticError::NotRect { .. },
+            ) => {}
             answer => return answer,
         }
     }
@@ -351,12 +353,24 @@ fn sampled_answer(
     }
 }
 
-/// Stratified sample positions on the light rectangle, light-space `(u, v)` (row-major).
-pub fn light_samples(settings: &ReferenceSettings, half: Vec2) -> Vec<Vec2> {
+/// Stratified sample positions on the light, light-space `(u, v)` (row-major): on the
+/// rectangle, or on the disk of a disk or spot light (the strata through the concentric map).
+/// A sphere is sampled as its disk facing along the light's direction (the silhouette seen from
+/// receivers on its axis far away; one set of depth maps cannot follow each receiver's disk, so
+/// the accumulated reference approximates it: the ray cast and the ray-traced answer do not).
+/// The sun has no eyes on a light plane: no samples (its kind is not supported here).
+pub fn light_samples(settings: &ReferenceSettings, light: &AreaLight) -> Vec<Vec2> {
     let jitter_seed = settings
         .jitter
         .then_some(settings.seed as u64 ^ 0x9e37_79b9_7f4a_7c15);
-    stratified_samples(settings.samples_per_axis.max(1), half, jitter_seed).collect()
+    let n = settings.samples_per_axis.max(1);
+    match light.kind {
+        LightKind::Rect => stratified_samples(n, light.half_extent(), jitter_seed).collect(),
+        LightKind::Disk | LightKind::Sphere | LightKind::Spot => stratified_unit(n, jitter_seed)
+            .map(|u| softshadow_core::light_shape::concentric_disk(u) * light.radius)
+            .collect(),
+        LightKind::Sun => Vec::new(),
+    }
 }
 
 /// `n x n` stratified points on the rectangle `[-half.x, half.x] x [-half.y, half.y]`, row-major.
@@ -644,7 +658,7 @@ impl ShadowTechnique for Reference {
             return self.render_progressive(frame, inputs, out, key, batches);
         }
         self.progress = None;
-        let samples = light_samples(&self.settings, inputs.light.half_extent());
+        let samples = light_samples(&self.settings, inputs.light);
         let size = self.settings.shadow_map_size;
         let views: Vec<ShadowViewUniform> = samples
             .iter()
@@ -695,7 +709,7 @@ impl Reference {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         if self.progress.as_ref().map(|p| p.key) != Some(key) {
-            let samples = light_samples(&self.settings, inputs.light.half_extent());
+            let samples = light_samples(&self.settings, inputs.light);
             let size = self.settings.shadow_map_size;
             let views: Vec<ShadowViewUniform> = interleaved(self.settings.samples_per_axis)
                 .filter_map(|k| sample_view(inputs.scene, inputs.light, samples[k]))

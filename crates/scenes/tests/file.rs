@@ -403,3 +403,55 @@ fn camera_fields_are_used() {
         (30.0, 0.5, 20.0)
     );
 }
+
+/// `[light]`'s kinds (issue 39): each kind and its keys load; bad values are refused in one line
+/// naming the field and its range.
+#[test]
+fn light_kinds_load_and_bad_values_are_refused() {
+    use softshadow_core::LightKind;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |light: &str| {
+        let text = format!("[light]\n{light}\n[[object]]\nplane = {{ size = [1, 1] }}\n");
+        load_scene_file(&write(dir.path(), "k.toml", &text)).map(|s| s.scene.light)
+    };
+    let rect = scene("").unwrap();
+    assert_eq!((rect.kind, rect.width), (LightKind::Rect, 1.0));
+    let disk = scene("kind = \"disk\"\nradius = 0.25").unwrap();
+    assert_eq!((disk.kind, disk.radius), (LightKind::Disk, 0.25));
+    let spot =
+        scene("kind = \"spot\"\nradius = 0.1\ncone_inner_degrees = 10\ncone_outer_degrees = 20")
+            .unwrap();
+    assert_eq!(
+        (spot.kind, spot.cone_inner_degrees, spot.cone_outer_degrees),
+        (LightKind::Spot, 10.0, 20.0)
+    );
+    let sun = scene("kind = \"sun\"\ndirection = [0.3, -1, 0]").unwrap();
+    assert_eq!(
+        (sun.kind, sun.angular_diameter_degrees),
+        (LightKind::Sun, 0.53)
+    );
+    assert_eq!(scene("kind = \"sphere\"").unwrap().kind, LightKind::Sphere);
+    for (light, words) in [
+        (
+            "kind = \"lamp\"",
+            &["`lamp`", "rect | disk | sphere | spot | sun"][..],
+        ),
+        ("kind = \"disk\"\nradius = -0.5", &["radius", ">= 0"]),
+        (
+            "kind = \"spot\"\ncone_inner_degrees = 40\ncone_outer_degrees = 20",
+            &["cone_outer_degrees", "outer >= inner"],
+        ),
+        ("kind = \"spot\"\ncone_outer_degrees = 120", &["0..=90"]),
+        (
+            "kind = \"sun\"\nangular_diameter_degrees = 180",
+            &["angular_diameter_degrees", "0..180"],
+        ),
+    ] {
+        let message = file_error(&format!(
+            "[light]\n{light}\n[[object]]\nplane = {{ size = [1, 1] }}\n"
+        ));
+        for word in words {
+            assert!(message.contains(word), "{light}: {message}");
+        }
+    }
+}

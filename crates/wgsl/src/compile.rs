@@ -42,7 +42,7 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     if !s.is_receiver {
         return vec4<f32>(1.0);
     }
-    if s.light.z <= 0.0 {
+    if !light_reaches(s) {
         return vec4<f32>(0.0);
     }
     return vec4<f32>(clamp(visibility(s, pixel), 0.0, 1.0));
@@ -209,6 +209,8 @@ mod tests {
     use crate::{directives, WgslError};
 
     fn compile_text(source: &str) -> Result<(), WgslError> {
+        // Every test file is a version 2 file (its directive last, so lines stay as written).
+        let source = &format!("{source}\n// @contract 2\n");
         let directives = directives::parse("t.wgsl", source)?;
         super::compile("t.wgsl", source, &directives).map(|_| ())
     }

@@ -2,6 +2,7 @@
 //! (docs/WGSL.md, "Directives").
 //!
 //! ```text
+//! // @contract 2                                              (required: the contract's version)
 //! // @param NAME: TYPE = DEFAULT in MIN..=MAX, DESCRIPTION     (TYPE f32, u32 or i32)
 //! // @param NAME: bool = DEFAULT, DESCRIPTION
 //! // @fit receivers | casters
@@ -74,6 +75,7 @@ pub struct Directives {
 pub fn parse(path: &str, source: &str) -> Result<Directives, WgslError> {
     let mut params: Vec<ParamDirective> = Vec::new();
     let mut fit: Option<(Fit, usize)> = None;
+    let mut contract = false;
     for (index, text) in source.lines().enumerate() {
         let line = index + 1;
         let Some(comment) = text.trim_start().strip_prefix("//") else {
@@ -123,18 +125,40 @@ pub fn parse(path: &str, source: &str) -> Result<Directives, WgslError> {
                 ));
             }
             fit = Some((value, line));
+        } else if let Some(rest) = comment.strip_prefix("@contract") {
+            if rest.trim() != crate::CONTRACT_VERSION.to_string() {
+                return Err(error(column, version_change(rest.trim())));
+            }
+            contract = true;
         } else if comment.starts_with('@') {
             let word = comment.split_whitespace().next().unwrap_or(comment);
             return Err(error(
                 column,
-                format!("unknown directive `{word}`: the directives are `// @param` and `// @fit` (docs/WGSL.md)"),
+                format!("unknown directive `{word}`: the directives are `// @contract`, `// @param` and `// @fit` (docs/WGSL.md)"),
             ));
         }
+    }
+    if !contract {
+        return Err(WgslError::Directive {
+            path: path.to_string(),
+            line: 1,
+            column: 1,
+            message: version_change("1 (no `// @contract` line)"),
+        });
     }
     Ok(Directives {
         params,
         fit: fit.map_or(Fit::Casters, |(f, _)| f),
     })
+}
+
+/// What a file written for contract version `written_for` must change (docs/WGSL.md).
+fn version_change(written_for: &str) -> String {
+    format!(
+        "written for contract version {written_for}; this is version {}: `frame` now carries the light's kind and shape (`light_shape`, `light_sun`, `light_to_world`; `light_kind()`, `light_reaches(s)`, `light_sample(u, world)`), so a file that reads `frame.light_half` as a rectangle must check `light_kind()`: then add the line `// @contract {}` (docs/WGSL.md)",
+        crate::CONTRACT_VERSION,
+        crate::CONTRACT_VERSION
+    )
 }
 
 const GRAMMAR: &str = "write `// @param NAME: TYPE = DEFAULT in MIN..=MAX, DESCRIPTION` (TYPE f32, u32 or i32) or `// @param NAME: bool = DEFAULT, DESCRIPTION`";
@@ -321,7 +345,20 @@ mod tests {
             directives.params[3].spec.kind,
             ParamKind::Bool { default: true }
         );
-        assert_eq!(parse("b.wgsl", "fn f() {}").unwrap().fit, Fit::Casters);
+        assert_eq!(
+            parse("b.wgsl", "fn f() {}\n// @contract 2").unwrap().fit,
+            Fit::Casters
+        );
+        // A file without `@contract 2` (a version 1 file) is told what changed.
+        for source in ["fn f() {}", "// @contract 1\nfn f() {}"] {
+            let message = parse("old.wgsl", source).unwrap_err().to_string();
+            assert!(
+                message.contains("written for contract version 1")
+                    && message.contains("light_kind()")
+                    && message.contains("// @contract 2"),
+                "{message}"
+            );
+        }
     }
 
     #[test]

@@ -29,7 +29,7 @@ pub use watch::WatchedFile;
 
 /// The version of the bindings contract (docs/WGSL.md): changes when a binding, a helper of the
 /// preamble or the signature of `visibility` changes.
-pub const CONTRACT_VERSION: u32 = 1;
+pub const CONTRACT_VERSION: u32 = 2;
 
 /// A technique file could not be read, parsed, validated or registered.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -154,7 +154,13 @@ pub fn from_source(path: &Path, source: &str) -> Result<TechniqueInfo, WgslError
                 &compiled,
             )?))
         },
-    ))
+    )
+    // Version 2 gives the file the light's kind and shape; its map is the contract's perspective
+    // one from the light centre, which holds for every kind with a position.
+    .with_light_kinds(softshadow_core::LightSupport::all().except(
+        softshadow_core::LightKind::Sun,
+        "the contract's shadow map is a perspective view from the light centre; the sun needs an orthographic one",
+    )))
 }
 
 /// The file's first comment line that is not a directive: its one-line description.

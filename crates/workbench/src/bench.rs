@@ -108,10 +108,11 @@ pub(crate) fn bench(registry: &Registry, args: BenchArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::from(130));
     }
+    // A run of a light kind its technique does not support is recorded, not failed.
     let failed = results
         .runs
         .iter()
-        .filter(|r| r.status != Status::Ok)
+        .filter(|r| !matches!(r.status, Status::Ok | Status::Unsupported))
         .count();
     let invalid = results
         .runs
@@ -279,6 +280,11 @@ fn runs_and_options(
             path: args.path.clone(),
         };
         softshadow_bench::validate(registry, &spec)?;
+        // A single run of a light kind its technique does not support: refused before any GPU
+        // work (a sweep records such a run as `unsupported` and goes on).
+        if let (_, Some(why)) = softshadow_bench::light_refusal(registry, &spec, None)? {
+            bail!(why);
+        }
         (vec![spec], None, None, Vec::new(), (None, None))
     };
     if !args.reference_params.is_empty() {

@@ -359,6 +359,10 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
                 "source": t.source,
                 "params": t.params,
                 "unavailable": unavailable(t),
+                "light_kinds": t.light_kinds.supported().iter().map(|k| k.name()).collect::<Vec<_>>(),
+                "light_kinds_unsupported": t.light_kinds.unsupported().iter().map(|(k, why)| serde_json::json!({
+                    "kind": k.name(), "why": why,
+                })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -385,6 +389,11 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
             .map(|why| format!(" (unavailable: {why})"))
             .unwrap_or_default();
         println!("  {:<20} {} [{}]{why}", t.id, t.description, t.source);
+        let kinds: Vec<&str> = t.light_kinds.supported().iter().map(|k| k.name()).collect();
+        println!("      light kinds: {}", kinds.join(", "));
+        for (kind, why) in t.light_kinds.unsupported() {
+            println!("      not {kind}: {why}");
+        }
         for p in &t.params {
             let default = match &p.kind {
                 ParamKind::Float { default, .. } => default.to_string(),

@@ -10,6 +10,7 @@ mod bitmask;
 mod contract;
 mod gather_scaffold;
 mod image_checksums;
+mod light_kinds;
 mod light_space_cache;
 mod memory;
 mod motion;

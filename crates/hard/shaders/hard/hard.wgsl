@@ -1,6 +1,6 @@
 // Hard shadows: one shadow map from the light centre, one depth comparison per pixel.
 // The floor of every cost comparison.
-#import softshadow::frame::{load_surface, light_cosine}
+#import softshadow::frame::{load_surface, light_cosine, light_reaches}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
 
@@ -23,7 +23,7 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     if !s.is_receiver {
         return vec4<f32>(1.0);
     }
-    if s.light.z <= 0.0 {
+    if !light_reaches(s) {
         // Behind the one-sided light.
         return vec4<f32>(0.0);
     }

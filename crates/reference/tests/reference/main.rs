@@ -4,5 +4,6 @@
 mod analytic;
 mod closed_form;
 mod exact_agreement;
+mod light_kinds;
 mod progressive;
 mod raycast;

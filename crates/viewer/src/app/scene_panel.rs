@@ -106,8 +106,7 @@ impl SceneState {
             let (t, y) = (tilt.to_radians(), yaw.to_radians());
             light.direction = Vec3::new(t.cos() * y.sin(), -t.sin(), t.cos() * y.cos());
         }
-        ui.add(egui::Slider::new(&mut light.width, 0.0..=4.0).text("width"));
-        ui.add(egui::Slider::new(&mut light.height, 0.0..=4.0).text("height"));
+        light_shape_ui(ui, light);
         ui.add(egui::Slider::new(&mut light.intensity, 0.0..=4.0).text("intensity"));
         if ui.button("Reset light").clicked() {
             self.light = self.loaded.scene.light;
@@ -190,5 +189,49 @@ impl ViewerApp {
         h.write_u64(self.scene.camera.content_hash());
         h.write_u64(self.scene.light.content_hash());
         h.finish()
+    }
+}
+
+/// The light's kind and the sizes that kind uses (docs/SCENES.md, "Light kinds").
+fn light_shape_ui(ui: &mut egui::Ui, light: &mut softshadow_core::AreaLight) {
+    use softshadow_core::LightKind;
+    egui::ComboBox::from_label("kind")
+        .selected_text(light.kind.name())
+        .show_ui(ui, |ui| {
+            for kind in LightKind::ALL {
+                ui.selectable_value(&mut light.kind, kind, kind.name());
+            }
+        })
+        .response
+        .on_hover_text(
+            "the light's shape; a technique that does not support it is marked in the technique list",
+        );
+    match light.kind {
+        LightKind::Rect => {
+            ui.add(egui::Slider::new(&mut light.width, 0.0..=4.0).text("width"));
+            ui.add(egui::Slider::new(&mut light.height, 0.0..=4.0).text("height"));
+        }
+        LightKind::Disk | LightKind::Sphere => {
+            ui.add(egui::Slider::new(&mut light.radius, 0.0..=2.0).text("radius"));
+        }
+        LightKind::Spot => {
+            ui.add(egui::Slider::new(&mut light.radius, 0.0..=2.0).text("radius"));
+            ui.add(
+                egui::Slider::new(&mut light.cone_inner_degrees, 0.0..=90.0)
+                    .text("inner cone (deg)"),
+            );
+            ui.add(
+                egui::Slider::new(&mut light.cone_outer_degrees, 0.0..=90.0)
+                    .text("outer cone (deg)"),
+            );
+            light.cone_outer_degrees = light.cone_outer_degrees.max(light.cone_inner_degrees);
+        }
+        LightKind::Sun => {
+            ui.add(
+                egui::Slider::new(&mut light.angular_diameter_degrees, 0.0..=20.0)
+                    .text("angular diameter (deg)"),
+            )
+            .on_hover_text("the real sun is 0.53 degrees wide; its position is ignored");
+        }
     }
 }

@@ -16,13 +16,15 @@ pub(super) struct TechniqueAction {
 }
 
 impl TechniqueState {
-    /// The technique picker (every technique of `registry`, those `features` cannot run marked)
-    /// and one widget per parameter; returns what was asked.
+    /// The technique picker (every technique of `registry`, those `features` cannot run marked,
+    /// those that do not support `light_kind` disabled with why on hover) and one widget per
+    /// parameter; returns what was asked.
     pub(super) fn ui(
         &self,
         ui: &mut egui::Ui,
         registry: &Registry,
         features: softshadow_core::wgpu::Features,
+        light_kind: softshadow_core::LightKind,
     ) -> TechniqueAction {
         // Narrower sliders than egui's 100 points: more names fit beside their widget.
         ui.spacing_mut().slider_width = 80.0;
@@ -46,12 +48,20 @@ impl TechniqueState {
                             format!("{} [{}]", info.description, info.source),
                         ),
                     };
-                    if ui
-                        .selectable_label(self.id == info.id, label)
+                    // A light kind it does not support: listed, disabled, the reason on hover.
+                    let refusal = info.check_light(light_kind).err();
+                    let label = match &refusal {
+                        Some(_) => format!("{label} (not for {light_kind})"),
+                        None => label,
+                    };
+                    let response = ui
+                        .add_enabled(
+                            refusal.is_none(),
+                            egui::Button::selectable(self.id == info.id, label),
+                        )
                         .on_hover_text(hover)
-                        .clicked()
-                        && self.id != info.id
-                    {
+                        .on_disabled_hover_text(refusal.unwrap_or_default());
+                    if response.clicked() && self.id != info.id {
                         action.select = Some(info.id.to_string());
                     }
                 }
@@ -80,7 +90,10 @@ impl TechniqueState {
 impl ViewerApp {
     /// Draws the technique section and carries out what was asked.
     pub(super) fn technique_ui(&mut self, ui: &mut egui::Ui) {
-        let action = self.technique.ui(ui, &self.registry, self.gpu.features());
+        let kind = self.scene.light.kind;
+        let action = self
+            .technique
+            .ui(ui, &self.registry, self.gpu.features(), kind);
         if let Some(id) = action.select {
             self.select_technique(&id);
         }
