@@ -152,14 +152,9 @@ fn supporting_techniques_stay_within_their_bounds_per_kind() -> Result<()> {
     for (k, kind) in LightKind::ALL.into_iter().enumerate() {
         let mut bench = bench_lit_by(light_of(kind)?)?;
         let run = bench.run(0, &spec("hard"), tempfile::tempdir()?.path());
-        // `hard` supports every kind but the sun (a perspective map from the light centre).
-        let hard = if kind == LightKind::Sun {
-            ensure!(run.status == Status::Unsupported, "{}", run.message);
-            None
-        } else {
-            ensure!(run.status == Status::Ok, "hard / {kind}: {}", run.message);
-            Some(vs_exact(&run)?.mae_shadowed)
-        };
+        // `hard` supports every kind (the sun through core's cascades).
+        ensure!(run.status == Status::Ok, "hard / {kind}: {}", run.message);
+        let hard = Some(vs_exact(&run)?.mae_shadowed);
         let mut all_lit = None;
         for (technique, bounds) in BOUNDS {
             let run = bench.run(0, &spec(technique), tempfile::tempdir()?.path());
