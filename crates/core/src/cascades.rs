@@ -4,23 +4,24 @@
 //! (`softshadow::cascades`).
 //!
 //! - **Splits**: the practical split scheme of Zhang et al. 2006 ("Parallel-Split Shadow Maps for
-//!   Large-scale Virtual Environments", section 3.2, equation 5): the split distance of slice `i`
-//!   of `N` is `lambda C_log + (1 - lambda) C_uni`, the blend of the logarithmic split
+//!   Large-scale Virtual Environments", VRCIA 2006) in the weighted form of Zhang, Sun and Nyman
+//!   2007 (GPU Gems 3, chapter 10, section 10.2.1): the split distance of slice `i` of `N` is
+//!   `lambda C_log + (1 - lambda) C_uni`, the blend of the logarithmic split
 //!   `n (f / n)^(i / N)` (the texel density the perspective wants: equal aliasing in every slice)
 //!   and the uniform split `n + (f - n) i / N` (which keeps the first slices from being tiny).
 //! - **Fit**: each slice's window is the bounding sphere of the frustum slice, seen from the sun
 //!   (its size depends on the field of view and the split distances only, so it does not change
-//!   as the camera turns: Valient 2008, "Stable Rendering of Cascaded Shadow Maps", ShaderX6
-//!   section 4.1), with its near plane moved towards the sun to the casters' nearest depth, so a
+//!   as the camera turns: Valient 2008, "Stable Rendering of Cascaded Shadow Maps", ShaderX6),
+//!   with its near plane moved towards the sun to the casters' nearest depth, so a
 //!   caster outside the slice still shadows it.
-//! - **Snapping**: the window's origin moved to whole texels of light space (Valient 2008,
-//!   section 4.2): a moving camera then moves the window by whole texels and every caster
+//! - **Snapping**: the window's origin moved to whole texels of light space (Valient 2008): a
+//!   moving camera then moves the window by whole texels and every caster
 //!   rasterises into the same texels, so edges do not crawl.
 //! - **Lookup**: the cascade of a point is the first whose far split is beyond the point's view
 //!   depth; in the last `blend` fraction of a cascade its answer is mixed linearly with the next
 //!   one's, so the boundary leaves no seam; the texel's size in world units is given per cascade,
 //!   so search and filter sizes can be stated in world units and a penumbra keeps its width across
-//!   boundaries (Bevy's tracker, bevyengine/bevy#13484: PCSS softness tied to the cascade).
+//!   boundaries (Bevy's issue tracker reports its PCSS softness tied to the cascade).
 //!
 //! `CascadeSettings` mirrors Bevy's `CascadeShadowConfig` (`num_cascades`, `minimum_distance`,
 //! `maximum_distance`, `overlap_proportion`) with the split parameter `lambda` where Bevy fixes
@@ -47,8 +48,9 @@ pub const MAX_CASCADES: usize = 4;
 pub struct CascadeSettings {
     /// Cascades, 1 to [`MAX_CASCADES`]. 1 is one map over the whole range.
     pub count: u32,
-    /// The split scheme's blend, 0 to 1: 0 splits the range uniformly, 1 logarithmically (Zhang
-    /// et al. 2006, section 3.2, equation 5's lambda). Default 0.75.
+    /// The split scheme's blend, 0 to 1: 0 splits the range uniformly, 1 logarithmically (the
+    /// lambda of Zhang et al.'s practical split scheme, GPU Gems 3 chapter 10, section 10.2.1).
+    /// Default 0.75.
     pub lambda: f32,
     /// The farthest view depth (metres) shadowed; points beyond are lit. 0: the camera's far
     /// plane or the farthest receiver (rounded up to a quarter octave, so the range stays put
@@ -67,15 +69,15 @@ impl Default for CascadeSettings {
             count: 4,
             lambda: 0.75,
             max_distance: 0.0,
-            blend: 0.1,
+            blend: 0.125,
             snap: true,
         }
     }
 }
 
 /// The split distances of `count` slices of the view depths `near..far`: `count + 1` values from
-/// `near` to `far` (Zhang et al. 2006, section 3.2, equation 5, with `lambda` the blend of the
-/// logarithmic and the uniform scheme).
+/// `near` to `far` (Zhang et al.'s practical split scheme, GPU Gems 3 chapter 10, section 10.2.1,
+/// with `lambda` the weight of the logarithmic scheme against the uniform one).
 pub fn split_distances(near: f32, far: f32, count: u32, lambda: f32) -> Vec<f32> {
     let count = count.clamp(1, MAX_CASCADES as u32);
     let lambda = lambda.clamp(0.0, 1.0);
@@ -141,7 +143,7 @@ impl CameraFrustum {
 
     /// The bounding sphere (view depth of its centre, radius) of the slice between view depths
     /// `d0` and `d1`. It depends on the corner rays' spread and the depths only, so it is the same
-    /// for every orientation of the camera (Valient 2008, section 4.1).
+    /// for every orientation of the camera (Valient 2008).
     pub fn slice_sphere(&self, d0: f32, d1: f32) -> (f32, f32) {
         // k: the tangent of the half diagonal, the corners' distance from the axis at depth 1.
         let k2 = self

@@ -96,10 +96,10 @@ softshadow_core::technique_settings! {
         clamp_sigma: f32 = 1.0, in 0.0..=16.0;
         /// The sun: cascaded maps over the camera's depth range (1 = one map fitted to the scene)
         cascades: u32 = 4, in 1..=4;
-        /// The sun: split scheme, 0 uniform to 1 logarithmic (Zhang et al. 2006, eq. 5's lambda)
+        /// The sun: split scheme, 0 uniform to 1 logarithmic (lambda of Zhang et al.'s practical split scheme)
         cascade_lambda: f32 = 0.75, in 0.0..=1.0;
         /// The sun: fraction of each cascade blended into the next at its far end
-        cascade_blend: f32 = 0.1, in 0.0..=0.5;
+        cascade_blend: f32 = 0.125, in 0.0..=0.5;
         /// The sun: snap each cascade's window to whole texels (no crawling edges as the camera moves)
         cascade_snap: bool = true;
     }
