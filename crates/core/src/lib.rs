@@ -66,7 +66,8 @@ pub use shading::ShadingMode;
 pub use stage::ShadowStage;
 pub use technique::{
     BuildControl, BuildProgress, DebugLegend, DebugView, LightSupport, MinLimits, Requirements,
-    ShadowTechnique, TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, YARDSTICK_TECHNIQUE,
+    ShadowTechnique, TechniqueInfo, TechniqueStats, COST_FLOOR_TECHNIQUE, LIGHT_KIND_SCENE,
+    YARDSTICK_TECHNIQUE,
 };
 pub use visibility::VisibilityBuffer;
 

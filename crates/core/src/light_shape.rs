@@ -235,6 +235,22 @@ impl AreaLight {
         }
     }
 
+    /// This light made `kind`, as the light-kind bounds take it
+    /// ([`TechniqueInfo::light_kind_bounds`](crate::TechniqueInfo::light_kind_bounds)): same
+    /// centre and direction; a disk, sphere or spot of radius half the rectangle's width; a spot's
+    /// cone 40 / 60 degrees; the sun 10 degrees wide (a penumbra as wide as a unit light's at a
+    /// few units).
+    pub fn as_kind(&self, kind: LightKind) -> AreaLight {
+        AreaLight {
+            kind,
+            radius: 0.5 * self.width,
+            cone_inner_degrees: 40.0,
+            cone_outer_degrees: 60.0,
+            angular_diameter_degrees: 10.0,
+            ..*self
+        }
+    }
+
     /// The direction from `point` to the light's centre (unit; the sun: toward it), for shading.
     pub fn direction_to_light(&self, point: Vec3) -> Vec3 {
         match self.kind {

@@ -387,7 +387,14 @@ pub struct TechniqueInfo {
     pub settle_frames_param: Option<Cow<'static, str>>,
     /// The light kinds it supports, with one line of why for each it does not.
     pub light_kinds: LightSupport,
+    /// Its bound per light kind on [`LIGHT_KIND_SCENE`] with the scene's light made that kind
+    /// ([`AreaLight::as_kind`](crate::AreaLight::as_kind)), at its defaults, 64², against the
+    /// exact answer, with the value measured beside each (the GPU test `light_kinds` holds it).
+    pub light_kind_bounds: Vec<(LightKind, crate::expectations::Expect)>,
 }
+
+/// The scene of [`TechniqueInfo::light_kind_bounds`].
+pub const LIGHT_KIND_SCENE: &str = "atty-square";
 
 /// Why a technique made for the seed papers' light supports no other kind until its crate says so.
 pub const RECT_ONLY: &str =
@@ -484,7 +491,17 @@ impl TechniqueInfo {
             varies_per_frame_when: None,
             settle_frames_param: None,
             light_kinds: LightSupport::rect_only(RECT_ONLY),
+            light_kind_bounds: Vec::new(),
         }
+    }
+
+    /// With these bounds per light kind ([`Self::light_kind_bounds`]).
+    pub fn with_light_kind_bounds(
+        mut self,
+        bounds: &[(LightKind, crate::expectations::Expect)],
+    ) -> Self {
+        self.light_kind_bounds = bounds.to_vec();
+        self
     }
 
     /// With these supported light kinds.

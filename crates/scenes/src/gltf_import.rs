@@ -26,6 +26,9 @@ pub struct GltfGeometry {
     pub instances: Vec<(usize, Mat4)>,
     /// Skipped primitives, repaired triangles and similar, one line each.
     pub warnings: Vec<String>,
+    /// The lights its nodes carry (`KHR_lights_punctual`, as docs/SCENES.md says), in node
+    /// order: a model loaded alone is lit by the first.
+    pub lights: Vec<softshadow_core::AreaLight>,
 }
 
 /// Reads the geometry of a `.gltf` or `.glb` file. See the module documentation.
@@ -303,6 +306,7 @@ fn place_instances(
         triangles: 0,
         visits: 0,
         out: &mut geometry.instances,
+        lights: &mut geometry.lights,
     };
     for node in scene.nodes() {
         walker.walk(&node, Mat4::IDENTITY, 0).map_err(|e| match e {
@@ -375,6 +379,7 @@ struct Walker<'a> {
     triangles: usize,
     visits: usize,
     out: &'a mut Vec<(usize, Mat4)>,
+    lights: &'a mut Vec<softshadow_core::AreaLight>,
 }
 
 impl Walker<'_> {
@@ -393,6 +398,11 @@ impl Walker<'_> {
             });
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(light) = node.light() {
+            let light =
+                crate::gltf_lights::light_of(&light, world).map_err(WalkError::Malformed)?;
+            self.lights.push(light);
+        }
         if let Some(mesh) = node.mesh() {
             for &m in self.primitives_of.get(mesh.index()).into_iter().flatten() {
                 if self.out.len() >= MAX_INSTANCES {

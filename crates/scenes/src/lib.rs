@@ -17,6 +17,7 @@ pub mod engine;
 mod error;
 pub mod file;
 pub mod gltf_import;
+mod gltf_lights;
 pub mod limits;
 pub mod outdoor;
 pub mod path;
@@ -97,7 +98,11 @@ pub fn load_gltf_bytes(
 }
 
 fn load_gltf_geometry(path: &Path, geometry: GltfGeometry) -> Result<Loaded, SceneError> {
-    let scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    let mut scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    // A model with lights (`KHR_lights_punctual`) is lit by its first, not the one made for it.
+    if let Some(light) = geometry.lights.first() {
+        scene.light = *light;
+    }
     let mut loaded = finalize(scene, &format!("glTF file `{}`", path.display()))?;
     let mut warnings = geometry.warnings;
     warnings.append(&mut loaded.warnings);

@@ -491,6 +491,54 @@ fn one() -> f32 {
     1.0
 }
 
+impl LightKeyDef {
+    /// The keyframe this table describes; the error (keyframe `number`, from 1) says what to fix.
+    fn to_key(&self, number: usize) -> Result<LightKey, String> {
+        let center = Vec3::from(self.center);
+        let direction = match (self.direction, self.target) {
+            (Some(_), Some(_)) => {
+                return Err(format!(
+                    "light keyframe {number}: give `direction` or `target`, not both"
+                ))
+            }
+            (Some(d), None) => Vec3::from(d),
+            (None, Some(target)) => Vec3::from(target) - center,
+            (None, None) => Vec3::NEG_Y,
+        };
+        if !(direction.length_squared() > 1e-12 && direction.is_finite()) {
+            return Err(format!(
+                "light keyframe {number}: the direction is zero or not finite"
+            ));
+        }
+        let direction = direction.normalize();
+        let up = self.up.map_or(
+            if direction.y.abs() > 0.9 {
+                Vec3::Z
+            } else {
+                Vec3::Y
+            },
+            Vec3::from,
+        );
+        let frame = AreaLight {
+            center,
+            direction,
+            up,
+            width: self.width,
+            height: self.height.unwrap_or(self.width),
+            ..AreaLight::default()
+        };
+        Ok(LightKey {
+            time: self.time,
+            center,
+            orientation: light_orientation(&frame),
+            width: frame.width,
+            height: frame.height,
+            radius: self.radius,
+            angular_diameter_degrees: self.angular_diameter_degrees,
+        })
+    }
+}
+
 /// `[[object]]` of a path: one dynamic instance's keyframes.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -545,53 +593,9 @@ impl PathDef {
                     .collect(),
             ),
         };
-        let mut light = Vec::new();
-        for (k, key) in self.light.iter().enumerate() {
-            let center = Vec3::from(key.center);
-            let direction = match (key.direction, key.target) {
-                (Some(_), Some(_)) => {
-                    return Err(fail(format!(
-                        "light keyframe {}: give `direction` or `target`, not both",
-                        k + 1
-                    )))
-                }
-                (Some(d), None) => Vec3::from(d),
-                (None, Some(target)) => Vec3::from(target) - center,
-                (None, None) => Vec3::NEG_Y,
-            };
-            if !(direction.length_squared() > 1e-12 && direction.is_finite()) {
-                return Err(fail(format!(
-                    "light keyframe {}: the direction is zero or not finite",
-                    k + 1
-                )));
-            }
-            let direction = direction.normalize();
-            let up = key.up.map_or(
-                if direction.y.abs() > 0.9 {
-                    Vec3::Z
-                } else {
-                    Vec3::Y
-                },
-                Vec3::from,
-            );
-            let frame = AreaLight {
-                center,
-                direction,
-                up,
-                width: key.width,
-                height: key.height.unwrap_or(key.width),
-                ..AreaLight::default()
-            };
-            light.push(LightKey {
-                time: key.time,
-                center,
-                orientation: light_orientation(&frame),
-                width: frame.width,
-                height: frame.height,
-                radius: key.radius,
-                angular_diameter_degrees: key.angular_diameter_degrees,
-            });
-        }
+        let light = (self.light.iter().enumerate())
+            .map(|(k, key)| key.to_key(k + 1).map_err(&fail))
+            .collect::<Result<Vec<_>, _>>()?;
         let objects = self
             .object
             .iter()
@@ -783,6 +787,7 @@ fn sliding_track(scene: &Scene, index: usize) -> ObjectTrack {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use softshadow_core::LightKind;
 
     fn scene() -> Scene {
         crate::builtin("atty-square", &[]).unwrap()
@@ -808,6 +813,31 @@ mod tests {
         let half = s.light.direction.angle_between(mid.direction);
         assert!((full - 0.3f32.atan()).abs() < 1e-4, "{full}");
         assert!((half - 0.5 * full).abs() < 1e-4, "{half} {full}");
+    }
+
+    #[test]
+    fn every_kinds_size_interpolates_and_the_kind_stays_the_scenes() {
+        let mut s = scene();
+        for kind in [LightKind::Disk, LightKind::Sun] {
+            s.light = s.light.as_kind(kind);
+            let path = builtin_path("light-sweep", &mut s).unwrap();
+            path.check(&s).unwrap();
+            // light-sweep grows the first size 1.25 times: a radius, an angular diameter.
+            let (start, mid, end) = (
+                path.pose(&s, 0.0).light,
+                path.pose(&s, 0.8).light,
+                path.pose(&s, path.duration).light,
+            );
+            assert!([start.kind, mid.kind, end.kind].iter().all(|k| *k == kind));
+            let size = |l: &AreaLight| match kind {
+                LightKind::Sun => l.angular_diameter_degrees,
+                _ => l.radius,
+            };
+            let base = size(&s.light);
+            assert!((size(&end) - 1.25 * base).abs() < 1e-5 * base.max(1.0));
+            assert!((size(&mid) - 1.125 * base).abs() < 1e-5 * base.max(1.0));
+            assert_eq!(mid.cone_outer_degrees, s.light.cone_outer_degrees);
+        }
     }
 
     #[test]

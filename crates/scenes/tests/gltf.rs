@@ -345,3 +345,60 @@ fn an_unknown_required_extension_is_named() {
         )
     );
 }
+
+/// `KHR_lights_punctual` lights become the workbench's kinds with their source size from
+/// `extras` (issue 39): a model loaded alone is lit by its first light.
+#[test]
+fn punctual_lights_become_light_kinds_with_their_size_from_extras() {
+    use softshadow_core::LightKind;
+    let dir = tempfile::tempdir().unwrap();
+    let (mut json, buffer) = sample_model();
+    json["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+    json["extensions"] = serde_json::json!({ "KHR_lights_punctual": { "lights": [
+        { "type": "spot", "spot": { "innerConeAngle": 0.2, "outerConeAngle": 0.5 },
+          "extras": { "radius": 0.1 } },
+        { "type": "directional", "extras": { "angular_diameter_degrees": 2.0 } },
+        { "type": "point" }
+    ] } });
+    // Three light nodes: a spot 3 above the origin aimed down (-z rotated onto -y), the sun, a
+    // point light.
+    let down = [
+        -std::f32::consts::FRAC_1_SQRT_2,
+        0.0,
+        0.0,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ];
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    nodes.push(
+        serde_json::json!({ "translation": [0.0, 3.0, 0.0], "rotation": down,
+        "extensions": { "KHR_lights_punctual": { "light": 0 } } }),
+    );
+    nodes.push(serde_json::json!({ "extensions": { "KHR_lights_punctual": { "light": 1 } } }));
+    nodes.push(serde_json::json!({ "translation": [1.0, 5.0, 0.0],
+        "extensions": { "KHR_lights_punctual": { "light": 2 } } }));
+    json["scenes"][0]["nodes"] = serde_json::json!([0, 2, 3, 4, 5]);
+    let path = write_gltf(dir.path(), "lit", GltfKind::Embedded, json, &buffer);
+    let lights = load_gltf(&path).unwrap().lights;
+    assert_eq!(lights.len(), 3);
+    let spot = lights[0];
+    assert_eq!((spot.kind, spot.radius), (LightKind::Spot, 0.1));
+    assert!(
+        (spot.center - Vec3::new(0.0, 3.0, 0.0)).length() < 1e-5,
+        "{spot:?}"
+    );
+    assert!((spot.direction - Vec3::NEG_Y).length() < 1e-5, "{spot:?}");
+    assert!((spot.cone_inner_degrees - 0.2f32.to_degrees()).abs() < 1e-4);
+    assert!((spot.cone_outer_degrees - 0.5f32.to_degrees()).abs() < 1e-4);
+    let sun = lights[1];
+    assert_eq!(
+        (sun.kind, sun.angular_diameter_degrees),
+        (LightKind::Sun, 2.0)
+    );
+    assert!((sun.direction - Vec3::NEG_Z).length() < 1e-5, "{sun:?}");
+    let point = lights[2];
+    assert_eq!((point.kind, point.radius), (LightKind::Sphere, 0.0));
+    assert_eq!(
+        load(path.to_str().unwrap()).unwrap().scene.light.kind,
+        LightKind::Spot
+    );
+}

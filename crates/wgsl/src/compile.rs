@@ -271,7 +271,7 @@ mod tests {
     fn params_are_four_byte_fields_padded_to_sixteen_bytes() {
         let directives = directives::parse(
             "t.wgsl",
-            "// @param a: f32 = 1.0 in 0.0..=2.0\n// @param b: bool = true\n",
+            "// @param a: f32 = 1.0 in 0.0..=2.0\n// @param b: bool = true\n// @contract 2\n",
         )
         .unwrap();
         let text = super::params_struct(&directives);

@@ -309,7 +309,8 @@ mod tests {
              //   @param taps: u32 = 4 in 1..=64\n\
              // @param offset: i32 = -1 in -4..=4, Offset\n\
              // @param on: bool = true, Switch\n\
-             // @fit receivers\n",
+             // @fit receivers\n\
+             // @contract 2\n",
         )
         .unwrap();
         assert_eq!(directives.fit, Fit::Receivers);

@@ -388,12 +388,13 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
         let why = unavailable(t)
             .map(|why| format!(" (unavailable: {why})"))
             .unwrap_or_default();
-        println!("  {:<20} {} [{}]{why}", t.id, t.description, t.source);
-        let kinds: Vec<&str> = t.light_kinds.supported().iter().map(|k| k.name()).collect();
-        println!("      light kinds: {}", kinds.join(", "));
-        for (kind, why) in t.light_kinds.unsupported() {
-            println!("      not {kind}: {why}");
-        }
+        println!(
+            "  {:<20} {} [{}] ({}){why}",
+            t.id,
+            t.description,
+            t.source,
+            light_kinds_text(t)
+        );
         for p in &t.params {
             let default = match &p.kind {
                 ParamKind::Float { default, .. } => default.to_string(),
@@ -417,6 +418,24 @@ fn list(registry: &Registry, json: bool) -> Result<ExitCode> {
         println!("  {name:<20} {description}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `light kinds: rect, disk; not sphere, sun: WHY`: the kinds a technique supports and, grouped
+/// by reason, the ones it does not (said on its own line, so it is never read as a parameter).
+fn light_kinds_text(t: &TechniqueInfo) -> String {
+    let kinds: Vec<&str> = t.light_kinds.supported().iter().map(|k| k.name()).collect();
+    let mut text = format!("light kinds: {}", kinds.join(", "));
+    let mut reasons: Vec<(Vec<&str>, &str)> = Vec::new();
+    for (kind, why) in t.light_kinds.unsupported() {
+        match reasons.iter_mut().find(|(_, w)| *w == why) {
+            Some((kinds, _)) => kinds.push(kind.name()),
+            None => reasons.push((vec![kind.name()], why)),
+        }
+    }
+    for (kinds, why) in reasons {
+        text.push_str(&format!("; not {}: {why}", kinds.join(", ")));
+    }
+    text
 }
 
 /// `docs`: rewrites (or checks) the generated tables; with `rerun`, first makes their results

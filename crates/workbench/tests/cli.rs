@@ -668,3 +668,93 @@ fn without_ray_queries_list_and_bench_say_what_to_install() -> Result<()> {
     );
     Ok(())
 }
+
+/// Light kinds (issue 39): `list --json` gives each technique's supported kinds; a single run of
+/// a kind its technique does not support is refused in one line naming technique and kind (exit
+/// 2, nothing written, no GPU work); a sweep records it as `unsupported` and goes on (exit 0).
+#[test]
+fn an_unsupported_light_kind_is_refused_and_recorded_by_a_sweep() -> Result<()> {
+    let o = workbench(&["list", "--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout)?;
+    for t in v["techniques"].as_array().context("techniques")? {
+        let info = softshadow::registry()
+            .get(t["id"].as_str().context("id")?)
+            .context("registered")?
+            .clone();
+        let kinds: Vec<&str> = info
+            .light_kinds
+            .supported()
+            .iter()
+            .map(|k| k.name())
+            .collect();
+        ensure!(t["light_kinds"] == serde_json::json!(kinds), "{t}");
+    }
+    let dir = tempfile::tempdir()?;
+    let scene = dir.path().join("sunlit.toml");
+    std::fs::write(
+        &scene,
+        "[light]\nkind = \"sun\"\ndirection = [0.2, -1, 0.1]\nangular_diameter_degrees = 4\n\
+         [[object]]\nplane = { size = [4, 4] }\ncasts_shadow = false\n\
+         [[object]]\nbox = { size = [0.5, 0.5, 0.5] }\ntranslation = [0, 1, 0]\nreceives_shadow = false\n",
+    )?;
+    let scene = scene.to_str().context("utf-8")?;
+    let out = dir.path().join("single");
+    let o = workbench(&[
+        "bench",
+        "--scene",
+        scene,
+        "--technique",
+        "hard",
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    let message = stderr(&o);
+    ensure!(o.status.code() == Some(2), "{message}");
+    ensure!(message.lines().count() == 1, "{message}");
+    ensure!(
+        message.contains("`hard`") && message.contains("`sun`"),
+        "{message}"
+    );
+    ensure!(!out.exists(), "a refused run wrote {}", out.display());
+
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "size = \"32x32\"\nframes = 1\nwarmup = 0\nscenes = [\"{scene}\"]\n\
+             [reference]\nsamples_per_axis = 2\n[[technique]]\nid = \"hard\"\n[[technique]]\nid = \"raytraced\"\n"
+        ),
+    )?;
+    let out = dir.path().join("sweep");
+    let o = workbench(&[
+        "bench",
+        "--sweep",
+        sweep.to_str().context("utf-8")?,
+        "--no-error",
+        "--out",
+        out.to_str().context("utf-8")?,
+    ]);
+    ensure!(
+        o.status.success(),
+        "exit {:?}: {}",
+        o.status.code(),
+        stderr(&o)
+    );
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
+    let runs = v["runs"].as_array().context("runs")?;
+    ensure!(runs.len() == 2, "{v}");
+    ensure!(
+        runs[0]["status"] == "unsupported" && runs[0]["light_kind"] == "sun",
+        "{}",
+        runs[0]
+    );
+    ensure!(
+        runs[0]["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("`hard`")),
+        "{}",
+        runs[0]
+    );
+    ensure!(runs[1]["status"] == "ok", "{}", runs[1]);
+    Ok(())
+}

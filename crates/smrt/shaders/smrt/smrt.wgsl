@@ -22,7 +22,8 @@
 // result is deterministic for a fixed frame. Debug permutations write the marched steps
 // (DEBUG_STEPS) or the fraction of rays the extrapolation occluded (DEBUG_EXTRAPOLATED) instead
 // of the visibility.
-#import softshadow::frame::{frame, load_surface, light_cosine}
+#import softshadow::frame::{frame, load_surface, light_cosine, light_kind}
+#import softshadow::light::{LIGHT_RECT, concentric_disk}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, slope_to_uv, linear_depth, texel_slope, in_map}
 #import softshadow::sampling::interleaved_gradient_noise
@@ -189,7 +190,11 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     var steps = 0u;
     for (var i = 0u; i < rays; i = i + 1u) {
         let u = fract(noise + f32(i) * R2);
-        let light_point = (u * 2.0 - 1.0) * half_light;
+        var light_point = (u * 2.0 - 1.0) * half_light;
+        if light_kind() != LIGHT_RECT {
+            // A disk (a spot's source; a sphere's disk in the light plane): the same strata on it.
+            light_point = concentric_disk(u) * frame.light_shape.y;
+        }
         // Texel dither: the ray's receiver end moves by up to +-texel_dither / 2 map texels
         // (footprints at the receiver), a different offset per ray, which turns the map's texel
         // staircase into noise.
