@@ -13,8 +13,8 @@ use softshadow_core::{
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, DebugView, Frame, Gpu, LightKind, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
-    TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, LightKind, ShadowInputs, ShadowTechnique, TechniqueError,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;

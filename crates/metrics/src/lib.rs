@@ -429,7 +429,10 @@ pub fn distance_bands(
         if !receiver_mask[i] || !d.is_finite() || !v_ref[i].is_finite() {
             continue;
         }
-        let Some(k) = DISTANCE_BANDS.iter().position(|(_, a, b)| d >= *a && d < *b) else {
+        let Some(k) = DISTANCE_BANDS
+            .iter()
+            .position(|(_, a, b)| d >= *a && d < *b)
+        else {
             continue;
         };
         let e = pixel_error(v[i], v_ref[i]);

@@ -449,7 +449,13 @@ fn distance_bands_split_the_error_by_camera_distance() {
         .iter()
         .map(|b| {
             let band = b.band.as_str();
-            (band, b.receiver_pixels, b.shadowed_pixels, b.mae_all, b.mae_shadowed)
+            (
+                band,
+                b.receiver_pixels,
+                b.shadowed_pixels,
+                b.mae_all,
+                b.mae_shadowed,
+            )
         })
         .collect();
     let expected = [
@@ -459,7 +465,10 @@ fn distance_bands_split_the_error_by_camera_distance() {
     ];
     for (g, e) in got.iter().zip(expected) {
         assert_eq!((g.0, g.1, g.2), (e.0, e.1, e.2));
-        assert!((g.3 - e.3).abs() < 1e-6 && (g.4 - e.4).abs() < 1e-6, "{g:?}");
+        assert!(
+            (g.3 - e.3).abs() < 1e-6 && (g.4 - e.4).abs() < 1e-6,
+            "{g:?}"
+        );
     }
     assert_eq!(bands[2].to_m, None);
     assert_eq!(bands[0].to_m, Some(20.0));

@@ -30,8 +30,14 @@ fn options(path: Option<&str>, frames: u32) -> BenchOptions {
         warmup: 0,
         error: true,
         reference_params: vec![
-            ("samples_per_axis".into(), softshadow_core::ParamValue::Int(2)),
-            ("shadow_map_size".into(), softshadow_core::ParamValue::Int(256)),
+            (
+                "samples_per_axis".into(),
+                softshadow_core::ParamValue::Int(2),
+            ),
+            (
+                "shadow_map_size".into(),
+                softshadow_core::ParamValue::Int(256),
+            ),
         ],
         images: false,
         exact_samples_per_axis: Some(8),
@@ -152,7 +158,10 @@ fn the_error_along_cascade_boundaries_is_within_1_5x_of_the_inside() -> Result<(
     for (id, technique) in &mut techniques {
         let (boundary, inside, pixels) = boundary_and_inside_error(&gpu, technique.as_mut())?;
         eprintln!("{id}: boundary {boundary:.4} ({pixels} px), inside {inside:.4}");
-        ensure!(pixels > 20, "{id}: only {pixels} shadow pixels at the boundaries");
+        ensure!(
+            pixels > 20,
+            "{id}: only {pixels} shadow pixels at the boundaries"
+        );
         ensure!(
             boundary <= 1.5 * inside,
             "{id}: error along the boundaries {boundary:.4} over 1.5 x the inside's {inside:.4}"
@@ -170,7 +179,10 @@ fn the_error_along_cascade_boundaries_is_within_1_5x_of_the_inside() -> Result<(
 /// (docs/BENCHMARKS.md, "Cascades").
 #[test]
 fn texel_snapping_lowers_the_flicker_along_a_walk() -> Result<()> {
-    let walk = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/paths/outdoor-walk.toml");
+    let walk = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../assets/paths/outdoor-walk.toml"
+    );
     let mut bench = Bench::new(gpu()?, softshadow::registry(), options(Some(walk), 6))?;
     let mut flicker = Vec::new();
     for snap in ["cascade_snap=true", "cascade_snap=false"] {
@@ -178,7 +190,10 @@ fn texel_snapping_lowers_the_flicker_along_a_walk() -> Result<()> {
         let (run, _) = run_path(&mut bench, &spec)?;
         let motion = run.motion.as_ref().context("a run along a path")?;
         let f = motion.flicker.as_ref().context("six frames")?.mean;
-        eprintln!("hard {snap}: flicker {f:.5}, error {:.5}", motion.error.mean);
+        eprintln!(
+            "hard {snap}: flicker {f:.5}, error {:.5}",
+            motion.error.mean
+        );
         flicker.push(f);
     }
     ensure!(
