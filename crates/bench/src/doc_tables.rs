@@ -91,6 +91,9 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("exact", "exact answer"),
     ("reference_vs_exact", "reference vs exact (mae_shadowed)"),
     ("all_lit_vs_exact", "no shadow vs exact (mae_shadowed)"),
+    ("near_error", "mae_all 0-20 m"),
+    ("middle_error", "mae_all 20-80 m"),
+    ("far_error", "mae_all 80+ m"),
     ("status", "status"),
     ("triangles", "triangles"),
     ("load_s", "load s"),
@@ -556,12 +559,26 @@ fn run_cell(column: &str, run: &Run, runs: &[Run]) -> String {
             .as_ref()
             .and_then(|e| e.exact.clone())
             .unwrap_or_else(|| "-".into()),
+        "near_error" => band_cell(run, 0),
+        "middle_error" => band_cell(run, 1),
+        "far_error" => band_cell(run, 2),
         "status" => match run.status {
             Status::Ok => "ok".into(),
             failed => format!("{failed}: {}", run.message),
         },
         _ => unreachable!("runs_table checks the columns first"),
     }
+}
+
+/// mae_all against the exact answer in camera-distance band `band` (`error.distance_bands`), or
+/// `-` without it or without a receiver pixel in the band.
+fn band_cell(run: &Run, band: usize) -> String {
+    run.error
+        .as_ref()
+        .and_then(|e| e.distance_bands.as_ref())
+        .and_then(|b| b.get(band))
+        .filter(|b| b.receiver_pixels > 0)
+        .map_or("-".into(), |b| format!("{:.4}", b.mae_all))
 }
 
 /// The fastest frame time of the cost-floor technique on `run`'s scene and size in `runs`

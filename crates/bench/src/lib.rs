@@ -864,6 +864,9 @@ struct StillImages {
     /// RGB.
     shaded: Vec<u8>,
     mask: Vec<bool>,
+    /// Each pixel's distance from the camera (infinite where no surface is seen), for the
+    /// errors per distance band.
+    distance: Vec<f32>,
     /// A technique that accumulates: the still frames it took to settle, their timing and the
     /// last one's visibility.
     settled: Option<(u32, results::Timing, Vec<f32>)>,
@@ -980,6 +983,10 @@ impl StillView<'_> {
         let visibility = self.renderer.read_visibility()?;
         let shaded = output::rgba_to_rgb(&self.renderer.read_shaded()?);
         let mask = self.renderer.read_receiver_mask()?;
+        let eye = self.camera.eye;
+        let distance = (self.renderer.read_world_positions()?.iter())
+            .map(|p| p.map_or(f32::INFINITY, |p| p.distance(eye)))
+            .collect();
         run.stability = Some(softshadow_metrics::stability(&visibility));
         // One more frame with nothing changed, as a renderer's next frame: what a still picture
         // shows changing (the exact answer does not change, so it stands in for both).
@@ -1006,6 +1013,7 @@ impl StillView<'_> {
             visibility,
             shaded,
             mask,
+            distance,
             settled,
         })
     }
@@ -1078,7 +1086,10 @@ fn measure_against_reference(
         run.warnings.push(why.clone());
     }
     let StillImages {
-        visibility, mask, ..
+        visibility,
+        mask,
+        distance,
+        ..
     } = images;
     let mut report = softshadow_metrics::compare(visibility, &reference.visibility, mask)?;
     report.flip_mean = Some(softshadow_metrics::flip_mean(
@@ -1134,6 +1145,15 @@ fn measure_against_reference(
         reference_vs_exact: exact.map(|e| e.reference_vs_exact.clone()),
         all_lit_vs_exact: exact.map(|e| e.all_lit_vs_exact.clone()),
         irradiance,
+        distance_bands: match exact {
+            Some(exact) => Some(softshadow_metrics::distance_bands(
+                visibility,
+                &exact.visibility,
+                mask,
+                distance,
+            )?),
+            None => None,
+        },
     });
     run.images.extend(reference.images.clone());
     Ok(())

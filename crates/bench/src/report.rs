@@ -685,6 +685,7 @@ fn scene_section(
     .map(|k| mae_points[k].run)
     .collect();
     body.push_str(&runs_table(runs, &in_scene, &front));
+    body.push_str(&band_table(runs, &in_scene));
     // `front` indexes the still runs; the strip reads images through the merged runs.
     let all_runs = &merged.results.runs;
     let still_index: Vec<usize> = (0..all_runs.len())
@@ -693,6 +694,46 @@ fn scene_section(
     let front_merged: Vec<usize> = front.iter().map(|&k| still_index[k]).collect();
     body.push_str(&image_strip(merged, &front_merged));
     Ok(body)
+}
+
+/// The error against the exact answer per camera-distance band (`error.distance_bands`) of the
+/// runs `in_scene` that have it: mae_all with the band's receiver pixels; empty when none has.
+fn band_table(runs: &[Run], in_scene: &[usize]) -> String {
+    let rows: Vec<(&Run, &Vec<softshadow_metrics::BandError>)> = in_scene
+        .iter()
+        .filter_map(|&i| {
+            let bands = runs[i].error.as_ref()?.distance_bands.as_ref()?;
+            Some((&runs[i], bands))
+        })
+        .collect();
+    let Some((_, first)) = rows.first() else {
+        return String::new();
+    };
+    let mut body = String::from(
+        "<table><caption>mae_all against the exact answer per camera distance (receiver pixels)</caption><tr><th>technique</th><th>settings</th>",
+    );
+    for band in first.iter() {
+        let to = band.to_m.map_or(String::new(), |t| format!("{t}"));
+        let _ = write!(body, "<th>{} {}-{to} m</th>", band.band, band.from_m);
+    }
+    body.push_str("</tr>");
+    for (run, bands) in rows {
+        let _ = write!(
+            body,
+            "<tr><td>{}</td><td>{}</td>",
+            escape(&run.technique),
+            escape(&params_text(run))
+        );
+        for band in bands {
+            let _ = match band.receiver_pixels {
+                0 => write!(body, "<td>-</td>"),
+                n => write!(body, "<td>{:.4} ({n})</td>", band.mae_all),
+            };
+        }
+        body.push_str("</tr>");
+    }
+    body.push_str("</table>");
+    body
 }
 
 /// A scene's plots: mae_shadowed (`mae_points`) and FLIP against frame time, and mae_shadowed

@@ -587,6 +587,12 @@ pub struct ErrorFields {
     /// written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub irradiance: Option<IrradianceFields>,
+    /// The technique against the exact ground truth per camera-distance band (near 0-20 m,
+    /// middle 20-80 m, far 80 m and beyond: `softshadow_metrics::DISTANCE_BANDS`), where cascaded
+    /// maps trade resolution near the camera for resolution far from it. Absent without the exact
+    /// answer and in results written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance_bands: Option<Vec<softshadow_metrics::BandError>>,
 }
 
 /// The irradiance errors of a run (`error.irradiance` in results.json).

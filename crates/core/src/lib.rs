@@ -10,6 +10,7 @@
 pub mod accel;
 pub mod background;
 pub mod camera;
+pub mod cascades;
 pub mod cost;
 pub mod disk_cache;
 pub mod error;
@@ -78,6 +79,7 @@ pub use {bytemuck, encase, glam, puffin, wgpu};
 /// tests/shaders.rs ([`shader::uniform_layout`]).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
+    use cascades::CascadeUniform;
     use frame::FrameUniforms;
     use material_gpu::MaterialEntry;
     use shadow_map::{DepthView, ShadowViewUniform};
@@ -113,6 +115,11 @@ pub fn uniform_mirrors() -> Vec<shader::uniform_layout::UniformMirror> {
                 filtering,
                 pad,
             } => "common/material.wgsl", MaterialEntry
+        ),
+        uniform_mirror!(
+            CascadeUniform {
+                view_proj, split_far, texel_world, near, depth_range, camera_forward, info
+            } => "common/cascades.wgsl", Cascades
         ),
         shading::uniform_mirror(),
         hierarchy::uniform_mirror(),

@@ -72,6 +72,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     shader_file!("common/frame.wgsl"),
     shader_file!("common/fullscreen.wgsl"),
     shader_file!("common/shadow_view.wgsl"),
+    shader_file!("common/cascades.wgsl"),
     shader_file!("common/sampling.wgsl"),
     shader_file!("common/search_area.wgsl"),
     shader_file!("common/gather.wgsl"),

@@ -4,7 +4,7 @@
 use softshadow_core::{
     cost::rates::DEPTH_TEXEL,
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, LightKind, LightSupport, TechniqueInfo,
+    Cost, CostModel, Expectations, LightSupport, TechniqueInfo,
 };
 
 use crate::{Hard, HardSettings, ID, SHADERS};
@@ -19,11 +19,9 @@ pub fn info() -> TechniqueInfo {
         |gpu| Ok(Box::new(Hard::new(gpu, HardSettings::default())?)),
     )
     .with_shaders(SHADERS)
-    // A point at the light's centre: of the rectangle, the disk, the sphere, the spot's source.
-    .with_light_kinds(LightSupport::all().except(
-        LightKind::Sun,
-        "its one map is a perspective view from the light centre; the sun needs an orthographic map (core's `SunView`), not wired into its map yet",
-    ))
+    // A point at the light's centre: of the rectangle, the disk, the sphere, the spot's source;
+    // the sun: cascaded orthographic maps (core's `cascades`).
+    .with_light_kinds(LightSupport::all())
     .with_cost(CostModel::new(&["shadow_map_size"], |q| {
         let texels = q.number("shadow_map_size").powi(2);
         // GPU memory (bytes); its uniforms (about 300 bytes: 1.6 % at 64²) are left to the

@@ -13,22 +13,30 @@ use softshadow_core::{
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings,
-    TechniqueStats, VisibilityBuffer,
+    wgpu, DebugView, Frame, Gpu, LightKind, ShadowInputs, ShadowTechnique, TechniqueError,
+    TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
+mod sun;
 pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "hard";
 
 /// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
-pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
-    path: "hard/hard.wgsl",
-    source: shader_file!("hard/hard.wgsl").1,
-    permutations: &[&[]],
-}];
+pub const SHADERS: &[ShaderSpec] = &[
+    ShaderSpec {
+        path: "hard/hard.wgsl",
+        source: shader_file!("hard/hard.wgsl").1,
+        permutations: &[&[]],
+    },
+    ShaderSpec {
+        path: "hard/sun.wgsl",
+        source: shader_file!("hard/sun.wgsl").1,
+        permutations: &[&[]],
+    },
+];
 
 softshadow_core::technique_settings! {
     /// Settings of the `hard` technique.
@@ -37,6 +45,14 @@ softshadow_core::technique_settings! {
         shadow_map_size: u32 = 1024, in 64..=4096;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
+        /// The sun: cascaded maps over the camera's depth range (1 = one map fitted to the scene)
+        cascades: u32 = 4, in 1..=4;
+        /// The sun: split scheme, 0 uniform to 1 logarithmic (lambda of Zhang et al.'s practical split scheme)
+        cascade_lambda: f32 = 0.75, in 0.0..=1.0;
+        /// The sun: fraction of each cascade blended into the next at its far end
+        cascade_blend: f32 = 0.125, in 0.0..=0.5;
+        /// The sun: snap each cascade's window to whole texels (no crawling edges as the camera moves)
+        cascade_snap: bool = true;
     }
 }
 
@@ -49,9 +65,14 @@ struct HardParams {
 /// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
-    vec![softshadow_core::uniform_mirror!(
-        HardParams { bias_texels } => "hard/hard.wgsl", HardParams
-    )]
+    vec![
+        softshadow_core::uniform_mirror!(
+            HardParams { bias_texels } => "hard/hard.wgsl", HardParams
+        ),
+        softshadow_core::uniform_mirror!(
+            HardParams { bias_texels } => "hard/sun.wgsl", HardParams
+        ),
+    ]
 }
 
 /// The `hard` technique: a [`ShadowTechnique`] with its settings.
@@ -61,6 +82,8 @@ pub struct Hard {
     shadow_map: CentreShadowMap,
     lookup: FullscreenPass,
     params_buffer: wgpu::Buffer,
+    /// The sun's cascades, made by the first frame under the sun.
+    sun: Option<sun::HardSun>,
     stats: TechniqueStats,
 }
 
@@ -75,8 +98,31 @@ impl Hard {
             lookup,
             params_buffer: zeroed_uniform_buffer::<HardParams>(gpu, "hard/params"),
             settings,
+            sun: None,
             stats: TechniqueStats::new(),
         })
+    }
+}
+
+impl Hard {
+    /// The sun's frame: its cascades and their lookup (`sun.rs`).
+    fn render_sun(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        if self.sun.is_none() {
+            self.sun = Some(sun::HardSun::new(gpu)?);
+        }
+        let params = HardParams {
+            bias_texels: self.settings.bias_texels,
+        };
+        (gpu.queue).write_buffer(&self.params_buffer, 0, &uniform_bytes(&params));
+        let sun = self.sun.as_mut().expect("made above");
+        self.stats = sun.render(frame, inputs, &self.settings, &self.params_buffer, out)?;
+        Ok(())
     }
 }
 
@@ -100,6 +146,9 @@ impl ShadowTechnique for Hard {
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
+        if inputs.light.kind == LightKind::Sun {
+            return self.render_sun(frame, inputs, out);
+        }
         let size = self.settings.shadow_map_size;
         if self
             .shadow_map
@@ -137,6 +186,9 @@ impl ShadowTechnique for Hard {
 
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
+        if let Some(sun) = &mut self.sun {
+            sun.invalidate();
+        }
     }
 
     fn stats(&self) -> TechniqueStats {

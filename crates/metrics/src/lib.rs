@@ -367,6 +367,90 @@ fn check_lengths(v: &[f32], v_ref: &[f32], receiver_mask: &[bool]) -> Result<(),
     Ok(())
 }
 
+/// The camera-distance bands [`distance_bands`] reports, metres: near 0-20, middle 20-80, far
+/// 80 and beyond. Fixed rather than thirds of a technique's cascade range, so every technique
+/// and scene is cut the same way (a paper scene a few metres across is all "near").
+pub const DISTANCE_BANDS: [(&str, f64, f64); 3] = [
+    ("near", 0.0, 20.0),
+    ("middle", 20.0, 80.0),
+    ("far", 80.0, f64::INFINITY),
+];
+
+/// The error over the receiver pixels whose camera distance lies in one band of
+/// [`DISTANCE_BANDS`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BandError {
+    /// `near`, `middle` or `far`.
+    pub band: String,
+    /// The band's nearest camera distance, metres.
+    pub from_m: f64,
+    /// Its farthest (exclusive), metres; absent for the last band (no bound).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to_m: Option<f64>,
+    /// Receiver pixels in the band.
+    pub receiver_pixels: u64,
+    /// Of them, those the reference shadows (`V_ref < 1`).
+    pub shadowed_pixels: u64,
+    /// Mean of `e = |V - V_ref|` over the band's receiver pixels (0 with none).
+    pub mae_all: f64,
+    /// Mean of `e` over the band's shadowed pixels (0 with none), as
+    /// [`ErrorReport::mae_shadowed`].
+    pub mae_shadowed: f64,
+}
+
+/// The error of `v` against `v_ref` per camera-distance band ([`DISTANCE_BANDS`]): `distance`
+/// holds each pixel's distance from the camera (non-finite where no surface is seen).
+///
+/// # Errors
+///
+/// [`MetricsError::LengthMismatch`] if the slices differ in length.
+pub fn distance_bands(
+    v: &[f32],
+    v_ref: &[f32],
+    receiver_mask: &[bool],
+    distance: &[f32],
+) -> Result<Vec<BandError>, MetricsError> {
+    check_lengths(v, v_ref, receiver_mask)?;
+    check_lengths(v, distance, receiver_mask)?;
+    let mut bands: Vec<BandError> = DISTANCE_BANDS
+        .iter()
+        .map(|(band, from, to)| BandError {
+            band: band.to_string(),
+            from_m: *from,
+            to_m: to.is_finite().then_some(*to),
+            receiver_pixels: 0,
+            shadowed_pixels: 0,
+            mae_all: 0.0,
+            mae_shadowed: 0.0,
+        })
+        .collect();
+    for i in 0..v.len() {
+        let d = f64::from(distance[i]);
+        if !receiver_mask[i] || !d.is_finite() || !v_ref[i].is_finite() {
+            continue;
+        }
+        let Some(k) = DISTANCE_BANDS
+            .iter()
+            .position(|(_, a, b)| d >= *a && d < *b)
+        else {
+            continue;
+        };
+        let e = pixel_error(v[i], v_ref[i]);
+        let band = &mut bands[k];
+        band.receiver_pixels += 1;
+        band.mae_all += e;
+        if v_ref[i] < 1.0 {
+            band.shadowed_pixels += 1;
+            band.mae_shadowed += e;
+        }
+    }
+    for band in &mut bands {
+        band.mae_all /= band.receiver_pixels.max(1) as f64;
+        band.mae_shadowed /= band.shadowed_pixels.max(1) as f64;
+    }
+    Ok(bands)
+}
+
 /// Counts, over **all** values of `v` (receiver or not), the NaNs, the
 /// infinities (either sign) and the finite values outside `[0, 1]`.
 pub fn stability(v: &[f32]) -> Stability {

@@ -435,3 +435,41 @@ fn irradiance_errors_by_hand() {
     assert_eq!(exact.irradiance_mae, 0.0);
     assert!(compare_irradiance(&v, &v_ref, &e[..4], &e0, &mask).is_err());
 }
+
+/// Hand-computed band errors: one pixel per band, one in the near band lit by the reference, a
+/// masked pixel and one with no surface (infinite distance) left out.
+#[test]
+fn distance_bands_split_the_error_by_camera_distance() {
+    let v = [0.5, 1.0, 0.0, 0.2, 0.0, 0.0];
+    let v_ref = [0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
+    let mask = [true, true, true, true, false, true];
+    let distance = [5.0, 30.0, 200.0, 19.9, 1.0, f32::INFINITY];
+    let bands = distance_bands(&v, &v_ref, &mask, &distance).unwrap();
+    let got: Vec<(&str, u64, u64, f64, f64)> = bands
+        .iter()
+        .map(|b| {
+            let band = b.band.as_str();
+            (
+                band,
+                b.receiver_pixels,
+                b.shadowed_pixels,
+                b.mae_all,
+                b.mae_shadowed,
+            )
+        })
+        .collect();
+    let expected = [
+        ("near", 2, 1, 0.65, 0.5),
+        ("middle", 1, 1, 0.5, 0.5),
+        ("far", 1, 1, 0.5, 0.5),
+    ];
+    for (g, e) in got.iter().zip(expected) {
+        assert_eq!((g.0, g.1, g.2), (e.0, e.1, e.2));
+        assert!(
+            (g.3 - e.3).abs() < 1e-6 && (g.4 - e.4).abs() < 1e-6,
+            "{g:?}"
+        );
+    }
+    assert_eq!(bands[2].to_m, None);
+    assert_eq!(bands[0].to_m, Some(20.0));
+}

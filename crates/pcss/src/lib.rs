@@ -23,11 +23,12 @@ use softshadow_core::{
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, DebugLegend, DebugView, Frame, Gpu, MinLimits, Requirements, ShadowInputs,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, LightKind, MinLimits, Requirements, ShadowInputs,
     ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
+mod sun;
 pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
@@ -52,6 +53,11 @@ pub const SHADERS: &[ShaderSpec] = &[
         path: "pcss/temporal.wgsl",
         source: shader_file!("pcss/temporal.wgsl").1,
         permutations: &[&[]],
+    },
+    ShaderSpec {
+        path: "pcss/sun.wgsl",
+        source: shader_file!("pcss/sun.wgsl").1,
+        permutations: &[&[], &[("KERNEL_GRID", DefValue::Bool(true))]],
     },
 ];
 
@@ -88,6 +94,14 @@ softshadow_core::technique_settings! {
         max_history: u32 = 16, in 1..=256;
         /// Temporal mode: the history is clipped to this frame's 3x3 mean +- this many standard deviations
         clamp_sigma: f32 = 1.0, in 0.0..=16.0;
+        /// The sun: cascaded maps over the camera's depth range (1 = one map fitted to the scene)
+        cascades: u32 = 4, in 1..=4;
+        /// The sun: split scheme, 0 uniform to 1 logarithmic (lambda of Zhang et al.'s practical split scheme)
+        cascade_lambda: f32 = 0.75, in 0.0..=1.0;
+        /// The sun: fraction of each cascade blended into the next at its far end
+        cascade_blend: f32 = 0.125, in 0.0..=0.5;
+        /// The sun: snap each cascade's window to whole texels (no crawling edges as the camera moves)
+        cascade_snap: bool = true;
     }
 }
 
@@ -118,6 +132,11 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
             PcssUniform {
                 blocker_samples, filter_samples, frame_index, bias_texels, min_filter_texels
             } => "pcss/pcss.wgsl", PcssParams
+        ),
+        softshadow_core::uniform_mirror!(
+            PcssUniform {
+                blocker_samples, filter_samples, frame_index, bias_texels, min_filter_texels
+            } => "pcss/sun.wgsl", PcssParams
         ),
         softshadow_core::uniform_mirror!(
             TemporalUniform {
@@ -296,6 +315,8 @@ pub struct Pcss {
     params_buffer: wgpu::Buffer,
     /// The temporal mode, once it has run.
     temporal: Option<Temporal>,
+    /// The sun's cascades, made by the first frame under the sun.
+    sun: Option<sun::PcssSun>,
     stats: TechniqueStats,
 }
 
@@ -313,8 +334,36 @@ impl Pcss {
             params_buffer: zeroed_uniform_buffer::<PcssUniform>(gpu, "pcss/params"),
             settings,
             temporal: None,
+            sun: None,
             stats: TechniqueStats::new(),
         })
+    }
+}
+
+impl Pcss {
+    /// The sun's frame: its cascades and their filter (`sun.rs`).
+    fn render_sun(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        if self.sun.is_none() {
+            self.sun = Some(sun::PcssSun::new(gpu)?);
+        }
+        let s = &self.settings;
+        let uniform = PcssUniform {
+            blocker_samples: s.blocker_samples,
+            filter_samples: s.filter_samples,
+            frame_index: 0,
+            bias_texels: s.bias_texels,
+            min_filter_texels: s.min_filter_texels,
+        };
+        (gpu.queue).write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
+        let sun = self.sun.as_mut().expect("made above");
+        self.stats = sun.render(frame, inputs, &self.settings, &self.params_buffer, out)?;
+        Ok(())
     }
 }
 
@@ -338,6 +387,9 @@ impl ShadowTechnique for Pcss {
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
+        if inputs.light.kind == LightKind::Sun {
+            return self.render_sun(frame, inputs, out);
+        }
         if self
             .shadow_map
             .render(
@@ -413,6 +465,9 @@ impl ShadowTechnique for Pcss {
 
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
+        if let Some(sun) = &mut self.sun {
+            sun.invalidate();
+        }
         if let Some(t) = &mut self.temporal {
             t.invalidate();
         }

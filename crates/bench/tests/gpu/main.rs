@@ -7,6 +7,7 @@ mod common;
 mod adaptive;
 mod backprojection;
 mod bitmask;
+mod cascades;
 mod contract;
 mod gather_scaffold;
 mod image_checksums;
