@@ -16,6 +16,7 @@ pub mod builtin;
 mod error;
 pub mod file;
 pub mod gltf_import;
+pub mod gltf_materials;
 pub mod limits;
 pub mod materials;
 pub mod path;
@@ -95,7 +96,13 @@ pub fn load_gltf_bytes(
 }
 
 fn load_gltf_geometry(path: &Path, geometry: GltfGeometry) -> Result<Loaded, SceneError> {
-    let scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    let mut scene = wrap_gltf(path, geometry.meshes, &geometry.instances);
+    // The model's instances come first, in `geometry.instances`' order (the ground after).
+    for (instance, &(mesh, _)) in scene.instances.iter_mut().zip(&geometry.instances) {
+        instance.material = geometry.mesh_materials.get(mesh).copied().flatten();
+    }
+    scene.materials = geometry.materials.materials;
+    scene.textures = geometry.materials.textures;
     let mut loaded = finalize(scene, &format!("glTF file `{}`", path.display()))?;
     let mut warnings = geometry.warnings;
     warnings.append(&mut loaded.warnings);
