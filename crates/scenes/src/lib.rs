@@ -15,6 +15,7 @@
 pub mod builtin;
 mod error;
 pub mod file;
+pub mod file_material;
 pub mod gltf_import;
 pub mod gltf_materials;
 pub mod limits;

@@ -234,3 +234,101 @@ fn missing_broken_and_unsupported_textures_are_one_clear_line_each() {
     let not_base64 = texture_error("datauri", bad_uri, &[], None);
     assert!(not_base64.contains("base64"), "{not_base64}");
 }
+
+fn write_scene(dir: &std::path::Path, text: &str) -> String {
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+const GROUND: &str = r#"
+[light]
+center = [0.0, 3.0, 0.0]
+target = [0.0, 0.0, 0.0]
+width = 0.3
+
+[[object]]
+name = "ground"
+plane = { size = [6.0, 6.0] }
+casts_shadow = false
+"#;
+
+#[test]
+fn a_toml_object_gets_a_checker_mask_with_planar_texcoords() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        "{GROUND}
+[[object]]
+name = \"grate\"
+plane = {{ size = [1.0, 1.0] }}
+translation = [0.0, 1.0, 0.0]
+receives_shadow = false
+[object.material]
+texture = \"checker\"
+checker = {{ cells = 4, texels_per_cell = 2, color = [255, 0, 0] }}
+alpha_mode = \"mask\"
+alpha_cutoff = 0.3
+filter = \"nearest\"
+double_sided = true
+"
+    );
+    let loaded = load(&write_scene(dir.path(), &text)).unwrap();
+    let scene = &loaded.scene;
+    assert!(scene.has_masked_casters());
+    assert_eq!(
+        scene.instances[0].material, None,
+        "the ground keeps its albedo"
+    );
+    let m = &scene.materials[scene.instances[1].material.unwrap()];
+    assert_eq!(m.alpha_mode, AlphaMode::Mask { cutoff: 0.3 });
+    let t = &scene.textures[m.base_color_texture.unwrap()];
+    assert_eq!(
+        (t.width, t.height, t.filter),
+        (8, 8, TextureFilter::Nearest)
+    );
+    let mesh = &scene.meshes[scene.instances[1].mesh];
+    assert_eq!(mesh.texcoords.len(), mesh.positions.len());
+    let (lo, hi) = mesh.texcoords.iter().fold((1.0f32, 0.0f32), |(lo, hi), t| {
+        (lo.min(t.min_element()), hi.max(t.max_element()))
+    });
+    assert_eq!((lo, hi), (0.0, 1.0), "texcoords span the plane once");
+}
+
+#[test]
+fn a_toml_image_texture_loads_and_bad_materials_are_one_line_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("leaf.png"), checker_png()).unwrap();
+    let object = |material: &str| {
+        format!("{GROUND}\n[[object]]\nname = \"leaf\"\nbox = {{ size = [1.0, 0.1, 1.0] }}\n[object.material]\n{material}\n")
+    };
+    let loaded = load(&write_scene(
+        dir.path(),
+        &object("texture = \"leaf.png\"\ncolor = [1.0, 1.0, 1.0, 0.9]\nalpha_mode = \"blend\""),
+    ))
+    .unwrap();
+    assert_eq!(loaded.scene.textures[0].width, 4);
+    assert!(loaded
+        .warnings
+        .iter()
+        .any(|w| w.contains("leaf") && w.contains("cut-off 0.5")));
+    for (material, expected) in [
+        ("texture = \"gone.png\"", "material.texture"),
+        ("texture = \"scene.toml\"", "cannot be decoded"),
+        (
+            "alpha_mode = \"mask\"\nalpha_cutoff = 1.5",
+            "material.alpha_cutoff",
+        ),
+        ("color = [2.0, 0.0, 0.0, 1.0]", "material.color"),
+        (
+            "texture = \"checker\"\nchecker = { cells = 0 }",
+            "material.checker",
+        ),
+        ("alpha_mode = \"sometimes\"", "expected one of `opaque`, `mask`, `blend`"),
+    ] {
+        let message = load(&write_scene(dir.path(), &object(material)))
+            .unwrap_err()
+            .to_string();
+        assert!(!message.contains('\n'), "one line: {message}");
+        assert!(message.contains(expected), "`{material}`: {message}");
+    }
+}
