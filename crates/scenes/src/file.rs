@@ -403,7 +403,8 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
                 crate::check_triangles(triangles, &origin)?;
                 crate::check_instances(scene.instances.len() + geometry.instances.len(), &origin)?;
                 let first = scene.meshes.len();
-                let (first_material, first_texture) = (scene.materials.len(), scene.textures.len());
+                let first_material =
+                    crate::file_material::append_gltf(&mut scene, geometry.materials);
                 scene.meshes.extend(geometry.meshes);
                 for (mesh, node_transform) in geometry.instances {
                     scene.instances.push(Instance {
@@ -413,14 +414,6 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
                         ..template.clone()
                     });
                 }
-                let materials = geometry.materials;
-                scene
-                    .materials
-                    .extend(materials.materials.into_iter().map(|mut m| {
-                        m.base_color_texture = m.base_color_texture.map(|t| first_texture + t);
-                        m
-                    }));
-                scene.textures.extend(materials.textures);
                 warnings.extend(geometry.warnings);
             }
         }

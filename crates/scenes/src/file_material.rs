@@ -159,6 +159,23 @@ pub(crate) fn apply(
     Ok(warnings)
 }
 
+/// Appends a glTF object's materials and textures to `scene` (texture indices shifted); returns
+/// the index its first material got.
+pub(crate) fn append_gltf(
+    scene: &mut Scene,
+    materials: crate::gltf_materials::GltfMaterials,
+) -> usize {
+    let (first_material, first_texture) = (scene.materials.len(), scene.textures.len());
+    scene
+        .materials
+        .extend(materials.materials.into_iter().map(|mut m| {
+            m.base_color_texture = m.base_color_texture.map(|t| first_texture + t);
+            m
+        }));
+    scene.textures.extend(materials.textures);
+    first_material
+}
+
 /// The texture `name` names: `checker`, or an image file relative to `base`.
 fn read_texture(name: &str, def: &MaterialDef, base: &Path) -> Result<Texture, String> {
     if name == "checker" {

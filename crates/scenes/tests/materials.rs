@@ -323,7 +323,10 @@ fn a_toml_image_texture_loads_and_bad_materials_are_one_line_naming_the_field() 
             "texture = \"checker\"\nchecker = { cells = 0 }",
             "material.checker",
         ),
-        ("alpha_mode = \"sometimes\"", "expected one of `opaque`, `mask`, `blend`"),
+        (
+            "alpha_mode = \"sometimes\"",
+            "expected one of `opaque`, `mask`, `blend`",
+        ),
     ] {
         let message = load(&write_scene(dir.path(), &object(material)))
             .unwrap_err()
