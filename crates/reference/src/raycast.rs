@@ -600,6 +600,75 @@ fn hash_point(p: Vec3) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 1 x 1 quad at y = 1 whose 2 x 2 nearest-filtered texture is solid in its (0, 0) and
+    /// (1, 1) texels and a hole in the other two: rays through a hole pass, through a solid texel
+    /// stop, and the hierarchy agrees with the brute force on a grid of rays.
+    #[test]
+    fn masked_casters_let_rays_through_their_holes() {
+        use softshadow_core::{AlphaMode, Material, Texture, TextureFilter, TextureWrap};
+        let (w, b) = ([255u8, 255, 255, 255], [0u8, 0, 0, 0]);
+        let quad = softshadow_core::Mesh {
+            name: "quad".into(),
+            positions: vec![
+                Vec3::new(0.0, 1.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(1.0, 1.0, 1.0),
+                Vec3::new(0.0, 1.0, 1.0),
+            ],
+            normals: Vec::new(),
+            indices: vec![0, 1, 2, 0, 2, 3],
+            texcoords: vec![
+                Vec2::new(0.0, 0.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(1.0, 1.0),
+                Vec2::new(0.0, 1.0),
+            ],
+        };
+        let mut scene = Scene {
+            name: "masked".into(),
+            meshes: vec![quad],
+            instances: vec![softshadow_core::Instance::new(0, Default::default())],
+            light: AreaLight::default(),
+            camera: Default::default(),
+            materials: vec![Material {
+                base_color_texture: Some(0),
+                alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+                ..Default::default()
+            }],
+            textures: vec![Texture {
+                name: "2x2".into(),
+                width: 2,
+                height: 2,
+                rgba8: [w, b, b, w].concat(),
+                wrap: [TextureWrap::Repeat; 2],
+                filter: TextureFilter::Nearest,
+            }],
+        };
+        scene.instances[0].transform = softshadow_core::glam::Mat4::IDENTITY;
+        scene.instances[0].material = Some(0);
+        let bvh = CasterBvh::from_scene(&scene);
+        let up = Vec3::Y * 2.0;
+        let through = |x: f32, z: f32| !bvh.any_hit(Vec3::new(x, 0.0, z), up, 1e-4, 1.0);
+        assert!(!through(0.25, 0.25), "solid texel (0, 0)");
+        assert!(through(0.75, 0.25), "hole (1, 0)");
+        assert!(through(0.25, 0.75), "hole (0, 1)");
+        assert!(!through(0.75, 0.75), "solid texel (1, 1)");
+        for i in 0..20 {
+            for k in 0..20 {
+                let origin = Vec3::new((i as f32 + 0.5) / 20.0, 0.0, (k as f32 + 0.37) / 20.0);
+                assert_eq!(
+                    bvh.any_hit(origin, up, 1e-4, 1.0),
+                    bvh.any_hit_brute_force(origin, up, 1e-4, 1.0),
+                    "{origin}"
+                );
+            }
+        }
+        scene.instances[0].material = None;
+        let opaque = CasterBvh::from_scene(&scene);
+        assert!(opaque.any_hit(Vec3::new(0.75, 0.0, 0.25), up, 1e-4, 1.0));
+    }
+
     use softshadow_core::{glam::Mat4, Camera, Instance, Mesh};
 
     /// A small right triangle with its corner at `c`, legs 1 along +x and +y.

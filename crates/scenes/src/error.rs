@@ -177,6 +177,18 @@ pub enum SceneError {
         what: String,
     },
 
+    /// A texture of a glTF material that cannot be read: a missing side-car file, a broken or
+    /// unsupported image.
+    #[error("glTF file `{path}`: texture {texture} cannot be read: {message}")]
+    GltfTexture {
+        /// The file.
+        path: String,
+        /// The image's name and the material whose base colour it is.
+        texture: String,
+        /// Why, and what to do.
+        message: String,
+    },
+
     /// A glTF file without any triangle geometry.
     #[error("glTF file `{path}` contains no triangle meshes: export at least one mesh with triangle primitives")]
     GltfNoGeometry {

@@ -276,6 +276,9 @@ pub struct ObjectDef {
     /// Moves between frames (default false): precomputes over static casters leave it out.
     #[serde(default)]
     pub dynamic: bool,
+    /// Its material (`[object.material]`: colour, texture, alpha mode; docs/SCENES.md). A glTF
+    /// object without one keeps the file's own materials.
+    pub material: Option<crate::file_material::MaterialDef>,
 }
 
 /// `plane = { size = [sx, sz] }`: facing +y at the object's origin.
@@ -415,9 +418,10 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
             .unwrap_or_else(|| format!("object {}", k + 1));
         triangles = triangles.saturating_add(expected_triangles(object));
         crate::check_triangles(triangles, &origin)?;
+        let first_instance = scene.instances.len();
         match mesh_source(object).map_err(&object_error)? {
             Source::Procedural(mut mesh) => {
-                mesh.name = label;
+                mesh.name = label.clone();
                 scene.meshes.push(mesh);
                 scene.instances.push(Instance {
                     mesh: scene.meshes.len() - 1,
@@ -442,16 +446,26 @@ pub fn build(file: &SceneFile, path: &Path) -> Result<(Scene, Vec<String>), Scen
                 crate::check_triangles(triangles, &origin)?;
                 crate::check_instances(scene.instances.len() + geometry.instances.len(), &origin)?;
                 let first = scene.meshes.len();
+                let first_material =
+                    crate::file_material::append_gltf(&mut scene, geometry.materials);
                 scene.meshes.extend(geometry.meshes);
                 for (mesh, node_transform) in geometry.instances {
                     scene.instances.push(Instance {
                         mesh: first + mesh,
                         transform: transform * node_transform,
+                        material: geometry.mesh_materials[mesh].map(|m| first_material + m),
                         ..template.clone()
                     });
                 }
                 warnings.extend(geometry.warnings);
             }
+        }
+        if let Some(material) = &object.material {
+            let instances = first_instance..scene.instances.len();
+            let applied =
+                crate::file_material::apply(&mut scene, instances, material, object.albedo, base)
+                    .map_err(&object_error)?;
+            warnings.extend(applied.into_iter().map(|w| format!("{label}: {w}")));
         }
     }
     Ok((scene, warnings))

@@ -29,6 +29,11 @@ pub struct GltfGeometry {
     /// The lights its nodes carry (`KHR_lights_punctual`, as docs/SCENES.md says), in node
     /// order: a model loaded alone is lit by the first.
     pub lights: Vec<softshadow_core::AreaLight>,
+    /// The materials and textures the primitives use.
+    pub materials: crate::gltf_materials::GltfMaterials,
+    /// Per mesh in `meshes`, its index in `materials.materials` (`None`: glTF's default
+    /// material, drawn as before materials were read).
+    pub mesh_materials: Vec<Option<usize>>,
 }
 
 /// Reads the geometry of a `.gltf` or `.glb` file. See the module documentation.
@@ -60,6 +65,13 @@ pub fn parse_gltf(
         .map_or_else(|| file.0.clone(), |n| n.to_string_lossy().into_owned());
 
     let mut geometry = GltfGeometry::default();
+    let source = crate::gltf_materials::ImageSource {
+        buffers: &buffers,
+        base,
+        file: &file.0,
+    };
+    geometry.materials =
+        crate::gltf_materials::read_materials(&document, &source, &mut geometry.warnings)?;
     let primitives_of = read_meshes(&document, &buffers, &file, &file_name, &mut geometry)?;
     place_instances(&document, &primitives_of, &file, &file_name, &mut geometry)?;
     if geometry.instances.is_empty() {
@@ -267,6 +279,8 @@ fn read_meshes(
                     }
                     made.push(geometry.meshes.len());
                     geometry.meshes.push(mesh);
+                    let material = geometry.materials.of(primitive.material().index());
+                    geometry.mesh_materials.push(material);
                 }
                 Err(reason) => geometry.warnings.push(format!(
                     "mesh `{name}` from {file_name}: skipped a primitive: {reason}"
@@ -501,6 +515,10 @@ fn read_primitive(
         let unsigned = [DataType::U8, DataType::U16, DataType::U32];
         check_accessor(&indices, "index", Dimensions::Scalar, &unsigned)?;
     }
+    if let Some(texcoord) = primitive.get(&gltf::Semantic::TexCoords(0)) {
+        let types = [DataType::F32, DataType::U8, DataType::U16];
+        check_accessor(&texcoord, "TEXCOORD_0", Dimensions::Vec2, &types)?;
+    }
     let positions: Vec<Vec3> = reader
         .read_positions()
         .ok_or("its POSITION data lies outside its buffer")?
@@ -511,6 +529,16 @@ fn read_primitive(
             .read_normals()
             .ok_or("its NORMAL data lies outside its buffer")?
             .map(Vec3::from)
+            .collect(),
+        None => Vec::new(),
+    };
+    // Texcoord set 0 (section 3.7.2.1); normalized integer sets become floats in [0, 1].
+    let texcoords: Vec<glam::Vec2> = match primitive.get(&gltf::Semantic::TexCoords(0)) {
+        Some(_) => reader
+            .read_tex_coords(0)
+            .ok_or("its TEXCOORD_0 data lies outside its buffer")?
+            .into_f32()
+            .map(glam::Vec2::from)
             .collect(),
         None => Vec::new(),
     };
@@ -533,7 +561,7 @@ fn read_primitive(
         ));
     }
     let mut mesh = Mesh {
-        texcoords: Vec::new(),
+        texcoords,
         name: name.into(),
         positions,
         normals,

@@ -16,9 +16,11 @@ pub mod builtin;
 pub mod engine;
 mod error;
 pub mod file;
+pub mod file_material;
 pub mod gltf_export;
 pub mod gltf_import;
 mod gltf_lights;
+pub mod gltf_materials;
 pub mod limits;
 pub mod materials;
 pub mod outdoor;
@@ -115,6 +117,12 @@ fn load_gltf_geometry(path: &Path, geometry: GltfGeometry) -> Result<Loaded, Sce
     if let Some(light) = geometry.lights.first() {
         scene.light = *light;
     }
+    // The model's instances come first, in `geometry.instances`' order (the ground after).
+    for (instance, &(mesh, _)) in scene.instances.iter_mut().zip(&geometry.instances) {
+        instance.material = geometry.mesh_materials.get(mesh).copied().flatten();
+    }
+    scene.materials = geometry.materials.materials;
+    scene.textures = geometry.materials.textures;
     let mut loaded = finalize(scene, &format!("glTF file `{}`", path.display()))?;
     let mut warnings = geometry.warnings;
     warnings.append(&mut loaded.warnings);

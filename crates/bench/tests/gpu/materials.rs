@@ -92,6 +92,15 @@ fn masked_checker_ray_traced_and_ray_cast_agree_and_see_the_holes() -> Result<()
     let scene = masked_checker(LIGHT_WIDTH, CELLS, true);
     let opaque = masked_checker(LIGHT_WIDTH, CELLS, false);
     let out = render(&gpu, &scene, softshadow_core::COST_FLOOR_TECHNIQUE)?;
+    // The G-buffer drops the holes: the ground is seen (and is a receiver) through them.
+    let opaque_out = render(&gpu, &opaque, softshadow_core::COST_FLOOR_TECHNIQUE)?;
+    let seen = |o: &Output| o.receiver.iter().filter(|r| **r).count();
+    ensure!(
+        seen(&out) > seen(&opaque_out) + 100,
+        "receiver pixels: {} with holes, {} opaque: the G-buffer does not see through the mask",
+        seen(&out),
+        seen(&opaque_out)
+    );
     let (traced_v, traced_e) = traced(&gpu, &scene, &out)?;
     let (cast_v, cast_e) = softshadow_reference::raycast::visibility_image_and_error(
         &scene,
