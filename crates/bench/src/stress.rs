@@ -293,7 +293,9 @@ impl Case {
     fn holds_to_the_umbra(&self) -> bool {
         let moderate_bias = self.params.iter().all(|(name, value)| {
             !name.ends_with("bias_texels")
-                || value.as_f64().is_none_or(|b| b <= LOST_SHADOW_MAX_BIAS_TEXELS)
+                || value
+                    .as_f64()
+                    .is_none_or(|b| b <= LOST_SHADOW_MAX_BIAS_TEXELS)
         });
         self.light_kind == LightKind::ObliqueOverLargeReceiver && moderate_bias
     }

@@ -139,14 +139,43 @@ pub fn visibility_image_and_error(
             count: count as u32,
             seed: IMAGE_SEED,
         };
+        let buffers = [&points_buffer, &lit_buffer, &disagree_buffer, &light_buffer];
+        let pass = TracePass {
+            layout: &layout,
+            pipeline: &pipeline,
+            tlas,
+            buffers,
+            material_group: material_group.as_ref(),
+        };
+        pass.dispatch_row(gpu, &params, (gx, gy));
+    }
+    let counts = [&lit_buffer, &disagree_buffer];
+    read_visibility_and_error(gpu, &points, counts, samples_per_axis)
+}
+
+/// One row of the trace: what every row's dispatch binds besides its own parameters.
+struct TracePass<'a> {
+    layout: &'a wgpu::BindGroupLayout,
+    pipeline: &'a wgpu::ComputePipeline,
+    tlas: &'a wgpu::Tlas,
+    /// Points, lit counts, disagreement counts and the light, at bindings 2, 3, 4 and 5.
+    buffers: [&'a wgpu::Buffer; 4],
+    material_group: Option<&'a wgpu::BindGroup>,
+}
+
+impl TracePass<'_> {
+    /// Bind `params` (binding 0) beside the shared resources and submit one row's dispatch.
+    fn dispatch_row(&self, gpu: &Gpu, params: &Params, (gx, gy): (u32, u32)) {
+        let device = &gpu.device;
         let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("reference/trace params"),
-            contents: &uniform_bytes(&params),
+            contents: &uniform_bytes(params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
+        let [points, lit, disagree, light] = self.buffers;
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("reference/trace"),
-            layout: &layout,
+            layout: self.layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -154,40 +183,38 @@ pub fn visibility_image_and_error(
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: tlas.as_binding(),
+                    resource: self.tlas.as_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: points_buffer.as_entire_binding(),
+                    resource: points.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: lit_buffer.as_entire_binding(),
+                    resource: lit.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: disagree_buffer.as_entire_binding(),
+                    resource: disagree.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
-                    resource: light_buffer.as_entire_binding(),
+                    resource: light.as_entire_binding(),
                 },
             ],
         });
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
+            pass.set_pipeline(self.pipeline);
             pass.set_bind_group(0, &group, &[]);
-            if let Some(material_group) = &material_group {
+            if let Some(material_group) = self.material_group {
                 pass.set_bind_group(1, material_group, &[]);
             }
             pass.dispatch_workgroups(gx, gy, 1);
         }
         gpu.queue.submit([encoder.finish()]);
     }
-    let counts = [&lit_buffer, &disagree_buffer];
-    read_visibility_and_error(gpu, &points, counts, samples_per_axis)
 }
 
 /// One position and one receiver flag per pixel, and at least one sample per axis.
