@@ -175,7 +175,7 @@ pub const DEFAULT_EXACT_SAMPLES: u32 = 16;
 
 /// Light samples per axis of the ray-traced ground truth by default (where the device has ray
 /// queries), chosen by measurement of time against agreement with the closed form
-/// (docs/BENCHMARKS.md, "The exact answer").
+/// (docs/EXACT.md, "The exact answer").
 pub const DEFAULT_TRACED_SAMPLES: u32 = 32;
 
 impl BenchOptions {

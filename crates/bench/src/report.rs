@@ -173,7 +173,7 @@ pub fn irradiance_mae(run: &Run) -> Option<f64> {
     irradiance_field(run, |r| r.irradiance_mae)
 }
 
-/// What the across-scenes tables rank by (docs/BENCHMARKS.md, "The irradiance error").
+/// What the across-scenes tables rank by (docs/EXACT.md, "The irradiance error").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Score {
     /// [`scored_mae`]: the visibility error over shadowed receivers (the default).

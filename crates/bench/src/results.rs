@@ -565,7 +565,7 @@ pub struct ErrorFields {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exact: Option<String>,
     /// The exact answer's own sampling error: the mean, over the receiver pixels it shadows, of
-    /// each pixel's collapsed-strata standard-error estimate (docs/BENCHMARKS.md, "The exact
+    /// each pixel's collapsed-strata standard-error estimate (docs/EXACT.md, "The exact
     /// answer"); 0 for the closed form. Absent without an exact answer, with one sample per
     /// axis, or in results written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -582,7 +582,7 @@ pub struct ErrorFields {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub all_lit_vs_exact: Option<ErrorReport>,
     /// The same three comparisons in irradiance (`V x E0` against the exact `E`,
-    /// docs/BENCHMARKS.md, "The irradiance error"), where the exact answer is analytic (or the
+    /// docs/EXACT.md, "The irradiance error"), where the exact answer is analytic (or the
     /// closed form, with the analytic irradiance beside it). Absent otherwise and in results
     /// written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -43,6 +43,16 @@ use crate::{
 /// The most cascades a [`CascadeUniform`] holds (`MAX_CASCADES` in `cascades.wgsl`).
 pub const MAX_CASCADES: usize = 4;
 
+/// The parameter names a technique declares for its [`CascadeSettings`] (`hard` and `pcss`:
+/// count, lambda, blend, snap). They matter only under the sun: the viewer shows them only then,
+/// under a heading of their own.
+pub const CASCADE_PARAMS: [&str; 4] = [
+    "cascades",
+    "cascade_lambda",
+    "cascade_blend",
+    "cascade_snap",
+];
+
 /// How the sun's cascades are split, blended and stabilised (Bevy's `CascadeShadowConfig`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CascadeSettings {

@@ -83,3 +83,19 @@ impl HardSun {
         self.cascades.invalidate();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use softshadow_core::cascades::CASCADE_PARAMS;
+
+    use super::*;
+
+    /// The viewer shows the cascades' parameters under the sun only, by these names.
+    #[test]
+    fn the_cascade_parameters_are_the_ones_core_names() {
+        let specs = HardSettings::param_specs();
+        for name in CASCADE_PARAMS {
+            assert!(specs.iter().any(|s| s.name == name), "{name}");
+        }
+    }
+}

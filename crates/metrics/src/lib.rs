@@ -150,7 +150,7 @@ pub struct ErrorReport {
 
 /// The error in irradiance, where the shaded image shows it: each pixel's technique irradiance
 /// is `V x E0` (its visibility times the exact unoccluded irradiance `E0`) against the exact
-/// irradiance `E` from the visible part of the light (docs/BENCHMARKS.md, "The irradiance
+/// irradiance `E` from the visible part of the light (docs/EXACT.md, "The irradiance
 /// error"). A receiver that faces away from the whole light has `E0 = E = 0`: it counts zero
 /// here, whatever its visibility error.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -36,7 +36,7 @@
 //! each mesh (plus the outline of any triangle the slab cuts): a closed mesh contributes its
 //! silhouette loops only, not its triangles. The loops are clipped to the light rectangle
 //! (Sutherland-Hodgman, which keeps the winding number inside the rectangle) and their union's
-//! area is computed by `i_overlay` with its 64-bit integer engine (docs/TECHNIQUES.md, "The
+//! area is computed by `i_overlay` with its 64-bit integer engine (docs/EXACT.md, "The
 //! analytic exact answer", says why that library).
 
 use std::collections::HashMap;

@@ -237,8 +237,8 @@ fn the_ray_traced_answer_equals_the_ray_cast_on_the_blob_and_a_gltf_mesh() -> Re
 }
 
 /// The ray-traced answer's sample count: time and agreement with the closed form for 8 to 64
-/// samples per axis on atty-square and two stiff rectangle cases at 64² (docs/BENCHMARKS.md,
-/// "The exact answer"). Run by hand:
+/// samples per axis on atty-square and two stiff rectangle cases at 64² (docs/EXACT.md,
+/// "What each exact answer costs"). Run by hand:
 /// `cargo test --workspace --test gpu yardsticks::measure_the_traced_sample_count -- --ignored --nocapture`.
 #[test]
 #[ignore = "a measurement of time and error, not a check"]
@@ -278,8 +278,8 @@ fn measure_the_traced_sample_count() -> Result<()> {
 }
 
 /// The analytic exact answer's time against triangle count, beside the sampled answers', and the
-/// sampled answers' true error against it on the paper scenes (docs/BENCHMARKS.md, "The exact
-/// answer"). Prints markdown tables.
+/// sampled answers' true error against it on the paper scenes (docs/EXACT.md, "What each exact
+/// answer costs"). Prints markdown tables.
 #[test]
 #[ignore = "a measurement: run it on an otherwise idle machine"]
 fn measure_the_analytic_answer() -> Result<()> {

@@ -477,7 +477,7 @@ pub(super) const LIVE_TRACED_RAYS: usize = 1 << 23;
 pub(super) const LIVE_ANALYTIC_SECONDS: f64 = 2.0;
 
 /// Expected seconds of the analytic exact answer of `receivers` pixels over `caster_triangles`,
-/// from its measured cost (docs/BENCHMARKS.md, "The exact answer", 2 lavapipe cores): about
+/// from its measured cost (docs/EXACT.md, "What each exact answer costs", 2 lavapipe cores): about
 /// 1.2 us a pixel at 1k triangles and 18 us at 100k.
 pub(super) fn analytic_seconds(receivers: usize, caster_triangles: usize) -> f64 {
     receivers as f64 * (1.0 + caster_triangles as f64 / 6000.0) * 1e-6

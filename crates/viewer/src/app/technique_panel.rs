@@ -1,6 +1,8 @@
 //! The left panel's technique section (one widget per parameter, from its spec) and view modes.
 
-use softshadow_core::{DebugLegend, ParamKind, ParamSpec, ParamValue, Registry};
+use softshadow_core::{
+    cascades::CASCADE_PARAMS, DebugLegend, LightKind, ParamKind, ParamSpec, ParamValue, Registry,
+};
 
 use super::{technique::TechniqueState, ViewerApp};
 
@@ -24,7 +26,7 @@ impl TechniqueState {
         ui: &mut egui::Ui,
         registry: &Registry,
         features: softshadow_core::wgpu::Features,
-        light_kind: softshadow_core::LightKind,
+        light_kind: LightKind,
     ) -> TechniqueAction {
         // Narrower sliders than egui's 100 points: more names fit beside their widget.
         ui.spacing_mut().slider_width = 80.0;
@@ -69,10 +71,24 @@ impl TechniqueState {
         let Some(params) = &self.params else {
             return action;
         };
-        for (spec, value) in &params.entries {
-            if let Some(new) = param_widget(ui, spec, value) {
-                action.changes.push((spec.name.to_string(), new));
+        // The cascades' parameters matter only under the sun: shown then, under their own heading.
+        let is_cascade = |spec: &ParamSpec| CASCADE_PARAMS.contains(&spec.name.as_ref());
+        let mut widgets = |ui: &mut egui::Ui, cascades: bool| {
+            for (spec, value) in params
+                .entries
+                .iter()
+                .filter(|(s, _)| is_cascade(s) == cascades)
+            {
+                if let Some(new) = param_widget(ui, spec, value) {
+                    action.changes.push((spec.name.to_string(), new));
+                }
             }
+        };
+        widgets(ui, false);
+        if light_kind == LightKind::Sun && params.entries.iter().any(|(s, _)| is_cascade(s)) {
+            egui::CollapsingHeader::new("Sun: cascades")
+                .default_open(true)
+                .show(ui, |ui| widgets(ui, true));
         }
         if ui.button("Defaults").clicked() {
             if let Some(info) = registry.get(&self.id) {

@@ -43,7 +43,7 @@ pub struct LiveMetrics {
     /// `mae_shadowed` against the frame's exact answer.
     pub mae_shadowed: f64,
     /// The irradiance error over shadowed receivers (`irradiance_mae_shadowed`,
-    /// docs/BENCHMARKS.md, "The irradiance error"), where the exact answer was analytic.
+    /// docs/EXACT.md, "The irradiance error"), where the exact answer was analytic.
     pub irradiance_mae_shadowed: Option<f64>,
     /// Flicker against the frame before it (`None` for the first frame of a run).
     pub flicker: Option<f64>,
