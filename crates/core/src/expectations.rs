@@ -65,7 +65,8 @@ pub enum StiffClass {
     /// precision runs out.
     VanishingDistance,
     /// A light far wider than its occluders, very elongated, or at a grazing angle to the
-    /// receiver: penumbrae much larger or more stretched than the paper scenes'.
+    /// receiver (the sun near the horizon), a sphere whose disk turns from receiver to receiver,
+    /// a narrow spot: penumbrae much larger or more stretched than the paper scenes'.
     LightShape,
     /// Occluders at different depths overlapping: the answer is their union (fusion), which
     /// filtered depths get wrong (light leaks).
@@ -73,8 +74,9 @@ pub enum StiffClass {
     /// Geometry on both sides of the one-sided light's plane: receivers behind it hold V = 0,
     /// an occluder crossing it lies partly outside every light frustum.
     LightPlane,
-    /// Occluders of zero thickness or thinner than a shadow map's bias, or input with broken
-    /// triangles that loading repairs.
+    /// Occluders of zero thickness or thinner than a shadow map's bias, alpha-masked occluders
+    /// whose holes (down to one texel) or edge-on cards a light-space pass must see, or input
+    /// with broken triangles that loading repairs.
     ThinGeometry,
 }
 

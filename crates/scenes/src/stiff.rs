@@ -17,13 +17,16 @@
 
 use glam::{Mat4, Vec3};
 use softshadow_core::{
-    AreaLight, Camera, Mesh, Scene,
+    AreaLight, Camera, LightKind, Mesh, Scene,
     StiffClass::{self, *},
 };
 
 use crate::builtin::{camera, down_light, light_width, Builder, BuiltinInfo, ParamInfo};
 use crate::primitives::{self, face, push_quad};
 use crate::SceneError;
+
+mod kinds;
+mod masks;
 
 /// Every stiff-case id starts with this.
 pub const PREFIX: &str = "stiff-";
@@ -38,10 +41,26 @@ pub struct StiffCase {
     pub info: BuiltinInfo,
 }
 
-/// Every stiff case with its class and parameters.
+impl StiffCase {
+    /// The kind of the case's light, as its scene is built with its default parameters: a
+    /// technique that does not support it (`TechniqueInfo::light_kinds`) is not run on the case
+    /// and promises nothing for it.
+    pub fn light_kind(&self) -> LightKind {
+        let default = |name: &str| {
+            let param = self.info.params.iter().find(|p| p.name == name);
+            param.map_or(0.0, |p| p.default)
+        };
+        build(self.info.id, &default).map_or(LightKind::Rect, |scene| scene.light.kind)
+    }
+}
+
+/// Every stiff case with its class and parameters: the rectangle light's, then the other light
+/// kinds' (`kinds.rs`), then the alpha-tested casters' (`masks.rs`).
 pub fn cases() -> Vec<StiffCase> {
     let mut cases = first_cases();
     cases.extend(later_cases());
+    cases.extend(kinds::cases());
+    cases.extend(masks::cases());
     cases
 }
 
@@ -337,7 +356,10 @@ pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, Scen
             )
         }
         "stiff-thin-roof" => thin_roof(v("light_width"), v("thickness")),
-        _ => return Err(SceneError::UnknownScene { spec: id.into() }),
+        _ => {
+            let other = kinds::build(id, &v).or_else(|| masks::build(id, &v));
+            return other.ok_or_else(|| SceneError::UnknownScene { spec: id.into() });
+        }
     };
     Ok(scene)
 }

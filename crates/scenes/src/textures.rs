@@ -1,8 +1,9 @@
 //! Procedural textures for the built-in scenes: deterministic RGBA8 images (sRGB colour, alpha as a
 //! mask) made from closed-form shapes, so no image file is committed.
 //!
-//! Every mask is binary (alpha 0 or 255): the scenes test alpha-tested casters, and a binary mask
-//! makes the cut-off irrelevant to where the holes are.
+//! Every mask but [`texel_holes`] is binary (alpha 0 or 255): the scenes test alpha-tested
+//! casters, and a binary mask makes the cut-off irrelevant to where the holes are; in
+//! `texel_holes` only the cut-off makes the holes.
 
 use glam::Vec2;
 
@@ -116,6 +117,19 @@ pub fn checker_mask(size: u32, cells: u32) -> Image {
     })
 }
 
+/// Alpha 1 everywhere but one texel of every `every` x `every` (the centre of each block), which
+/// holds alpha 0.45: opaque without an alpha test, single-texel holes under glTF's default
+/// cut-off of 0.5 (with nearest filtering).
+pub fn texel_holes(size: u32, every: u32) -> Image {
+    let every = every.max(1);
+    Image::from_fn(size, |uv| {
+        let texel = (uv * size as f32).floor();
+        let (x, y) = (texel.x as u32 % every, texel.y as u32 % every);
+        let hole = x == every / 2 && y == every / 2;
+        [0.7, 0.7, 0.72, if hole { 0.45 } else { 1.0 }]
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -127,6 +141,13 @@ mod tests {
             ("chain link", chain_link(64, 0.1), 0.6, 0.9),
             ("lace", lace_cloth(128), 0.05, 0.4),
             ("checker", checker_mask(64, 8), 0.49, 0.51),
+            // One texel in nine: 5 x 5 blocks of 3 in 16 texels (the last block cut short).
+            (
+                "texel holes",
+                texel_holes(16, 3),
+                25.0 / 256.0,
+                25.0 / 256.0,
+            ),
         ] {
             let holes = image.hole_fraction();
             assert!(

@@ -154,3 +154,87 @@ fn out_of_range_parameters_say_what_to_use() {
         assert!(e.contains(hint), "{spec}: {e}");
     }
 }
+
+#[test]
+fn each_case_declares_its_light_kind_and_the_new_kinds_put_light_and_casters_as_described() {
+    use softshadow_core::LightKind;
+    let kind_of = |id: &str| {
+        let cases = stiff::cases();
+        let case = cases.iter().find(|c| c.info.id == id).unwrap();
+        assert_eq!(
+            case.light_kind(),
+            load(id).unwrap().scene.light.kind,
+            "{id}"
+        );
+        case.light_kind()
+    };
+    for (id, kind) in [
+        ("stiff-contact", LightKind::Rect),
+        ("stiff-masked-checker", LightKind::Rect),
+        ("stiff-disk-tiny", LightKind::Disk),
+        ("stiff-disk-huge", LightKind::Disk),
+        ("stiff-sphere-near", LightKind::Sphere),
+        ("stiff-sun-grazing", LightKind::Sun),
+        ("stiff-spot-narrow", LightKind::Spot),
+        ("stiff-sphere-in-ground", LightKind::Sphere),
+    ] {
+        assert_eq!(kind_of(id), kind, "{id}");
+    }
+    let light = |spec: &str| load(spec).unwrap().scene.light;
+    // The sun 3 degrees above the horizon: a 0.3 post's shadow about 5.7 long.
+    let sun = light("stiff-sun-grazing");
+    let elevation = (-sun.direction.normalize().y).asin().to_degrees();
+    assert!((elevation - 3.0).abs() < 1e-3, "{elevation}");
+    assert!((0.3 / elevation.to_radians().tan() - 5.72).abs() < 0.01);
+    // The sphere's centre below its radius: part of it lies under the ground.
+    let sunk = light("stiff-sphere-in-ground");
+    assert!(sunk.center.y < sunk.radius && sunk.center.y > 0.0);
+    // The squares just under the sphere's lowest point.
+    let near = caster_depths("stiff-sphere-near");
+    let closest = near.iter().copied().fold(f32::MAX, f32::min);
+    assert!((closest - 0.6).abs() < 1e-5, "{closest}");
+    let spot = light("stiff-spot-narrow:cone_outer_degrees=20");
+    assert_eq!(
+        (spot.cone_inner_degrees, spot.cone_outer_degrees),
+        (12.0, 20.0)
+    );
+}
+
+#[test]
+fn the_alpha_tested_cases_have_masked_casters_edge_on_cards_and_single_texel_holes() {
+    for id in [
+        "stiff-masked-checker",
+        "stiff-leaves-edge-on",
+        "stiff-texel-holes",
+    ] {
+        let scene = load(id).unwrap().scene;
+        assert!(scene.has_masked_casters(), "{id}");
+        assert!(
+            scene
+                .instances
+                .iter()
+                .all(|i| !(i.casts_shadow && i.receives_shadow)),
+            "{id}: casters only"
+        );
+    }
+    // Every card contains the light's direction: its normals are perpendicular to it.
+    let leaves = load("stiff-leaves-edge-on").unwrap().scene;
+    let cards = leaves
+        .instances
+        .iter()
+        .find(|i| i.material.is_some())
+        .unwrap();
+    for n in &leaves.meshes[cards.mesh].normals {
+        assert!(n.dot(leaves.light.direction).abs() < 1e-5, "{n}");
+    }
+    // One texel in nine is a hole, and only under the cut-off: alpha 0.45, not 0.
+    let holes = load("stiff-texel-holes").unwrap().scene;
+    let texture = &holes.textures[0];
+    let alphas: Vec<u8> = texture.rgba8.chunks_exact(4).map(|t| t[3]).collect();
+    let cut = alphas.iter().filter(|a| **a < 128).count();
+    assert_eq!(cut, 16 * 16, "{cut} holes in 48 x 48");
+    assert!(
+        alphas.iter().all(|a| *a == 255 || *a == 115),
+        "alphas 1 and 0.45 only"
+    );
+}

@@ -87,6 +87,15 @@ fn expectations() -> Expectations {
         // A roof thinner than the depth bias: its underside (facing away from the light, so
         // dark in the image whatever V says) reads lit. The irradiance error is small there.
         ("stiff-thin-roof", known_failure(MaeShadowed, 0.1349, 0.015)),
+        // No umbra and a faint penumbra: drawing no shadow (0.0124) is better.
+        ("stiff-disk-huge", known_failure(MaeShadowed, 0.0148, 0.002)),
+        ("stiff-spot-narrow", at_most(MaeShadowed, 0.053, 0.0209)),
+        // Casters 0.1-0.25 under a light 1.0 across, the ground inside the sphere unreached: little
+        // better than no shadow (0.3657), worse than `hard` (0.1438).
+        (
+            "stiff-sphere-in-ground",
+            known_failure(MaeShadowed, 0.3238, 0.033),
+        ),
         ("atty-square", at_most(MaeShadowed, 0.068, 0.0273)),
         // Halfway to hard (0.1540).
         (
