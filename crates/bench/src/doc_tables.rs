@@ -337,6 +337,8 @@ fn stiff_matrix(runs: &[Run]) -> String {
                 .find(|r| r.scene == *case && r.technique == *technique);
             let cell = match run {
                 None => "-".to_string(),
+                // A light kind the technique does not support: refused, nothing promised.
+                Some(run) if run.status == Status::Unsupported => "unsupported".to_string(),
                 Some(run) if run.status != Status::Ok => "failed".to_string(),
                 Some(run) => match &run.expectation {
                     Some(v) if v.met => format!("{:.4} ({})", v.value, bound_text(&v.stated)),
@@ -598,11 +600,13 @@ fn floor_frame_ms(runs: &[Run], run: &Run) -> f64 {
 /// The parameters of `run` that differ between the runs of its technique in `runs`, as
 /// `name=value` words (every run records every parameter; the shared ones repeat the defaults).
 pub(crate) fn varying_params(run: &Run, runs: &[&Run]) -> String {
+    // A run refused for its light kind recorded only the parameters it was given (its technique
+    // was never made): it is compared with the others, not they with it.
     run.params
         .iter()
         .filter(|(name, value)| {
             runs.iter()
-                .filter(|o| o.technique == run.technique)
+                .filter(|o| o.technique == run.technique && o.status != Status::Unsupported)
                 .any(|o| o.params.get(*name) != Some(*value))
         })
         .map(|(name, value)| format!("{name}={value}"))
@@ -876,6 +880,28 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("without an opening"), "{e}");
+    }
+
+    #[test]
+    fn a_run_refused_for_its_light_kind_shares_its_techniques_row() {
+        let spec = crate::RunSpec {
+            scene: "atty-square".into(),
+            technique: "msm".into(),
+            params: Vec::new(),
+            width: 64,
+            height: 64,
+            path: None,
+        };
+        let mut ok = Run::new(0, &spec);
+        ok.params.insert(
+            "shadow_map_size".into(),
+            softshadow_core::ParamValue::Int(512),
+        );
+        let mut refused = Run::new(1, &spec);
+        refused.status = Status::Unsupported;
+        let runs = [&ok, &refused];
+        assert_eq!(varying_params(&ok, &runs), "");
+        assert_eq!(varying_params(&refused, &runs), "");
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub mod textures;
 use std::path::Path;
 
 use glam::{Mat4, Vec3};
-use softshadow_core::{AreaLight, Camera, Instance, Mesh, MeshRepair, Scene};
+use softshadow_core::{AreaLight, Camera, Instance, LightKind, Mesh, MeshRepair, Scene};
 
 pub use builtin::{builtin_scenes, AttySquare, BuiltinInfo, ParamInfo};
 pub use error::SceneError;
@@ -76,11 +76,46 @@ pub fn load(spec: &str) -> Result<Loaded, SceneError> {
         }
         _ if path.is_file() => Err(SceneError::UnsupportedFile { path: spec.into() }),
         _ => {
-            let (id, params) = builtin::parse_spec(spec)?;
-            let scene = builtin::build(&id, &params)?;
+            let (spec_without_kind, kind) = split_light_kind(spec)?;
+            let (id, params) = builtin::parse_spec(&spec_without_kind)?;
+            let mut scene = builtin::build(&id, &params)?;
+            if let Some(kind) = kind {
+                scene.light = scene.light.as_kind(kind);
+            }
             finalize(scene, &format!("builtin scene `{id}`"))
         }
     }
+}
+
+/// Takes `light=KIND` out of a builtin spec (`atty-square:light=disk,light_width=2`): the
+/// scene's light made that kind as the light-kind bounds take it ([`AreaLight::as_kind`]), so
+/// a sweep can run the paper scenes under every kind.
+///
+/// [`AreaLight::as_kind`]: softshadow_core::AreaLight::as_kind
+fn split_light_kind(spec: &str) -> Result<(String, Option<LightKind>), SceneError> {
+    let Some((id, rest)) = spec.split_once(':') else {
+        return Ok((spec.to_string(), None));
+    };
+    let mut kind = None;
+    let mut kept = Vec::new();
+    for item in rest.split(',') {
+        match item.split_once('=') {
+            Some((key, value)) if key.trim() == "light" => {
+                let name = value.trim();
+                kind = Some(
+                    LightKind::from_name(name).ok_or_else(|| SceneError::BadSpec {
+                        spec: spec.into(),
+                        detail: format!(
+                            "light `{name}` is not a light kind: use {}",
+                            LightKind::names()
+                        ),
+                    })?,
+                );
+            }
+            _ => kept.push(item),
+        }
+    }
+    Ok((format!("{id}:{}", kept.join(",")), kind))
 }
 
 /// Builds builtin scene `id` with parameters given as (name, value); missing parameters take

@@ -352,3 +352,29 @@ fn builtins_are_deterministic() {
         assert_eq!(a, b, "{id}");
     }
 }
+
+#[test]
+fn light_in_a_builtin_spec_makes_its_light_that_kind() {
+    use softshadow_core::LightKind;
+    let rect = softshadow_scenes::load("atty-square:light_width=0.8")
+        .unwrap()
+        .scene;
+    let disk = softshadow_scenes::load("atty-square:light=disk,light_width=0.8")
+        .unwrap()
+        .scene;
+    assert_eq!(disk.light.kind, LightKind::Disk);
+    assert_eq!(disk.light.radius, 0.4);
+    assert_eq!(disk.light.center, rect.light.center);
+    assert_eq!(disk.instances.len(), rect.instances.len());
+    let sun = softshadow_scenes::load("blob-floating:light=sun")
+        .unwrap()
+        .scene;
+    assert_eq!(sun.light.kind, LightKind::Sun);
+    let e = softshadow_scenes::load("atty-square:light=moon")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("light `moon` is not a light kind") && e.contains("rect | disk"),
+        "{e}"
+    );
+}

@@ -176,7 +176,7 @@ fn the_error_along_cascade_boundaries_is_within_1_5x_of_the_inside() -> Result<(
 /// snapped, 0.00681 unsnapped. With texels at or below a pixel's footprint (128²: 0.24 m, 256²:
 /// 0.12 m) the crawl is below a pixel and the flicker is that of resampling the error as the
 /// camera moves: 0.00792 / 0.00654 and 0.00813 / 0.00590 (snapped / unsnapped, measured with
-/// `cascade_blend` 0.1), no lower (docs/BENCHMARKS.md, "Cascades").
+/// `cascade_blend` 0.1), no lower (docs/LIGHTS.md, "Cascades").
 #[test]
 fn texel_snapping_lowers_the_flicker_along_a_walk() -> Result<()> {
     let walk = concat!(

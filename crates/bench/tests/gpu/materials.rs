@@ -19,7 +19,6 @@ const CELLS: u32 = 6;
 const LIGHT_WIDTH: f32 = 0.2;
 
 struct Output {
-    v: Vec<f32>,
     receiver: Vec<bool>,
     positions: Vec<Option<Vec3>>,
 }
@@ -45,7 +44,6 @@ fn render(gpu: &Gpu, scene: &Scene, technique: &str) -> Result<Output> {
         scene.name
     );
     Ok(Output {
-        v,
         receiver: renderer.read_receiver_mask()?,
         positions: renderer.read_world_positions()?,
     })
