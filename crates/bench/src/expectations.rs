@@ -227,10 +227,14 @@ pub fn unpromised(registry: &Registry, cases: &[StiffCase]) -> Vec<Unpromised> {
     missing
 }
 
-/// What `info` states for every case among `cases` (the stiff family) it promises something for,
-/// then for the other cases it names (the paper scenes): the table its verdicts follow.
+/// What `info` states for every case among `cases` (the stiff family) it promises something for
+/// (leaving out the cases whose light kind it does not support), then for the other cases it
+/// names (the paper scenes): the table its verdicts follow.
 pub fn stated_by_case(info: &TechniqueInfo, cases: &[StiffCase]) -> Vec<(String, Stated)> {
-    let stiff = cases.iter().filter_map(|case| {
+    let supported = cases
+        .iter()
+        .filter(|case| info.light_kinds.supports(case.light_kind()));
+    let stiff = supported.filter_map(|case| {
         let stated = info.expectations.resolve(case.info.id, Some(case.class))?;
         Some((case.info.id.to_string(), stated))
     });

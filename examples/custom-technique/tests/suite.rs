@@ -75,6 +75,11 @@ fn the_stiff_suite_and_the_paper_scenes_meet_the_bounds_the_crate_states() -> Re
     let mut runs = Vec::new();
     for (index, spec) in specs.iter().enumerate() {
         let run = bench.run(index, spec, dir.path());
+        // A case under a light kind `fixed-pcf` does not support (rect only): refused, nothing
+        // promised (`expectations::unpromised` leaves it out too).
+        if run.status == Status::Unsupported && spec.technique == custom_technique::ID {
+            continue;
+        }
         ensure!(
             run.status == Status::Ok,
             "{} / {}: {}",
