@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 use softshadow_core::{
     glam::{Vec2, Vec3},
-    Scene,
+    LightKind, Scene,
 };
 
 /// A rectangle `[min, max]` (light-space x, y) in the plane `z` (distance from the light plane).
@@ -101,11 +101,12 @@ pub fn union_area(rects: &[[f64; 4]]) -> f64 {
 /// all its referenced vertices share one light-space depth (within 1e-5 relative) and sit on the
 /// corners of its light-space bounding rectangle, and its triangles cover that rectangle a whole
 /// number of times (1 for a quad, 2 for a two-sided quad or a flattened box). `None` when any
-/// caster is something else (or has an alpha mask): use the ray-cast reference then.
+/// caster is something else (or has an alpha mask), or the light is not a rectangle: use a
+/// sampled answer then.
 /// `Some(vec![])` without casters.
 pub fn parallel_rects(scene: &Scene) -> Option<Vec<ParallelRect>> {
-    // A masked caster is a rectangle with holes: no closed form.
-    if scene.has_masked_casters() {
+    // A masked caster is a rectangle with holes, and the closed form is the rectangle light's.
+    if scene.has_masked_casters() || scene.light.kind != LightKind::Rect {
         return None;
     }
     let mut rects = Vec::new();

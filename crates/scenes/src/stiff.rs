@@ -261,6 +261,8 @@ pub fn class_of(spec: &str) -> Option<StiffClass> {
 }
 
 /// Builds stiff case `id`; `value(name)` returns its (checked) parameters.
+// Long: one arm per rectangle-light case (the other kinds' and the alpha-tested cases build in
+// `kinds.rs` and `masks.rs`); the match reads best whole.
 pub(crate) fn build(id: &str, value: &dyn Fn(&str) -> f64) -> Result<Scene, SceneError> {
     let v = |name: &str| value(name) as f32;
     let scene = match id {

@@ -83,3 +83,17 @@ fn ray_cast_and_closed_form_agree_on_every_rectangle_scene() -> Result<()> {
     }
     Ok(())
 }
+
+/// The closed form is the rectangle light's: the same squares under a disk have none (the viewer
+/// asks `parallel_rects` whether its live error may use it).
+#[test]
+fn squares_under_a_disk_light_have_no_closed_form() -> Result<()> {
+    let rect = softshadow_scenes::load("stiff-point-light")?.scene;
+    ensure!(parallel_rects(&rect).is_some());
+    let disk = softshadow_scenes::load("stiff-disk-tiny")?.scene;
+    ensure!(
+        parallel_rects(&disk).is_none(),
+        "a disk light took the closed form"
+    );
+    Ok(())
+}
