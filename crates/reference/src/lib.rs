@@ -712,6 +712,15 @@ impl Reference {
         let gpu = frame.gpu;
         if self.progress.as_ref().map(|p| p.key) != Some(key) {
             let samples = light_samples(&self.settings, inputs.light);
+            // The sun has no light plane to sample (the viewer's yardstick under the sun): one
+            // error saying so, not an index past the samples.
+            if samples.is_empty() {
+                let reason = info::info().check_light(inputs.light.kind).err();
+                return Err(TechniqueError::Other {
+                    technique: ID.into(),
+                    message: reason.unwrap_or_else(|| "no light samples".into()),
+                });
+            }
             let size = self.settings.shadow_map_size;
             let views: Vec<ShadowViewUniform> = interleaved(self.settings.samples_per_axis)
                 .filter_map(|k| sample_view(inputs.scene, inputs.light, samples[k]))

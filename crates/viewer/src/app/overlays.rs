@@ -17,7 +17,13 @@ pub(super) struct Messages {
 }
 
 impl Messages {
+    /// Shows `message` until dismissed; one already shown is not shown twice (a yardstick that
+    /// fails every frame, as the reference under the sun, would fill the list with one line).
     pub(super) fn push_error(&mut self, message: String) {
+        if self.errors.contains(&message) {
+            log::debug!("{message}");
+            return;
+        }
         log::warn!("{message}");
         self.errors.push(message);
         if self.errors.len() > MAX_ERRORS {
