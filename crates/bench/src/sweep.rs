@@ -784,6 +784,38 @@ mod tests {
         }
     }
 
+    /// Every sweep file in `sweeps/` parses (techniques and parameters checked) and each of its
+    /// scenes loads: a renamed scene or parameter fails here, not an hour into a sweep.
+    #[test]
+    fn every_sweep_file_parses_and_its_scenes_load() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sweeps");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        files.sort();
+        assert!(files.len() >= 20, "{} sweep files", files.len());
+        let mut scenes = std::collections::BTreeSet::new();
+        for file in &files {
+            let sweep = Sweep::load(file, &registry())
+                .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+            scenes.extend(sweep.runs.iter().map(|r| r.scene.clone()));
+        }
+        for scene in scenes
+            .iter()
+            .filter(|s| !s.starts_with(softshadow_scenes::GLB_PREFIX))
+        {
+            // A scene file is named from the repository root, where sweeps run.
+            let spec = match scene.contains('/') {
+                true => dir.join("..").join(scene).display().to_string(),
+                false => scene.clone(),
+            };
+            let loaded = softshadow_scenes::load(&spec);
+            assert!(loaded.is_ok(), "scene `{scene}`: {:?}", loaded.err());
+        }
+    }
+
     #[test]
     fn shards_partition_the_runs_round_robin() {
         let sweep = Sweep::parse(

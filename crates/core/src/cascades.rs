@@ -37,21 +37,49 @@ use crate::{
     shader::ShaderSpec,
     shadow_map::{create_depth_maps, layer_view, DepthMapRenderer, ShadowViewUniform},
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    AreaLight, Gpu, GpuError, SceneGpu, ShadowInputs,
+    AreaLight, Gpu, GpuError, SceneGpu, ShadowInputs, TechniqueStats,
 };
 
 /// The most cascades a [`CascadeUniform`] holds (`MAX_CASCADES` in `cascades.wgsl`).
 pub const MAX_CASCADES: usize = 4;
 
-/// The parameter names a technique declares for its [`CascadeSettings`] (`hard` and `pcss`:
-/// count, lambda, blend, snap). They matter only under the sun: the viewer shows them only then,
-/// under a heading of their own.
+/// The parameter names of [`SunCascadeParams`]. They matter only under the sun: the viewer
+/// shows them only then, under a heading of their own.
 pub const CASCADE_PARAMS: [&str; 4] = [
     "cascades",
     "cascade_lambda",
     "cascade_blend",
     "cascade_snap",
 ];
+
+crate::technique_settings! {
+    /// The sun's cascades as parameters: the shared group of a technique that draws them
+    /// (`..sun: SunCascadeParams;` in its settings: `hard`, `pcss`), turned into
+    /// [`CascadeSettings`] by [`SunCascadeParams::settings`].
+    pub struct SunCascadeParams {
+        /// The sun: cascaded maps over the camera's depth range (1 = one map fitted to the scene)
+        cascades: u32 = 4, in 1..=4;
+        /// The sun: split scheme, 0 uniform to 1 logarithmic (lambda of Zhang et al.'s practical split scheme)
+        cascade_lambda: f32 = 0.75, in 0.0..=1.0;
+        /// The sun: fraction of each cascade blended into the next at its far end
+        cascade_blend: f32 = 0.125, in 0.0..=0.5;
+        /// The sun: snap each cascade's window to whole texels (no crawling edges as the camera moves)
+        cascade_snap: bool = true;
+    }
+}
+
+impl SunCascadeParams {
+    /// The cascades these parameters ask for.
+    pub fn settings(&self) -> CascadeSettings {
+        CascadeSettings {
+            count: self.cascades,
+            lambda: self.cascade_lambda,
+            blend: self.cascade_blend,
+            snap: self.cascade_snap,
+            ..CascadeSettings::default()
+        }
+    }
+}
 
 /// How the sun's cascades are split, blended and stabilised (Bevy's `CascadeShadowConfig`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -344,6 +372,24 @@ pub struct CascadeFit {
     pub cascades: Vec<Cascade>,
     /// The maps were drawn this frame (not kept from the last).
     pub rebuilt: bool,
+}
+
+impl CascadeFit {
+    /// The stats every technique under the sun reports: `shadow_maps`, `shadow_map_texels` (of
+    /// `size`² maps) and each cascade's texel and far split in metres (`cascade<i>_texel_m`,
+    /// `cascade<i>_far_m`).
+    pub fn stats(&self, size: u32) -> TechniqueStats {
+        let maps = self.cascades.len() as f64;
+        let mut stats = TechniqueStats::from([
+            ("shadow_maps".into(), maps),
+            ("shadow_map_texels".into(), maps * (size as f64).powi(2)),
+        ]);
+        for (i, c) in self.cascades.iter().enumerate() {
+            stats.insert(format!("cascade{i}_texel_m"), c.texel_world as f64);
+            stats.insert(format!("cascade{i}_far_m"), c.split_far as f64);
+        }
+        stats
+    }
 }
 
 /// The sun's cascaded maps of one technique: fitting, the depth passes into the layers of one

@@ -72,6 +72,62 @@ pub struct IndexList {
     pub buffer: wgpu::Buffer,
     /// Indices in it.
     pub count: u32,
+    /// The same triangles split by whether their material is alpha-tested, so the light-space
+    /// depth pass sends only the masked ones through the alpha test; `None` in a scene without
+    /// a masked material (and in the lists no depth pass draws).
+    pub alpha_split: Option<Box<AlphaSplit>>,
+}
+
+impl IndexList {
+    /// Uploads `indices` as an index list, `None` when empty.
+    fn upload(gpu: &Gpu, label: &str, indices: &[u32], usage: wgpu::BufferUsages) -> Option<Self> {
+        (!indices.is_empty()).then(|| IndexList {
+            buffer: gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(indices),
+                    usage,
+                }),
+            count: indices.len() as u32,
+            alpha_split: None,
+        })
+    }
+}
+
+/// An [`IndexList`]'s triangles split by alpha test, each part `None` when empty.
+pub struct AlphaSplit {
+    /// Triangles of opaque materials (drawn with the plain depth pipeline).
+    pub opaque: Option<IndexList>,
+    /// Triangles of masked materials (drawn with the alpha-tested one).
+    pub masked: Option<IndexList>,
+}
+
+/// The triangles of one index list split by alpha test, while baking.
+#[derive(Default)]
+struct SplitIndices {
+    opaque: Vec<u32>,
+    masked: Vec<u32>,
+}
+
+impl SplitIndices {
+    fn part(&mut self, masked: bool) -> &mut Vec<u32> {
+        if masked {
+            &mut self.masked
+        } else {
+            &mut self.opaque
+        }
+    }
+}
+
+/// The alpha splits of the index lists the depth pass draws, built for a scene with a masked
+/// material.
+#[derive(Default)]
+struct AlphaSplits {
+    casters: SplitIndices,
+    static_casters: SplitIndices,
+    dynamic_casters: SplitIndices,
+    receivers: SplitIndices,
 }
 
 /// An uploaded scene: what techniques draw into shadow maps and fit their windows to.
@@ -206,6 +262,8 @@ struct Baked {
     static_casters: Vec<u32>,
     dynamic_casters: Vec<u32>,
     receivers: Vec<u32>,
+    /// Those lists split by alpha test, for a scene with a masked material.
+    alpha_splits: Option<AlphaSplits>,
     bounds: Aabb,
     caster_bounds: Aabb,
     receiver_bounds: Aabb,
@@ -216,10 +274,11 @@ struct Baked {
 }
 
 impl Baked {
-    fn new(with_materials: bool) -> Self {
+    fn new(with_materials: bool, with_alpha_splits: bool) -> Self {
         Self {
             vertices: Vec::new(),
             material_vertices: with_materials.then(Vec::new),
+            alpha_splits: with_alpha_splits.then(AlphaSplits::default),
             all: Vec::new(),
             casters: Vec::new(),
             static_casters: Vec::new(),
@@ -235,8 +294,9 @@ impl Baked {
     }
 
     /// Adds `mesh` placed by `instance`: its vertices in world space with the instance's albedo
-    /// and flags, its triangles in the index lists it belongs to, its points in the bounds.
-    fn add(&mut self, instance: &Instance, mesh: &Mesh, albedo: Vec3) {
+    /// and flags, its triangles in the index lists it belongs to (and their alpha split's
+    /// `masked` part when the instance's material is alpha-tested), its points in the bounds.
+    fn add(&mut self, instance: &Instance, mesh: &Mesh, albedo: Vec3, masked: bool) {
         let base = self.vertices.len() as u32;
         let normal_matrix = instance.transform.inverse().transpose();
         let color_flags = color_flags(instance, albedo);
@@ -272,6 +332,9 @@ impl Baked {
             }
         }
         let indices = mesh.indices.iter().map(|i| base + i);
+        if let Some(splits) = &mut self.alpha_splits {
+            splits.add(instance, indices.clone(), masked);
+        }
         self.all.extend(indices.clone());
         if instance.casts_shadow {
             self.casters.extend(indices.clone());
@@ -283,6 +346,29 @@ impl Baked {
         }
         if instance.receives_shadow {
             self.receivers.extend(indices);
+        }
+    }
+}
+
+impl AlphaSplits {
+    /// Adds `instance`'s triangles to the part (`masked` or opaque) of each list it belongs to.
+    fn add(
+        &mut self,
+        instance: &Instance,
+        indices: impl Iterator<Item = u32> + Clone,
+        masked: bool,
+    ) {
+        if instance.casts_shadow {
+            self.casters.part(masked).extend(indices.clone());
+            let own = if instance.dynamic {
+                &mut self.dynamic_casters
+            } else {
+                &mut self.static_casters
+            };
+            own.part(masked).extend(indices.clone());
+        }
+        if instance.receives_shadow {
+            self.receivers.part(masked).extend(indices);
         }
     }
 }
@@ -307,13 +393,17 @@ impl SceneGpu {
     /// Uploads a scene. Instances are baked into world space (one vertex buffer, no per-draw state).
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Self {
         puffin::profile_function!();
-        let mut baked = Baked::new(crate::material_gpu::needed(scene));
+        let mut baked = Baked::new(
+            crate::material_gpu::needed(scene),
+            scene.has_masked_instances(),
+        );
         for instance in &scene.instances {
             if let Some(mesh) = scene.meshes.get(instance.mesh) {
                 let albedo = scene
                     .material_of(instance)
                     .map_or(instance.albedo, |m| m.base_color.truncate());
-                baked.add(instance, mesh, albedo);
+                let masked = scene.alpha_cutoff_of(instance).is_some();
+                baked.add(instance, mesh, albedo, masked);
             }
         }
         let materials = baked
@@ -328,6 +418,7 @@ impl SceneGpu {
             static_casters,
             dynamic_casters,
             receivers,
+            alpha_splits,
             bounds,
             caster_bounds,
             receiver_bounds,
@@ -351,14 +442,20 @@ impl SceneGpu {
             },
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE | blas_input,
         });
-        let make = |label: &str, indices: &[u32]| {
-            (!indices.is_empty()).then(|| IndexList {
-                buffer: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: bytemuck::cast_slice(indices),
-                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE | blas_input,
-                }),
-                count: indices.len() as u32,
+        let usage = wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE | blas_input;
+        let list = |label: &str, indices: &[u32]| IndexList::upload(gpu, label, indices, usage);
+        let split = |label: &str, part: Option<&SplitIndices>| {
+            part.map(|p| {
+                let opaque = IndexList::upload(gpu, &format!("{label} (opaque)"), &p.opaque, usage);
+                let masked = IndexList::upload(gpu, &format!("{label} (masked)"), &p.masked, usage);
+                Box::new(AlphaSplit { opaque, masked })
+            })
+        };
+        let splits = alpha_splits.as_ref();
+        let make = |label: &str, indices: &[u32], part: Option<&SplitIndices>| {
+            list(label, indices).map(|l| IndexList {
+                alpha_split: split(label, part),
+                ..l
             })
         };
         Self {
@@ -370,11 +467,27 @@ impl SceneGpu {
             triangle_count: all.len() / 3,
             caster_triangle_count: casters.len() / 3,
             materials,
-            all: make("scene indices (all)", &all),
-            casters: make("scene indices (casters)", &casters),
-            static_casters: make("scene indices (static casters)", &static_casters),
-            dynamic_casters: make("scene indices (dynamic casters)", &dynamic_casters),
-            receivers: make("scene indices (receivers)", &receivers),
+            all: list("scene indices (all)", &all),
+            casters: make(
+                "scene indices (casters)",
+                &casters,
+                splits.map(|s| &s.casters),
+            ),
+            static_casters: make(
+                "scene indices (static casters)",
+                &static_casters,
+                splits.map(|s| &s.static_casters),
+            ),
+            dynamic_casters: make(
+                "scene indices (dynamic casters)",
+                &dynamic_casters,
+                splits.map(|s| &s.dynamic_casters),
+            ),
+            receivers: make(
+                "scene indices (receivers)",
+                &receivers,
+                splits.map(|s| &s.receivers),
+            ),
             bounds,
             caster_bounds,
             static_bounds,

@@ -465,26 +465,25 @@ impl DepthMapRenderer {
         target: &wgpu::TextureView,
     ) {
         // A masked caster (or, for the receiver map, a masked receiver) takes the alpha-tested
-        // variant; every other scene the plain pipeline, as before materials existed.
+        // variant for the masked triangles; every other scene the plain pipeline, as before
+        // materials existed.
         let masked = scene.materials.as_ref().filter(|m| match draw {
             CasterDraw::ReceiversOnly => m.masked,
             _ => m.masked_casters,
         });
-        let variant = masked.and_then(|m| Some((self.masked(frame.gpu)?, m)));
-        let (pipeline, material) = match variant {
-            Some((pipelines, m)) => (&pipelines.pipelines[draw.index()], Some(m)),
-            None => (self.pipeline(&frame.gpu.device, draw), None),
+        let plain = DepthDraw {
+            pipeline: self.pipeline(&frame.gpu.device, draw),
+            peel_group: None,
+            material: None,
         };
-        self.record_pass(
-            frame,
-            label,
-            scene,
-            list,
-            pipeline,
-            (None, material),
-            (slot, draw.clear()),
-            target,
-        );
+        let variant = masked.and_then(|m| Some((self.masked(frame.gpu)?, m)));
+        let alpha_tested = variant.map(|(pipelines, m)| DepthDraw {
+            pipeline: &pipelines.pipelines[draw.index()],
+            peel_group: None,
+            material: Some(m),
+        });
+        let draws = depth_draws(list, plain, alpha_tested);
+        self.record_pass(frame, label, scene, &draws, (slot, draw.clear()), target);
     }
 
     /// One depth-peeling pass (Schwarz & Stamminger 2007, section 3.2) of the casters into
@@ -501,43 +500,41 @@ impl DepthMapRenderer {
         previous: &wgpu::TextureView,
         target: &wgpu::TextureView,
     ) {
+        let (group, pipeline) = self.peel.get_or_init(|| self.make_peel(frame.gpu));
+        let plain_group = group.bind(frame.gpu, &[peel_view.into(), previous.into()]);
+        let plain = DepthDraw {
+            pipeline,
+            peel_group: Some(&plain_group),
+            material: None,
+        };
         let masked = scene.materials.as_ref().filter(|m| m.masked_casters);
         let variant = masked.and_then(|m| Some((self.masked(frame.gpu)?, m)));
-        let (group, pipeline, material) = match variant {
-            Some((p, m)) => (&p.peel_group, &p.peel, Some(m)),
-            None => {
-                let (group, pipeline) = self.peel.get_or_init(|| self.make_peel(frame.gpu));
-                (group, pipeline, None)
-            }
-        };
-        let peel_group = group.bind(frame.gpu, &[peel_view.into(), previous.into()]);
-        let casters = scene.casters.as_ref();
+        let masked_group = variant.map(|(p, _)| {
+            p.peel_group
+                .bind(frame.gpu, &[peel_view.into(), previous.into()])
+        });
+        let alpha_tested = variant
+            .zip(masked_group.as_ref())
+            .map(|((p, m), group)| DepthDraw {
+                pipeline: &p.peel,
+                peel_group: Some(group),
+                material: Some(m),
+            });
+        let draws = depth_draws(scene.casters.as_ref(), plain, alpha_tested);
         let clear = CasterDraw::Nearest.clear();
-        let groups = (Some(&peel_group), material);
-        self.record_pass(
-            frame,
-            label,
-            scene,
-            casters,
-            pipeline,
-            groups,
-            (slot, clear),
-            target,
-        );
+        self.record_pass(frame, label, scene, &draws, (slot, clear), target);
     }
 
-    /// Records one depth pass: `list` drawn with `pipeline` into `target` cleared to the
-    /// `(slot, clear)` pair's depth, through view slot `slot`, with `extra` as group 1 and, for
-    /// the alpha-tested variants, the material group as group 2 and its vertices in slot 1.
-    #[allow(clippy::too_many_arguments)]
+    /// Records one depth pass into `target` cleared to the `(slot, clear)` pair's depth: each
+    /// of `draws` through view slot `slot`, with its peeling group as group 1 and, for the
+    /// alpha-tested pipelines, the material group as group 2 and its vertices in slot 1. No
+    /// draw (no casters) leaves `target` cleared.
     fn record_pass(
         &self,
         frame: &mut Frame<'_>,
         label: &str,
         scene: &SceneGpu,
-        list: Option<&IndexList>,
-        pipeline: &wgpu::RenderPipeline,
-        (extra, material): (Option<&wgpu::BindGroup>, Option<&MaterialGpu>),
+        draws: &[(&IndexList, DepthDraw<'_>)],
         (slot, clear): (u32, f32),
         target: &wgpu::TextureView,
     ) {
@@ -557,22 +554,55 @@ impl DepthMapRenderer {
             multiview_mask: None,
         };
         frame.render_pass(label, desc, |pass| {
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
-            if let Some(extra) = extra {
-                pass.set_bind_group(1, extra, &[]);
-            }
-            if let Some(material) = material {
-                let group = crate::material_gpu::DEPTH_MATERIAL_GROUP;
-                pass.set_bind_group(group, material.group(), &[]);
-                pass.set_vertex_buffer(1, material.vertices.slice(..));
-            }
-            if let Some(list) = list {
+            for (list, draw) in draws {
+                pass.set_pipeline(draw.pipeline);
+                pass.set_bind_group(0, &self.bind_group, &[slot * SLOT as u32]);
+                if let Some(group) = draw.peel_group {
+                    pass.set_bind_group(1, group, &[]);
+                }
+                if let Some(material) = draw.material {
+                    let group = crate::material_gpu::DEPTH_MATERIAL_GROUP;
+                    pass.set_bind_group(group, material.group(), &[]);
+                    pass.set_vertex_buffer(1, material.vertices.slice(..));
+                }
                 pass.set_vertex_buffer(0, scene.vertices.slice(..));
                 pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
                 pass.draw_indexed(0..list.count, 0, 0..1);
             }
         });
+    }
+}
+
+/// How one part of a depth pass is drawn: its pipeline, the peeling group (group 1) and, for
+/// the alpha-tested pipelines, the material (group 2, vertex slot 1).
+#[derive(Clone, Copy)]
+struct DepthDraw<'a> {
+    pipeline: &'a wgpu::RenderPipeline,
+    peel_group: Option<&'a wgpu::BindGroup>,
+    material: Option<&'a MaterialGpu>,
+}
+
+/// The draws of one depth pass over `list`: all of it with `plain` when there is no
+/// `alpha_tested` variant; else its opaque triangles with `plain` and only the masked ones
+/// through the alpha test (a list without a split all through the alpha test).
+fn depth_draws<'a>(
+    list: Option<&'a IndexList>,
+    plain: DepthDraw<'a>,
+    alpha_tested: Option<DepthDraw<'a>>,
+) -> Vec<(&'a IndexList, DepthDraw<'a>)> {
+    let Some(list) = list else {
+        return Vec::new();
+    };
+    match (alpha_tested, list.alpha_split.as_deref()) {
+        (None, _) => vec![(list, plain)],
+        (Some(tested), None) => vec![(list, tested)],
+        (Some(tested), Some(split)) => [
+            (split.opaque.as_ref(), plain),
+            (split.masked.as_ref(), tested),
+        ]
+        .into_iter()
+        .filter_map(|(part, draw)| Some((part?, draw)))
+        .collect(),
     }
 }
 

@@ -8,6 +8,7 @@
 
 use encase::ShaderType;
 use softshadow_core::{
+    cascades::SunCascadeParams,
     pass::FullscreenPass,
     shader::ShaderSpec,
     shader_file,
@@ -41,18 +42,11 @@ pub const SHADERS: &[ShaderSpec] = &[
 softshadow_core::technique_settings! {
     /// Settings of the `hard` technique.
     pub struct HardSettings {
+        ..sun: SunCascadeParams;
         /// Shadow-map edge in texels
         shadow_map_size: u32 = 1024, in 64..=4096;
         /// Depth bias in texel footprints at the receiver (scaled by 1/cos on slopes)
         bias_texels: f32 = 1.5, in 0.0..=16.0;
-        /// The sun: cascaded maps over the camera's depth range (1 = one map fitted to the scene)
-        cascades: u32 = 4, in 1..=4;
-        /// The sun: split scheme, 0 uniform to 1 logarithmic (lambda of Zhang et al.'s practical split scheme)
-        cascade_lambda: f32 = 0.75, in 0.0..=1.0;
-        /// The sun: fraction of each cascade blended into the next at its far end
-        cascade_blend: f32 = 0.125, in 0.0..=0.5;
-        /// The sun: snap each cascade's window to whole texels (no crawling edges as the camera moves)
-        cascade_snap: bool = true;
     }
 }
 

@@ -3,9 +3,8 @@
 //! pixel in its cascade (`shaders/hard/sun.wgsl`).
 
 use softshadow_core::{
-    cascades::{CascadeSettings, SunCascades},
-    pass::FullscreenPass,
-    wgpu, Frame, Gpu, ShadowInputs, TechniqueError, TechniqueStats, VisibilityBuffer,
+    cascades::SunCascades, pass::FullscreenPass, wgpu, Frame, Gpu, ShadowInputs, TechniqueError,
+    TechniqueStats, VisibilityBuffer,
 };
 
 use crate::{HardSettings, SHADERS};
@@ -14,19 +13,6 @@ use crate::{HardSettings, SHADERS};
 pub(crate) struct HardSun {
     cascades: SunCascades,
     lookup: FullscreenPass,
-}
-
-impl HardSettings {
-    /// The cascades these settings ask for.
-    pub fn cascade_settings(&self) -> CascadeSettings {
-        CascadeSettings {
-            count: self.cascades,
-            lambda: self.cascade_lambda,
-            blend: self.cascade_blend,
-            snap: self.cascade_snap,
-            ..CascadeSettings::default()
-        }
-    }
 }
 
 impl HardSun {
@@ -50,7 +36,7 @@ impl HardSun {
         out: &VisibilityBuffer,
     ) -> Result<TechniqueStats, TechniqueError> {
         let size = settings.shadow_map_size;
-        let cascade_settings = settings.cascade_settings();
+        let cascade_settings = settings.sun.settings();
         let Some(fit) =
             (self.cascades).render(frame, inputs, &cascade_settings, size, "hard/shadow_map")
         else {
@@ -67,35 +53,10 @@ impl HardSun {
             &out.view,
             Some(1.0),
         );
-        let maps = fit.cascades.len() as f64;
-        let mut stats = TechniqueStats::from([
-            ("shadow_maps".into(), maps),
-            ("shadow_map_texels".into(), maps * (size as f64).powi(2)),
-        ]);
-        for (i, c) in fit.cascades.iter().enumerate() {
-            stats.insert(format!("cascade{i}_texel_m"), c.texel_world as f64);
-            stats.insert(format!("cascade{i}_far_m"), c.split_far as f64);
-        }
-        Ok(stats)
+        Ok(fit.stats(size))
     }
 
     pub(crate) fn invalidate(&mut self) {
         self.cascades.invalidate();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use softshadow_core::cascades::CASCADE_PARAMS;
-
-    use super::*;
-
-    /// The viewer shows the cascades' parameters under the sun only, by these names.
-    #[test]
-    fn the_cascade_parameters_are_the_ones_core_names() {
-        let specs = HardSettings::param_specs();
-        for name in CASCADE_PARAMS {
-            assert!(specs.iter().any(|s| s.name == name), "{name}");
-        }
     }
 }

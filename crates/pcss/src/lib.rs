@@ -15,6 +15,7 @@
 
 use encase::ShaderType;
 use softshadow_core::{
+    cascades::SunCascadeParams,
     gbuffer::create_texture,
     glam::Mat4,
     pass::{ComputePass, FullscreenPass, Pass, Slot},
@@ -76,6 +77,7 @@ softshadow_core::param_choice! {
 softshadow_core::technique_settings! {
     /// Settings of PCSS. Defaults follow common engine practice (16 blocker, 32 filter samples).
     pub struct PcssSettings {
+        ..sun: SunCascadeParams;
         /// Shadow-map edge in texels
         shadow_map_size: u32 = 1024, in 64..=4096;
         /// Samples of the blocker search
@@ -94,14 +96,6 @@ softshadow_core::technique_settings! {
         max_history: u32 = 16, in 1..=256;
         /// Temporal mode: the history is clipped to this frame's 3x3 mean +- this many standard deviations
         clamp_sigma: f32 = 1.0, in 0.0..=16.0;
-        /// The sun: cascaded maps over the camera's depth range (1 = one map fitted to the scene)
-        cascades: u32 = 4, in 1..=4;
-        /// The sun: split scheme, 0 uniform to 1 logarithmic (lambda of Zhang et al.'s practical split scheme)
-        cascade_lambda: f32 = 0.75, in 0.0..=1.0;
-        /// The sun: fraction of each cascade blended into the next at its far end
-        cascade_blend: f32 = 0.125, in 0.0..=0.5;
-        /// The sun: snap each cascade's window to whole texels (no crawling edges as the camera moves)
-        cascade_snap: bool = true;
     }
 }
 

@@ -3,10 +3,8 @@
 //! (`shaders/pcss/sun.wgsl`), so the penumbra keeps its width across cascade boundaries.
 
 use softshadow_core::{
-    cascades::{CascadeSettings, SunCascades},
-    pass::FullscreenPass,
-    shader::DefValue,
-    wgpu, Frame, Gpu, ShadowInputs, TechniqueError, TechniqueStats, VisibilityBuffer,
+    cascades::SunCascades, pass::FullscreenPass, shader::DefValue, wgpu, Frame, Gpu, ShadowInputs,
+    TechniqueError, TechniqueStats, VisibilityBuffer,
 };
 
 use crate::{Kernel, PcssSettings, SHADERS};
@@ -16,19 +14,6 @@ pub(crate) struct PcssSun {
     cascades: SunCascades,
     filter_vogel: FullscreenPass,
     filter_grid: FullscreenPass,
-}
-
-impl PcssSettings {
-    /// The cascades these settings ask for.
-    pub fn cascade_settings(&self) -> CascadeSettings {
-        CascadeSettings {
-            count: self.cascades,
-            lambda: self.cascade_lambda,
-            blend: self.cascade_blend,
-            snap: self.cascade_snap,
-            ..CascadeSettings::default()
-        }
-    }
 }
 
 impl PcssSun {
@@ -57,7 +42,7 @@ impl PcssSun {
         out: &VisibilityBuffer,
     ) -> Result<TechniqueStats, TechniqueError> {
         let size = settings.shadow_map_size;
-        let cascade_settings = settings.cascade_settings();
+        let cascade_settings = settings.sun.settings();
         let Some(fit) =
             (self.cascades).render(frame, inputs, &cascade_settings, size, "pcss/shadow_map")
         else {
@@ -72,36 +57,14 @@ impl PcssSun {
         let target = &out.view;
         (self.cascades).draw_lookup(frame, pass, "pcss/filter", group, params, target, Some(1.0));
         let samples = settings.blocker_samples + settings.filter_samples;
-        let mut stats = TechniqueStats::from([
-            ("shadow_maps".into(), fit.cascades.len() as f64),
-            // Two cascades' searches and filters in the blend bands.
-            ("max_texel_reads_per_pixel".into(), 2.0 * samples as f64),
-            ("pixels".into(), inputs.width as f64 * inputs.height as f64),
-        ]);
-        for (i, c) in fit.cascades.iter().enumerate() {
-            stats.insert(format!("cascade{i}_texel_m"), c.texel_world as f64);
-            stats.insert(format!("cascade{i}_far_m"), c.split_far as f64);
-        }
+        let mut stats = fit.stats(size);
+        // Two cascades' searches and filters in the blend bands.
+        stats.insert("max_texel_reads_per_pixel".into(), 2.0 * samples as f64);
+        stats.insert("pixels".into(), inputs.width as f64 * inputs.height as f64);
         Ok(stats)
     }
 
     pub(crate) fn invalidate(&mut self) {
         self.cascades.invalidate();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use softshadow_core::cascades::CASCADE_PARAMS;
-
-    use super::*;
-
-    /// The viewer shows the cascades' parameters under the sun only, by these names.
-    #[test]
-    fn the_cascade_parameters_are_the_ones_core_names() {
-        let specs = PcssSettings::param_specs();
-        for name in CASCADE_PARAMS {
-            assert!(specs.iter().any(|s| s.name == name), "{name}");
-        }
     }
 }

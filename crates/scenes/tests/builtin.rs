@@ -378,3 +378,44 @@ fn light_in_a_builtin_spec_makes_its_light_that_kind() {
         "{e}"
     );
 }
+
+/// Each scene like those engines light has a path of its own in `assets/paths/` (docs/SCENES.md,
+/// "Builtin scenes"): it loads, passes the path checks against its scene, starts at the scene's
+/// own view, moves what it says it moves, and ends with the 0.6 s hold a lag measurement needs.
+#[test]
+fn the_engine_scenes_paths_start_at_their_view_and_end_still() {
+    use softshadow_scenes::path;
+    let assets = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/paths/");
+    for (id, file, moves_light) in [
+        ("foliage", "foliage-sun.toml", true),
+        ("fence", "fence-walk.toml", false),
+        ("atrium", "atrium-afternoon.toml", true),
+    ] {
+        let mut scene = load(id).expect(id).scene;
+        let spec = format!("{assets}{file}");
+        let made = path::resolve(&spec, &mut scene, &[]).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let start = made.pose(&scene, 0.0);
+        let end = made.pose(&scene, made.duration);
+        let near = |a: Vec3, b: Vec3| (a - b).length() < 1e-4;
+        assert!(
+            near(start.camera.eye, scene.camera.eye),
+            "{file}: starts elsewhere"
+        );
+        assert!(
+            near(start.light.center, scene.light.center),
+            "{file}: light starts elsewhere"
+        );
+        let light_moved = !near(end.light.center, scene.light.center);
+        let camera_moved = !near(end.camera.eye, scene.camera.eye);
+        assert_eq!(
+            (light_moved, camera_moved),
+            (moves_light, !moves_light),
+            "{file}"
+        );
+        let hold = made.pose(&scene, made.duration - 0.6);
+        assert!(
+            near(hold.light.center, end.light.center) && near(hold.camera.eye, end.camera.eye),
+            "{file}: must hold still for its last 0.6 s"
+        );
+    }
+}

@@ -292,6 +292,32 @@ fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
     Ok(())
 }
 
+/// Under a light the yardstick cannot sample (the sun), the viewer starts no reference and
+/// the error section says why and what measures that light, instead of "measuring" forever.
+#[test]
+fn under_the_sun_the_error_section_says_no_yardstick_runs() -> Result<()> {
+    let mut harness = harness("hard")?;
+    let mut state = harness.state().state();
+    state.light = state.light.as_kind(softshadow_core::LightKind::Sun);
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("state.json");
+    state.save(&path)?;
+    harness.state_mut().load_state(&path);
+    harness.run_steps(4);
+    let app = harness.state();
+    ensure!(app.light().kind == softshadow_core::LightKind::Sun);
+    ensure!(
+        app.reference_progress().done == 0 && app.reference_accumulations() == 0,
+        "no reference accumulates under the sun: {:?}",
+        app.reference_progress()
+    );
+    ensure!(app.errors().is_empty(), "errors: {:?}", app.errors());
+    harness
+        .query_by_label_contains("cannot sample a `sun` light")
+        .context("the error section says why no yardstick runs")?;
+    Ok(())
+}
+
 /// Steps until the reference has converged (at most 40 steps). The progress read before the
 /// first step may still be the previous reference's, so there is always one step first.
 fn run_until_converged(harness: &mut Harness<ViewerApp>) -> Result<()> {

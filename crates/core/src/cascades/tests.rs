@@ -192,3 +192,13 @@ fn the_uniform_holds_each_cascade() {
         cascades[0].view.far - cascades[0].view.near
     );
 }
+
+/// The viewer's list of cascade parameters is the shared group's.
+#[test]
+fn the_cascade_parameter_names_are_the_groups() {
+    let names: Vec<String> = SunCascadeParams::param_specs()
+        .iter()
+        .map(|s| s.name.to_string())
+        .collect();
+    assert_eq!(names, CASCADE_PARAMS);
+}

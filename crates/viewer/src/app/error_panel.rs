@@ -19,6 +19,8 @@ pub(super) struct MetricsContext {
     pub(super) pending: String,
     /// For a technique that keeps a history: what its metrics are of.
     pub(super) history_note: Option<String>,
+    /// Why no yardstick runs under the current light, if none can.
+    pub(super) refused: Option<String>,
 }
 
 impl ReferenceState {
@@ -26,6 +28,10 @@ impl ReferenceState {
     /// stale with what they wait for). Returns an error to show, if the samples were refused.
     pub(super) fn ui(&mut self, ui: &mut egui::Ui, cx: &MetricsContext) -> Option<String> {
         ui.heading("Error against the reference");
+        if let Some(why) = &cx.refused {
+            ui.colored_label(ui.visuals().warn_fg_color, no_yardstick_text(why));
+            return None;
+        }
         let p = cx.progress;
         let samples = self
             .yardstick
@@ -98,6 +104,7 @@ impl ViewerApp {
             report,
             pending: self.metrics_pending(),
             history_note: self.history_note(),
+            refused: self.reference_refusal(),
         }
     }
 
@@ -139,6 +146,15 @@ impl ViewerApp {
             )),
         }
     }
+}
+
+/// What the error section says under a light no yardstick samples: why, and what measures it.
+pub(super) fn no_yardstick_text(why: &str) -> String {
+    format!(
+        "no metrics here: {why}. The timeline's error against the exact answer \
+         (a path's steps, ray-traced or ray cast for every light kind) measures it; \
+         `workbench bench` does too"
+    )
 }
 
 fn metrics_grid(ui: &mut egui::Ui, report: &ErrorReport) {

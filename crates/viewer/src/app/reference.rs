@@ -106,6 +106,9 @@ impl ViewerApp {
     /// whole light until done).
     pub(super) fn render_reference(&mut self) {
         puffin::profile_function!();
+        if self.reference_refusal().is_some() {
+            return; // No yardstick for this light kind: the error panel says so.
+        }
         let key = self.current_reference_key();
         let Some(r) = self.image.renderers.as_ref() else {
             return;
@@ -227,6 +230,17 @@ impl ViewerApp {
                 self.report_error(format!("reference failed: {e}"));
             }
         }
+    }
+
+    /// Why no yardstick can measure the current light (the reference technique does not sample
+    /// its kind: `softshadow_reference::info().light_kinds`), or `None` where it can.
+    pub(super) fn reference_refusal(&self) -> Option<String> {
+        let kind = self.scene.light.kind;
+        let info = softshadow_reference::info();
+        let why = info.light_kinds.why_not(kind)?;
+        Some(format!(
+            "the yardstick `reference` cannot sample a `{kind}` light: {why}"
+        ))
     }
 
     /// The progress of the reference of the current inputs: none done while the reference
