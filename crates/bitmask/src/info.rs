@@ -4,7 +4,8 @@
 use softshadow_core::{
     cost::rates::{HIERARCHY_TEXEL, LAYER_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, MinLimits, Requirements, TechniqueInfo,
+    Cost, CostModel, Expectations, LightKind, LightSupport, MinLimits, Requirements,
+    TechniqueInfo,
 };
 
 use crate::{Bitmask, BitmaskSettings, ID, SHADERS};
@@ -20,6 +21,12 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(requirements())
     .with_shaders(SHADERS)
+    // A disk, sphere or spot: the pattern's samples inside the disk inscribed in its square
+    // (gather.wgsl, `disk_bits`); a sphere as its disk in the light plane.
+    .with_light_kinds(LightSupport::all().except(
+        LightKind::Sun,
+        "its micro-patches are backprojected through a point onto a light plane at a finite distance; the sun is a cone of directions at infinity",
+    ))
     .with_cost(CostModel::new(
         &["shadow_map_size", "layers", "max_patches", "filter_passes"],
         |q| {

@@ -19,6 +19,8 @@
 // entry points' bodies are the shared gather pass's (softshadow::gather_pass, GATHER_LAYERS = 4).
 #import softshadow::gather::Gather
 #import softshadow::gather_pass::{PixelResult, gather_pixels, gather_coarse_pixels, params}
+#import softshadow::frame::light_kind
+#import softshadow::light::LIGHT_RECT
 
 // Words of the occlusion bitmask: 2 (8x8), 8 (16x16, 16x16-jittered) or 32 (32x32). One pipeline
 // per size keeps the small masks in few registers (paper sec. 6).
@@ -190,13 +192,41 @@ fn set_bits() -> u32 {
     return n;
 }
 
+// Under a disk, sphere or spot light (half_light = (r, r)): the pattern's samples inside the
+// disk inscribed in its square, row by row (row r's chord |x| <= sqrt(1 - y^2) in units of r, as
+// sample cells), and how many of them are set. A sphere is its disk in the light plane, as for
+// every shadow-map technique here (docs/TECHNIQUES.md, `bitmask`, "Round lights").
+fn disk_bits() -> vec2<u32> {
+    var covered = 0u;
+    var inside = 0u;
+    let columns = params.columns;
+    for (var r = 0u; r < params.rows; r = r + 1u) {
+        let y = (f32(r) + 0.5) / f32(params.rows) * 2.0 - 1.0;
+        let half_chord = sqrt(max(1.0 - y * y, 0.0)) * 0.5 * f32(columns);
+        let centre = 0.5 * f32(columns);
+        let chord = row_bits(centre - half_chord, centre + half_chord, row_offset(r));
+        let first = r * columns;
+        let row_mask = bit_range(0, i32(columns) - 1);
+        let row = (acc.mask[first / 32u] >> (first % 32u)) & row_mask;
+        covered += countOneBits(row & chord);
+        inside += countOneBits(chord);
+    }
+    return vec2<u32>(covered, max(inside, 1u));
+}
+
 override fn softshadow::gather_pass::finish_pixel(r0: PixelResult, half_light: vec2<f32>, area: f32) -> PixelResult {
     // V = 1 - set bits / samples (sec. 3); the area estimate from the summed rectangles (`acc`:
     // `area`, the sum of what cover_rect returned, is 0).
     var r = r0;
-    let samples = params.rows * params.columns;
-    r.set_bits = set_bits();
-    r.v = 1.0 - f32(r.set_bits) / f32(samples);
+    if light_kind() == LIGHT_RECT {
+        let samples = params.rows * params.columns;
+        r.set_bits = set_bits();
+        r.v = 1.0 - f32(r.set_bits) / f32(samples);
+    } else {
+        let bits = disk_bits();
+        r.set_bits = bits.x;
+        r.v = 1.0 - f32(bits.x) / f32(bits.y);
+    }
     let light_area = 4.0 * half_light.x * half_light.y;
     r.area_v = 1.0 - acc.area / light_area;
     if !(r.v >= 0.0 && r.v <= 1.0) {
