@@ -4,7 +4,7 @@
 use softshadow_core::{
     cost::rates::{DEPTH_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, TechniqueInfo,
+    Cost, CostModel, Expectations, LightKind, LightSupport, TechniqueInfo,
 };
 
 use crate::{Adaptive, AdaptiveSettings, ID, SHADERS};
@@ -20,6 +20,12 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(Adaptive::requirements_static())
     .with_shaders(SHADERS)
+    // A disk, sphere or spot: the sample lattice carried onto the disk by the concentric map
+    // (`light_point`); a sphere as its disk in the light plane.
+    .with_light_kinds(LightSupport::all().except(
+        LightKind::Sun,
+        "its depth maps are perspective views from points of a light plane at a finite distance; the sun needs orthographic maps over its cone of directions",
+    ))
     .with_cost(CostModel::new(
         &["shadow_map_size", "max_shadow_maps", "max_depth"],
         |q| {

@@ -32,6 +32,7 @@ use encase::ShaderType;
 use refine::{Cell, Layout, SampleKey, Shape};
 use softshadow_core::{
     glam::{UVec4, Vec2, Vec4},
+    light_shape::concentric_disk,
     pass::{FullscreenPass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
@@ -40,11 +41,24 @@ use softshadow_core::{
         ShadowViewUniform,
     },
     uniform::{storage_bytes, uniform_bytes, uniform_size, zeroed_uniform_buffer},
-    wgpu, DebugLegend, DebugView, Frame, Gpu, GpuError, Requirements, ShadowInputs,
-    ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, AreaLight, DebugLegend, DebugView, Frame, Gpu, GpuError, LightKind, Requirements,
+    ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
+    VisibilityBuffer,
 };
 
 pub use refine::{Start, Weighting};
+
+/// Light-space position of sample `key`: on the rectangle the layout's lattice point; on a disk,
+/// sphere (its disk in the light plane) or spot the same point carried onto the disk by the
+/// concentric map, which keeps areas, so the cells' weights (eq. 5 / 6) still hold
+/// (docs/LIGHTS.md, "Round lights in the seed techniques").
+fn light_point(light: &AreaLight, layout: &Layout, key: SampleKey) -> Vec2 {
+    if light.kind == LightKind::Rect {
+        return layout.position(key, light.half_extent());
+    }
+    let unit = layout.position(key, Vec2::splat(0.5)) + Vec2::splat(0.5);
+    concentric_disk(unit) * light.radius
+}
 
 mod info;
 pub use info::info;
@@ -491,7 +505,6 @@ impl Maps<'_> {
         layout: &Layout,
         keys: &[SampleKey],
     ) -> Result<(), TechniqueError> {
-        let half = inputs.light.half_extent();
         let mut new = Vec::new();
         for key in keys {
             if !self.used.insert(*key) {
@@ -518,7 +531,7 @@ impl Maps<'_> {
                 })?;
             self.store.layers.retain(|_, l| *l != layer);
             self.store.layers.insert(*key, layer);
-            let eye = layout.position(*key, half);
+            let eye = light_point(inputs.light, layout, *key);
             self.store.layer_uniforms[layer as usize] = sample_view(inputs, eye, self.store.size)?;
             new.push(layer);
         }
@@ -875,7 +888,6 @@ impl Adaptive {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         let weights = layout.weights(leaves, self.settings.weights);
-        let half = inputs.light.half_extent();
         let terms: Vec<[u32; 4]> = weights
             .iter()
             .map(|(key, w)| [store.layers[key], (*w as f32).to_bits(), 0, 0])
@@ -883,7 +895,7 @@ impl Adaptive {
         self.report.maps_used = terms.len() as u32;
         self.report.samples = weights
             .iter()
-            .map(|(key, w)| (layout.position(*key, half), *w))
+            .map(|(key, w)| (light_point(inputs.light, layout, *key), *w))
             .collect();
         let count = terms.len() as u32;
         gpu.queue

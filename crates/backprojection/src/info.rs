@@ -4,7 +4,7 @@
 use softshadow_core::{
     cost::rates::{HIERARCHY_TEXEL, LAYER_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, MinLimits, Requirements, TechniqueInfo,
+    Cost, CostModel, Expectations, LightKind, LightSupport, MinLimits, Requirements, TechniqueInfo,
 };
 
 use crate::{Backprojection, BackprojectionSettings, ID, SHADERS};
@@ -25,6 +25,12 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(requirements())
     .with_shaders(SHADERS)
+    // A disk, sphere or spot: each micro-patch's area inside the disk in closed form
+    // (`rect_disk_area`, common/light.wgsl), over pi r^2; a sphere as its disk in the light plane.
+    .with_light_kinds(LightSupport::all().except(
+        LightKind::Sun,
+        "its micro-patches are backprojected through a point onto a light plane at a finite distance; the sun is a cone of directions at infinity",
+    ))
     .with_cost(CostModel::new(&["shadow_map_size", "max_patches"], |q| {
         let side = q.number("shadow_map_size").max(1.0).log2().ceil().exp2();
         let levels = side.max(2.0).log2().ceil();

@@ -40,7 +40,7 @@
 //!   its median error over the scenes.
 //! - `settled FILE`: runs of techniques that accumulate over frames: first-frame and settled
 //!   error and frame time.
-//! - `motion FILE scene=SCENE`: runs along paths (docs/BENCHMARKS.md "Motion"), one row per
+//! - `motion FILE scene=SCENE`: runs along paths (docs/MOTION.md), one row per
 //!   technique and settings, per path its mean error, mean flicker, lag (where a run has one)
 //!   and the median frame time of the frames the path is about (light moving, else camera only,
 //!   else still) over the cost floor's on the same path.

@@ -105,8 +105,7 @@ pub struct RunSpec {
     pub params: Vec<(String, ParamValue)>,
     pub width: u32,
     pub height: u32,
-    /// The path this run follows (`bench --path`, a sweep's `path` or `paths`; docs/BENCHMARKS.md
-    /// "Motion"); `None`: [`BenchOptions::path`], and without that a still frame.
+    /// The path this run follows (`bench --path`, a sweep's `path` or `paths`; docs/MOTION.md); `None`: [`BenchOptions::path`], and without that a still frame.
     pub path: Option<String>,
 }
 

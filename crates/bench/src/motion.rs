@@ -2,7 +2,7 @@
 //! [`softshadow_scenes::path::Path`] and rendered at fixed time steps as a user's renderer would,
 //! one technique instance carried from frame to frame (its caches kept where it keeps them, its
 //! `FrameChanges` what the renderer finds changed), every frame measured against that frame's
-//! exact answer. Definitions of the measures in docs/BENCHMARKS.md, "Motion".
+//! exact answer. Definitions of the measures in docs/MOTION.md.
 //!
 //! Memory stays bounded however long the path: a frame's images are compared, streamed to disk
 //! (one JSON line per frame, one animated-PNG frame) and dropped; only the previous frame's

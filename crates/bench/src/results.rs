@@ -206,7 +206,7 @@ pub struct Run {
     pub reference_cache: Option<crate::reference_cache::ReferenceCacheUse>,
     pub error: Option<ErrorFields>,
     pub stability: Option<Stability>,
-    /// Flicker on a still frame (docs/BENCHMARKS.md, "Motion"): the mean over receiver pixels of
+    /// Flicker on a still frame (docs/MOTION.md): the mean over receiver pixels of
     /// |V_next - V_last| between the run's last frame and one more frame in which nothing
     /// changed (caches kept, as a renderer's next frame). 0 for a deterministic technique; the
     /// per-frame noise of one that changes its answer every frame (`varies_per_frame`), or the
@@ -226,7 +226,7 @@ pub struct Run {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub expectation: Option<crate::expectations::Verdict>,
     /// A run along a path (`bench --path`): per-frame error against each frame's exact answer,
-    /// flicker, lag and frame times (docs/BENCHMARKS.md, "Motion"). Such a run has no
+    /// flicker, lag and frame times (docs/MOTION.md). Such a run has no
     /// still-frame `error`; its `timing` covers every frame of the path.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<Motion>,
@@ -330,7 +330,7 @@ pub struct Settled {
     pub vs_exact: Option<ErrorReport>,
 }
 
-/// What a run along a path measured (docs/BENCHMARKS.md, "Motion").
+/// What a run along a path measured (docs/MOTION.md).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Motion {
     /// The path as given (`orbit`, `light-sweep`, `object-move`, `still`, a name a scene file
@@ -383,8 +383,7 @@ pub struct Motion {
     pub video_quality: Option<VideoQuality>,
 }
 
-/// The perceptual video metric of a run along a path (`video_metric`; docs/BENCHMARKS.md,
-/// "Motion").
+/// The perceptual video metric of a run along a path (`video_metric`; docs/MOTION.md).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct VideoQuality {
     /// The metric and the crate version that computed it.
@@ -423,7 +422,7 @@ impl SeriesSummary {
     }
 }
 
-/// Lag of a run along a path (docs/BENCHMARKS.md, "Motion").
+/// Lag of a run along a path (docs/MOTION.md).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Lag {
     /// The last frame in which anything moved.

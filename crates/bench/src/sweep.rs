@@ -61,7 +61,7 @@ struct SweepFile {
     /// The keys and defaults of a scene file's `[light]` (docs/SCENES.md).
     #[serde(default)]
     light: Option<LightDef>,
-    /// Render every run along this path (`bench --path`, docs/BENCHMARKS.md "Motion").
+    /// Render every run along this path (`bench --path`, docs/MOTION.md).
     #[serde(default)]
     path: Option<String>,
     /// Render every run along each of these paths (the runs multiply; not with `path`).

@@ -1,7 +1,7 @@
 //! A perceptual video metric beside the plain motion measures (never instead of them): the
 //! ColorVideoVDP score (Mantiuk et al. 2024, base model v0.5.7, through the `colorvideovdp`
 //! crate) of a run's sequence of visibility images against its sequence of exact answers, both
-//! shown as grey-level video on a stated display (docs/BENCHMARKS.md, "Motion").
+//! shown as grey-level video on a stated display (docs/MOTION.md).
 //!
 //! The metric needs the whole sequence at once (its temporal filters run over all frames), so
 //! a run keeps every frame's visibility and exact answer as 8-bit grey (what a display shows)

@@ -4,8 +4,7 @@
 use softshadow_core::{
     cost::rates::{HIERARCHY_TEXEL, LAYER_TEXEL, PIXEL_ITERATION},
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, LightKind, LightSupport, MinLimits, Requirements,
-    TechniqueInfo,
+    Cost, CostModel, Expectations, LightKind, LightSupport, MinLimits, Requirements, TechniqueInfo,
 };
 
 use crate::{Bitmask, BitmaskSettings, ID, SHADERS};

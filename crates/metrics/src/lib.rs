@@ -607,7 +607,7 @@ fn difference_colour(d: f32) -> [u8; 3] {
 /// does not. It is 0 for an exact technique and for one whose error stays the same from frame to
 /// frame, whatever its size; a technique that adds noise of standard deviation `s`, drawn anew each
 /// frame and independent between frames, gets about `2 s / sqrt(pi)` (the mean of `|N(0, 2 s²)|`).
-/// Defined in docs/BENCHMARKS.md ("Motion").
+/// Defined in docs/MOTION.md.
 ///
 /// A non-finite technique value in either frame scores the worst change, `1.0`, at its pixel.
 ///

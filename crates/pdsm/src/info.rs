@@ -4,7 +4,7 @@
 use softshadow_core::{
     cost::rates::DEPTH_TEXEL,
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, CostQuery, Expectations, TechniqueInfo,
+    Cost, CostModel, CostQuery, Expectations, LightKind, LightSupport, TechniqueInfo,
 };
 
 use crate::{estimate_bytes, Pdsm, PdsmSettings, ID, READBACK_BATCH_BYTES, SHADERS};
@@ -33,6 +33,12 @@ pub fn info() -> TechniqueInfo {
         |gpu| Ok(Box::new(Pdsm::new(gpu, PdsmSettings::default())?)),
     )
     .with_shaders(SHADERS)
+    // A disk, sphere or spot: the eyes stratified on the disk (`light_eyes`: the concentric map);
+    // a sphere as its disk in the light plane.
+    .with_light_kinds(LightSupport::all().except(
+        LightKind::Sun,
+        "its depth maps are perspective views from points of a light plane at a finite distance; the sun needs orthographic maps over its cone of directions",
+    ))
     .with_cost(CostModel::new(
         &["samples", "shadow_map_size", "pdsm_size", "dynamic_map_size"],
         estimate,

@@ -36,6 +36,7 @@ use softshadow_core::{
     background::BackgroundJob,
     fullscreen::{FullscreenPipeline, STENCIL_FORMAT},
     glam::{Vec2, Vec3, Vec4},
+    light_shape::concentric_disk,
     pass::{PassGroup, Slot},
     scene::{Aabb, Fnv1a},
     shader::{DefValue, ShaderSpec},
@@ -43,7 +44,7 @@ use softshadow_core::{
     shadow_map::{fit_caster_view, DepthMapRenderer, ShadowViewUniform, SHADOW_DEPTH_FORMAT},
     uniform::{uniform_bytes, zeroed_uniform_buffer},
     wgpu::{self, util::DeviceExt},
-    AreaLight, BuildControl, DebugLegend, DebugView, Frame, Gpu, GpuError, ShadowInputs,
+    AreaLight, BuildControl, DebugLegend, DebugView, Frame, Gpu, GpuError, LightKind, ShadowInputs,
     ShadowTechnique, SlopeFrustum, TechniqueError, TechniqueSettings, TechniqueStats,
     VisibilityBuffer,
 };
@@ -240,6 +241,23 @@ fn technique_error(message: String) -> TechniqueError {
         technique: ID.into(),
         message,
     }
+}
+
+/// `samples` points on the light (light-space x, y): [`stratified_samples`] on the rectangle; on
+/// a disk, sphere (its disk in the light plane) or spot, the same strata carried onto the disk by
+/// the concentric map, which keeps areas, so each point still stands for an equal share of the
+/// light (docs/LIGHTS.md, "Round lights in the seed techniques").
+pub fn light_eyes(samples: u32, light: &AreaLight) -> Vec<Vec2> {
+    let half = light.half_extent();
+    let points = stratified_samples(samples, half);
+    if light.kind == LightKind::Rect || light.radius <= 0.0 {
+        return points;
+    }
+    let to_unit = |p: Vec2| (p / half + Vec2::ONE) * 0.5;
+    points
+        .into_iter()
+        .map(|p| concentric_disk(to_unit(p)) * light.radius)
+        .collect()
 }
 
 /// `samples` points on the light rectangle (light-space x, y), one per cell of equal area: rows
@@ -626,6 +644,11 @@ impl Pdsm {
         h.write_f32s(&light.direction.to_array());
         h.write_f32s(&light.up.to_array());
         h.write_f32s(&[light.width, light.height]);
+        if light.kind != LightKind::Rect {
+            // Under the rectangle the key is as it was before light kinds (kept caches load).
+            h.write_u64(light.kind as u64);
+            h.write_f32s(&[light.radius]);
+        }
         let s = &self.settings;
         h.write_u64(s.samples as u64);
         h.write_u64(s.pdsm_size as u64);
@@ -909,7 +932,7 @@ impl Pdsm {
         if scene.static_casters.is_none() {
             return empty(frustum);
         }
-        let eyes = stratified_samples(self.settings.samples, light.half_extent());
+        let eyes = light_eyes(self.settings.samples, light);
         let windows: Vec<SlopeFrustum> = eyes
             .iter()
             .filter_map(|&eye| SlopeFrustum::fit_casters(eye, &casters, crosses, &everything))

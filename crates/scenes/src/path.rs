@@ -1,5 +1,5 @@
 //! Paths: a scene animated over time, what the benchmark's motion runs render frame by frame
-//! (docs/BENCHMARKS.md, "Motion"; the format in docs/SCENES.md, "Paths").
+//! (docs/MOTION.md; the format in docs/SCENES.md, "Paths").
 //!
 //! A [`Path`] moves three things, each by keyframes over `[0, duration]` seconds (or not at all):
 //!

@@ -3,7 +3,7 @@
 
 use softshadow_core::{
     expectations::{at_most, known_failure, ErrorMetric::*, StiffClass::*},
-    Cost, CostModel, Expectations, TechniqueInfo,
+    Cost, CostModel, Expectations, LightKind, LightSupport, TechniqueInfo,
 };
 
 use crate::{requirements_for, Precision, Ssm, SsmSettings, ID, SHADERS};
@@ -24,6 +24,12 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(requirements_for(Precision::Fp32))
     .with_shaders(SHADERS)
+    // A disk, sphere or spot: each micro-patch's backprojection covers its area inside the disk
+    // (`disk_occluded_fraction`, scatter.wgsl); a sphere as its disk in the light plane.
+    .with_light_kinds(LightSupport::all().except(
+        LightKind::Sun,
+        "its micro-patches are backprojected through a point onto a light plane at a finite distance; the sun is a cone of directions at infinity",
+    ))
     .with_cost(CostModel::new(&["occluder_map_size", "ssm_size"], |q| {
         // Every occluder-map texel is a quad over its penumbra in the SSM: at worst (a light as
         // large as the scene) a large part of the SSM.

@@ -117,6 +117,9 @@ struct SsmUniform {
     ssm_depth: Vec4,
     /// a, b, bias_texels, two_pass.
     light: Vec4,
+    /// x: the radius of a disk, sphere or spot light (its disk in the light plane), 0 under the
+    /// rectangle.
+    round_light: Vec4,
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
@@ -126,20 +129,29 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
     vec![
         softshadow_core::uniform_mirror!(
             SsmUniform {
-                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light, round_light
             } => "ssm/project.wgsl", SsmParams
         ),
         softshadow_core::uniform_mirror!(
             SsmUniform {
-                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light, round_light
             } => "ssm/scatter.wgsl", SsmParams
         ),
         softshadow_core::uniform_mirror!(
             SsmUniform {
-                occluder_window, occluder_depth, ssm_window, ssm_depth, light
+                occluder_window, occluder_depth, ssm_window, ssm_depth, light, round_light
             } => "ssm/stats.wgsl", SsmParams
         ),
     ]
+}
+
+/// The radius of a disk, sphere or spot light (the scatter shader's coverage of a disk), 0 under
+/// the rectangle.
+fn round_light_radius(light: &softshadow_core::AreaLight) -> f32 {
+    match light.kind {
+        softshadow_core::LightKind::Rect => 0.0,
+        _ => light.radius,
+    }
 }
 
 /// A texture and its default view.
@@ -556,6 +568,7 @@ impl Ssm {
                 s.bias_texels,
                 if s.two_pass { 1.0 } else { 0.0 },
             ),
+            round_light: Vec4::new(round_light_radius(inputs.light), 0.0, 0.0, 0.0),
         };
         gpu.queue
             .write_buffer(&self.params_front, 0, &uniform_bytes(&params(1.0)));

@@ -173,7 +173,7 @@ struct BenchArgs {
     /// Render every run along a path: `still`, `orbit`, `light-sweep`, `object-move` (see
     /// `workbench list`), a `[[path]]` its scene file declares, or a .toml path file;
     /// measures error against every frame's exact answer, flicker, lag and frame times
-    /// (docs/BENCHMARKS.md, "Motion").
+    /// (docs/MOTION.md).
     #[arg(long, value_name = "NAME|FILE")]
     path: Option<String>,
     /// Untimed warm-up frames per run.

@@ -13,14 +13,20 @@
     PixelResult, gather_pixels, gather_coarse_pixels, params, CLASS_LIT, CLASS_UMBRA,
     CLASS_BACKPROJECTED, CLASS_UPSAMPLED,
 }
+#import softshadow::frame::light_kind
+#import softshadow::light::LIGHT_RECT
 
 // The per-pixel classification (debug view), the gather pass's binding 7.
 @group(1) @binding(7) var classification: texture_storage_2d<rgba8unorm, write>;
 
 override fn softshadow::gather_pass::finish_pixel(r0: PixelResult, half_light: vec2<f32>, area: f32) -> PixelResult {
-    // The summed light area of the micro-primitives over the light's area.
+    // The summed light area of the micro-primitives over the light's area (a round light's:
+    // pi r^2, half_light = (r, r)).
     var r = r0;
-    let light_area = 4.0 * half_light.x * half_light.y;
+    var light_area = 4.0 * half_light.x * half_light.y;
+    if light_kind() != LIGHT_RECT {
+        light_area = 3.14159265 * half_light.x * half_light.y;
+    }
     r.v = 1.0 - clamp(area / light_area, 0.0, 1.0);
     if !(r.v >= 0.0 && r.v <= 1.0) {
         // NaN guard: never write a non-finite visibility.

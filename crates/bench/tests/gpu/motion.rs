@@ -1,4 +1,4 @@
-//! Runs along paths (docs/BENCHMARKS.md, "Motion"): a still path gives no flicker, per-frame noise
+//! Runs along paths (docs/MOTION.md): a still path gives no flicker, per-frame noise
 //! of a known amplitude gives the flicker it predicts, a frame of `light-sweep` measures what the
 //! still bench measures at that light, and the camera-only frames of `orbit` keep light-space work
 //! as the still bench's camera-only frames do. Small: 64², a few frames, atty-square (closed form,

@@ -195,7 +195,7 @@ fn set_bits() -> u32 {
 // Under a disk, sphere or spot light (half_light = (r, r)): the pattern's samples inside the
 // disk inscribed in its square, row by row (row r's chord |x| <= sqrt(1 - y^2) in units of r, as
 // sample cells), and how many of them are set. A sphere is its disk in the light plane, as for
-// every shadow-map technique here (docs/TECHNIQUES.md, `bitmask`, "Round lights").
+// every shadow-map technique here (docs/LIGHTS.md, "Round lights in the seed techniques").
 fn disk_bits() -> vec2<u32> {
     var covered = 0u;
     var inside = 0u;

@@ -10,7 +10,8 @@
 // of a mask, say) and returns the light area it wants summed; the defaults return the clipped area,
 // which is what gather backprojection sums.
 
-#import softshadow::frame::{Surface, load_surface, frame, light_cosine}
+#import softshadow::frame::{Surface, load_surface, frame, light_cosine, light_kind}
+#import softshadow::light::{LIGHT_RECT, rect_disk_area}
 #import softshadow::shadow_view::{ShadowView, texel_slope, view_uv}
 #import softshadow::search_area::{
     HIERARCHY_NONE, HIERARCHY_EMPTY, Search, TexelRect, gather_level, hierarchy_block,
@@ -117,6 +118,10 @@ virtual fn emit_patch(g: Gather, lo: vec2<f32>, hi: vec2<f32>) -> f32 {
     // the light. A technique overrides it to record the patch its own way (bitmask: the light
     // samples it covers) and returns the area it wants summed.
     let a = g.half_light;
+    if light_kind() != LIGHT_RECT {
+        // A disk, sphere (its disk in the light plane) or spot: half_light = (r, r).
+        return rect_disk_area(lo, hi, a.x);
+    }
     let w = max(min(hi.x, a.x) - max(lo.x, -a.x), 0.0);
     let h = max(min(hi.y, a.y) - max(lo.y, -a.y), 0.0);
     return w * h;
@@ -125,7 +130,17 @@ virtual fn emit_patch(g: Gather, lo: vec2<f32>, hi: vec2<f32>) -> f32 {
 virtual fn emit_quad(g: Gather, top_left: vec2<f32>, top_right: vec2<f32>, bottom_left: vec2<f32>, bottom_right: vec2<f32>) -> f32 {
     // The light area of the micro-quad between four backprojected block centres (not clamped;
     // all four occlude): the vertices clamped to the light rectangle, shoelace area (bitmask
-    // paper sec. 4).
+    // paper sec. 4). Under a disk: the axis-aligned rectangle through its edge centres, as
+    // bitmask approximates a quad, inside the disk.
+    if light_kind() != LIGHT_RECT {
+        let left = 0.5 * (top_left.x + bottom_left.x);
+        let right = 0.5 * (top_right.x + bottom_right.x);
+        let top = 0.5 * (top_left.y + top_right.y);
+        let bottom = 0.5 * (bottom_left.y + bottom_right.y);
+        let lo = vec2<f32>(min(left, right), min(top, bottom));
+        let hi = vec2<f32>(max(left, right), max(top, bottom));
+        return rect_disk_area(lo, hi, g.half_light.x);
+    }
     let tl = clamp(top_left, -g.half_light, g.half_light);
     let tr = clamp(top_right, -g.half_light, g.half_light);
     let bl = clamp(bottom_left, -g.half_light, g.half_light);
@@ -516,7 +531,8 @@ fn gather_search_area(hsm: texture_2d<f32>, mssm: texture_2d_array<f32>, g0: Gat
         let lo = rect.lo >> vec2<u32>(u32(g.level));
         let hi = rect.hi >> vec2<u32>(u32(g.level));
         var count: vec2<i32>;
-        if st.visibility == VISIBILITY_CONTOUR {
+        // The contour integral clips its edges to the rectangle: a round light sums micro-primitives.
+        if st.visibility == VISIBILITY_CONTOUR && light_kind() == LIGHT_RECT {
             count = clamp(hi - lo + 1, vec2<i32>(0), vec2<i32>(st.per_axis));
             out.area += contour_area(hsm, mssm, g, lo, count);
         } else if st.primitive == PRIMITIVE_MICROQUAD {

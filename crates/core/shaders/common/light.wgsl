@@ -36,6 +36,43 @@ fn light_reaches_point(f: FrameUniforms, world: vec3<f32>, light: vec3<f32>) -> 
     return light.z > 0.0;
 }
 
+// The area of the disk of radius `r` about the origin with u <= x and v <= y: the integral over
+// u of the disk's chord below y (2 s(u) above the chord's top, y + s(u) across it, s(u) =
+// sqrt(r^2 - u^2)), in closed form from `disk_area_left`.
+fn disk_area_below_left(x: f32, y: f32, r: f32) -> f32 {
+    if y <= -r || r <= 0.0 {
+        return 0.0;
+    }
+    let xc = clamp(x, -r, r);
+    if y >= r {
+        return 2.0 * disk_area_left(xc, r);
+    }
+    let c = sqrt(max(r * r - y * y, 0.0));
+    let m = clamp(xc, -c, c);
+    let across = y * (m + c) + disk_area_left(m, r) - disk_area_left(-c, r);
+    if y < 0.0 {
+        return across;
+    }
+    let below = 2.0 * disk_area_left(min(xc, -c), r);
+    let beyond = 2.0 * (disk_area_left(max(xc, c), r) - disk_area_left(c, r));
+    return below + across + beyond;
+}
+
+// The integral of sqrt(r^2 - u^2) over [-r, x] (x in [-r, r]): half the disk's area left of x.
+fn disk_area_left(x: f32, r: f32) -> f32 {
+    let t = clamp(x / r, -1.0, 1.0);
+    return 0.5 * r * r * (t * sqrt(max(1.0 - t * t, 0.0)) + asin(t)) + 0.25 * 3.14159265 * r * r;
+}
+
+// The area of the rectangle [lo, hi] inside the disk of radius `r` about the origin: a
+// backprojected micro-patch's coverage of a disk light (docs/LIGHTS.md, "Round lights in the
+// seed techniques").
+fn rect_disk_area(lo: vec2<f32>, hi: vec2<f32>, r: f32) -> f32 {
+    let a = disk_area_below_left(hi.x, hi.y, r) - disk_area_below_left(lo.x, hi.y, r)
+        - disk_area_below_left(hi.x, lo.y, r) + disk_area_below_left(lo.x, lo.y, r);
+    return max(a, 0.0);
+}
+
 // Shirley and Chiu's concentric map of [0, 1)^2 onto the unit disk (area-preserving).
 fn concentric_disk(u: vec2<f32>) -> vec2<f32> {
     let a = 2.0 * u - vec2<f32>(1.0);

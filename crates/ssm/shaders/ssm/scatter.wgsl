@@ -22,7 +22,12 @@ struct SsmParams {
     ssm_depth: vec4<f32>,
     // a, b (light half extents), bias in texels, 1 when two occluder maps are merged.
     light: vec4<f32>,
+    // x: the radius of a disk, sphere or spot light (its disk in the light plane), 0 under
+    // the rectangle.
+    round_light: vec4<f32>,
 }
+
+#import softshadow::light::rect_disk_area
 
 @group(0) @binding(0) var<uniform> params: SsmParams;
 @group(0) @binding(1) var occluder_map: texture_depth_2d;
@@ -113,6 +118,18 @@ fn occluded_fraction(patch_rect: vec4<f32>, z_o: f32, receiver: vec2<f32>, z_r: 
     return axis_coverage(shadow.x, shadow.y, half.x) * axis_coverage(shadow.z, shadow.w, half.y);
 }
 
+// `occluded_fraction` under a disk of radius `radius` (a disk, sphere or spot light): the
+// backprojected rectangle's area inside the disk (`rect_disk_area`) over pi r^2.
+fn disk_occluded_fraction(patch_rect: vec4<f32>, z_o: f32, receiver: vec2<f32>, z_r: f32, radius: f32) -> f32 {
+    if !(z_o > 0.0 && z_o < z_r * (1.0 - CONTACT_EPSILON)) {
+        return 0.0;
+    }
+    let k = z_r * z_o / (z_r - z_o);
+    let shadow = k * (patch_rect - receiver.xxyy);
+    let area = rect_disk_area(shadow.xz, shadow.yw, radius);
+    return clamp(area / (3.14159265 * radius * radius), 0.0, 1.0);
+}
+
 // Section 3.3 in slopes: the patch grown by a (1/z_O - 1/z_far) along s and b (...) along t bounds
 // the penumbra on every receiver nearer than z_far; finite for a point light. Mirrors
 // `math::penumbra_slopes` (tested as `occluded_fraction` is).
@@ -136,7 +153,11 @@ fn fs_main(in: PatchVertex) -> @location(0) vec4<f32> {
         v.x + in.position.x * (v.y - v.x) / r,
         v.w - in.position.y * (v.w - v.z) / r,
     );
-    let fraction = occluded_fraction(in.patch_rect, in.depth, sigma, z_r, params.light.xy);
+    var fraction = occluded_fraction(in.patch_rect, in.depth, sigma, z_r, params.light.xy);
+    let radius = params.round_light.x;
+    if radius > 0.0 {
+        fraction = disk_occluded_fraction(in.patch_rect, in.depth, sigma, z_r, radius);
+    }
     if fraction <= 0.0 {
         // Nothing hidden (or the patch is not in front of this receiver): no blend, and the
         // fragment is not counted as a texel update.

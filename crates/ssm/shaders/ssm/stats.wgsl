@@ -9,6 +9,9 @@ struct SsmParams {
     ssm_window: vec4<f32>,
     ssm_depth: vec4<f32>,
     light: vec4<f32>,
+    // x: the radius of a disk, sphere or spot light (its disk in the light plane), 0 under
+    // the rectangle.
+    round_light: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: SsmParams;
