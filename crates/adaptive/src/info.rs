@@ -26,6 +26,15 @@ pub fn info() -> TechniqueInfo {
         LightKind::Sun,
         "its depth maps are perspective views from points of a light plane at a finite distance; the sun needs orthographic maps over its cone of directions",
     ))
+    // On atty-square with its light made each kind (`AreaLight::as_kind`), defaults, 64²
+    // (measured beside each; `hard` measured 0.206 rect, 0.185 disk and spot, 0.156 sphere;
+    // the sphere's floor is its disk in the light plane: the reference measures 0.0345 there).
+    .with_light_kind_bounds(&[
+        (LightKind::Rect, at_most(MaeShadowed, 0.053, 0.0338)),
+        (LightKind::Disk, at_most(MaeShadowed, 0.036, 0.0228)),
+        (LightKind::Sphere, at_most(MaeShadowed, 0.049, 0.0311)),
+        (LightKind::Spot, at_most(MaeShadowed, 0.036, 0.0228)),
+    ])
     .with_cost(CostModel::new(
         &["shadow_map_size", "max_shadow_maps", "max_depth"],
         |q| {
@@ -105,6 +114,16 @@ fn expectations() -> Expectations {
             "blob-floating:triangles=20000",
             at_most(MaeShadowed, 0.065, 0.0261),
         ),
+        // No umbra and a faint penumbra: drawing no shadow (0.0124) is as good.
+        ("stiff-disk-huge", known_failure(MaeShadowed, 0.0153, 0.002)),
+        // A sphere light half sunk in the ground, casters 0.1-0.25 under its centre: its disk in
+        // the light plane stands in for the cap each receiver sees; no shadow drawn (the all-lit answer's error).
+        (
+            "stiff-sphere-in-ground",
+            known_failure(MaeShadowed, 0.3657, 0.037),
+        ),
+        // The class rule (0.13) would accept `hard` (0.1268).
+        ("stiff-spot-narrow", at_most(MaeShadowed, 0.11, 0.074)),
     ])
     .with_rules(&[
         (Unshadowed, at_most(MaxAbs, 1e-6, 0.0)), // stiff-no-occluder

@@ -31,6 +31,15 @@ pub fn info() -> TechniqueInfo {
         LightKind::Sun,
         "its micro-patches are backprojected through a point onto a light plane at a finite distance; the sun is a cone of directions at infinity",
     ))
+    // On atty-square with its light made each kind (`AreaLight::as_kind`), defaults, 64²
+    // (measured beside each; `hard` measured 0.206 rect, 0.185 disk and spot, 0.156 sphere;
+    // the sphere's floor is its disk in the light plane: the reference measures 0.0345 there).
+    .with_light_kind_bounds(&[
+        (LightKind::Rect, at_most(MaeShadowed, 0.013, 0.0081)),
+        (LightKind::Disk, at_most(MaeShadowed, 0.014, 0.0086)),
+        (LightKind::Sphere, at_most(MaeShadowed, 0.054, 0.0347)),
+        (LightKind::Spot, at_most(MaeShadowed, 0.014, 0.0086)),
+    ])
     .with_cost(CostModel::new(&["shadow_map_size", "max_patches"], |q| {
         let side = q.number("shadow_map_size").max(1.0).log2().ceil().exp2();
         let levels = side.max(2.0).log2().ceil();
@@ -118,6 +127,13 @@ fn expectations() -> Expectations {
         (
             "blob-floating:triangles=20000",
             at_most(MaeShadowed, 0.12, 0.0791),
+        ),
+        ("stiff-disk-huge", at_most(MaeShadowed, 0.0035, 0.0013)),
+        // A sphere light half sunk in the ground, casters 0.1-0.25 under its centre: its disk in
+        // the light plane stands in for the cap each receiver sees; worse than `hard` (0.1438).
+        (
+            "stiff-sphere-in-ground",
+            known_failure(MaeShadowed, 0.2873, 0.029),
         ),
     ])
     .with_rules(&[

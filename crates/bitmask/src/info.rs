@@ -26,6 +26,15 @@ pub fn info() -> TechniqueInfo {
         LightKind::Sun,
         "its micro-patches are backprojected through a point onto a light plane at a finite distance; the sun is a cone of directions at infinity",
     ))
+    // On atty-square with its light made each kind (`AreaLight::as_kind`), defaults, 64²
+    // (measured beside each; `hard` measured 0.206 rect, 0.185 disk and spot, 0.156 sphere;
+    // the sphere's floor is its disk in the light plane: the reference measures 0.0345 there).
+    .with_light_kind_bounds(&[
+        (LightKind::Rect, at_most(MaeShadowed, 0.016, 0.0102)),
+        (LightKind::Disk, at_most(MaeShadowed, 0.017, 0.0109)),
+        (LightKind::Sphere, at_most(MaeShadowed, 0.054, 0.0346)),
+        (LightKind::Spot, at_most(MaeShadowed, 0.017, 0.0109)),
+    ])
     .with_cost(CostModel::new(
         &["shadow_map_size", "layers", "max_patches", "filter_passes"],
         |q| {
@@ -123,6 +132,13 @@ fn expectations() -> Expectations {
         (
             "blob-floating:triangles=20000",
             at_most(MaeShadowed, 0.11, 0.0534),
+        ),
+        ("stiff-disk-huge", at_most(MaeShadowed, 0.007, 0.0027)),
+        // A sphere light half sunk in the ground, casters 0.1-0.25 under its centre: its disk in
+        // the light plane stands in for the cap each receiver sees; worse than `hard` (0.1438).
+        (
+            "stiff-sphere-in-ground",
+            known_failure(MaeShadowed, 0.2972, 0.03),
         ),
     ])
     .with_rules(&[

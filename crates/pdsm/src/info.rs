@@ -39,6 +39,15 @@ pub fn info() -> TechniqueInfo {
         LightKind::Sun,
         "its depth maps are perspective views from points of a light plane at a finite distance; the sun needs orthographic maps over its cone of directions",
     ))
+    // On atty-square with its light made each kind (`AreaLight::as_kind`), defaults, 64²
+    // (measured beside each; `hard` measured 0.206 rect, 0.185 disk and spot, 0.156 sphere;
+    // the sphere's floor is its disk in the light plane: the reference measures 0.0345 there).
+    .with_light_kind_bounds(&[
+        (LightKind::Rect, at_most(MaeShadowed, 0.017, 0.0106)),
+        (LightKind::Disk, at_most(MaeShadowed, 0.019, 0.0122)),
+        (LightKind::Sphere, at_most(MaeShadowed, 0.058, 0.0369)),
+        (LightKind::Spot, at_most(MaeShadowed, 0.019, 0.0122)),
+    ])
     .with_cost(CostModel::new(
         &["samples", "shadow_map_size", "pdsm_size", "dynamic_map_size"],
         estimate,
@@ -144,6 +153,13 @@ fn expectations() -> Expectations {
         (
             "blob-floating:triangles=20000",
             at_most(MaeShadowed, 0.079, 0.0317),
+        ),
+        ("stiff-disk-huge", at_most(MaeShadowed, 0.011, 0.0083)),
+        // A sphere light half sunk in the ground, casters 0.1-0.25 under its centre: its disk in
+        // the light plane stands in for the cap each receiver sees; worse than `hard` (0.1438).
+        (
+            "stiff-sphere-in-ground",
+            known_failure(MaeShadowed, 0.2576, 0.026),
         ),
     ])
     .with_rules(&[
