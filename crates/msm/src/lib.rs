@@ -15,17 +15,19 @@
 
 use encase::ShaderType;
 use softshadow_core::{
+    cascades::SunCascadeParams,
     glam::Vec2,
     pass::{FullscreenPass, Pass, Slot},
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
-    TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, LightKind, ShadowInputs, ShadowTechnique,
+    TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
+mod sun;
 pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
@@ -33,13 +35,15 @@ pub const ID: &str = "msm";
 
 const EVSM: (&str, DefValue) = ("EVSM", DefValue::Bool(true));
 const EVSM4: (&str, DefValue) = ("EVSM4", DefValue::Bool(true));
+/// The sun's cascades (`sun.rs`).
+const SUN: (&str, DefValue) = ("SUN", DefValue::Bool(true));
 
 /// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "msm/moments.wgsl",
         source: shader_file!("msm/moments.wgsl").1,
-        permutations: &[&[], &[EVSM]],
+        permutations: &[&[], &[EVSM], &[SUN], &[SUN, EVSM]],
     },
     ShaderSpec {
         path: "msm/downsample.wgsl",
@@ -49,7 +53,14 @@ pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "msm/msm.wgsl",
         source: shader_file!("msm/msm.wgsl").1,
-        permutations: &[&[], &[EVSM], &[EVSM, EVSM4]],
+        permutations: &[
+            &[],
+            &[EVSM],
+            &[EVSM, EVSM4],
+            &[SUN],
+            &[SUN, EVSM],
+            &[SUN, EVSM, EVSM4],
+        ],
     },
 ];
 
@@ -77,6 +88,7 @@ softshadow_core::param_choice! {
 softshadow_core::technique_settings! {
     /// Settings of moment soft shadows.
     pub struct MsmSettings {
+        ..sun: SunCascadeParams;
         /// Filterable shadow map: 4-moment Hamburger (msm4), or EVSM with two or four components
         variant: Variant = Variant::Msm4;
         /// Shadow-map and moment-map edge in texels
@@ -127,6 +139,24 @@ pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::Uniform
             } => "msm/msm.wgsl", MsmParams
         ),
     ]
+}
+
+impl MsmUniform {
+    /// The uniform of `s` with light-space depths `depth_range` mapped to 0 and 1 (unused under
+    /// the sun: each cascade maps its own near..far).
+    fn new(s: &MsmSettings, depth_range: Vec2) -> Self {
+        Self {
+            depth_range,
+            exponents: Vec2::from(EVSM_EXPONENTS),
+            moment_bias: s.moment_bias,
+            light_bleeding_reduction: s.light_bleeding_reduction,
+            bias_texels: s.bias_texels,
+            blocker_search_scale: s.blocker_search_scale,
+            min_filter_texels: s.min_filter_texels,
+            filter_taps: s.filter_taps,
+            levels: s.shadow_map_size.ilog2() + 1,
+        }
+    }
 }
 
 /// The moment map with its mip chain.
@@ -192,6 +222,8 @@ pub struct Msm {
     filter_evsm4: FullscreenPass,
     params_buffer: wgpu::Buffer,
     moment_map: Option<MomentMap>,
+    /// The sun's cascades and moment maps, made by the first frame under the sun.
+    sun: Option<sun::MsmSun>,
     stats: TechniqueStats,
 }
 
@@ -227,6 +259,7 @@ impl Msm {
             filter_evsm4: filter("msm/filter evsm4", &[EVSM, EVSM4])?,
             params_buffer: zeroed_uniform_buffer::<MsmUniform>(gpu, "msm/params"),
             moment_map: None,
+            sun: None,
             settings,
             stats: TechniqueStats::new(),
         })
@@ -263,6 +296,27 @@ impl Msm {
     }
 }
 
+impl Msm {
+    /// The sun's frame: its cascades, their moment maps and the filter (`sun.rs`).
+    fn render_sun(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        out: &VisibilityBuffer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = frame.gpu;
+        if self.sun.is_none() {
+            self.sun = Some(sun::MsmSun::new(gpu)?);
+        }
+        let uniform = MsmUniform::new(&self.settings, Vec2::new(0.0, 1.0));
+        (gpu.queue).write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
+        let sun = self.sun.as_mut().expect("made above");
+        let passes = (&self.params_buffer, &self.downsample);
+        self.stats = sun.render(frame, inputs, &self.settings, passes, out)?;
+        Ok(())
+    }
+}
+
 impl ShadowTechnique for Msm {
     fn id(&self) -> &str {
         ID
@@ -282,6 +336,9 @@ impl ShadowTechnique for Msm {
         inputs: &ShadowInputs<'_>,
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
+        if inputs.light.kind == LightKind::Sun {
+            return self.render_sun(frame, inputs, out);
+        }
         let gpu = frame.gpu;
         let s = self.settings.clone();
         let Some(frustum) =
@@ -302,17 +359,7 @@ impl ShadowTechnique for Msm {
             .receivers
             .map_or(frustum.far, |r| r.max.z);
         let far = frustum.far.max(receivers_far) + 1e-4;
-        let uniform = MsmUniform {
-            depth_range: Vec2::new(frustum.near, far),
-            exponents: Vec2::from(EVSM_EXPONENTS),
-            moment_bias: s.moment_bias,
-            light_bleeding_reduction: s.light_bleeding_reduction,
-            bias_texels: s.bias_texels,
-            blocker_search_scale: s.blocker_search_scale,
-            min_filter_texels: s.min_filter_texels,
-            filter_taps: s.filter_taps,
-            levels: s.shadow_map_size.ilog2() + 1,
-        };
+        let uniform = MsmUniform::new(&s, Vec2::new(frustum.near, far));
         gpu.queue
             .write_buffer(&self.params_buffer, 0, &uniform_bytes(&uniform));
         let evsm = s.variant != Variant::Msm4;
@@ -351,6 +398,9 @@ impl ShadowTechnique for Msm {
 
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
+        if let Some(sun) = &mut self.sun {
+            sun.invalidate();
+        }
     }
 
     fn stats(&self) -> TechniqueStats {

@@ -13,16 +13,18 @@
 
 use encase::ShaderType;
 use softshadow_core::{
+    cascades::SunCascadeParams,
     pass::FullscreenPass,
     shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::CentreShadowMap,
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, DebugLegend, DebugView, Frame, Gpu, ShadowInputs, ShadowTechnique, TechniqueError,
-    TechniqueSettings, TechniqueStats, VisibilityBuffer,
+    wgpu, DebugLegend, DebugView, Frame, Gpu, LightKind, ShadowInputs, ShadowTechnique,
+    TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
 mod info;
+mod sun;
 pub use info::info;
 
 /// The technique's id (command line, JSON, GUI).
@@ -35,7 +37,12 @@ const DEBUG_EXTRAPOLATED: (&str, DefValue) = ("DEBUG_EXTRAPOLATED", DefValue::Bo
 pub const SHADERS: &[ShaderSpec] = &[ShaderSpec {
     path: "smrt/smrt.wgsl",
     source: shader_file!("smrt/smrt.wgsl").1,
-    permutations: &[&[], &[DEBUG_STEPS], &[DEBUG_EXTRAPOLATED]],
+    permutations: &[
+        &[],
+        &[DEBUG_STEPS],
+        &[DEBUG_EXTRAPOLATED],
+        &[("SUN", DefValue::Bool(true))],
+    ],
 }];
 
 /// Debug view: samples marched per pixel, all rays together.
@@ -48,6 +55,7 @@ softshadow_core::technique_settings! {
     /// `RayCountLocal` / `SamplesPerRayLocal` (there 7 and 8, with a temporal denoiser behind
     /// them); here 32 rays, since nothing denoises.
     pub struct SmrtSettings {
+        ..sun: SunCascadeParams;
         /// Shadow-map edge in texels
         shadow_map_size: u32 = 1024, in 64..=4096;
         /// Rays per pixel, to points of the light rectangle (Unreal: r.Shadow.Virtual.SMRT.RayCountLocal)
@@ -131,6 +139,8 @@ pub struct Smrt {
     debug: Option<DebugImage>,
     /// The debug view the viewer shows, if one of ours.
     shown: Option<&'static str>,
+    /// The sun's cascades, made by the first frame under the sun.
+    sun: Option<sun::SmrtSun>,
     stats: TechniqueStats,
 }
 
@@ -150,6 +160,7 @@ impl Smrt {
             params_buffer: zeroed_uniform_buffer::<SmrtUniform>(gpu, "smrt/params"),
             debug: None,
             shown: None,
+            sun: None,
             settings,
             stats: TechniqueStats::new(),
         })
@@ -209,6 +220,16 @@ impl ShadowTechnique for Smrt {
     ) -> Result<(), TechniqueError> {
         let gpu = frame.gpu;
         let s = self.settings.clone();
+        if inputs.light.kind == LightKind::Sun {
+            if self.sun.is_none() {
+                self.sun = Some(sun::SmrtSun::new(gpu)?);
+            }
+            let uniform = uniform_bytes(&SmrtUniform::new(&s));
+            gpu.queue.write_buffer(&self.params_buffer, 0, &uniform);
+            let sun = self.sun.as_mut().expect("made above");
+            self.stats = sun.render(frame, inputs, &s, &self.params_buffer, out)?;
+            return Ok(());
+        }
         if self
             .shadow_map
             .render(frame, inputs, s.shadow_map_size, "smrt/shadow_map")
@@ -270,6 +291,9 @@ impl ShadowTechnique for Smrt {
 
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
+        if let Some(sun) = &mut self.sun {
+            sun.invalidate();
+        }
     }
 
     fn stats(&self) -> TechniqueStats {

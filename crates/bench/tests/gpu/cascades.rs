@@ -154,6 +154,14 @@ fn the_error_along_cascade_boundaries_is_within_1_5x_of_the_inside() -> Result<(
             "pcss",
             Box::new(softshadow::pcss::Pcss::new(&gpu, Default::default())?),
         ),
+        (
+            "msm",
+            Box::new(softshadow::msm::Msm::new(&gpu, Default::default())?),
+        ),
+        (
+            "smrt",
+            Box::new(softshadow::smrt::Smrt::new(&gpu, Default::default())?),
+        ),
     ];
     for (id, technique) in &mut techniques {
         let (boundary, inside, pixels) = boundary_and_inside_error(&gpu, technique.as_mut())?;

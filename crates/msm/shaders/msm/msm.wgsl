@@ -16,9 +16,15 @@
 //     the blocker search uses the negative warp in both (the map holds both warps).
 // Then light-bleeding reduction: lit' = clamp((lit - r) / (1 - r), 0, 1) (Lauritzen 2007, GPU
 // Gems 3 chapter 8).
+// Under the sun (SUN): the same steps in each of core's cascades (one moment map per cascade,
+// the layers of one array), with the sun a cone of half-angle alpha / 2: the search is the
+// cone cut at the cascade's near plane, the penumbra half width tan(alpha / 2) (z_r - d_b), both
+// in world units turned into the cascade's texels (as pcss/sun.wgsl), so the softness does not
+// jump at a boundary; in the blend band the next cascade's answer is mixed in.
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_slope, slope_to_uv, texel_slope}
+#import softshadow::cascades::{Cascades, cascade_count, cascade_pick, cascade_point, cascade_view_depth, cascade_texels}
 
 struct MsmParams {
     depth_range: vec2<f32>,
@@ -36,9 +42,17 @@ const MAX_FILTER_TAPS: u32 = 8u;
 // Below this fraction of blockers the blocker search finds none: the pixel is lit.
 const NO_BLOCKER: f32 = 1e-3;
 
+#ifdef SUN
+@group(1) @binding(0) var<uniform> cascades: Cascades;
+@group(1) @binding(1) var moments: texture_2d_array<f32>;
+@group(1) @binding(2) var<uniform> params: MsmParams;
+// The cascade whose moment map the lookups below read.
+var<private> cascade_layer: i32;
+#else
 @group(1) @binding(0) var<uniform> view: ShadowView;
 @group(1) @binding(1) var moments: texture_2d<f32>;
 @group(1) @binding(2) var<uniform> params: MsmParams;
+#endif
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
@@ -65,7 +79,11 @@ fn level_texel(level: i32, p: vec2<i32>) -> vec4<f32> {
     if any(p < vec2<i32>(0)) || any(p >= size) {
         return moments_of(1.0);
     }
+#ifdef SUN
+    return textureLoad(moments, p, cascade_layer, level);
+#else
     return textureLoad(moments, p, level);
+#endif
 }
 
 // Bilinear interpolation of mip `level` at `p` (level-0 texel units).
@@ -79,11 +97,10 @@ fn bilinear(level: i32, p: vec2<f32>) -> vec4<f32> {
     return mix(top, bottom, f.y);
 }
 
-// Mean moments over the slope rectangle `centre` +- `half_extent`: filter_taps^2 taps on a
-// regular grid, each interpolated between the two mip levels around the tap spacing.
-fn box_moments(centre: vec2<f32>, half_extent: vec2<f32>) -> vec4<f32> {
-    let centre_texel = slope_to_uv(view, centre) * view.size.xy;
-    let half_texels = half_extent / texel_slope(view);
+// Mean moments over the rectangle `centre_texel` +- `half_texels` (level-0 texels):
+// filter_taps^2 taps on a regular grid, each interpolated between the two mip levels around the
+// tap spacing.
+fn box_moments_texels(centre_texel: vec2<f32>, half_texels: vec2<f32>) -> vec4<f32> {
     let taps = clamp(params.filter_taps, 1u, MAX_FILTER_TAPS);
     let spacing = 2.0 * max(half_texels.x, half_texels.y) / f32(taps);
     let level = clamp(log2(max(spacing, 1.0)), 0.0, f32(params.levels - 1u));
@@ -100,6 +117,14 @@ fn box_moments(centre: vec2<f32>, half_extent: vec2<f32>) -> vec4<f32> {
     }
     return sum / f32(taps * taps);
 }
+
+#ifndef SUN
+// Mean moments over the slope rectangle `centre` +- `half_extent`.
+fn box_moments(centre: vec2<f32>, half_extent: vec2<f32>) -> vec4<f32> {
+    let centre_texel = slope_to_uv(view, centre) * view.size.xy;
+    return box_moments_texels(centre_texel, half_extent / texel_slope(view));
+}
+#endif
 
 // Avoids dividing by zero while keeping the sign.
 fn nonzero(x: f32) -> f32 {
@@ -180,6 +205,61 @@ fn shadow_and_blocker_depth(filtered: vec4<f32>, z_f: f32) -> vec2<f32> {
 #endif
 }
 
+// Light-bleeding reduction, and a NaN (which compares false) made shadow rather than reaching
+// the metrics.
+fn reduce_bleeding(lit: f32) -> f32 {
+    let reduction = params.light_bleeding_reduction;
+    let v = clamp((lit - reduction) / (1.0 - reduction), 0.0, 1.0);
+    return select(0.0, v, v == v);
+}
+
+#ifdef SUN
+// Steps 1 to 3 for `world` in cascade `i`, sizes in world units (the sun's cone).
+fn msm_in(i: u32, world: vec3<f32>, cosine: f32) -> f32 {
+    cascade_layer = i32(i);
+    let p = cascade_point(cascades, i, world);
+    let texel = cascades.texel_world[i];
+    let near = cascades.near[i];
+    let range = cascades.depth_range[i];
+    let tan_half = frame.light_sun.y;
+    let bias = params.bias_texels * texel / cosine;
+    let z_f = clamp((p.z - bias - near) / range, 0.0, 1.0);
+
+    // 1. Blocker search: the sun's cone from the receiver cut at the cascade's near plane.
+    let search = tan_half * max(p.z - near, 0.0) * params.blocker_search_scale;
+    let found = shadow_and_blocker_depth(box_moments_texels(p.texel, abs(cascade_texels(cascades, i, vec2<f32>(search)))), z_f);
+    if found.x < NO_BLOCKER {
+        return 1.0;
+    }
+    let d_b = near + found.y * range;
+
+    // 2. Penumbra half width, world units, at least `min_filter_texels` of this cascade.
+    let extent = max(tan_half * max(p.z - d_b, 0.0), params.min_filter_texels * texel);
+
+    // 3. Filtered moments over the penumbra.
+    let filtered = box_moments_texels(p.texel, abs(cascade_texels(cascades, i, vec2<f32>(extent))));
+    return reduce_bleeding(1.0 - shadow_and_blocker_depth(filtered, z_f).x);
+}
+
+@fragment
+fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
+    let s = load_surface(vec2<i32>(in.position.xy));
+    if !s.is_receiver {
+        return vec4<f32>(1.0);
+    }
+    let pick = cascade_pick(cascades, cascade_view_depth(cascades, frame.camera_pos.xyz, s.world));
+    if pick.first >= cascade_count(cascades) {
+        // Beyond the shadowed range.
+        return vec4<f32>(1.0);
+    }
+    let cosine = max(abs(dot(s.normal, frame.light_dir.xyz)), 0.1);
+    var v = msm_in(pick.first, s.world, cosine);
+    if pick.blend > 0.0 {
+        v = mix(v, msm_in(pick.first + 1u, s.world, cosine), pick.blend);
+    }
+    return vec4<f32>(v);
+}
+#else
 @fragment
 fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let s = load_surface(vec2<i32>(in.position.xy));
@@ -212,8 +292,6 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
 
     // 3. Filtered moments over the penumbra, then light-bleeding reduction.
     let lit = 1.0 - shadow_and_blocker_depth(box_moments(centre, extent), z_f).x;
-    let reduction = params.light_bleeding_reduction;
-    let v = clamp((lit - reduction) / (1.0 - reduction), 0.0, 1.0);
-    // A NaN (which compares false) becomes shadow rather than reaching the metrics.
-    return vec4<f32>(select(0.0, v, v == v));
+    return vec4<f32>(reduce_bleeding(lit));
 }
+#endif
