@@ -90,6 +90,9 @@ fn expectations() -> Expectations {
         // No umbra and a faint penumbra: drawing no shadow (0.0124) is better.
         ("stiff-disk-huge", known_failure(MaeShadowed, 0.0148, 0.002)),
         ("stiff-spot-narrow", at_most(MaeShadowed, 0.053, 0.0209)),
+        // The real sun's 0.53 degrees at 3 degrees up: a penumbra under a pixel, so `hard`
+        // (0.0015) is nearly exact; the class rule (0.15) would accept it.
+        ("stiff-sun-grazing", at_most(MaeShadowed, 0.0013, 0.0009)),
         // Casters 0.1-0.25 under a light 1.0 across, the ground inside the sphere unreached: little
         // better than no shadow (0.3657), worse than `hard` (0.1438).
         (
