@@ -798,8 +798,16 @@ mod tests {
         assert!(files.len() >= 20, "{} sweep files", files.len());
         let mut scenes = std::collections::BTreeSet::new();
         for file in &files {
-            let sweep = Sweep::load(file, &registry())
-                .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+            // Its WGSL file techniques registered first (by their ids, paths from the
+            // repository root, where sweeps run), as `workbench bench` does.
+            let mut known = registry();
+            for technique in Sweep::technique_files(file).unwrap() {
+                let path = dir.join("..").join(&technique);
+                softshadow_wgsl::register_file(&mut known, &path).unwrap();
+            }
+            let text = std::fs::read_to_string(file).unwrap();
+            let sweep =
+                Sweep::parse(&text, &known).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
             scenes.extend(sweep.runs.iter().map(|r| r.scene.clone()));
         }
         for scene in scenes

@@ -93,6 +93,27 @@ impl IndexList {
             alpha_split: None,
         })
     }
+
+    /// Like [`Self::upload`], with the alpha split of `part` when the scene has one.
+    fn upload_with_split(
+        gpu: &Gpu,
+        label: &str,
+        indices: &[u32],
+        part: Option<&SplitIndices>,
+        usage: wgpu::BufferUsages,
+    ) -> Option<Self> {
+        let list = Self::upload(gpu, label, indices, usage)?;
+        let alpha_split = part.map(|p| {
+            Box::new(AlphaSplit {
+                opaque: Self::upload(gpu, &format!("{label} (opaque)"), &p.opaque, usage),
+                masked: Self::upload(gpu, &format!("{label} (masked)"), &p.masked, usage),
+            })
+        });
+        Some(Self {
+            alpha_split,
+            ..list
+        })
+    }
 }
 
 /// An [`IndexList`]'s triangles split by alpha test, each part `None` when empty.
@@ -444,19 +465,9 @@ impl SceneGpu {
         });
         let usage = wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE | blas_input;
         let list = |label: &str, indices: &[u32]| IndexList::upload(gpu, label, indices, usage);
-        let split = |label: &str, part: Option<&SplitIndices>| {
-            part.map(|p| {
-                let opaque = IndexList::upload(gpu, &format!("{label} (opaque)"), &p.opaque, usage);
-                let masked = IndexList::upload(gpu, &format!("{label} (masked)"), &p.masked, usage);
-                Box::new(AlphaSplit { opaque, masked })
-            })
-        };
         let splits = alpha_splits.as_ref();
         let make = |label: &str, indices: &[u32], part: Option<&SplitIndices>| {
-            list(label, indices).map(|l| IndexList {
-                alpha_split: split(label, part),
-                ..l
-            })
+            IndexList::upload_with_split(gpu, label, indices, part, usage)
         };
         Self {
             name: scene.name.clone(),

@@ -457,6 +457,7 @@ impl ViewerApp {
             registry: &self.registry,
             scene: self.scene.loaded.gpu.content_hash,
             view: self.current_view_key(),
+            no_yardstick: self.reference_refusal().is_some(),
         };
         match self.plot.ui(ui, &cx) {
             Some(plot_panel::PlotAction::Restore(point)) => self.restore_point(&point),

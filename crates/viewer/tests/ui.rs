@@ -297,6 +297,7 @@ fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
 #[test]
 fn under_the_sun_the_error_section_says_no_yardstick_runs() -> Result<()> {
     let mut harness = harness("hard")?;
+    let accumulations = harness.state().reference_accumulations();
     let mut state = harness.state().state();
     state.light = state.light.as_kind(softshadow_core::LightKind::Sun);
     let dir = tempfile::tempdir()?;
@@ -307,14 +308,17 @@ fn under_the_sun_the_error_section_says_no_yardstick_runs() -> Result<()> {
     let app = harness.state();
     ensure!(app.light().kind == softshadow_core::LightKind::Sun);
     ensure!(
-        app.reference_progress().done == 0 && app.reference_accumulations() == 0,
-        "no reference accumulates under the sun: {:?}",
-        app.reference_progress()
+        app.reference_accumulations() == accumulations,
+        "no reference accumulates under the sun: {} accumulations begun, {accumulations} before",
+        app.reference_accumulations()
     );
     ensure!(app.errors().is_empty(), "errors: {:?}", app.errors());
     harness
         .query_by_label_contains("cannot sample a `sun` light")
         .context("the error section says why no yardstick runs")?;
+    harness
+        .query_by_label_contains("No point under this light")
+        .context("the plot says why it has no point")?;
     Ok(())
 }
 

@@ -80,6 +80,8 @@ pub(super) struct PlotContext<'a> {
     pub(super) registry: &'a Registry,
     pub(super) scene: u64,
     pub(super) view: u64,
+    /// No yardstick runs under the current light (no point can be measured).
+    pub(super) no_yardstick: bool,
 }
 
 /// What the user asked of the plot.
@@ -219,7 +221,14 @@ impl PlotPanel {
                     if let Some(point) = &self.hovered {
                         ui.group(|ui| describe_ui(ui, point, &defaults));
                     }
-                    legend_ui(ui, &series, &points, &front, &defaults);
+                    if series.is_empty() && cx.no_yardstick {
+                        ui.weak(
+                            "No point under this light: a point rests on the yardstick, which \
+                             cannot sample it (the error section says why).",
+                        );
+                    } else {
+                        legend_ui(ui, &series, &points, &front, &defaults);
+                    }
                 });
             });
         let clicked = self.plot_ui(ui, &points, &others, &series, &front, &defaults);
