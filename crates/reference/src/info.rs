@@ -20,23 +20,19 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(Reference::requirements_static())
     .with_shaders(SHADERS)
-    .with_light_kinds(
-        LightSupport::all()
-            .except(
-                LightKind::Sphere,
-                "its depth maps are drawn from fixed points of a light plane, but a sphere shows each receiver a different disk: the exact answers (ray cast, ray-traced) sample it",
-            )
-            .except(
-                LightKind::Sun,
-                "its depth maps are perspective views from points of a light plane; the sun needs orthographic maps over its cone of directions",
-            ),
-    )
+    // The sun: one orthographic map per direction of its cone (`sun_view`).
+    .with_light_kinds(LightSupport::all().except(
+        LightKind::Sphere,
+        "its depth maps are drawn from fixed points of a light plane, but a sphere shows each receiver a different disk: the exact answers (ray cast, ray-traced) sample it",
+    ))
     // On atty-square with its light made each kind (`AreaLight::as_kind`), defaults, 64²
     // (measured beside each; `hard` measured 0.206 rect, 0.185 disk and spot, 0.156 sphere).
     .with_light_kind_bounds(&[
         (LightKind::Rect, at_most(MaeShadowed, 0.01, 0.0016)),
         (LightKind::Disk, at_most(MaeShadowed, 0.01, 0.0021)),
         (LightKind::Spot, at_most(MaeShadowed, 0.01, 0.0021)),
+        // The sun 10 degrees wide: 32 x 32 directions of its cone (`sun_view`); `hard` 0.114.
+        (LightKind::Sun, at_most(MaeShadowed, 0.01, 0.0062)),
     ])
     .with_cost(CostModel::new(
         &["samples_per_axis", "shadow_map_size"],
@@ -81,6 +77,9 @@ fn expectations() -> Expectations {
         ("stiff-near-light", at_most(MaeShadowed, 0.0033, 0.0013)),
         ("stiff-wide-light", at_most(MaeShadowed, 0.003, 0.0012)),
         ("stiff-grazing", at_most(MaeShadowed, 0.004, 0.0016)),
+        // The real sun's 0.53 degrees at 3 degrees up: a penumbra under a pixel, so `hard`
+        // (0.0015) is nearly exact; the class rule (0.0053) would accept it.
+        ("stiff-sun-grazing", at_most(MaeShadowed, 0.0012, 0.0007)),
         ("stiff-depth-range", at_most(MaeShadowed, 0.0038, 0.0015)),
         ("stiff-zero-thickness", at_most(MaeShadowed, 0.0065, 0.0026)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.004, 0.0016)),

@@ -28,17 +28,18 @@ pub mod traced;
 
 use encase::{ShaderSize, ShaderType};
 use softshadow_core::{
-    glam::{Vec2, Vec4},
+    glam::{Vec2, Vec3, Vec4},
+    light_shape::SunView,
     pass::{FullscreenPass, Pass, Resource, Slot},
     scene::Fnv1a,
-    shader::ShaderSpec,
+    shader::{DefValue, ShaderSpec},
     shader_file,
     shadow_map::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    wgpu, AreaLight, Frame, Gpu, LightKind, Requirements, ShadowInputs, ShadowTechnique,
+    wgpu, AreaLight, Frame, Gpu, LightKind, Requirements, SceneGpu, ShadowInputs, ShadowTechnique,
     TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
 
@@ -48,12 +49,15 @@ pub use info::info;
 /// The technique's id (command line, JSON, GUI).
 pub const ID: &str = "reference";
 
+/// The sun's orthographic sample views (accumulate.wgsl).
+const SUN: (&str, DefValue) = ("SUN", DefValue::Bool(true));
+
 /// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "reference/accumulate.wgsl",
         source: shader_file!("reference/accumulate.wgsl").1,
-        permutations: &[&[]],
+        permutations: &[&[], &[SUN]],
     },
     ShaderSpec {
         path: "reference/resolve.wgsl",
@@ -360,7 +364,8 @@ fn sampled_answer(
 /// A sphere is sampled as its disk facing along the light's direction (the silhouette seen from
 /// receivers on its axis far away; one set of depth maps cannot follow each receiver's disk, so
 /// the accumulated reference approximates it: the ray cast and the ray-traced answer do not).
-/// The sun has no eyes on a light plane: no samples (its kind is not supported here).
+/// The sun has no eyes on a light plane: its samples are the same strata of the unit square,
+/// each a direction of its cone ([`AreaLight::sample`], [`sun_view`]).
 pub fn light_samples(settings: &ReferenceSettings, light: &AreaLight) -> Vec<Vec2> {
     let jitter_seed = settings
         .jitter
@@ -371,8 +376,60 @@ pub fn light_samples(settings: &ReferenceSettings, light: &AreaLight) -> Vec<Vec
         LightKind::Disk | LightKind::Sphere | LightKind::Spot => stratified_unit(n, jitter_seed)
             .map(|u| softshadow_core::light_shape::concentric_disk(u) * light.radius)
             .collect(),
-        LightKind::Sun => Vec::new(),
+        LightKind::Sun => stratified_unit(n, jitter_seed).collect(),
     }
+}
+
+/// The orthographic depth view of the sun sample `u` (a point of the unit square; the direction
+/// toward the sun [`AreaLight::sample`] gives for it), fitted to the casters and receivers, in
+/// the form accumulate.wgsl's `SUN` reads: `light_view_proj` its world-to-clip,
+/// `eye_near_far.xyz` the unit direction toward the sun and `.w` the depth range, `window.x` the
+/// texel edge in world units. `None` without casters.
+pub fn sun_view(
+    scene: &SceneGpu,
+    light: &AreaLight,
+    u: Vec2,
+    size: u32,
+) -> Option<ShadowViewUniform> {
+    if scene.caster_bounds.is_empty() {
+        return None;
+    }
+    let to_sun = light.sample(u, Vec3::ZERO).to_light.normalize();
+    let along = AreaLight {
+        direction: -to_sun,
+        ..*light
+    };
+    let mut points = scene.caster_bounds.corners().to_vec();
+    if !scene.receiver_bounds.is_empty() {
+        points.extend(scene.receiver_bounds.corners());
+    }
+    let view = SunView::fit(&along, &points)?;
+    let n = size as f32;
+    Some(ShadowViewUniform {
+        light_view_proj: view.view_projection(),
+        window: Vec4::new(view.texel_size(size), 0.0, 0.0, 0.0),
+        eye_near_far: to_sun.extend(view.far - view.near),
+        size: Vec4::new(n, n, 1.0 / n, 1.0 / n),
+    })
+}
+
+/// The depth views of the light samples `samples` taken in `order` (indices into them):
+/// perspective views from points of the light plane, or under the sun orthographic views along
+/// directions of its cone ([`sun_view`]).
+fn sample_views(
+    inputs: &ShadowInputs<'_>,
+    samples: &[Vec2],
+    order: impl Iterator<Item = usize>,
+    size: u32,
+) -> Vec<ShadowViewUniform> {
+    let (scene, light) = (inputs.scene, inputs.light);
+    order
+        .filter_map(|k| match light.kind {
+            LightKind::Sun => sun_view(scene, light, samples[k], size),
+            _ => sample_view(scene, light, samples[k])
+                .map(|frustum| ShadowViewUniform::new(light, &frustum, size)),
+        })
+        .collect()
 }
 
 /// `n x n` stratified points on the rectangle `[-half.x, half.x] x [-half.y, half.y]`, row-major.
@@ -466,6 +523,8 @@ pub struct Reference {
     pub settings: ReferenceSettings,
     depth: DepthMapRenderer,
     accumulate: FullscreenPass,
+    /// The same over the sun's orthographic views (`SUN`).
+    accumulate_sun: FullscreenPass,
     resolve: FullscreenPass,
     batches: wgpu::Buffer,
     batch_capacity: u32,
@@ -529,16 +588,21 @@ impl Reference {
         };
         let requirements = Self::requirements_static();
         softshadow_core::technique::check_requirements(gpu, ID, &requirements)?;
-        Ok(Self {
-            depth: DepthMapRenderer::new(gpu)?,
-            // accumulate.wgsl: one batch's views (a slot of `batches`), its depth maps.
-            accumulate: Pass::new(gpu, "reference/accumulate", &SHADERS[0])
+        let accumulate = |defs: &[(&str, DefValue)]| {
+            Pass::new(gpu, "reference/accumulate", &SHADERS[0])
+                .defs(defs)
                 .after_frame_group()
                 .slot(Slot::DynamicUniform {
                     size: BATCH_UNIFORM_BYTES,
                 })
                 .texture(Slot::DEPTH_ARRAY)
-                .fullscreen(Some(blend))?,
+                .fullscreen(Some(blend))
+        };
+        Ok(Self {
+            depth: DepthMapRenderer::new(gpu)?,
+            // accumulate.wgsl: one batch's views (a slot of `batches`), its depth maps.
+            accumulate: accumulate(&[])?,
+            accumulate_sun: accumulate(&[SUN])?,
             // resolve.wgsl: the sample count, the summed counts.
             resolve: Pass::new(gpu, "reference/resolve", &SHADERS[1])
                 .after_frame_group()
@@ -662,11 +726,7 @@ impl ShadowTechnique for Reference {
         self.progress = None;
         let samples = light_samples(&self.settings, inputs.light);
         let size = self.settings.shadow_map_size;
-        let views: Vec<ShadowViewUniform> = samples
-            .iter()
-            .filter_map(|eye| sample_view(inputs.scene, inputs.light, *eye))
-            .map(|frustum| ShadowViewUniform::new(inputs.light, &frustum, size))
-            .collect();
+        let views = sample_views(inputs, &samples, 0..samples.len(), size);
         let result = VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height);
         if views.is_empty() {
             // No caster in front of the light: receivers in front of it are lit, no depth map.
@@ -712,20 +772,9 @@ impl Reference {
         let gpu = frame.gpu;
         if self.progress.as_ref().map(|p| p.key) != Some(key) {
             let samples = light_samples(&self.settings, inputs.light);
-            // The sun has no light plane to sample (the viewer's yardstick under the sun): one
-            // error saying so, not an index past the samples.
-            if samples.is_empty() {
-                let reason = info::info().check_light(inputs.light.kind).err();
-                return Err(TechniqueError::Other {
-                    technique: ID.into(),
-                    message: reason.unwrap_or_else(|| "no light samples".into()),
-                });
-            }
             let size = self.settings.shadow_map_size;
-            let views: Vec<ShadowViewUniform> = interleaved(self.settings.samples_per_axis)
-                .filter_map(|k| sample_view(inputs.scene, inputs.light, samples[k]))
-                .map(|frustum| ShadowViewUniform::new(inputs.light, &frustum, size))
-                .collect();
+            let order = interleaved(self.settings.samples_per_axis);
+            let views = sample_views(inputs, &samples, order, size);
             self.progress = Some(InProgress {
                 key,
                 views,
@@ -837,8 +886,11 @@ impl Reference {
                 );
             }
             let batch = Resource::BufferRange(&self.batches, 0, BATCH_UNIFORM_BYTES);
-            self.accumulate
-                .run(frame)
+            let pass = match inputs.light.kind {
+                LightKind::Sun => &self.accumulate_sun,
+                _ => &self.accumulate,
+            };
+            pass.run(frame)
                 .frame_group(inputs.frame_bind_group)
                 .read(batch)
                 .read(&array_view)

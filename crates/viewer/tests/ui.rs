@@ -292,29 +292,29 @@ fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
     Ok(())
 }
 
-/// Under a light the yardstick cannot sample (the sun), the viewer starts no reference and
+/// Under a light the yardstick cannot sample (a sphere), the viewer starts no reference and
 /// the error section says why and what measures that light, instead of "measuring" forever.
 #[test]
-fn under_the_sun_the_error_section_says_no_yardstick_runs() -> Result<()> {
+fn under_a_sphere_light_the_error_section_says_no_yardstick_runs() -> Result<()> {
     let mut harness = harness("hard")?;
     let accumulations = harness.state().reference_accumulations();
     let mut state = harness.state().state();
-    state.light = state.light.as_kind(softshadow_core::LightKind::Sun);
+    state.light = state.light.as_kind(softshadow_core::LightKind::Sphere);
     let dir = tempfile::tempdir()?;
     let path = dir.path().join("state.json");
     state.save(&path)?;
     harness.state_mut().load_state(&path);
     harness.run_steps(4);
     let app = harness.state();
-    ensure!(app.light().kind == softshadow_core::LightKind::Sun);
+    ensure!(app.light().kind == softshadow_core::LightKind::Sphere);
     ensure!(
         app.reference_accumulations() == accumulations,
-        "no reference accumulates under the sun: {} accumulations begun, {accumulations} before",
+        "no reference accumulates under a sphere: {} accumulations begun, {accumulations} before",
         app.reference_accumulations()
     );
     ensure!(app.errors().is_empty(), "errors: {:?}", app.errors());
     harness
-        .query_by_label_contains("cannot sample a `sun` light")
+        .query_by_label_contains("cannot sample a `sphere` light")
         .context("the error section says why no yardstick runs")?;
     harness
         .query_by_label_contains("No point under this light")

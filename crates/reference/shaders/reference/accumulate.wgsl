@@ -1,5 +1,9 @@
 // Accumulated hard shadows, step 1: for one batch of point samples on the light, count per pixel
 // how many see the surface point (additive blending sums the counts over batches).
+// Under the sun (SUN) each sample is a direction of its cone and its map an orthographic view
+// along it (`sun_view` in src/lib.rs), the same ShadowView struct carrying: `light_view_proj`
+// its world-to-clip, `eye_near_far.xyz` the unit direction toward the sun and `.w` the map's
+// depth range (far - near), `window.x` its texel edge in world units.
 #import softshadow::frame::{frame, load_surface, light_cosine}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 #import softshadow::shadow_view::{ShadowView, view_uv, linear_depth, texel_slope, in_map}
@@ -20,6 +24,40 @@ fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
     return fullscreen_vertex(index);
 }
 
+#ifdef SUN
+// 1 where `world` (normal `normal`) sees the sun along the view's direction, else 0.
+fn lit_along(view: ShadowView, i: u32, world: vec3<f32>, normal: vec3<f32>, bias_texels: f32) -> f32 {
+    let to_sun = view.eye_near_far.xyz;
+    let cosine = dot(normal, to_sun);
+    // A direction behind the surface's own tangent plane is hidden by the surface itself.
+    if cosine <= 0.0 {
+        return 0.0;
+    }
+    let clip = view.light_view_proj * vec4<f32>(world, 1.0);
+    let uv = vec2<f32>(clip.x * 0.5 + 0.5, 0.5 - clip.y * 0.5);
+    if !in_map(uv) {
+        return 1.0;
+    }
+    let d = textureLoad(depth_maps, vec2<i32>(uv * view.size.xy), i32(i), 0);
+    // The bias in world units (texels over the cosine, at most 10 texels), as depth.
+    let bias = bias_texels * view.window.x / max(cosine, 0.1) / view.eye_near_far.w;
+    return select(0.0, 1.0, d >= 1.0 || d >= clip.z - bias);
+}
+
+@fragment
+fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
+    let s = load_surface(vec2<i32>(in.position.xy));
+    if !s.is_receiver {
+        return vec4<f32>(0.0);
+    }
+    let count = min(u32(batch.count_bias.x), MAX_BATCH);
+    var lit = 0.0;
+    for (var i = 0u; i < count; i = i + 1u) {
+        lit += lit_along(batch.views[i], i, s.world, s.normal, batch.count_bias.y);
+    }
+    return vec4<f32>(lit);
+}
+#else
 @fragment
 fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     let s = load_surface(vec2<i32>(in.position.xy));
@@ -56,3 +94,4 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     }
     return vec4<f32>(lit);
 }
+#endif

@@ -1,6 +1,6 @@
 // Accumulated hard shadows, step 2: visibility = lit count / number of samples.
 // Counts are whole numbers in f32, so a fully lit pixel resolves to exactly 1.
-#import softshadow::frame::load_surface
+#import softshadow::frame::{load_surface, light_reaches}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 
 struct Resolve {
@@ -23,7 +23,8 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     if !s.is_receiver {
         return vec4<f32>(1.0);
     }
-    if s.light.z <= 0.0 {
+    // Behind a one-sided light's plane (the sun reaches everything).
+    if !light_reaches(s) {
         return vec4<f32>(0.0);
     }
     let lit = textureLoad(counts, pixel, 0).r;
