@@ -9,7 +9,7 @@
 //! Writes: the visibility buffer. Passes: `msm/shadow_map`, `msm/moments` (the moment map),
 //! `msm/mips` (its mip chain, one pass per level), `msm/filter` (blocker search, penumbra
 //! estimate and filter in one fullscreen pass). The first three are kept while only the camera
-//! moves.
+//! moves. Under the sun: core's cascades with a moment map per cascade (`sun.rs`).
 
 #![warn(missing_docs)]
 

@@ -7,7 +7,8 @@
 //! Reads: the casters (one shadow map from the light centre) and the G-buffer.
 //! Writes: the visibility buffer. Passes: `smrt/shadow_map` (kept while only the camera moves),
 //! `smrt/trace` (every ray of every pixel in one fullscreen pass), and `smrt/debug` only while
-//! the viewer shows one of its debug views.
+//! the viewer shows one of its debug views. Under the sun: core's cascades, rays over the sun's
+//! cone (`sun.rs`).
 
 #![warn(missing_docs)]
 
