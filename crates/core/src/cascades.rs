@@ -37,7 +37,8 @@ use crate::{
     shader::ShaderSpec,
     shadow_map::{create_depth_maps, layer_view, DepthMapRenderer, ShadowViewUniform},
     uniform::{uniform_bytes, zeroed_uniform_buffer},
-    AreaLight, Gpu, GpuError, SceneGpu, ShadowInputs, TechniqueStats,
+    AreaLight, Gpu, GpuError, SceneGpu, ShadowInputs, TechniqueError, TechniqueStats,
+    VisibilityBuffer,
 };
 
 /// The most cascades a [`CascadeUniform`] holds (`MAX_CASCADES` in `cascades.wgsl`).
@@ -464,6 +465,25 @@ impl SunCascades {
             cascades,
             rebuilt: true,
         })
+    }
+
+    /// [`Self::render`] for technique `technique` (the passes `<technique>/shadow_map/<i>`), with
+    /// the sun's parameters `params` and `size`² maps; when nothing is drawn (no casters, or no
+    /// usable camera) `out` is written lit (`<technique>/no_casters`) and the fit is `None`.
+    pub fn render_or_lit(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        (technique, params, size): (&str, &SunCascadeParams, u32),
+        out: &VisibilityBuffer,
+    ) -> Result<Option<CascadeFit>, TechniqueError> {
+        let label = format!("{technique}/shadow_map");
+        let fit = self.render(frame, inputs, &params.settings(), size, &label);
+        if fit.is_none() {
+            let group = inputs.frame_bind_group;
+            out.write_unshadowed(frame, group, &format!("{technique}/no_casters"))?;
+        }
+        Ok(fit)
     }
 
     fn draw(

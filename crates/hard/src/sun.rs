@@ -36,11 +36,8 @@ impl HardSun {
         out: &VisibilityBuffer,
     ) -> Result<TechniqueStats, TechniqueError> {
         let size = settings.shadow_map_size;
-        let cascade_settings = settings.sun.settings();
-        let Some(fit) =
-            (self.cascades).render(frame, inputs, &cascade_settings, size, "hard/shadow_map")
-        else {
-            out.write_unshadowed(frame, inputs.frame_bind_group, "hard/no_casters")?;
+        let sun = ("hard", &settings.sun, size);
+        let Some(fit) = (self.cascades).render_or_lit(frame, inputs, sun, out)? else {
             return Ok(TechniqueStats::from([("shadow_maps".into(), 0.0)]));
         };
         let group = inputs.frame_bind_group;
