@@ -704,7 +704,7 @@ fn an_unsupported_light_kind_is_refused_and_recorded_by_a_sweep() -> Result<()> 
         "--scene",
         scene,
         "--technique",
-        "smrt",
+        "ssm",
         "--out",
         out.to_str().context("utf-8")?,
     ]);
@@ -712,7 +712,7 @@ fn an_unsupported_light_kind_is_refused_and_recorded_by_a_sweep() -> Result<()> 
     ensure!(o.status.code() == Some(2), "{message}");
     ensure!(message.lines().count() == 1, "{message}");
     ensure!(
-        message.contains("`smrt`") && message.contains("`sun`"),
+        message.contains("`ssm`") && message.contains("`sun`"),
         "{message}"
     );
     ensure!(!out.exists(), "a refused run wrote {}", out.display());
@@ -722,7 +722,7 @@ fn an_unsupported_light_kind_is_refused_and_recorded_by_a_sweep() -> Result<()> 
         &sweep,
         format!(
             "size = \"32x32\"\nframes = 1\nwarmup = 0\nscenes = [\"{scene}\"]\n\
-             [reference]\nsamples_per_axis = 2\n[[technique]]\nid = \"smrt\"\n[[technique]]\nid = \"raytraced\"\n"
+             [reference]\nsamples_per_axis = 2\n[[technique]]\nid = \"ssm\"\n[[technique]]\nid = \"raytraced\"\n"
         ),
     )?;
     let out = dir.path().join("sweep");
@@ -751,7 +751,7 @@ fn an_unsupported_light_kind_is_refused_and_recorded_by_a_sweep() -> Result<()> 
     ensure!(
         runs[0]["message"]
             .as_str()
-            .is_some_and(|m| m.contains("`smrt`")),
+            .is_some_and(|m| m.contains("`ssm`")),
         "{}",
         runs[0]
     );
