@@ -20,17 +20,17 @@ pub fn info() -> TechniqueInfo {
     )
     .with_requirements(Reference::requirements_static())
     .with_shaders(SHADERS)
-    // The sun: one orthographic map per direction of its cone (`sun_view`).
-    .with_light_kinds(LightSupport::all().except(
-        LightKind::Sphere,
-        "its depth maps are drawn from fixed points of a light plane, but a sphere shows each receiver a different disk: the exact answers (ray cast, ray-traced) sample it",
-    ))
+    // The sun: one orthographic map per direction of its cone (`sun_view`); the sphere: one
+    // perspective map per point of its surface, weighed per receiver (`sphere_view`).
+    .with_light_kinds(LightSupport::all())
     // On atty-square with its light made each kind (`AreaLight::as_kind`), defaults, 64²
     // (measured beside each; `hard` measured 0.206 rect, 0.185 disk and spot, 0.156 sphere).
     .with_light_kind_bounds(&[
         (LightKind::Rect, at_most(MaeShadowed, 0.01, 0.0016)),
         (LightKind::Disk, at_most(MaeShadowed, 0.01, 0.0021)),
         (LightKind::Spot, at_most(MaeShadowed, 0.01, 0.0021)),
+        // One map per point of the sphere (`sphere_view`), about half of them facing a receiver.
+        (LightKind::Sphere, at_most(MaeShadowed, 0.01, 0.0042)),
         // The sun 10 degrees wide: 32 x 32 directions of its cone (`sun_view`); `hard` 0.114.
         (LightKind::Sun, at_most(MaeShadowed, 0.01, 0.0062)),
     ])
@@ -41,15 +41,16 @@ pub fn info() -> TechniqueInfo {
         |q| {
             let samples = q.number("samples_per_axis").powi(2);
             let texels = q.number("shadow_map_size").powi(2);
-            // GPU memory (bytes); the resolve uniform (16 bytes) is left to the tolerance.
+            // GPU memory (bytes).
             let pow2 = |x: f64| x.log2().ceil().exp2();
             let gpu_bytes =
                 // The depth maps of one accumulation pass: a Depth32Float array of BATCH (16)
                 // layers, whatever the samples.
                 16.0 * 4.0 * texels
-                // The lit counts and the result (R32Float each, per pixel); the result of the
-                // frame before is dropped when the cache is (NVIDIA freed it later: 12 bytes).
-                + 8.0 * q.pixels
+                // The summed weights (Rg32Float) and the result (R32Float), per pixel; the
+                // result of the frame before is dropped when the cache is (NVIDIA freed it
+                // later: 16 bytes).
+                + 12.0 * q.pixels
                 // The depth pass's view slots: 256 bytes per light sample, rounded up to a power
                 // of two, at least 16 (core::shadow_map::DepthMapRenderer).
                 + 256.0 * pow2(samples).max(16.0)
@@ -81,6 +82,15 @@ fn expectations() -> Expectations {
         // (0.0015) is nearly exact; the class rule (0.0053) would accept it.
         ("stiff-sun-grazing", at_most(MaeShadowed, 0.0012, 0.0007)),
         ("stiff-depth-range", at_most(MaeShadowed, 0.0038, 0.0015)),
+        // The sphere's disk turns from receiver to receiver: every other technique 0.03 or more.
+        ("stiff-sphere-near", at_most(MaeShadowed, 0.0085, 0.0054)),
+        // Half sunk in the ground; the ground right beside it sees the sphere under a huge
+        // angle and reads darker than the ray-traced answer (darker_shadowed 0.013): `raytraced`
+        // 0.079, `hard` 0.144, every other technique 0.26 or more.
+        (
+            "stiff-sphere-in-ground",
+            at_most(MaeShadowed, 0.045, 0.0316),
+        ),
         ("stiff-zero-thickness", at_most(MaeShadowed, 0.0065, 0.0026)),
         ("stiff-degenerate", at_most(MaeShadowed, 0.004, 0.0016)),
         ("stiff-behind-light", at_most(MaeShadowed, 0.003, 0.0012)),

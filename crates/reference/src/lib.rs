@@ -38,7 +38,7 @@ use softshadow_core::{
         create_depth_maps, fit_caster_view, fit_hard_view, layer_view, DepthMapRenderer,
         ShadowViewUniform,
     },
-    uniform::{uniform_bytes, zeroed_uniform_buffer},
+    uniform::uniform_bytes,
     wgpu, AreaLight, Frame, Gpu, LightKind, Requirements, SceneGpu, ShadowInputs, ShadowTechnique,
     TechniqueError, TechniqueSettings, TechniqueStats, VisibilityBuffer,
 };
@@ -51,13 +51,15 @@ pub const ID: &str = "reference";
 
 /// The sun's orthographic sample views (accumulate.wgsl).
 const SUN: (&str, DefValue) = ("SUN", DefValue::Bool(true));
+/// A sphere's samples, each weighed by the silhouette disk it stands for (accumulate.wgsl).
+const SPHERE: (&str, DefValue) = ("SPHERE", DefValue::Bool(true));
 
 /// The technique's WGSL entry files and their permutations (validated by the workspace's naga test).
 pub const SHADERS: &[ShaderSpec] = &[
     ShaderSpec {
         path: "reference/accumulate.wgsl",
         source: shader_file!("reference/accumulate.wgsl").1,
-        permutations: &[&[], &[SUN]],
+        permutations: &[&[], &[SUN], &[SPHERE]],
     },
     ShaderSpec {
         path: "reference/resolve.wgsl",
@@ -361,11 +363,9 @@ fn sampled_answer(
 
 /// Stratified sample positions on the light, light-space `(u, v)` (row-major): on the
 /// rectangle, or on the disk of a disk or spot light (the strata through the concentric map).
-/// A sphere is sampled as its disk facing along the light's direction (the silhouette seen from
-/// receivers on its axis far away; one set of depth maps cannot follow each receiver's disk, so
-/// the accumulated reference approximates it: the ray cast and the ray-traced answer do not).
-/// The sun has no eyes on a light plane: its samples are the same strata of the unit square,
-/// each a direction of its cone ([`AreaLight::sample`], [`sun_view`]).
+/// A sphere's and the sun's samples are the strata of the unit square: points of the sphere's
+/// surface ([`sphere_point`], [`sphere_view`]) or directions of the sun's cone
+/// ([`AreaLight::sample`], [`sun_view`]).
 pub fn light_samples(settings: &ReferenceSettings, light: &AreaLight) -> Vec<Vec2> {
     let jitter_seed = settings
         .jitter
@@ -373,10 +373,10 @@ pub fn light_samples(settings: &ReferenceSettings, light: &AreaLight) -> Vec<Vec
     let n = settings.samples_per_axis.max(1);
     match light.kind {
         LightKind::Rect => stratified_samples(n, light.half_extent(), jitter_seed).collect(),
-        LightKind::Disk | LightKind::Sphere | LightKind::Spot => stratified_unit(n, jitter_seed)
+        LightKind::Disk | LightKind::Spot => stratified_unit(n, jitter_seed)
             .map(|u| softshadow_core::light_shape::concentric_disk(u) * light.radius)
             .collect(),
-        LightKind::Sun => stratified_unit(n, jitter_seed).collect(),
+        LightKind::Sphere | LightKind::Sun => stratified_unit(n, jitter_seed).collect(),
     }
 }
 
@@ -413,23 +413,72 @@ pub fn sun_view(
     })
 }
 
+/// The point of the unit sphere that `u` (the unit square) maps to, uniform in area
+/// (z = 1 - 2 u.x, the angle around z 2 pi u.y).
+pub fn sphere_point(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let ring = (1.0 - z * z).max(0.0).sqrt();
+    let angle = std::f32::consts::TAU * u.y;
+    Vec3::new(ring * angle.cos(), ring * angle.sin(), z)
+}
+
+/// The depth view from the point of a sphere light's surface that `u` stands for
+/// ([`sphere_point`], light space) and that point's light-space z: the view from the point's
+/// `(x, y)` of the light plane moved along the light's axis to its z. accumulate.wgsl (`SPHERE`)
+/// weighs each sample by the silhouette disk it stands for at each receiver.
+pub fn sphere_view(
+    scene: &SceneGpu,
+    light: &AreaLight,
+    u: Vec2,
+    size: u32,
+) -> (Option<ShadowViewUniform>, f32) {
+    let eye = sphere_point(u) * light.radius;
+    let (_, _, axis) = light.basis();
+    let moved = AreaLight {
+        center: light.center + axis * eye.z,
+        ..*light
+    };
+    let view = sample_view(scene, &moved, eye.truncate())
+        .map(|frustum| ShadowViewUniform::new(&moved, &frustum, size));
+    (view, eye.z)
+}
+
+/// The depth views of a reference's light samples and the light-space z of each view's eye
+/// (0 but for a sphere's samples).
+#[derive(Default)]
+struct SampleViews {
+    views: Vec<ShadowViewUniform>,
+    eye_depths: Vec<f32>,
+}
+
 /// The depth views of the light samples `samples` taken in `order` (indices into them):
-/// perspective views from points of the light plane, or under the sun orthographic views along
-/// directions of its cone ([`sun_view`]).
+/// perspective views from points of the light plane (a sphere's: of the plane moved to each
+/// point, [`sphere_view`]), or under the sun orthographic views along directions of its cone
+/// ([`sun_view`]).
 fn sample_views(
     inputs: &ShadowInputs<'_>,
     samples: &[Vec2],
     order: impl Iterator<Item = usize>,
     size: u32,
-) -> Vec<ShadowViewUniform> {
+) -> SampleViews {
     let (scene, light) = (inputs.scene, inputs.light);
-    order
-        .filter_map(|k| match light.kind {
-            LightKind::Sun => sun_view(scene, light, samples[k], size),
-            _ => sample_view(scene, light, samples[k])
-                .map(|frustum| ShadowViewUniform::new(light, &frustum, size)),
-        })
-        .collect()
+    let mut out = SampleViews::default();
+    for k in order {
+        let (view, eye_depth) = match light.kind {
+            LightKind::Sun => (sun_view(scene, light, samples[k], size), 0.0),
+            LightKind::Sphere => sphere_view(scene, light, samples[k], size),
+            _ => (
+                sample_view(scene, light, samples[k])
+                    .map(|frustum| ShadowViewUniform::new(light, &frustum, size)),
+                0.0,
+            ),
+        };
+        if let Some(view) = view {
+            out.views.push(view);
+            out.eye_depths.push(eye_depth);
+        }
+    }
+    out
 }
 
 /// `n x n` stratified points on the rectangle `[-half.x, half.x] x [-half.y, half.y]`, row-major.
@@ -489,25 +538,16 @@ impl SplitMix64 {
 struct BatchUniform {
     count_bias: Vec4,
     views: [ShadowViewUniform; BATCH as usize],
-}
-
-#[derive(ShaderType)]
-struct ResolveUniform {
-    samples: Vec4,
+    eye_depths: [Vec4; BATCH as usize / 4],
 }
 
 /// This crate's uniform structs with the WGSL structs they mirror, for the layout test in
 /// tests/shaders.rs (`softshadow_core::shader::uniform_layout`).
 #[doc(hidden)]
 pub fn uniform_mirrors() -> Vec<softshadow_core::shader::uniform_layout::UniformMirror> {
-    let mut mirrors = vec![
-        softshadow_core::uniform_mirror!(
-            BatchUniform { count_bias, views } => "reference/accumulate.wgsl", Batch
-        ),
-        softshadow_core::uniform_mirror!(
-            ResolveUniform { samples } => "reference/resolve.wgsl", Resolve
-        ),
-    ];
+    let mut mirrors = vec![softshadow_core::uniform_mirror!(
+        BatchUniform { count_bias, views, eye_depths } => "reference/accumulate.wgsl", Batch
+    )];
     mirrors.extend(traced::uniform_mirrors());
     mirrors
 }
@@ -525,10 +565,11 @@ pub struct Reference {
     accumulate: FullscreenPass,
     /// The same over the sun's orthographic views (`SUN`).
     accumulate_sun: FullscreenPass,
+    /// The same from points of a sphere, weighed (`SPHERE`).
+    accumulate_sphere: FullscreenPass,
     resolve: FullscreenPass,
     batches: wgpu::Buffer,
     batch_capacity: u32,
-    resolve_buffer: wgpu::Buffer,
     maps: Option<(u32, wgpu::Texture)>,
     cache: Option<Cached>,
     stats: TechniqueStats,
@@ -567,10 +608,10 @@ impl Progress {
 struct InProgress {
     key: u64,
     /// Depth views in accumulation order (strata interleaved, so partial sums cover the light).
-    views: Vec<ShadowViewUniform>,
+    views: SampleViews,
     light_samples: usize,
     done: usize,
-    counts: VisibilityBuffer,
+    sums: WeightSums,
     result: VisibilityBuffer,
 }
 
@@ -596,22 +637,21 @@ impl Reference {
                     size: BATCH_UNIFORM_BYTES,
                 })
                 .texture(Slot::DEPTH_ARRAY)
-                .fullscreen(Some(blend))
+                .fullscreen_into(WeightSums::FORMAT, Some(blend))
         };
         Ok(Self {
             depth: DepthMapRenderer::new(gpu)?,
             // accumulate.wgsl: one batch's views (a slot of `batches`), its depth maps.
             accumulate: accumulate(&[])?,
             accumulate_sun: accumulate(&[SUN])?,
-            // resolve.wgsl: the sample count, the summed counts.
+            accumulate_sphere: accumulate(&[SPHERE])?,
+            // resolve.wgsl: the summed weights.
             resolve: Pass::new(gpu, "reference/resolve", &SHADERS[1])
                 .after_frame_group()
-                .uniform()
                 .texture(Slot::FLOAT)
                 .fullscreen(None)?,
             batches: Self::batch_buffer(gpu, 4),
             batch_capacity: 4,
-            resolve_buffer: zeroed_uniform_buffer::<ResolveUniform>(gpu, "reference/resolve"),
             settings,
             maps: None,
             cache: None,
@@ -623,7 +663,7 @@ impl Reference {
 
     pub(crate) fn requirements_static() -> Requirements {
         Requirements {
-            // Summing per-batch counts into an R32Float target by additive blending.
+            // Summing per-batch weights into an Rg32Float target by additive blending.
             features: wgpu::Features::FLOAT32_BLENDABLE,
             ..Requirements::default()
         }
@@ -673,7 +713,7 @@ impl Reference {
         match &self.progress {
             Some(p) => Progress {
                 done: p.done as u32,
-                total: p.views.len() as u32,
+                total: p.views.views.len() as u32,
             },
             None => {
                 let total = self.stats.get("depth_maps").copied().unwrap_or(0.0) as u32;
@@ -728,20 +768,19 @@ impl ShadowTechnique for Reference {
         let size = self.settings.shadow_map_size;
         let views = sample_views(inputs, &samples, 0..samples.len(), size);
         let result = VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height);
-        if views.is_empty() {
+        if views.views.is_empty() {
             // No caster in front of the light: receivers in front of it are lit, no depth map.
             result.write_unshadowed(frame, inputs.frame_bind_group, "reference/no_casters")?;
         } else {
-            let counts =
-                VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height);
-            self.accumulate_views(frame, inputs, &views, &counts, true);
-            self.resolve_counts(frame, inputs, &counts, views.len(), &result);
+            let sums = WeightSums::new(gpu, inputs.width, inputs.height);
+            self.accumulate_views(frame, inputs, &views, 0..views.views.len(), &sums);
+            self.resolve_sums(frame, inputs, &sums, &result);
         }
         out.copy_from(frame.encoder, &result.texture);
         self.stats = TechniqueStats::from([
             ("cached".into(), 0.0),
             ("light_samples".into(), samples.len() as f64),
-            ("depth_maps".into(), views.len() as f64),
+            ("depth_maps".into(), views.views.len() as f64),
         ]);
         self.cache = Some(Cached {
             key,
@@ -780,12 +819,12 @@ impl Reference {
                 views,
                 light_samples: samples.len(),
                 done: 0,
-                counts: VisibilityBuffer::new(gpu, "reference/counts", inputs.width, inputs.height),
+                sums: WeightSums::new(gpu, inputs.width, inputs.height),
                 result: VisibilityBuffer::new(gpu, "reference/result", inputs.width, inputs.height),
             });
         }
         let mut progress = self.progress.take().expect("set above");
-        if progress.views.is_empty() {
+        if progress.views.views.is_empty() {
             progress.result.write_unshadowed(
                 frame,
                 inputs.frame_bind_group,
@@ -793,29 +832,17 @@ impl Reference {
             )?;
         } else {
             let start = progress.done;
-            let end = (start + (batches * BATCH) as usize).min(progress.views.len());
-            self.accumulate_views(
-                frame,
-                inputs,
-                &progress.views[start..end],
-                &progress.counts,
-                start == 0,
-            );
+            let end = (start + (batches * BATCH) as usize).min(progress.views.views.len());
+            self.accumulate_views(frame, inputs, &progress.views, start..end, &progress.sums);
             progress.done = end;
-            self.resolve_counts(
-                frame,
-                inputs,
-                &progress.counts,
-                progress.done,
-                &progress.result,
-            );
+            self.resolve_sums(frame, inputs, &progress.sums, &progress.result);
         }
         out.copy_from(frame.encoder, &progress.result.texture);
-        let complete = progress.done >= progress.views.len();
+        let complete = progress.done >= progress.views.views.len();
         self.stats = TechniqueStats::from([
             ("cached".into(), 0.0),
             ("light_samples".into(), progress.light_samples as f64),
-            ("depth_maps".into(), progress.views.len() as f64),
+            ("depth_maps".into(), progress.views.views.len() as f64),
             ("depth_maps_done".into(), progress.done as f64),
         ]);
         if complete {
@@ -829,16 +856,19 @@ impl Reference {
         Ok(())
     }
 
-    /// Adds the lit counts of `views` to `counts` (cleared first when `clear`).
+    /// Adds the weights of the views `range` of `views` to `sums` (cleared first when the range
+    /// starts at the first view).
     fn accumulate_views(
         &mut self,
         frame: &mut Frame<'_>,
         inputs: &ShadowInputs<'_>,
-        views: &[ShadowViewUniform],
-        counts: &VisibilityBuffer,
-        clear: bool,
+        views: &SampleViews,
+        range: std::ops::Range<usize>,
+        sums: &WeightSums,
     ) {
         let gpu = frame.gpu;
+        let clear = range.start == 0;
+        let (eye_depths, views) = (&views.eye_depths[range.clone()], &views.views[range]);
         let size = self.settings.shadow_map_size;
         if self.maps.as_ref().map(|m| m.0) != Some(size) {
             self.maps = Some((
@@ -846,25 +876,7 @@ impl Reference {
                 create_depth_maps(gpu, "reference/depth_maps", size, BATCH),
             ));
         }
-        let batch_count = views.len().div_ceil(BATCH as usize) as u32;
-        if batch_count > self.batch_capacity {
-            self.batch_capacity = batch_count.next_power_of_two();
-            self.batches = Self::batch_buffer(gpu, self.batch_capacity);
-        }
-        // All uniforms are written before the frame is submitted, so each batch (and each depth
-        // view) gets its own slot.
-        let mut bytes = vec![0u8; (BATCH_SLOT * batch_count as u64) as usize];
-        for (b, chunk) in views.chunks(BATCH as usize).enumerate() {
-            let mut uniform = BatchUniform {
-                count_bias: Vec4::new(chunk.len() as f32, self.settings.bias_texels, 0.0, 0.0),
-                views: [ShadowViewUniform::ZERO; BATCH as usize],
-            };
-            uniform.views[..chunk.len()].copy_from_slice(chunk);
-            let uniform = uniform_bytes(&uniform);
-            let at = b * BATCH_SLOT as usize;
-            bytes[at..at + uniform.len()].copy_from_slice(&uniform);
-        }
-        gpu.queue.write_buffer(&self.batches, 0, &bytes);
+        let batch_count = self.write_batches(gpu, inputs.light, views, eye_depths);
         self.depth.set_views(gpu, views);
 
         let (_, maps) = self.maps.as_ref().expect("created above");
@@ -888,6 +900,7 @@ impl Reference {
             let batch = Resource::BufferRange(&self.batches, 0, BATCH_UNIFORM_BYTES);
             let pass = match inputs.light.kind {
                 LightKind::Sun => &self.accumulate_sun,
+                LightKind::Sphere => &self.accumulate_sphere,
                 _ => &self.accumulate,
             };
             pass.run(frame)
@@ -895,33 +908,95 @@ impl Reference {
                 .read(batch)
                 .read(&array_view)
                 .offsets(&[(b as u64 * BATCH_SLOT) as u32])
-                .draw(&counts.view, if b == 0 && clear { Some(0.0) } else { None });
+                .draw(&sums.view, if b == 0 && clear { Some(0.0) } else { None });
         }
     }
 
-    /// Writes `counts / samples` (0 behind the light, 1 off receivers) into `result`.
-    fn resolve_counts(
+    /// Writes one batch uniform per [`BATCH`] views into `batches` (grown as needed) and returns
+    /// how many. All are written before the frame is submitted, so each batch (and each depth
+    /// view) gets its own slot.
+    fn write_batches(
+        &mut self,
+        gpu: &Gpu,
+        light: &AreaLight,
+        views: &[ShadowViewUniform],
+        eye_depths: &[f32],
+    ) -> u32 {
+        let batch_count = views.len().div_ceil(BATCH as usize) as u32;
+        if batch_count > self.batch_capacity {
+            self.batch_capacity = batch_count.next_power_of_two();
+            self.batches = Self::batch_buffer(gpu, self.batch_capacity);
+        }
+        let mut bytes = vec![0u8; (BATCH_SLOT * batch_count as u64) as usize];
+        let batches = views
+            .chunks(BATCH as usize)
+            .zip(eye_depths.chunks(BATCH as usize));
+        for (b, (chunk, depths)) in batches.enumerate() {
+            let mut uniform = BatchUniform {
+                count_bias: Vec4::new(
+                    chunk.len() as f32,
+                    self.settings.bias_texels,
+                    light.radius,
+                    0.0,
+                ),
+                views: [ShadowViewUniform::ZERO; BATCH as usize],
+                eye_depths: [Vec4::ZERO; BATCH as usize / 4],
+            };
+            uniform.views[..chunk.len()].copy_from_slice(chunk);
+            for (i, depth) in depths.iter().enumerate() {
+                uniform.eye_depths[i / 4][i % 4] = *depth;
+            }
+            let uniform = uniform_bytes(&uniform);
+            let at = b * BATCH_SLOT as usize;
+            bytes[at..at + uniform.len()].copy_from_slice(&uniform);
+        }
+        gpu.queue.write_buffer(&self.batches, 0, &bytes);
+        batch_count
+    }
+
+    /// Writes `sums.r / sums.g` (0 behind the light, 1 off receivers) into `result`.
+    fn resolve_sums(
         &mut self,
         frame: &mut Frame<'_>,
         inputs: &ShadowInputs<'_>,
-        counts: &VisibilityBuffer,
-        samples: usize,
+        sums: &WeightSums,
         result: &VisibilityBuffer,
     ) {
-        let gpu = frame.gpu;
-        gpu.queue.write_buffer(
-            &self.resolve_buffer,
-            0,
-            &uniform_bytes(&ResolveUniform {
-                samples: Vec4::new(samples as f32, 0.0, 0.0, 0.0),
-            }),
-        );
         self.resolve
             .run(frame)
             .frame_group(inputs.frame_bind_group)
-            .read(&self.resolve_buffer)
-            .read(&counts.view)
+            .read(&sums.view)
             .draw(&result.view, Some(1.0));
+    }
+}
+
+/// Per pixel, the summed weights of the light samples that see it (`r`) and of all (`g`): for
+/// every kind but the sphere a sample weighs 1, so these are counts.
+struct WeightSums {
+    view: wgpu::TextureView,
+}
+
+impl WeightSums {
+    const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
+
+    fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("reference/weight_sums"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: Self::FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        Self {
+            view: texture.create_view(&Default::default()),
+        }
     }
 }
 

@@ -292,10 +292,11 @@ fn the_reference_converges_and_the_metrics_and_the_plot_appear() -> Result<()> {
     Ok(())
 }
 
-/// Under a light the yardstick cannot sample (a sphere), the viewer starts no reference and
-/// the error section says why and what measures that light, instead of "measuring" forever.
+/// Under a sphere light the yardstick accumulates (one depth map per point of the sphere,
+/// weighed per receiver) and the error section shows metrics, with no word of a missing
+/// yardstick.
 #[test]
-fn under_a_sphere_light_the_error_section_says_no_yardstick_runs() -> Result<()> {
+fn under_a_sphere_light_the_yardstick_converges_and_metrics_show() -> Result<()> {
     let mut harness = harness("hard")?;
     let accumulations = harness.state().reference_accumulations();
     let mut state = harness.state().state();
@@ -304,21 +305,21 @@ fn under_a_sphere_light_the_error_section_says_no_yardstick_runs() -> Result<()>
     let path = dir.path().join("state.json");
     state.save(&path)?;
     harness.state_mut().load_state(&path);
-    harness.run_steps(4);
+    run_until_converged(&mut harness)?;
+    harness.run_steps(2);
     let app = harness.state();
     ensure!(app.light().kind == softshadow_core::LightKind::Sphere);
     ensure!(
-        app.reference_accumulations() == accumulations,
-        "no reference accumulates under a sphere: {} accumulations begun, {accumulations} before",
-        app.reference_accumulations()
+        app.reference_accumulations() > accumulations,
+        "a reference accumulates under a sphere"
     );
     ensure!(app.errors().is_empty(), "errors: {:?}", app.errors());
-    harness
-        .query_by_label_contains("cannot sample a `sphere` light")
-        .context("the error section says why no yardstick runs")?;
-    harness
-        .query_by_label_contains("No point under this light")
-        .context("the plot says why it has no point")?;
+    let metrics = app.metrics().context("metrics under a sphere light")?;
+    ensure!(metrics.mae_shadowed.is_finite(), "{metrics:?}");
+    ensure!(
+        harness.query_by_label_contains("cannot sample").is_none(),
+        "no refusal under a sphere"
+    );
     Ok(())
 }
 

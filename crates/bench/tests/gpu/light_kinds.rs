@@ -195,17 +195,17 @@ fn techniques_stay_within_their_bounds_per_kind() -> Result<()> {
 /// and kind, and no GPU work (no timing, no pass run, no error measured).
 #[test]
 fn an_unsupported_kind_is_refused_without_gpu_work() -> Result<()> {
-    let mut bench = bench_lit_by(light_of(LightKind::Sphere)?)?;
-    let run = bench.run(3, &spec("reference"), tempfile::tempdir()?.path());
+    let mut bench = bench_lit_by(light_of(LightKind::Sun)?)?;
+    let run = bench.run(3, &spec("ssm"), tempfile::tempdir()?.path());
     ensure!(run.status == Status::Unsupported, "{:?}", run.status);
     ensure!(
         !run.message.contains('\n')
-            && run.message.contains("`reference`")
-            && run.message.contains("`sphere`"),
+            && run.message.contains("`ssm`")
+            && run.message.contains("`sun`"),
         "{}",
         run.message
     );
-    ensure!(run.light_kind.as_deref() == Some("sphere"));
+    ensure!(run.light_kind.as_deref() == Some("sun"));
     ensure!(run.timing.is_none() && run.passes_run.is_empty() && run.error.is_none());
     Ok(())
 }

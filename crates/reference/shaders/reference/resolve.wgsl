@@ -1,15 +1,10 @@
-// Accumulated hard shadows, step 2: visibility = lit count / number of samples.
-// Counts are whole numbers in f32, so a fully lit pixel resolves to exactly 1.
+// Accumulated hard shadows, step 2: visibility = weight of the samples that see the point / weight
+// of all (accumulate.wgsl). Unweighted, both are whole numbers in f32, so a fully lit pixel
+// resolves to exactly 1.
 #import softshadow::frame::{load_surface, light_reaches}
 #import softshadow::fullscreen::{FullscreenVertex, fullscreen_vertex}
 
-struct Resolve {
-    // x: total number of light samples.
-    samples: vec4<f32>,
-}
-
-@group(1) @binding(0) var<uniform> resolve: Resolve;
-@group(1) @binding(1) var counts: texture_2d<f32>;
+@group(1) @binding(0) var weight_sums: texture_2d<f32>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenVertex {
@@ -27,6 +22,10 @@ fn fs_main(in: FullscreenVertex) -> @location(0) vec4<f32> {
     if !light_reaches(s) {
         return vec4<f32>(0.0);
     }
-    let lit = textureLoad(counts, pixel, 0).r;
-    return vec4<f32>(clamp(lit / max(resolve.samples.x, 1.0), 0.0, 1.0));
+    let sums = textureLoad(weight_sums, pixel, 0).rg;
+    // No sample faces the point (a sphere's, all on its far side): none sees it.
+    if sums.y <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(clamp(sums.x / sums.y, 0.0, 1.0));
 }
