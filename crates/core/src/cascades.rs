@@ -525,6 +525,13 @@ impl SunCascades {
         self.kept = None;
     }
 
+    /// The depth view of cascade `i` of the last maps drawn (a `texture_depth_2d`), if any.
+    pub fn layer(&self, i: usize) -> Option<&wgpu::TextureView> {
+        self.maps
+            .as_ref()
+            .and_then(|(_, _, _, _, layers)| layers.get(i))
+    }
+
     /// Declares a pass that reads the cascades: group 1 is binding 0 = the `Cascades` uniform,
     /// 1 = the `texture_depth_2d_array`, 2 = the technique's parameter uniform. Run it with
     /// [`Self::draw_lookup`].

@@ -1183,7 +1183,7 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
     std::fs::write(
         &path,
         "// Draws no shadow.\n// @param level: f32 = 1.0 in 0.0..=1.0, V everywhere\n\
-         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return params.level;\n}\n// @contract 2\n",
+         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return params.level;\n}\n// @contract 3\n",
     )?;
     harness.run_steps(7);
     let app = harness.state();
@@ -1219,7 +1219,7 @@ fn a_saved_wgsl_file_is_reloaded_and_a_broken_one_keeps_the_last_good_image() ->
     std::fs::write(
         &path,
         "// @param level: f32 = 1.0 in 0.0..=1.0, V everywhere\n\
-         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return params.level +;\n}\n// @contract 2\n",
+         fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return params.level +;\n}\n// @contract 3\n",
     )?;
     harness.run_steps(3);
     let shown = format!("{}:3:", path.display());
@@ -1970,7 +1970,7 @@ fn a_never_ending_wgsl_file_is_cancelled_and_hard_is_shown_and_timed() -> Result
          \x20   }\n\
          \x20   return v;\n\
          }\n\
-         // @contract 2\n",
+         // @contract 3\n",
     )?;
     let mut registry = softshadow::registry();
     let id = softshadow_wgsl::register_file(&mut registry, &path)?;

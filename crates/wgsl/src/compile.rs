@@ -20,11 +20,79 @@ const CONTRACT_MODULES: &[&str] = &[
     "common/fullscreen.wgsl",
 ];
 
-/// Group 1 of the pass (after the generated `Params` struct).
+/// Group 1 of the pass (after the generated `Params` struct), and (version 3) the helpers that
+/// read its map the same way for the perspective map and the sun's orthographic one
+/// (docs/WGSL.md, "The map"). Under the sun `view` holds: `light_view_proj` world to clip,
+/// `window.x` the texel edge in world units, `eye_near_far.z` the near plane (light-space z at
+/// depth 0), `.w` far - near (`technique::sun_map_view`).
 const GROUP1: &str = "
 @group(1) @binding(0) var<uniform> view: ShadowView;
 @group(1) @binding(1) var shadow_map: texture_depth_2d;
 @group(1) @binding(2) var<uniform> params: Params;
+
+// The depth map_depth gives where no caster is: beyond every receiver.
+const MAP_EMPTY: f32 = 3.0e38;
+
+// A receiver in the map: where it falls (`uv`, [0, 1)^2 inside the map) and its depth along the
+// light's rays, in the units of map_depth (light-space z).
+struct MapPoint {
+    uv: vec2<f32>,
+    depth: f32,
+}
+
+fn map_point(s: Surface) -> MapPoint {
+    if light_kind() == LIGHT_SUN {
+        let clip = view.light_view_proj * vec4<f32>(s.world, 1.0);
+        let uv = vec2<f32>(clip.x * 0.5 + 0.5, 0.5 - clip.y * 0.5);
+        return MapPoint(uv, view.eye_near_far.z + clip.z * view.eye_near_far.w);
+    }
+    return MapPoint(view_uv(view, s.light), s.light.z);
+}
+
+// The nearest caster's depth in `texel`, or MAP_EMPTY where none is (or outside the map).
+fn map_texel_depth(texel: vec2<i32>) -> f32 {
+    if any(texel < vec2<i32>(0)) || any(texel >= vec2<i32>(view.size.xy)) {
+        return MAP_EMPTY;
+    }
+    let d = textureLoad(shadow_map, texel, 0);
+    if d >= 1.0 {
+        return MAP_EMPTY;
+    }
+    if light_kind() == LIGHT_SUN {
+        return view.eye_near_far.z + d * view.eye_near_far.w;
+    }
+    return linear_depth(view, d);
+}
+
+// The nearest caster's depth at `uv`, or MAP_EMPTY.
+fn map_depth(uv: vec2<f32>) -> f32 {
+    if !in_map(uv) {
+        return MAP_EMPTY;
+    }
+    return map_texel_depth(vec2<i32>(uv * view.size.xy));
+}
+
+// A texel's edge at the receiver, in world units.
+fn map_texel_world(s: Surface) -> f32 {
+    if light_kind() == LIGHT_SUN {
+        return view.window.x;
+    }
+    return texel_slope(view) * s.light.z;
+}
+
+// Map uv per world unit across the light's rays at the receiver.
+fn map_uv_per_world(s: Surface) -> f32 {
+    return view.size.z / map_texel_world(s);
+}
+
+// A depth bias of `texels` texel footprints at the receiver over the cosine to the light (at
+// least 0.1): `hard`'s bias, for either map.
+fn map_bias(s: Surface, texels: f32) -> f32 {
+    if light_kind() == LIGHT_SUN {
+        return texels * view.window.x / max(abs(dot(s.normal, frame.light_dir.xyz)), 0.1);
+    }
+    return texels * texel_slope(view) * s.light.z / light_cosine(s);
+}
 ";
 
 /// The entry points, after the user's code: the pixels where the file is asked are receivers in
@@ -209,8 +277,8 @@ mod tests {
     use crate::{directives, WgslError};
 
     fn compile_text(source: &str) -> Result<(), WgslError> {
-        // Every test file is a version 2 file (its directive last, so lines stay as written).
-        let source = &format!("{source}\n// @contract 2\n");
+        // Every test file is a version 3 file (its directive last, so lines stay as written).
+        let source = &format!("{source}\n// @contract 3\n");
         let directives = directives::parse("t.wgsl", source)?;
         super::compile("t.wgsl", source, &directives).map(|_| ())
     }
@@ -271,7 +339,7 @@ mod tests {
     fn params_are_four_byte_fields_padded_to_sixteen_bytes() {
         let directives = directives::parse(
             "t.wgsl",
-            "// @param a: f32 = 1.0 in 0.0..=2.0\n// @param b: bool = true\n// @contract 2\n",
+            "// @param a: f32 = 1.0 in 0.0..=2.0\n// @param b: bool = true\n// @contract 3\n",
         )
         .unwrap();
         let text = super::params_struct(&directives);

@@ -2,7 +2,7 @@
 //! (docs/WGSL.md, "Directives").
 //!
 //! ```text
-//! // @contract 2                                              (required: the contract's version)
+//! // @contract 3                                              (required: the contract's version)
 //! // @param NAME: TYPE = DEFAULT in MIN..=MAX, DESCRIPTION     (TYPE f32, u32 or i32)
 //! // @param NAME: bool = DEFAULT, DESCRIPTION
 //! // @fit receivers | casters
@@ -155,7 +155,7 @@ pub fn parse(path: &str, source: &str) -> Result<Directives, WgslError> {
 /// What a file written for contract version `written_for` must change (docs/WGSL.md).
 fn version_change(written_for: &str) -> String {
     format!(
-        "written for contract version {written_for}; this is version {}: `frame` now carries the light's kind and shape (`light_shape`, `light_sun`, `light_to_world`; `light_kind()`, `light_reaches(s)`, `light_sample(u, world)`), so a file that reads `frame.light_half` as a rectangle must check `light_kind()`: then add the line `// @contract {}` (docs/WGSL.md)",
+        "written for contract version {written_for}; this is version {}: `frame` carries the light's kind and shape (since 2: `light_kind()`, `light_reaches(s)`, `light_sample(u, world)`), so a file that reads `frame.light_half` as a rectangle must check `light_kind()`; under the sun `view` and `shadow_map` are an orthographic map (since 3), which `map_point(s)`, `map_depth(uv)` and `map_bias(s, texels)` read as they read the perspective one: use them (or check for `LIGHT_SUN`), then add the line `// @contract {}` (docs/WGSL.md)",
         crate::CONTRACT_VERSION,
         crate::CONTRACT_VERSION
     )
@@ -310,7 +310,7 @@ mod tests {
              // @param offset: i32 = -1 in -4..=4, Offset\n\
              // @param on: bool = true, Switch\n\
              // @fit receivers\n\
-             // @contract 2\n",
+             // @contract 3\n",
         )
         .unwrap();
         assert_eq!(directives.fit, Fit::Receivers);
@@ -347,16 +347,21 @@ mod tests {
             ParamKind::Bool { default: true }
         );
         assert_eq!(
-            parse("b.wgsl", "fn f() {}\n// @contract 2").unwrap().fit,
+            parse("b.wgsl", "fn f() {}\n// @contract 3").unwrap().fit,
             Fit::Casters
         );
-        // A file without `@contract 2` (a version 1 file) is told what changed.
-        for source in ["fn f() {}", "// @contract 1\nfn f() {}"] {
+        // A version 1 file (no `@contract` line) and a version 2 file are told what changed.
+        for (source, version) in [
+            ("fn f() {}", "1"),
+            ("// @contract 1\nfn f() {}", "1"),
+            ("// @contract 2\nfn f() {}", "2"),
+        ] {
             let message = parse("old.wgsl", source).unwrap_err().to_string();
             assert!(
-                message.contains("written for contract version 1")
+                message.contains(&format!("written for contract version {version}"))
                     && message.contains("light_kind()")
-                    && message.contains("// @contract 2"),
+                    && message.contains("map_point(s)")
+                    && message.contains("// @contract 3"),
                 "{message}"
             );
         }

@@ -1,7 +1,7 @@
 //! A WGSL file is a technique: one fullscreen fragment pass over the bindings of a versioned
 //! contract (the frame uniforms and receiver surface of group 0, the centre shadow map from the
-//! light with its `ShadowView`, the light in the frame uniforms, a uniform block of the file's
-//! parameters), writing V; the parameters are declared in the file, one `// @param` line each
+//! light with its `ShadowView` (under the sun one orthographic map fitted to the scene), the
+//! light in the frame uniforms, a uniform block of the file's parameters), writing V; the parameters are declared in the file, one `// @param` line each
 //! (docs/WGSL.md).
 //!
 //! [`load`] reads and checks a file (directives, naga parse and validation, every error one line
@@ -29,7 +29,7 @@ pub use watch::WatchedFile;
 
 /// The version of the bindings contract (docs/WGSL.md): changes when a binding, a helper of the
 /// preamble or the signature of `visibility` changes.
-pub const CONTRACT_VERSION: u32 = 2;
+pub const CONTRACT_VERSION: u32 = 3;
 
 /// A technique file could not be read, parsed, validated or registered.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -155,12 +155,9 @@ pub fn from_source(path: &Path, source: &str) -> Result<TechniqueInfo, WgslError
             )?))
         },
     )
-    // Version 2 gives the file the light's kind and shape; its map is the contract's perspective
-    // one from the light centre, which holds for every kind with a position.
-    .with_light_kinds(softshadow_core::LightSupport::all().except(
-        softshadow_core::LightKind::Sun,
-        "the contract's shadow map is a perspective view from the light centre; the sun needs an orthographic one",
-    )))
+    // Version 2 gives the file the light's kind and shape; version 3 the sun's orthographic map
+    // and helpers that read either map (`map_point`, `map_depth`, `map_bias`).
+    .with_light_kinds(softshadow_core::LightSupport::all()))
 }
 
 /// The file's first comment line that is not a directive: its one-line description.

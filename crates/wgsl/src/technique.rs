@@ -4,10 +4,13 @@
 use std::borrow::Cow;
 
 use softshadow_core::{
+    cascades::{Cascade, CascadeSettings, SunCascades},
+    glam::Vec4,
     params::find_spec,
     pass::{FullscreenPass, Pass, Slot},
-    shadow_map::CentreShadowMap,
-    wgpu, DebugView, Frame, Gpu, ParamError, ParamKind, ParamSet, ParamSpec, ParamValue,
+    shadow_map::{CentreShadowMap, ShadowViewUniform},
+    uniform::{uniform_bytes, zeroed_uniform_buffer},
+    wgpu, DebugView, Frame, Gpu, LightKind, ParamError, ParamKind, ParamSet, ParamSpec, ParamValue,
     ShadowInputs, ShadowTechnique, TechniqueError, TechniqueSettings, TechniqueStats,
     VisibilityBuffer,
 };
@@ -111,11 +114,29 @@ impl TechniqueSettings for FileSettings {
     }
 }
 
+/// The contract's `ShadowView` of the sun's map (docs/WGSL.md, "The map"): `light_view_proj`
+/// world to clip, `window.x` the texel edge in world units, `eye_near_far.z` the near plane and
+/// `.w` far - near, what the preamble's `map_*` helpers read under the sun.
+fn sun_map_view(cascade: &Cascade, size: u32) -> ShadowViewUniform {
+    let n = size as f32;
+    let view = &cascade.view;
+    ShadowViewUniform {
+        light_view_proj: view.view_projection(),
+        window: Vec4::new(cascade.texel_world, 0.0, 0.0, 0.0),
+        eye_near_far: Vec4::new(0.0, 0.0, view.near, view.far - view.near),
+        size: Vec4::new(n, n, 1.0 / n, 1.0 / n),
+    }
+}
+
 /// A technique defined by a WGSL file.
 pub struct FileTechnique {
     id: String,
     settings: FileSettings,
     shadow_map: CentreShadowMap,
+    /// Under the sun: one orthographic map fitted to the scene (`hard`'s with `cascades=1`),
+    /// and its `ShadowView` ([`sun_map_view`]).
+    sun: SunCascades,
+    sun_view_buffer: wgpu::Buffer,
     pass: FullscreenPass,
     params_buffer: wgpu::Buffer,
     shadow_map_label: String,
@@ -155,6 +176,8 @@ impl FileTechnique {
             id: id.to_string(),
             settings,
             shadow_map,
+            sun: SunCascades::new(gpu)?,
+            sun_view_buffer: zeroed_uniform_buffer::<ShadowViewUniform>(gpu, &pass_label),
             pass,
             params_buffer,
             shadow_map_label: format!("{id}/shadow_map"),
@@ -167,6 +190,52 @@ impl FileTechnique {
     /// Its settings.
     pub fn file_settings(&self) -> &FileSettings {
         &self.settings
+    }
+
+    /// Draws (or keeps) the centre shadow map; `false` when no caster is in front of the light.
+    fn render_centre_map(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        size: u32,
+    ) -> bool {
+        let label = &self.shadow_map_label;
+        if self.shadow_map.render(frame, inputs, size, label).is_none() {
+            return false;
+        }
+        self.stats = TechniqueStats::from([
+            ("shadow_maps".into(), 1.0),
+            ("shadow_map_texels".into(), (size as f64) * (size as f64)),
+        ]);
+        true
+    }
+
+    /// Draws (or keeps) the sun's map, one cascade fitted to the scene, and writes its view;
+    /// `false` when the scene has no casters.
+    fn render_sun_map(
+        &mut self,
+        frame: &mut Frame<'_>,
+        inputs: &ShadowInputs<'_>,
+        size: u32,
+    ) -> bool {
+        let one_map = CascadeSettings {
+            count: 1,
+            ..CascadeSettings::default()
+        };
+        let label = &self.shadow_map_label;
+        let Some(fit) = self.sun.render(frame, inputs, &one_map, size, label) else {
+            return false;
+        };
+        let Some(cascade) = fit.cascades.first() else {
+            return false;
+        };
+        let view = sun_map_view(cascade, size);
+        frame
+            .gpu
+            .queue
+            .write_buffer(&self.sun_view_buffer, 0, &uniform_bytes(&view));
+        self.stats = fit.stats(size);
+        true
     }
 }
 
@@ -189,46 +258,44 @@ impl ShadowTechnique for FileTechnique {
         inputs: &ShadowInputs<'_>,
         out: &VisibilityBuffer,
     ) -> Result<(), TechniqueError> {
-        let gpu = frame.gpu;
         let size = match self.settings.get(SHADOW_MAP_SIZE) {
             Some(ParamValue::Int(size)) => *size as u32,
             _ => 1024,
         };
-        if self
-            .shadow_map
-            .render(frame, inputs, size, &self.shadow_map_label)
-            .is_none()
-        {
+        let drawn = if inputs.light.kind == LightKind::Sun {
+            self.render_sun_map(frame, inputs, size)
+        } else {
+            self.render_centre_map(frame, inputs, size)
+        };
+        if !drawn {
             // No caster in front of the light: receivers in front of it are lit.
             out.write_unshadowed(frame, inputs.frame_bind_group, &self.no_casters_label)?;
             self.stats = TechniqueStats::from([("shadow_maps".into(), 0.0)]);
             return Ok(());
         }
-        gpu.queue
+        frame
+            .gpu
+            .queue
             .write_buffer(&self.params_buffer, 0, &self.settings.uniform_bytes());
-        let (label, group, params) = (
-            &self.pass_label,
-            inputs.frame_bind_group,
-            &self.params_buffer,
-        );
-        (self.shadow_map).draw_lookup(
-            frame,
-            &self.pass,
-            label,
-            group,
-            params,
-            &out.view,
-            Some(1.0),
-        );
-        self.stats = TechniqueStats::from([
-            ("shadow_maps".into(), 1.0),
-            ("shadow_map_texels".into(), (size as f64) * (size as f64)),
-        ]);
+        let (view, map) = match inputs.light.kind {
+            LightKind::Sun => (&self.sun_view_buffer, self.sun.layer(0)),
+            _ => (&self.shadow_map.view_buffer, self.shadow_map.map_view()),
+        };
+        let map = map.expect("a map was drawn above");
+        self.pass
+            .run(frame)
+            .named(&self.pass_label)
+            .frame_group(inputs.frame_bind_group)
+            .read(view)
+            .read(map)
+            .read(&self.params_buffer)
+            .draw(&out.view, Some(1.0));
         Ok(())
     }
 
     fn invalidate_cache(&mut self) {
         self.shadow_map.invalidate();
+        self.sun.invalidate();
     }
 
     fn stats(&self) -> TechniqueStats {

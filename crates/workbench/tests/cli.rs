@@ -574,7 +574,7 @@ fn bench_and_a_sweep_take_a_wgsl_file_as_a_technique() -> Result<()> {
     let broken = dir.path().join("broken.wgsl");
     std::fs::write(
         &broken,
-        "fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return 1.0\n}\n// @contract 2\n",
+        "fn visibility(s: Surface, pixel: vec2<i32>) -> f32 {\n    return 1.0\n}\n// @contract 3\n",
     )?;
     let out = dir.path().join("broken");
     let o = workbench(&[
