@@ -265,20 +265,23 @@ impl GBufferPass {
                 multiview_mask: None,
             },
             |pass| {
+                pass.set_bind_group(0, uniform_bind_group, &[]);
+                pass.set_pipeline(&self.pipeline);
                 let material = scene.materials.as_ref().and_then(|m| {
                     let pipeline = self.material_pipeline(frame_gpu)?;
-                    Some((m, pipeline))
+                    Some((m, pipeline, scene.all_by_material.as_ref()?))
                 });
-                match material {
-                    Some((m, pipeline)) => {
-                        pass.set_pipeline(pipeline);
-                        pass.set_bind_group(GBUFFER_MATERIAL_GROUP, m.group(), &[]);
-                        pass.set_vertex_buffer(1, m.vertices.slice(..));
-                    }
-                    None => pass.set_pipeline(&self.pipeline),
-                }
-                pass.set_bind_group(0, uniform_bind_group, &[]);
-                scene.draw_all(pass);
+                let Some((m, pipeline, split)) = material else {
+                    scene.draw_all(pass);
+                    return;
+                };
+                // Only the triangles with a material pay for the material pipeline (a
+                // million-triangle plain mesh beside one textured grate drew through it).
+                scene.draw_list(pass, split.plain.as_ref());
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(GBUFFER_MATERIAL_GROUP, m.group(), &[]);
+                pass.set_vertex_buffer(1, m.vertices.slice(..));
+                scene.draw_list(pass, split.with_material.as_ref());
             },
         );
     }

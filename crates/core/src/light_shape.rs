@@ -6,8 +6,10 @@
 //! - `rect`: the rectangle (`width` x `height`) in the light plane;
 //! - `disk`: the disk of `radius` in the light plane;
 //! - `sphere`: the sphere of `radius` around `center`; seen from a receiver point it is the disk
-//!   of its silhouette (the disk of the tangent cone's circle of contact), so V is the fraction
-//!   of that disk visible, i.e. of the sphere's solid angle;
+//!   of its silhouette (the disk of the tangent cone's circle of contact), and V is the fraction
+//!   of that disk's area visible (close to the fraction of the sphere's solid angle: a ray's
+//!   share of the disk grows toward the rim by up to sec³ of the disk's half-angle, 1.54x at
+//!   twice the radius from the centre);
 //! - `spot`: a disk source of `radius` in the light plane (V is the fraction of it visible); its
 //!   cone (`cone_inner_degrees`, `cone_outer_degrees`) only shades;
 //! - `sun`: at infinity, a cone of directions of `angular_diameter_degrees` around

@@ -116,6 +116,15 @@ impl IndexList {
     }
 }
 
+/// [`SceneGpu::all`] split by material, each part `None` when empty.
+pub struct MaterialSplit {
+    /// Triangles of instances without a material (drawn with the plain G-buffer pipeline,
+    /// which writes what the material pipeline writes for them).
+    pub plain: Option<IndexList>,
+    /// Triangles of instances with a material.
+    pub with_material: Option<IndexList>,
+}
+
 /// An [`IndexList`]'s triangles split by alpha test, each part `None` when empty.
 pub struct AlphaSplit {
     /// Triangles of opaque materials (drawn with the plain depth pipeline).
@@ -165,6 +174,10 @@ pub struct SceneGpu {
     pub vertices: wgpu::Buffer,
     /// Every triangle.
     pub all: Option<IndexList>,
+    /// Every triangle split by whether its instance has a material, in a scene with
+    /// [`SceneGpu::materials`]: the G-buffer draws only the second part through its material
+    /// pipeline.
+    pub all_by_material: Option<MaterialSplit>,
     /// Triangles of instances that cast shadows.
     pub casters: Option<IndexList>,
     /// Casters of static instances only (precomputes such as the PDSM).
@@ -279,6 +292,8 @@ struct Baked {
     material_vertices: Option<Vec<MaterialVertex>>,
     /// Index lists into `vertices`.
     all: Vec<u32>,
+    /// `all` split by material (plain, with a material), for a scene with materials.
+    all_by_material: Option<(Vec<u32>, Vec<u32>)>,
     casters: Vec<u32>,
     static_casters: Vec<u32>,
     dynamic_casters: Vec<u32>,
@@ -301,6 +316,7 @@ impl Baked {
             material_vertices: with_materials.then(Vec::new),
             alpha_splits: with_alpha_splits.then(AlphaSplits::default),
             all: Vec::new(),
+            all_by_material: with_materials.then(Default::default),
             casters: Vec::new(),
             static_casters: Vec::new(),
             dynamic_casters: Vec::new(),
@@ -357,6 +373,14 @@ impl Baked {
             splits.add(instance, indices.clone(), masked);
         }
         self.all.extend(indices.clone());
+        if let Some((plain, with_material)) = &mut self.all_by_material {
+            let part = if instance.material.is_some() {
+                with_material
+            } else {
+                plain
+            };
+            part.extend(indices.clone());
+        }
         if instance.casts_shadow {
             self.casters.extend(indices.clone());
             if instance.dynamic {
@@ -435,6 +459,7 @@ impl SceneGpu {
             vertices,
             material_vertices: _,
             all,
+            all_by_material,
             casters,
             static_casters,
             dynamic_casters,
@@ -479,6 +504,10 @@ impl SceneGpu {
             caster_triangle_count: casters.len() / 3,
             materials,
             all: list("scene indices (all)", &all),
+            all_by_material: all_by_material.map(|(plain, with_material)| MaterialSplit {
+                plain: list("scene indices (all, plain)", &plain),
+                with_material: list("scene indices (all, with a material)", &with_material),
+            }),
             casters: make(
                 "scene indices (casters)",
                 &casters,
@@ -564,7 +593,12 @@ impl SceneGpu {
 
     /// Draws everything (the G-buffer pass).
     pub fn draw_all(&self, pass: &mut wgpu::RenderPass<'_>) {
-        if let Some(list) = &self.all {
+        self.draw_list(pass, self.all.as_ref());
+    }
+
+    /// Draws the triangles of `list` (one of this scene's), if any.
+    pub fn draw_list(&self, pass: &mut wgpu::RenderPass<'_>, list: Option<&IndexList>) {
+        if let Some(list) = list {
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_index_buffer(list.buffer.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..list.count, 0, 0..1);

@@ -192,3 +192,35 @@ fn every_bound_on_the_masked_checker_rejects_the_opaque_quads_answer() -> Result
     ensure!(failures.is_empty(), "{}", failures.join("\n"));
     Ok(())
 }
+
+/// The G-buffer sends only the triangles of instances with a material through its material
+/// pipeline: the scene's triangles split into the ground's (plain) and the checker quad's; a
+/// scene without materials has no split. (The images are the same bit for bit: the material
+/// pipeline writes what the plain one does for a triangle without a material.)
+#[test]
+fn only_the_triangles_with_a_material_take_the_material_pipeline() -> Result<()> {
+    let gpu = gpu()?;
+    let count = |list: Option<&softshadow_core::scene_gpu::IndexList>| list.map_or(0, |l| l.count);
+    let masked = masked_checker(LIGHT_WIDTH, CELLS, true);
+    let quad = &masked.meshes[masked.instances.last().context("the quad")?.mesh];
+    let scene = SceneGpu::upload(&gpu, &masked);
+    let split = scene
+        .all_by_material
+        .as_ref()
+        .context("a scene with materials is split")?;
+    let (plain, with_material) = (
+        count(split.plain.as_ref()),
+        count(split.with_material.as_ref()),
+    );
+    ensure!(
+        with_material as usize == quad.indices.len()
+            && plain + with_material == count(scene.all.as_ref())
+            && plain > 0,
+        "plain {plain}, with a material {with_material}, the quad's {}, all {}",
+        quad.indices.len(),
+        count(scene.all.as_ref())
+    );
+    let opaque = SceneGpu::upload(&gpu, &masked_checker(LIGHT_WIDTH, CELLS, false));
+    ensure!(opaque.materials.is_none() && opaque.all_by_material.is_none());
+    Ok(())
+}
