@@ -330,6 +330,24 @@ impl Baked {
         }
     }
 
+    /// Every instance of `scene` baked.
+    fn of(scene: &Scene) -> Self {
+        let mut baked = Self::new(
+            crate::material_gpu::needed(scene),
+            scene.has_masked_instances(),
+        );
+        for instance in &scene.instances {
+            if let Some(mesh) = scene.meshes.get(instance.mesh) {
+                let albedo = scene
+                    .material_of(instance)
+                    .map_or(instance.albedo, |m| m.base_color.truncate());
+                let masked = scene.alpha_cutoff_of(instance).is_some();
+                baked.add(instance, mesh, albedo, masked);
+            }
+        }
+        baked
+    }
+
     /// Adds `mesh` placed by `instance`: its vertices in world space with the instance's albedo
     /// and flags, its triangles in the index lists it belongs to (and their alpha split's
     /// `masked` part when the instance's material is alpha-tested), its points in the bounds.
@@ -438,19 +456,7 @@ impl SceneGpu {
     /// Uploads a scene. Instances are baked into world space (one vertex buffer, no per-draw state).
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Self {
         puffin::profile_function!();
-        let mut baked = Baked::new(
-            crate::material_gpu::needed(scene),
-            scene.has_masked_instances(),
-        );
-        for instance in &scene.instances {
-            if let Some(mesh) = scene.meshes.get(instance.mesh) {
-                let albedo = scene
-                    .material_of(instance)
-                    .map_or(instance.albedo, |m| m.base_color.truncate());
-                let masked = scene.alpha_cutoff_of(instance).is_some();
-                baked.add(instance, mesh, albedo, masked);
-            }
-        }
+        let mut baked = Baked::of(scene);
         let materials = baked
             .material_vertices
             .take()
