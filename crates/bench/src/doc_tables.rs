@@ -79,6 +79,8 @@ pub const COLUMNS: &[(&str, &str)] = &[
     ("params", "parameters"),
     ("size", "size"),
     ("frame_ms", "frame ms (median)"),
+    ("technique_ms", "technique ms (median)"),
+    ("pass_ms", "its passes, ms (median)"),
     ("cold_frame_ms", "cold frame ms"),
     ("camera_only_ms", "camera-only frame ms"),
     ("floor_ratio", "frame / fastest cost floor"),
@@ -529,6 +531,12 @@ fn run_cell(column: &str, run: &Run, runs: &[Run]) -> String {
         "params" => params_text(run),
         "size" => format!("{}x{}", run.width, run.height),
         "frame_ms" => frame_time_ms(run).map_or("-".into(), ms),
+        "technique_ms" => run
+            .timing
+            .as_ref()
+            .and_then(|t| t.technique_ms.as_ref())
+            .map_or("-".into(), |p| ms(p.median)),
+        "pass_ms" => technique_passes_text(run),
         "triangles" | "load_s" | "upload_s" | "load_peak_mib" => load_cell(column, run),
         "cold_frame_ms" => cold_frame_ms(run).map_or("-".into(), ms),
         "camera_only_ms" => run
@@ -569,6 +577,25 @@ fn run_cell(column: &str, run: &Run, runs: &[Run]) -> String {
             failed => format!("{failed}: {}", run.message),
         },
         _ => unreachable!("runs_table checks the columns first"),
+    }
+}
+
+/// Each of the technique's own passes with its median time (`` `hard/lookup` 0.84``), the
+/// renderer's G-buffer and shading left out; `-` without timing.
+fn technique_passes_text(run: &Run) -> String {
+    let Some(timing) = &run.timing else {
+        return "-".into();
+    };
+    let passes: Vec<String> = timing
+        .passes
+        .iter()
+        .filter(|p| !softshadow_core::renderer::is_core_pass(&p.name))
+        .map(|p| format!("`{}` {}", p.name, ms(p.ms_median)))
+        .collect();
+    if passes.is_empty() {
+        "-".into()
+    } else {
+        passes.join(", ")
     }
 }
 
@@ -902,6 +929,52 @@ mod tests {
         let runs = [&ok, &refused];
         assert_eq!(varying_params(&ok, &runs), "");
         assert_eq!(varying_params(&refused, &runs), "");
+    }
+
+    /// `pass_ms` lists the technique's own passes, not the renderer's G-buffer and shading.
+    #[test]
+    fn the_pass_column_shows_the_techniques_passes_only() {
+        use crate::results::{Median, PassTiming, Percentiles, Timing};
+        let spec = crate::RunSpec {
+            scene: "atty-square".into(),
+            technique: "hard".into(),
+            params: Vec::new(),
+            width: 64,
+            height: 64,
+            path: None,
+        };
+        let mut run = Run::new(0, &spec);
+        assert_eq!(run_cell("pass_ms", &run, &[]), "-");
+        let pass = |name: &str, ms_median| PassTiming {
+            name: name.into(),
+            ms_median,
+            serial_ms: None,
+        };
+        let median = Percentiles {
+            median: 2.5,
+            p10: 2.0,
+            p90: 3.0,
+        };
+        run.timing = Some(Timing {
+            frames: 1,
+            source: softshadow_core::TimingSource::Serial,
+            frame_ms: Some(median.clone()),
+            technique_ms: Some(median),
+            passes: vec![
+                pass("gbuffer", 1.0),
+                pass("hard/shadow_map", 2.0),
+                pass("hard/lookup", 0.5),
+                pass("shading", 1.0),
+            ],
+            cpu_ms: Median { median: 5.0 },
+            passes_run: None,
+            warnings: Vec::new(),
+        });
+        assert_eq!(
+            run_cell("pass_ms", &run, &[]),
+            "`hard/shadow_map` 2.00, `hard/lookup` 0.500"
+        );
+        assert_eq!(run_cell("technique_ms", &run, &[]), "2.50");
     }
 
     #[test]
