@@ -1356,20 +1356,14 @@ impl Pdsm {
         if matches!(&self.stencil, Some((w, h, _)) if (*w, *h) == (width, height)) {
             return;
         }
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("pdsm/penumbra stencil"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: STENCIL_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        let texture = softshadow_core::gbuffer::create_texture(
+            gpu,
+            "pdsm/penumbra stencil",
+            width,
+            height,
+            STENCIL_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
         let view = texture.create_view(&Default::default());
         self.stencil = Some((width, height, view));
     }

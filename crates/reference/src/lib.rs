@@ -980,20 +980,15 @@ impl WeightSums {
     const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 
     fn new(gpu: &Gpu, width: u32, height: u32) -> Self {
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("reference/weight_sums"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: Self::FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let texture = softshadow_core::gbuffer::create_texture(
+            gpu,
+            "reference/weight_sums",
+            width,
+            height,
+            Self::FORMAT,
+            usage,
+        );
         Self {
             view: texture.create_view(&Default::default()),
         }

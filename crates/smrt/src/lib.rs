@@ -174,22 +174,16 @@ impl Smrt {
             .as_ref()
             .is_none_or(|d| d.size != (width, height))
         {
-            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("smrt/debug"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::R32Float,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            let texture = softshadow_core::gbuffer::create_texture(
+                gpu,
+                "smrt/debug",
+                width,
+                height,
+                wgpu::TextureFormat::R32Float,
+                wgpu::TextureUsages::RENDER_ATTACHMENT
                     | wgpu::TextureUsages::TEXTURE_BINDING
                     | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
+            );
             let view = texture.create_view(&Default::default());
             self.debug = Some(DebugImage {
                 size: (width, height),

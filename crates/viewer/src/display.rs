@@ -149,23 +149,17 @@ pub struct DisplayTarget {
 
 impl DisplayTarget {
     pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> Self {
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DISPLAY_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+        let texture = softshadow_core::gbuffer::create_texture(
+            gpu,
+            label,
+            width,
+            height,
+            DISPLAY_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
                 | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_SRC
                 | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        );
         Self {
             view: texture.create_view(&Default::default()),
             texture,
